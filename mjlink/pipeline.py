@@ -1,0 +1,157 @@
+"""``simulate``: the whole job for one mechanism, as one all-or-nothing output folder.
+
+Kinematic and dynamic MuJoCo runs, the reference's traces, the agreement report, CSV files,
+plots and video, written under ``<out>/<name>/``. Each layer lives in its own module; this
+one only orders them and times them.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import mujoco
+import numpy as np
+
+from . import builder, compare, output, reference, simulate
+from .mechanism import Mechanism
+
+
+@dataclass(frozen=True)
+class Options:
+    """What ``simulate`` does: ``speed`` rad/s and ``cycles`` of the kinematic run (None: the
+    file's), ``duration`` s of the dynamic run (None: the file's), plots and video settings
+    (``video_seconds`` s of video for the kinematic run, ``fps``, pixels)."""
+
+    speed: float | None = None
+    cycles: float | None = None
+    duration: float | None = None
+    dynamics: bool = True
+    plots: bool = True
+    video: bool = True
+    video_seconds: float = 3.0
+    fps: int = 30
+    width: int = 640
+    height: int = 480
+
+
+@dataclass(frozen=True)
+class Result:
+    """Outcome of ``simulate``: the output folder, the agreement per run, the report dict."""
+
+    mechanism: str
+    out_dir: Path
+    agreements: tuple[compare.Agreement, ...]
+    report: dict
+    files: tuple[str, ...] = field(default=())
+
+    @property
+    def failures(self) -> list[str]:
+        return [f for a in self.agreements for f in a.failures()]
+
+
+def has_masses(mech: Mechanism) -> bool:
+    return any(l.mass > 0 for l in mech.links)
+
+
+def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
+        log: Callable[[str], None] = print) -> Result:
+    """Run everything for ``mech`` and write ``<out_root>/<name>/``. Returns the Result."""
+    t_start = time.perf_counter()
+    timings: dict[str, float] = {}
+
+    def lap(name: str, t0: float) -> float:
+        timings[name] = round(time.perf_counter() - t0, 4)
+        return time.perf_counter()
+
+    with output.staged_dir(Path(out_root) / mech.name) as stage:
+        t = time.perf_counter()
+        kcase = simulate.kinematic_case(mech, speed=opts.speed, cycles=opts.cycles)
+        kin_mj = simulate.run(mech, kcase)
+        t = lap("mujoco_kinematics_s", t)
+        kin_ref = simulate.reference_trace(
+            mech, reference.constant_speed(mech, kin_mj.time, kcase.omega0), "kinematics")
+        agreements = [compare.agreement(mech, kin_mj)]
+        t = lap("reference_kinematics_s", t)
+        output.write_csv(stage / "kinematics.csv", mech, kin_mj)
+        output.write_csv(stage / "reference_kinematics.csv", mech, kin_ref)
+
+        report: dict = {
+            "mechanism": mech.name, "title": mech.title, "source": mech.source,
+            "mujoco_version": mujoco.__version__,
+            "kinematics": {"speed_rad_s": kcase.omega0, "duration_s": kcase.duration,
+                           "settings": _settings(kcase.settings),
+                           "flywheel_armature_kg_m2": kcase.settings.flywheel,
+                           "omega_spread_rel": float(np.ptp(kin_mj.omega) / abs(kcase.omega0))},
+        }
+        dyn_mj = dyn_ref = rk4 = None
+        if opts.dynamics and has_masses(mech):
+            dcase = simulate.dynamic_case(mech, duration=opts.duration)
+            dyn_mj = simulate.run(mech, dcase)
+            t = lap("mujoco_dynamics_s", t)
+            sd = reference.SpectralDynamics(mech)
+            motion = reference.forward_dynamics(mech, dyn_mj.time, sd=sd)
+            dyn_ref = simulate.reference_trace(mech, motion, "dynamics")
+            rk4 = reference.rk4_dynamics(mech, 1000, sd=sd) if dcase.duration == mech.dynamics.duration else None
+            agreements.append(compare.agreement(mech, dyn_mj, motion))
+            t = lap("reference_dynamics_s", t)
+            output.write_csv(stage / "dynamics.csv", mech, dyn_mj)
+            output.write_csv(stage / "reference_dynamics.csv", mech, dyn_ref)
+            report["dynamics"] = {
+                "moment_N_m": mech.dynamics.moment, "damping_N_m_s": mech.dynamics.damping,
+                "duration_s": dcase.duration, "settings": _settings(dcase.settings),
+                "omega_final_rad_s": {"mujoco": float(dyn_mj.omega[-1]), "reference": float(motion.omega[-1])},
+                "reference_ode": {"method": "DOP853", "rtol": 1e-12, "spectral_harmonics": sd.harmonics,
+                                  "spectral_error_rel": sd.error},
+            }
+            if rk4 is not None:
+                tight = _on_grid(motion, rk4.t) or reference.forward_dynamics(mech, rk4.t, sd=sd)
+                d = np.abs(rk4.omega - tight.omega)
+                report["dynamics"]["paper_rk4_1000_steps"] = {
+                    "omega_final_rad_s": float(rk4.omega[-1]),
+                    "omega_max_abs_diff_rad_s": float(d.max()),
+                    "omega_max_rel_diff": float(d.max() / np.abs(tight.omega).max()),
+                    "omega_final_rel_diff": float(abs(rk4.omega[-1] - tight.omega[-1]) / abs(tight.omega[-1])),
+                }
+        report["agreement"] = {a.kind: a.as_dict() for a in agreements}
+        report["thresholds"] = {"position_um": compare.POSITION_UM, "velocity_rel": compare.VELOCITY_REL,
+                                "acceleration_rel": compare.ACCELERATION_REL, "loop_um": compare.LOOP_UM,
+                                "thread_um": compare.THREAD_UM, "omega_rel": compare.OMEGA_REL}
+        report["failures"] = [f for a in agreements for f in a.failures()]
+
+        if opts.plots:
+            from . import plots
+
+            plots.all_plots(mech, kin_mj, kin_ref, dyn_mj, dyn_ref, stage, rk4=rk4)
+            t = lap("plots_s", t)
+        if opts.video:
+            from . import render
+
+            info = render.render_video(mech, kin_mj, stage / f"{mech.name}.mp4", seconds=opts.video_seconds,
+                                       fps=opts.fps, width=opts.width, height=opts.height,
+                                       settings=kcase.settings)
+            report["video"] = {"file": f"{mech.name}.mp4", "frames": info.frames, "fps": info.fps,
+                               "size": [info.width, info.height], "backend": info.backend,
+                               "slowed_down_by": info.time_scale}
+            t = lap("video_s", t)
+        timings["total_s"] = round(time.perf_counter() - t_start, 4)
+        report["timings"] = timings
+        output.write_json(stage / "report.json", report)
+        (stage / "model.xml").write_text(builder.to_xml(mech, builder.DYNAMIC), encoding="utf-8")
+        files = tuple(sorted(p.name for p in stage.iterdir()))
+    return Result(mech.name, Path(out_root) / mech.name, tuple(agreements), report, files)
+
+
+def _on_grid(m: reference.Motion, t: np.ndarray) -> reference.Motion | None:
+    """``m`` thinned to the times ``t`` if they are every k-th of its own, else None."""
+    k = (len(m.t) - 1) // max(len(t) - 1, 1)
+    if k >= 1 and len(m.t[::k]) == len(t) and np.allclose(m.t[::k], t, rtol=0, atol=1e-12):
+        return reference.Motion(m.t[::k], m.phi[::k], m.omega[::k], m.eps[::k])
+    return None
+
+
+def _settings(s: builder.Settings) -> dict:
+    return {"integrator": s.integrator, "timestep_s": s.timestep, "solref": list(s.solref),
+            "solimp": list(s.solimp), "solver_tolerance": s.tolerance}

@@ -1,0 +1,317 @@
+"""Offscreen rendering of a MuJoCo trace to an MP4 video.
+
+Two steps, in this order:
+
+1. :func:`ensure_gl_backend` picks the offscreen OpenGL backend. MuJoCo reads ``MUJOCO_GL``
+   once, when it is first imported, so a program that renders must call this before anything
+   imports mujoco (``mjlink.builder`` and ``mjlink.simulate`` do). This module therefore never
+   imports mujoco at module level.
+2. :func:`render_video` replays a trace's joint positions through the model's fixed camera
+   ``front`` and encodes the frames as H.264 (yuv420p) with imageio's ffmpeg.
+
+Units: times s, frame rates frames/s, sizes pixels; the trace is in SI units.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes.util
+import os
+import platform
+import secrets
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .errors import OutputError, RenderError
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only; importing these imports mujoco
+    from .builder import Settings
+    from .mechanism import Mechanism
+    from .simulate import Trace
+
+CAMERA = "front"
+PROBE_ORDER = ("egl", "osmesa")
+PROBE_TIMEOUT = 10.0  # s: a broken EGL driver can hang instead of failing
+PROGRESS_AFTER = 1.0  # s of rendering before a progress line is worth printing
+
+# What mujoco does with MUJOCO_GL unset, per platform (mujoco.rendering.classic.gl_context).
+_MUJOCO_DEFAULT = {"Darwin": "cgl"}
+
+_PROBE_CODE = """\
+import mujoco
+ctx = mujoco.GLContext(16, 16)
+ctx.make_current()
+ctx.free()
+"""
+
+# Shared library each probed backend needs (ctypes.util.find_library names).
+_LIBRARY = {"egl": "EGL", "osmesa": "OSMesa"}
+
+_backend: str | None = None
+
+
+def ensure_gl_backend() -> str:
+    """Choose MuJoCo's offscreen OpenGL backend and return its name (e.g. ``'egl'``).
+
+    * ``MUJOCO_GL`` already set in the environment: respected and returned as is.
+    * mujoco already imported in this process with ``MUJOCO_GL`` unset: it is too late to
+      choose, so the backend mujoco picked at import is returned (the module of
+      ``mujoco.GLContext``: ``'glfw'`` on Linux and Windows, ``'cgl'`` or ``'glfw'`` on macOS;
+      ``'none'`` if mujoco has no usable context class). Rendering then fails with a
+      :class:`RenderError` if that backend cannot work here, e.g. glfw without a display.
+    * Otherwise, on Linux: ``'egl'`` then ``'osmesa'`` are each tried in a short subprocess
+      (import mujoco, create and make current a 16x16 context; about 0.5 s each) and the
+      first that works is written to ``os.environ['MUJOCO_GL']``. On other systems mujoco's
+      own default (cgl on macOS, glfw elsewhere) is returned and nothing is set, since EGL
+      and OSMesa are Linux-only there.
+
+    The answer is cached for the life of the process. Never imports mujoco itself.
+    Raises :class:`RenderError` if no backend works.
+    """
+    global _backend
+    if _backend is not None:
+        return _backend
+    preset = os.environ.get("MUJOCO_GL")
+    if preset:
+        _backend = preset
+        return _backend
+    if "mujoco" in sys.modules:
+        _backend = _imported_backend()
+        return _backend
+    system = platform.system()
+    if system != "Linux":
+        _backend = _MUJOCO_DEFAULT.get(system, "glfw")
+        return _backend
+    reasons = []
+    for name in PROBE_ORDER:
+        why = _probe(name)
+        if why is None:
+            os.environ["MUJOCO_GL"] = name
+            _backend = name
+            return _backend
+        reasons.append(f"{name}: {why}")
+    raise RenderError(f"no offscreen OpenGL backend works: tried {', '.join(PROBE_ORDER)} ({'; '.join(reasons)}); "
+                      f"install Mesa's libEGL or libOSMesa, or set MUJOCO_GL")
+
+
+def _imported_backend() -> str:
+    """Name of the backend an already imported mujoco chose at import."""
+    cls = getattr(sys.modules["mujoco"], "GLContext", None)
+    module = getattr(cls, "__module__", "") or ""
+    parts = module.split(".")
+    if len(parts) == 2 and parts[0] == "mujoco":  # mujoco.egl, mujoco.osmesa, mujoco.glfw, mujoco.cgl
+        return parts[1]
+    return "none"
+
+
+def _probe(name: str) -> str | None:
+    """None if backend ``name`` can make a context current in a fresh interpreter, else why not."""
+    env = dict(os.environ, MUJOCO_GL=name)
+    try:
+        res = subprocess.run([sys.executable, "-c", _PROBE_CODE], env=env, capture_output=True, text=True,
+                             timeout=PROBE_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        return f"timed out after {PROBE_TIMEOUT:g} s"
+    except OSError as e:
+        return f"cannot start {sys.executable}: {e.strerror or e}"
+    if res.returncode == 0:
+        return None
+    # PyOpenGL's error for a missing library is cryptic ('NoneType' has no attribute ...).
+    lib = _LIBRARY.get(name)
+    if lib and ctypes.util.find_library(lib) is None:
+        return f"lib{lib} not found"
+    lines = [l.strip() for l in res.stderr.splitlines() if l.strip()]
+    return _clip(lines[-1] if lines else f"exit status {res.returncode}")
+
+
+def _clip(msg: str, limit: int = 160) -> str:
+    msg = " ".join(str(msg).split())
+    return msg if len(msg) <= limit else msg[: limit - 3] + "..."
+
+
+# ----------------------------------------------------------------------------- video
+@dataclass(frozen=True)
+class VideoInfo:
+    """What :func:`render_video` wrote.
+
+    ``path`` the MP4 file; ``frames`` frame count; ``fps`` frames/s; ``width`` and ``height``
+    pixels; ``time_scale`` video seconds per simulated second: the video is slowed down by
+    this factor (e.g. 3.0 s of video for a 0.0628 s cycle gives 47.7); ``backend`` the
+    OpenGL backend that rendered it.
+    """
+
+    path: Path
+    frames: int
+    fps: float
+    width: int
+    height: int
+    time_scale: float
+    backend: str
+
+    @property
+    def seconds(self) -> float:
+        """Video duration, s."""
+        return self.frames / self.fps
+
+
+def frame_qpos(trace: "Trace", frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """Frame times (s) and joint positions for ``frames`` frames spread over the trace.
+
+    Frame i is at ``t0 + i (t_end - t0) / frames``: the last frame stops one step short of
+    ``t_end``, so a trace of whole cycles loops without a repeated pose. qpos is linearly
+    interpolated per joint, which is exact enough for hinges and slides (the only joints the
+    builder makes; hinge angles are unwrapped). Returns ``(times, qpos)`` of shapes (frames,)
+    and (frames, nq).
+    """
+    if trace.qpos is None:
+        raise RenderError(f"a {trace.source} trace has no joint positions to render: render a MuJoCo trace")
+    t = np.asarray(trace.time, dtype=float)
+    q = np.asarray(trace.qpos, dtype=float)
+    if len(t) < 2 or not t[-1] > t[0]:
+        raise RenderError("the trace spans no time: it needs at least two samples to render")
+    times = t[0] + np.arange(frames) * (t[-1] - t[0]) / frames
+    qpos = np.column_stack([np.interp(times, t, q[:, j]) for j in range(q.shape[1])])
+    return times, qpos.reshape(frames, q.shape[1])
+
+
+def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, seconds: float = 3.0,
+                 fps: float = 30, width: int = 640, height: int = 480, settings: "Settings | None" = None,
+                 progress: bool = True) -> VideoInfo:
+    """Render ``trace`` of ``mech`` to an MP4 (H.264, yuv420p) at ``path``.
+
+    ``seconds`` video duration (s) over which the whole trace is played, ``fps`` frames/s,
+    ``width`` and ``height`` pixels (even; beyond 1920x1080 the GL driver's limits apply).
+    ``settings`` those the trace was run with (default: the kinematic case's); only the
+    number and order of joints matter, since the geometry is the same for any settings.
+    The view is the model's fixed camera ``front`` with sites and the thread tendon shown.
+
+    The file is written to a temporary name in the same folder and renamed at the end, so
+    ``path`` is either complete or untouched. With ``progress``, a frame counter goes to
+    stderr once rendering has taken more than about 1 s.
+
+    Raises :class:`RenderError` if the trace cannot be rendered, no OpenGL context can be
+    made or encoding fails, :class:`OutputError` if the folder cannot be written.
+    """
+    path = Path(path)
+    n = int(round(seconds * fps))
+    if not (np.isfinite(seconds) and np.isfinite(fps) and fps > 0 and n >= 1):
+        raise RenderError(f"a video needs at least one frame: seconds = {seconds:g} s at fps = {fps:g} frames/s")
+    if width <= 0 or height <= 0 or width % 2 or height % 2:
+        raise RenderError(f"video size {width}x{height} pixels: width and height must be positive and even "
+                          f"(H.264 yuv420p)")
+    _, qpos = frame_qpos(trace, n)
+    backend = ensure_gl_backend()
+
+    import mujoco  # after ensure_gl_backend(), so a fresh process gets the chosen backend
+
+    from . import builder, simulate
+
+    model = builder.build(mech, settings or simulate.kinematic_case(mech).settings)
+    if qpos.shape[1] != model.nq:
+        raise RenderError(f"{mech.name}: the trace has {qpos.shape[1]} joint positions per sample, the model has "
+                          f"{model.nq}: was it run on another mechanism?")
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA) < 0:
+        raise RenderError(f"{mech.name}: the model has no camera '{CAMERA}'")
+    # The builder sizes the offscreen buffer for 1080p; a larger video only needs a larger one.
+    model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
+    model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
+    data = mujoco.MjData(model)
+    option = mujoco.MjvOption()
+    option.sitegroup[:] = 1  # points (eyelet, pivots) are sites; not every group is on by default
+    option.tendongroup[:] = 1
+
+    if not path.parent.is_dir():
+        raise OutputError(f"{path}: folder {path.parent} does not exist")
+    tmp = _reserve_temp(path)
+
+    renderer = writer = None
+    shown = False
+    try:
+        try:
+            renderer = mujoco.Renderer(model, height, width)
+        except Exception as e:
+            hint = ("; mujoco was imported before ensure_gl_backend() and chose glfw: call "
+                    "mjlink.render.ensure_gl_backend() first or set MUJOCO_GL=egl") if backend == "glfw" else ""
+            raise RenderError(f"cannot create a {width}x{height} offscreen renderer with MUJOCO_GL={backend}: "
+                              f"{_clip(e)}{hint}") from e
+        # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
+        # yet the 4096^2 shadow map costs ~2/3 of a frame on a software (Mesa) renderer.
+        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+        writer = _open_writer(tmp, fps)
+        start = last = time.monotonic()
+        for i in range(n):
+            data.qpos[:] = qpos[i]
+            mujoco.mj_forward(model, data)
+            try:
+                renderer.update_scene(data, camera=CAMERA, scene_option=option)
+                frame = renderer.render()
+            except Exception as e:
+                raise RenderError(f"rendering frame {i + 1}/{n} failed: {_clip(e)}") from e
+            try:
+                writer.append_data(frame)
+            except Exception as e:
+                raise RenderError(f"video encoding failed at frame {i + 1}/{n}: {_clip(e)}") from e
+            now = time.monotonic()
+            if progress and now - start > PROGRESS_AFTER and (now - last > 0.2 or i == n - 1):
+                print(f"\r  video {i + 1}/{n} frames", end="", file=sys.stderr, flush=True)
+                shown, last = True, now
+        try:
+            w, writer = writer, None
+            w.close()  # flushes ffmpeg: the file is only complete after this
+        except Exception as e:
+            raise RenderError(f"video encoding failed while finishing {path.name}: {_clip(e)}") from e
+        try:
+            os.replace(tmp, path)
+        except OSError as e:
+            raise OutputError(f"{path}: cannot write: {e.strerror or e}") from e
+    except BaseException:
+        # Also on KeyboardInterrupt: a half-written video must not be left behind.
+        if writer is not None:
+            with contextlib.suppress(Exception):
+                writer.close()
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    finally:
+        if renderer is not None:
+            with contextlib.suppress(Exception):
+                renderer.close()
+        if shown:
+            print(file=sys.stderr, flush=True)
+    span = float(trace.time[-1] - trace.time[0])
+    return VideoInfo(path, n, fps, width, height, (n / fps) / span, backend)
+
+
+def _reserve_temp(path: Path) -> Path:
+    """Create an empty, uniquely named temporary file next to ``path`` and return its path."""
+    for _ in range(100):
+        tmp = path.with_name(f".{path.stem}.{secrets.token_hex(4)}.part.mp4")
+        try:
+            # Not mkstemp: its 0600 mode would survive the rename; 0666 lets the umask decide.
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            return tmp
+        except FileExistsError:
+            continue
+        except OSError as e:
+            raise OutputError(f"{path}: cannot write in {path.parent}: {e.strerror or e}") from e
+    raise OutputError(f"{path}: cannot find a free temporary name in {path.parent}")
+
+
+def _open_writer(path: Path, fps: float):
+    """An imageio ffmpeg writer for H.264 yuv420p at ``fps`` frames/s."""
+    try:
+        import imageio.v2 as iio
+    except ImportError as e:
+        raise RenderError(f"cannot encode video: imageio is not installed ({e}); pip install imageio imageio-ffmpeg") from e
+    try:
+        # macro_block_size=2: sizes are already even, so imageio must not rescale the frames.
+        return iio.get_writer(path, format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=8,
+                              pixelformat="yuv420p", macro_block_size=2, ffmpeg_log_level="error")
+    except Exception as e:
+        raise RenderError(f"cannot start the video encoder: {_clip(e)}") from e

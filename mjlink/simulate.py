@@ -1,0 +1,204 @@
+"""Headless MuJoCo runs and the matching reference traces, as time series (SI units).
+
+Two cases per mechanism:
+
+* kinematic: the input crank turns at the file's constant ``speed``. The motion is imposed
+  physically: a flywheel (armature on the crank joint, ``FLYWHEEL_RATIO`` times the largest
+  reduced inertia of the mechanism) makes the mechanism's reaction on the crank negligible, as
+  a machine's handwheel does; the crank speed that results is recorded, not assumed.
+* dynamic: the file's ``[dynamics]`` case: driving moment by a motor, viscous damping on the
+  crank joint, gravity, from (phi0, omega0).
+
+Samples are taken after ``mj_forward`` on the current state and before ``mj_step`` (after a
+step MuJoCo's derived quantities belong to the state before it). Point velocities are
+``J_site qvel``, accelerations ``J_site qacc + Jdot_site qvel``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from . import builder, reference
+from .errors import SimulationError
+from .mechanism import Mechanism
+
+FLYWHEEL_RATIO = 1e9
+DIVERGED_LOOP = 1e-3  # m: a loop gap this large means the run has failed, not just drifted
+
+
+@dataclass(frozen=True)
+class Trace:
+    """A run sampled in time. ``source`` 'mujoco' or 'reference'; ``kind`` 'kinematics' or
+    'dynamics'. ``time`` s, ``phi`` rad (unwrapped input angle), ``omega`` rad/s, ``eps``
+    rad/s^2; per point name (N, 3) arrays of position m, velocity m/s, acceleration m/s^2;
+    ``thread_length`` m (None without a thread); ``loop_gap`` m, the largest loop-closure
+    violation per sample (MuJoCo only); ``qpos`` MuJoCo joint positions (for rendering)."""
+
+    source: str
+    kind: str
+    time: np.ndarray
+    phi: np.ndarray
+    omega: np.ndarray
+    eps: np.ndarray
+    points: dict[str, np.ndarray]
+    velocities: dict[str, np.ndarray]
+    accelerations: dict[str, np.ndarray]
+    thread_length: np.ndarray | None = None
+    loop_gap: np.ndarray | None = None
+    qpos: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Case:
+    """What to simulate: ``duration`` s, ``omega0`` rad/s, ``moment`` N*m on the input crank,
+    ``settings`` numerical settings, ``sample_every`` steps between recorded samples."""
+
+    kind: str
+    duration: float
+    omega0: float
+    moment: float
+    settings: builder.Settings
+    sample_every: int = 1
+
+
+def kinematic_case(mech: Mechanism, *, speed: float | None = None, cycles: float | None = None,
+                   settings: builder.Settings | None = None) -> Case:
+    """The constant-speed case: ``cycles`` periods of the mechanism at ``speed`` rad/s."""
+    w = mech.speed if speed is None else speed
+    n = mech.cycles if cycles is None else cycles
+    base = settings or builder.KINEMATIC
+    jmax = float(reference.SpectralDynamics(mech, samples=128).evaluate(
+        mech.phi0 + np.linspace(0, mech.period, 64))[0].max())
+    fly = FLYWHEEL_RATIO * max(jmax, 1e-9)
+    s = builder.Settings(base.timestep, base.integrator, base.solref, base.solimp, fly, base.tolerance)
+    return Case("kinematics", n * mech.period / abs(w), w, 0.0, s, 1)
+
+
+def dynamic_case(mech: Mechanism, *, duration: float | None = None,
+                 settings: builder.Settings | None = None, sample_dt: float = 2.5e-4) -> Case:
+    """The file's forward-dynamics case, sampled every ``sample_dt`` s."""
+    s = settings or builder.DYNAMIC
+    every = max(1, int(round(sample_dt / s.timestep)))
+    return Case("dynamics", mech.dynamics.duration if duration is None else duration,
+                mech.dynamics.omega0, mech.dynamics.moment, s, every)
+
+
+def _equality_rows(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """Rows of the (dense) constraint Jacobian that belong to equality constraints."""
+    jac = np.asarray(data.efc_J).reshape(-1, model.nv)[: data.nefc]
+    return jac[data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY]
+
+
+def consistent_velocity(model: mujoco.MjModel, data: mujoco.MjData, dof: int, omega: float) -> np.ndarray:
+    """qvel with ``qvel[dof] = omega`` that satisfies every equality constraint (least squares)."""
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(model, data)
+    E = _equality_rows(model, data)
+    qvel = np.zeros(model.nv)
+    qvel[dof] = omega
+    if len(E):
+        others = [i for i in range(model.nv) if i != dof]
+        x, *_ = np.linalg.lstsq(E[:, others], -E[:, dof] * omega, rcond=None)
+        qvel[others] = x
+    return qvel
+
+
+class Probe:
+    """Reads points, thread and loop gaps off a MuJoCo state."""
+
+    def __init__(self, mech: Mechanism, model: mujoco.MjModel):
+        self.model = model
+        self.names = list(mech.point_names)
+        self.site = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, n) for n in self.names}
+        self.moving = [n for n in self.names if n not in mech.ground]
+        self.input_dof = int(model.jnt_dofadr[mujoco.mj_name2id(
+            model, mujoco.mjtObj.mjOBJ_JOINT, f"{mech.input_link.name}_{mech.input_crank.pivot}")])
+        self.connects = [i for i in range(model.neq) if model.eq_type[i] == mujoco.mjtEq.mjEQ_CONNECT]
+        self.thread = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, "thread")
+        self._jp = np.zeros((3, model.nv))
+        self._jd = np.zeros((3, model.nv))
+
+    def loop_gaps(self, data: mujoco.MjData) -> np.ndarray:
+        """Distance (m) between the two anchors of every loop-closing connect equality."""
+        gaps = np.zeros(len(self.connects))
+        for k, i in enumerate(self.connects):
+            b1, b2 = self.model.eq_obj1id[i], self.model.eq_obj2id[i]
+            a1, a2 = self.model.eq_data[i, 0:3], self.model.eq_data[i, 3:6]
+            p1 = data.xpos[b1] + data.xmat[b1].reshape(3, 3) @ a1
+            p2 = data.xpos[b2] + data.xmat[b2].reshape(3, 3) @ a2
+            gaps[k] = np.linalg.norm(p1 - p2)
+        return gaps
+
+    def point_state(self, data: mujoco.MjData, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        sid = self.site[name]
+        pos = data.site_xpos[sid].copy()
+        if name not in self.moving:
+            return pos, np.zeros(3), np.zeros(3)
+        body = self.model.site_bodyid[sid]
+        mujoco.mj_jac(self.model, data, self._jp, None, pos, body)
+        mujoco.mj_jacDot(self.model, data, self._jd, None, pos, body)
+        return pos, self._jp @ data.qvel, self._jp @ data.qacc + self._jd @ data.qvel
+
+
+def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Trace:
+    """Simulate ``case`` in MuJoCo and sample it. Raises SimulationError if the run diverges."""
+    model = model or builder.build(mech, case.settings)
+    data = mujoco.MjData(model)
+    probe = Probe(mech, model)
+    data.qvel[:] = consistent_velocity(model, data, probe.input_dof, case.omega0)
+    data.ctrl[0] = case.moment
+    nsteps = int(math.ceil(case.duration / model.opt.timestep - 1e-9))
+    samples = nsteps // case.sample_every + 1
+    t = np.empty(samples)
+    q = np.empty((samples, model.nq))
+    w, e, gap = (np.empty(samples) for _ in range(3))
+    th = np.empty(samples) if probe.thread >= 0 else None
+    P = {n: np.empty((samples, 3)) for n in probe.names}
+    V = {n: np.empty((samples, 3)) for n in probe.names}
+    A = {n: np.empty((samples, 3)) for n in probe.names}
+    k = 0
+    for step in range(nsteps + 1):
+        if step % case.sample_every == 0:
+            mujoco.mj_forward(model, data)
+            t[k] = data.time
+            q[k] = data.qpos
+            w[k] = data.qvel[probe.input_dof]
+            e[k] = data.qacc[probe.input_dof]
+            gaps = probe.loop_gaps(data)
+            gap[k] = gaps.max(initial=0.0)
+            if th is not None:
+                th[k] = data.ten_length[probe.thread]
+            for n in probe.names:
+                P[n][k], V[n][k], A[n][k] = probe.point_state(data, n)
+            if not np.isfinite(data.qpos).all() or not np.isfinite(data.qacc).all():
+                raise SimulationError(f"{mech.name}: MuJoCo diverged (non-finite state) at t = {data.time:.6g} s")
+            if gap[k] > DIVERGED_LOOP:
+                worst = probe.connects[int(np.argmax(gaps))]
+                raise SimulationError(
+                    f"{mech.name}: loop constraint {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, worst)} "
+                    f"opened to {gap[k] * 1e3:.3g} mm at t = {data.time:.6g} s: the run diverged")
+            k += 1
+        if step < nsteps:
+            mujoco.mj_step(model, data)
+    qadr = model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT,
+                                               f"{mech.input_link.name}_{mech.input_crank.pivot}")]
+    phi = mech.phi0 + q[:k, qadr]
+    return Trace("mujoco", case.kind, t[:k], phi, w[:k], e[:k], {n: a[:k] for n, a in P.items()},
+                 {n: a[:k] for n, a in V.items()}, {n: a[:k] for n, a in A.items()},
+                 None if th is None else th[:k], gap[:k], q[:k])
+
+
+def reference_trace(mech: Mechanism, motion: reference.Motion, kind: str) -> Trace:
+    """The reference's trace for a given crank motion (vectorized over all samples)."""
+    kin = reference.solve(mech, motion.phi)
+    names = list(mech.point_names)
+    th = kin.thread_length()
+    return Trace("reference", kind, motion.t, motion.phi, motion.omega, motion.eps,
+                 {n: kin.position(n) for n in names},
+                 {n: kin.velocity(n, motion.omega) for n in names},
+                 {n: kin.acceleration(n, motion.omega, motion.eps) for n in names},
+                 None if th is None else th.v)

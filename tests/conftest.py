@@ -1,0 +1,20 @@
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+# MuJoCo reads MUJOCO_GL when first imported: choose the backend before any test imports it.
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from mjlink.render import ensure_gl_backend  # noqa: E402
+
+ensure_gl_backend()
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def takeup():
+    from mjlink import registry
+
+    return registry.get("takeup")

@@ -1,0 +1,199 @@
+"""Offscreen rendering: backend choice and the MP4 of takeup's kinematic cycle.
+
+MuJoCo fixes its OpenGL backend when first imported, so the backend is chosen here before
+``mjlink.simulate`` imports mujoco. If another test module imported mujoco first (with
+``MUJOCO_GL`` unset it then picks glfw, which needs a display), the video is rendered in a
+fresh interpreter instead; decoding and checks always run here.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjlink import render
+
+BACKEND = render.ensure_gl_backend()
+
+from mjlink import mechanism, simulate  # noqa: E402  (after the backend choice)
+from mjlink.errors import RenderError  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+TAKEUP = ROOT / "mechanisms" / "takeup.toml"
+SECONDS, FPS, WIDTH, HEIGHT = 1.0, 30, 320, 240
+FRAMES = round(SECONDS * FPS)
+IN_PROCESS = BACKEND not in ("glfw", "none") or bool(os.environ.get("DISPLAY"))
+
+
+def _env(**overrides: str | None) -> dict[str, str]:
+    """This process's environment with the repo importable and ``overrides`` applied (None unsets)."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH", "")) if p)
+    for k, v in overrides.items():
+        if v is None:
+            env.pop(k, None)
+        else:
+            env[k] = v
+    return env
+
+
+def _python(code: str, **env: str | None) -> str:
+    res = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], env=_env(**env), capture_output=True,
+                         text=True, timeout=60, cwd=ROOT)
+    assert res.returncode == 0, res.stderr
+    return res.stdout.strip().splitlines()[-1]
+
+
+@pytest.fixture(scope="module")
+def mech():
+    return mechanism.load(TAKEUP)
+
+
+@pytest.fixture(scope="module")
+def trace(mech):
+    return simulate.run(mech, simulate.kinematic_case(mech))
+
+
+@pytest.fixture(scope="module")
+def video(mech, trace, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("video")
+    path = folder / "takeup.mp4"
+    if IN_PROCESS:
+        info = render.render_video(mech, trace, path, seconds=SECONDS, fps=FPS, width=WIDTH, height=HEIGHT,
+                                   progress=False)
+        fields = dict(frames=info.frames, fps=info.fps, width=info.width, height=info.height,
+                      time_scale=info.time_scale, backend=info.backend, path=str(info.path))
+    else:
+        fields = json.loads(_python(f"""
+            import json
+            from mjlink import render
+            render.ensure_gl_backend()
+            from mjlink import mechanism, simulate
+            m = mechanism.load({str(TAKEUP)!r})
+            tr = simulate.run(m, simulate.kinematic_case(m))
+            i = render.render_video(m, tr, {str(path)!r}, seconds={SECONDS}, fps={FPS}, width={WIDTH},
+                                    height={HEIGHT}, progress=False)
+            print(json.dumps(dict(frames=i.frames, fps=i.fps, width=i.width, height=i.height,
+                                  time_scale=i.time_scale, backend=i.backend, path=str(i.path))))
+            """, MUJOCO_GL=None))
+    return path, fields
+
+
+@pytest.fixture(scope="module")
+def frames(video):
+    import imageio.v2 as iio
+
+    reader = iio.get_reader(video[0], "ffmpeg")
+    try:
+        return np.stack([np.asarray(f) for f in reader])
+    finally:
+        reader.close()
+
+
+def test_video_info(video, trace):
+    path, info = video
+    assert Path(info["path"]) == path
+    assert (info["frames"], info["fps"], info["width"], info["height"]) == (FRAMES, FPS, WIDTH, HEIGHT)
+    span = trace.time[-1] - trace.time[0]
+    assert info["time_scale"] == pytest.approx(SECONDS / span, rel=1e-9)
+    assert info["backend"]
+
+
+def test_frame_count_and_size(frames):
+    assert frames.shape == (FRAMES, HEIGHT, WIDTH, 3)
+
+
+def test_frames_are_not_blank(frames):
+    for i, f in enumerate(frames):
+        assert f.std() > 5.0, f"frame {i} is nearly a single colour"
+        assert len(np.unique(f.reshape(-1, 3) // 32, axis=0)) > 4, f"frame {i} has almost no colours"
+
+
+def test_mechanism_moves(frames):
+    f = frames.astype(np.int16)
+    step = np.abs(np.diff(f, axis=0)).max(axis=3)
+    moved = (step > 40).mean(axis=(1, 2))  # fraction of pixels that change clearly between frames
+    assert moved.min() > 1e-3, f"frames {int(moved.argmin())} and {int(moved.argmin()) + 1} are the same"
+    half = np.abs(f[0] - f[FRAMES // 2]).max(axis=2)
+    assert (half > 40).mean() > 5e-3, "half a cycle apart, the first and middle frames should differ substantially"
+
+
+def test_only_the_video_is_left(video):
+    path, _ = video
+    assert path.is_file() and path.stat().st_size > 0
+    assert sorted(p.name for p in path.parent.iterdir()) == [path.name]
+
+
+@pytest.mark.skipif(not IN_PROCESS, reason="mujoco was imported before the backend could be chosen")
+def test_failed_encoding_leaves_old_file_and_no_temp(mech, trace, tmp_path, monkeypatch):
+    path = tmp_path / "takeup.mp4"
+    path.write_bytes(b"old")
+
+    class Broken:
+        def append_data(self, frame):
+            raise BrokenPipeError("ffmpeg died")
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(render, "_open_writer", lambda tmp, fps: Broken())
+    with pytest.raises(RenderError, match="encoding failed at frame 1/"):
+        render.render_video(mech, trace, path, seconds=0.2, fps=10, width=64, height=48, progress=False)
+    assert path.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["takeup.mp4"]
+
+
+def test_bad_arguments(mech, trace, tmp_path):
+    with pytest.raises(RenderError, match="even"):
+        render.render_video(mech, trace, tmp_path / "v.mp4", width=321, height=240, progress=False)
+    with pytest.raises(RenderError, match="at least one frame"):
+        render.render_video(mech, trace, tmp_path / "v.mp4", seconds=0.0, progress=False)
+    ref = simulate.Trace("reference", "kinematics", trace.time, trace.phi, trace.omega, trace.eps, {}, {}, {})
+    with pytest.raises(RenderError, match="no joint positions"):
+        render.render_video(mech, ref, tmp_path / "v.mp4", progress=False)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_frame_times_loop(trace):
+    times, q = render.frame_qpos(trace, 10)
+    span = trace.time[-1] - trace.time[0]
+    assert times[0] == trace.time[0] and times[-1] == pytest.approx(trace.time[0] + 0.9 * span)
+    assert q.shape == (10, trace.qpos.shape[1])
+    np.testing.assert_allclose(q[0], trace.qpos[0])
+
+
+def test_preset_mujoco_gl_is_respected():
+    out = _python("""
+        import os, sys
+        from mjlink import render
+        print(render.ensure_gl_backend(), os.environ['MUJOCO_GL'], 'mujoco' in sys.modules)
+        """, MUJOCO_GL="osmesa")
+    assert out == "osmesa osmesa False"
+
+
+def test_probe_sets_backend_without_importing_mujoco():
+    out = _python("""
+        import os, sys
+        from mjlink import render
+        b = render.ensure_gl_backend()
+        print(b, os.environ.get('MUJOCO_GL'), 'mujoco' in sys.modules, render.ensure_gl_backend() == b)
+        """, MUJOCO_GL=None)
+    backend, env, imported, cached = out.split()
+    assert backend in render.PROBE_ORDER and env == backend
+    assert (imported, cached) == ("False", "True")
+
+
+def test_already_imported_mujoco_reports_its_choice():
+    out = _python("""
+        import os, mujoco
+        from mjlink import render
+        print(render.ensure_gl_backend(), os.environ.get('MUJOCO_GL'))
+        """, MUJOCO_GL=None)
+    assert out == "glfw None"
