@@ -226,8 +226,17 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
     fovy = 40.0
     half_h = 0.5 * max(hi[1] - lo[1], (hi[0] - lo[0]) * 3.0 / 4.0) + 8 * r_link
     dist = half_h / np.tan(np.radians(fovy / 2)) + hi[2]
-    world.add_camera(name="front", pos=[0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), dist],
-                     quat=[1, 0, 0, 0], fovy=fovy)
+    center = 0.5 * (lo + hi)
+    world.add_camera(name="front", pos=[center[0], center[1], dist], quat=[1, 0, 0, 0], fovy=fovy)
+    # Oblique view from front-right-above, for mechanisms whose eyelets sit in depth.
+    view = np.array([0.55, 0.35, 1.0])
+    view /= np.linalg.norm(view)
+    right = np.cross([0.0, 1.0, 0.0], view)
+    right /= np.linalg.norm(right)
+    up = np.cross(view, right)
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.column_stack([right, up, view]).ravel())
+    world.add_camera(name="oblique", pos=(center + 1.1 * dist * view).tolist(), fovy=fovy, quat=quat.tolist())
 
     for name, p in mech.ground.items():
         world.add_site(name=name, pos=p.tolist(), size=[1.0 * r_link, 0, 0], rgba=[0.15, 0.15, 0.15, 1.0])
@@ -235,6 +244,12 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
         if pr.kind == "hinge" and pr.parent is None:
             world.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=(pos[pr.point] - [0, 0, 0.02 * size]).tolist(),
                            size=[2.2 * r_link, 0.012 * size, 0], material="mat_ground", contype=0, conaffinity=0)
+
+    for l in mech.links:  # a guide on the frame is drawn as a rail
+        if l.guide and all(g in mech.ground for g in l.guide):
+            a, c = (pos[g] - [0, 0, 0.03 * size] for g in l.guide)
+            world.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[*a, *c], size=[0.5 * r_link, 0, 0],
+                           material="mat_ground", contype=0, conaffinity=0)
 
     bodies: dict[str | None, mujoco.MjsBody] = {None: world}
     origin = {None: np.zeros(3)}

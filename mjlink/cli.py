@@ -17,7 +17,9 @@ examples:
   python -m mjlink simulate takeup                     # everything into renders/takeup/
   python -m mjlink simulate takeup --no-video --out /tmp/runs
   python -m mjlink simulate my_linkage.toml --speed 50 --cycles 2
+  python -m mjlink simulate warp_knitting --phi01 -90 --phi04 30   # another crank setting
   python -m mjlink build takeup -o takeup.xml          # MJCF for plain mujoco.MjModel.from_xml_path
+  python -m mjlink synth crank_slider --stroke 45 --offset 15 --lambda 0.35 --max-pressure-angle 40
 """
 
 
@@ -52,7 +54,22 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--video-seconds", type=float, default=3.0, help="length of the video, s (default 3)")
     s.add_argument("--fps", type=int, default=30, help="video frames per second (default 30)")
     s.add_argument("--size", default="640x480", help="video size WIDTHxHEIGHT in pixels (default 640x480)")
+    s.add_argument("--phi0", "--phi01", dest="phi0", type=float, metavar="DEG",
+                   help="initial angle of the input crank, deg (default: the file's)")
+    s.add_argument("--phase", "--phi04", dest="phase", type=float, metavar="DEG",
+                   help="angle of the geared crank at the initial input angle, deg (geared mechanisms)")
     s.add_argument("--strict", action="store_true", help="exit 3 if any agreement threshold is missed")
+
+    y = sub.add_parser("synth", help="metric synthesis of the offset crank-slider (seed 002)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog=(
+                           "example: python -m mjlink synth crank_slider --stroke 45 --offset 15 --lambda 0.35 "
+                           "--max-pressure-angle 40 --write my_slider.toml"))
+    y.add_argument("problem", help="what to synthesize: crank_slider")
+    y.add_argument("--stroke", type=float, help="slider stroke S, mm (default: crank_slider.toml's)")
+    y.add_argument("--offset", type=float, help="guide offset e, mm")
+    y.add_argument("--lambda", dest="ratio", type=float, help="lambda = r / l")
+    y.add_argument("--max-pressure-angle", type=float, help="allowed pressure angle [theta], deg")
+    y.add_argument("--write", type=Path, metavar="FILE", help="save the accepted design as a mechanism file")
     return p
 
 
@@ -120,6 +137,9 @@ def _dispatch(args) -> int:
             print(f"wrote {args.output}", file=sys.stderr)
         return 0
 
+    if args.command == "synth":
+        return _synth(args)
+
     # simulate
     try:
         w, h = (int(x) for x in args.size.lower().split("x"))
@@ -141,7 +161,7 @@ def _dispatch(args) -> int:
         ensure_gl_backend()
     from . import compare, pipeline, registry
 
-    mech = registry.get(args.mechanism)
+    mech = registry.with_crank_settings(registry.get(args.mechanism), args.phi0, args.phase)
     opts = pipeline.Options(speed=args.speed, cycles=args.cycles, duration=args.duration,
                             dynamics=not args.no_dynamics, plots=not args.no_plots, video=not args.no_video,
                             video_seconds=args.video_seconds, fps=args.fps, width=w, height=h)
@@ -163,4 +183,50 @@ def _dispatch(args) -> int:
     if res.failures:
         print("THRESHOLDS MISSED:\n  " + "\n  ".join(res.failures))
         return 3 if args.strict else 0
+    return 0
+
+
+def _synth(args) -> int:
+    import math
+
+    from . import registry, synthesis
+    from .errors import MjlinkError, OutputError
+
+    if args.problem != "crank_slider":
+        raise MjlinkError(f"unknown synthesis problem '{args.problem}' (valid: crank_slider)")
+    base_path = registry.path_of("crank_slider")
+    base = registry.get("crank_slider").synthesis
+    S = args.stroke * 1e-3 if args.stroke is not None else base.stroke
+    e = args.offset * 1e-3 if args.offset is not None else base.offset
+    lam = args.ratio if args.ratio is not None else base.ratio
+    th = math.radians(args.max_pressure_angle) if args.max_pressure_angle is not None else base.max_pressure_angle
+    print(synthesis.format_table(S, e, lam, th))
+    best = synthesis.best(S, e, lam, th)
+    print(f"\nchosen: {'none admissible' if best is None else f'r = {best.r.real * 1e3:.4f} mm, l = {best.l.real * 1e3:.4f} mm, theta_max = {math.degrees(best.theta_max):.2f} deg'}")
+    top = synthesis.largest_ratio(S, e, th)
+    if top is None:
+        print(f"no lambda in 0.01..0.99 gives an admissible design with [theta] = {math.degrees(th):g} deg")
+    else:
+        t = synthesis.best(S, e, top, th)
+        print(f"largest admissible lambda (step 0.01): {top:.2f} (theta_max {math.degrees(t.theta_max):.2f} deg)")
+        nxt = synthesis.roots(S, e, round(top + 0.01, 10), th)[0]
+        if not math.isnan(nxt.theta_max):
+            print(f"  at lambda = {top + 0.01:.2f}: theta_max {math.degrees(nxt.theta_max):.2f} deg > "
+                  f"{math.degrees(th):g} deg")
+    if args.write is not None:
+        name = args.write.stem
+        from .mechanism import _NAME_RE, parse
+
+        if not _NAME_RE.match(name):
+            raise MjlinkError(f"--write: the file name '{args.write.name}' must make a valid mechanism name "
+                              "(a letter, then letters, digits or _)")
+        text = synthesis.design_file(base_path.read_text(encoding="utf-8"), S, e, lam, th, name)
+        registry.validate(parse(text, args.write))
+        try:
+            tmp = args.write.with_name(f".{args.write.name}.partial")
+            tmp.write_text(text, encoding="utf-8")
+            tmp.replace(args.write)
+        except OSError as err:
+            raise OutputError(f"cannot write {args.write}: {err.strerror or err}") from None
+        print(f"wrote {args.write}")
     return 0

@@ -60,6 +60,8 @@ class Agreement:
     thread_um: float | None
     omega_abs: float | None = None
     omega_rel: float | None = None
+    link_omega_rel: float = 0.0  # angular velocities of the links, relative to their range
+    link_eps_rel: float = 0.0  # angular accelerations of the links, relative to their range
 
     def failures(self) -> list[str]:
         """Threshold violations as readable lines (empty if all hold)."""
@@ -114,9 +116,18 @@ def agreement(mech: Mechanism, mj: Trace, ref_motion: reference.Motion | None = 
         w_abs = float(d.max())
         w_rel = w_abs / float(np.abs(ref_motion.omega).max())
     loop = float(mj.loop_gap.max(initial=0.0)) * 1e6 if mj.loop_gap is not None else 0.0
+    # Links share one scale, the largest any link reaches: a uniformly turning crank has no
+    # angular acceleration of its own to be relative to.
+    lw = le = 0.0
+    if mj.link_omega:
+        links = list(mj.link_omega)
+        sw = max(np.abs(ref.link_omega[l]).max() for l in links)
+        se = max(np.abs(ref.link_eps[l]).max() for l in links)
+        lw = max(np.abs(mj.link_omega[l] - ref.link_omega[l]).max() for l in links) / sw if sw > 0 else 0.0
+        le = max(np.abs(mj.link_eps[l] - ref.link_eps[l]).max() for l in links) / se if se > 0 else 0.0
     return Agreement(mj.kind, len(mj.time), tuple(pts),
                      max(p.position_um for p in pts), max(p.velocity_rel for p in pts),
-                     max(p.acceleration_rel for p in pts), loop, thread, w_abs, w_rel)
+                     max(p.acceleration_rel for p in pts), loop, thread, w_abs, w_rel, lw, le)
 
 
 def table(agreements: list[Agreement]) -> str:

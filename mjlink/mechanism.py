@@ -157,6 +157,17 @@ class Dynamics:
 
 
 @dataclass(frozen=True)
+class Synthesis:
+    """Inputs of a crank-slider metric synthesis (seed 002): ``stroke`` and ``offset`` m,
+    ``ratio`` lambda = r / l, ``max_pressure_angle`` rad (the allowed [theta])."""
+
+    stroke: float
+    offset: float
+    ratio: float
+    max_pressure_angle: float
+
+
+@dataclass(frozen=True)
 class Mechanism:
     """A validated mechanism, SI units. Build with :func:`load`."""
 
@@ -172,6 +183,9 @@ class Mechanism:
     cycles: float
     dynamics: Dynamics
     thread: tuple[str, ...] | None = None
+    thread_elongation: float | None = None  # m, the papers' dP in the feed Pd = dlF - dP
+    has_dynamics: bool = False  # a [dynamics] table was given
+    synthesis: Synthesis | None = None
 
     @property
     def input_crank(self) -> Crank:
@@ -345,6 +359,8 @@ def _read_link(r: _Reader, name: str, raw: Any) -> Link:
     guide = r.names(raw["guide"], f"{where} guide", length=2) if "guide" in raw else None
     if len(set(points)) != len(points):
         raise r.fail(f"{where} points", "lists a point twice")
+    if len(points) < 2 and guide is None:
+        raise r.fail(f"{where} points", "a link needs two points (or one point and a 'guide' it slides on)")
     if com is not None and com not in points:
         points = points + (com,)
     return Link(name, points, mass, inertia, com, guide)
@@ -357,7 +373,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise r.fail("", f"TOML syntax error: {e}") from None
-    r.keys(data, "", ["mechanism", "ground", "construct", "links", "input"], ["dynamics", "thread"])
+    r.keys(data, "", ["mechanism", "ground", "construct", "links", "input"], ["dynamics", "thread", "synthesis"])
 
     meta = r.table(data["mechanism"], "[mechanism]")
     r.keys(meta, "[mechanism]", ["name", "title"], ["source"])
@@ -444,17 +460,30 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         forces=tuple(forces),
     )
 
-    thread = None
+    thread = elongation = None
     if "thread" in data:
         th = r.table(data["thread"], "[thread]")
-        r.keys(th, "[thread]", ["path"])
+        r.keys(th, "[thread]", ["path"], ["elongation"])
         thread = r.names(th["path"], "[thread] path", min_length=2)
+        if "elongation" in th:
+            elongation = r.number(th, "elongation", "[thread]", nonneg=True, scale=MM)
         for p in thread:
             if p not in known:
                 raise r.fail("[thread] path", f"uses point '{p}', which is not defined")
 
+    synthesis = None
+    if "synthesis" in data:
+        sy = r.table(data["synthesis"], "[synthesis]")
+        r.keys(sy, "[synthesis]", ["stroke", "offset", "lambda", "max_pressure_angle"])
+        theta = r.number(sy, "max_pressure_angle", "[synthesis]", positive=True)
+        if theta >= 90:
+            raise r.fail("[synthesis] max_pressure_angle", f"must be below 90 deg, got {theta:g}")
+        synthesis = Synthesis(r.number(sy, "stroke", "[synthesis]", positive=True, scale=MM),
+                              r.number(sy, "offset", "[synthesis]", nonneg=True, scale=MM),
+                              r.number(sy, "lambda", "[synthesis]", positive=True), theta * DEG)
+
     return Mechanism(name, title, source, Path(path) if path != "<string>" else None, ground, steps,
-                     links, phi0, speed, cycles, dynamics, thread)
+                     links, phi0, speed, cycles, dynamics, thread, elongation, "dynamics" in data, synthesis)
 
 
 def load(path: str | Path) -> Mechanism:

@@ -37,6 +37,10 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], np.ndarray]:
         for i, ax in enumerate("xyz"):
             names.append(f"{n}_a{ax}_mm_s2")
             cols.append(trace.accelerations[n][:, i] * 1e3)
+    for l in mech.links:
+        if l.name in trace.link_omega:
+            names += [f"{l.name}_omega_rad_s", f"{l.name}_eps_rad_s2"]
+            cols += [trace.link_omega[l.name], trace.link_eps[l.name]]
     if trace.thread_length is not None:
         names.append("thread_length_mm")
         cols.append(trace.thread_length * 1e3)

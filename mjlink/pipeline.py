@@ -53,7 +53,8 @@ class Result:
 
 
 def has_masses(mech: Mechanism) -> bool:
-    return any(l.mass > 0 for l in mech.links)
+    """Whether the file defines a forward-dynamics case: a [dynamics] table and masses."""
+    return mech.has_dynamics and any(l.mass > 0 for l in mech.links)
 
 
 def run(mech: Mechanism, out_root: Path, opts: Options = Options(),

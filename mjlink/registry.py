@@ -38,7 +38,11 @@ def get(name_or_path: str | Path, *, full_turn: bool = True) -> Mechanism:
 
     Raises MechanismFileError, UnknownMechanismError or AssemblyError with a one-line message.
     """
-    mech = load(path_of(name_or_path))
+    return validate(load(path_of(name_or_path)), full_turn=full_turn)
+
+
+def validate(mech: Mechanism, *, full_turn: bool = True) -> Mechanism:
+    """The assembly and rigidity checks of :func:`get`, for a mechanism built in code."""
     ok, ranges = reference.assembly_ranges(mech)
     if full_turn and not ok:
         raise AssemblyError(
@@ -47,3 +51,29 @@ def get(name_or_path: str | Path, *, full_turn: bool = True) -> Mechanism:
     if ok:
         reference.check_rigidity(mech)
     return mech
+
+
+def with_crank_settings(mech: Mechanism, phi0_deg: float | None = None, phase_deg: float | None = None) -> Mechanism:
+    """``mech`` with another initial input angle (phi01) and/or geared-crank phase (phi04), deg.
+
+    Raises MjlinkError if a phase is given for a mechanism without a geared crank.
+    """
+    import dataclasses
+    import math
+
+    from .errors import MjlinkError
+    from .mechanism import Crank
+
+    if phi0_deg is not None:
+        if not math.isfinite(phi0_deg):
+            raise MjlinkError(f"--phi0 must be finite, got {phi0_deg}")
+        mech = dataclasses.replace(mech, phi0=math.radians(phi0_deg))
+    if phase_deg is not None:
+        geared = [s for s in mech.steps if isinstance(s, Crank) and s is not mech.input_crank]
+        if not geared:
+            raise MjlinkError(f"{mech.name} has no geared crank: --phase/--phi04 does not apply")
+        if not math.isfinite(phase_deg):
+            raise MjlinkError(f"--phase must be finite, got {phase_deg}")
+        new = dataclasses.replace(geared[0], phase=math.radians(phase_deg))
+        mech = dataclasses.replace(mech, steps=tuple(new if s is geared[0] else s for s in mech.steps))
+    return validate(mech) if (phi0_deg is not None or phase_deg is not None) else mech

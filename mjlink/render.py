@@ -36,6 +36,15 @@ if TYPE_CHECKING:  # pragma: no cover - annotations only; importing these import
     from .simulate import Trace
 
 CAMERA = "front"
+OBLIQUE = "oblique"
+
+
+def _is_3d(mech) -> bool:
+    """Whether any point leaves the mechanism's plane (z != 0)."""
+    from . import reference
+
+    k = reference.solve(mech, [mech.phi0])
+    return any(abs(v.v[0, 2]) > 1e-9 for v in k.points.values())
 PROBE_ORDER = ("egl", "osmesa")
 PROBE_TIMEOUT = 10.0  # s: a broken EGL driver can hang instead of failing
 PROGRESS_AFTER = 1.0  # s of rendering before a progress line is worth printing
@@ -189,7 +198,8 @@ def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, 
     ``width`` and ``height`` pixels (even; beyond 1920x1080 the GL driver's limits apply).
     ``settings`` those the trace was run with (default: the kinematic case's); only the
     number and order of joints matter, since the geometry is the same for any settings.
-    The view is the model's fixed camera ``front`` with sites and the thread tendon shown.
+    The view is the model's fixed camera ``front`` (``oblique`` for a mechanism with points
+    out of its plane, so the eyelets' depth shows) with sites and the thread tendon shown.
 
     The file is written to a temporary name in the same folder and renamed at the end, so
     ``path`` is either complete or untouched. With ``progress``, a frame counter goes to
@@ -216,8 +226,10 @@ def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, 
     if qpos.shape[1] != model.nq:
         raise RenderError(f"{mech.name}: the trace has {qpos.shape[1]} joint positions per sample, the model has "
                           f"{model.nq}: was it run on another mechanism?")
-    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA) < 0:
-        raise RenderError(f"{mech.name}: the model has no camera '{CAMERA}'")
+    # A mechanism with points out of its plane (eyelets in depth) is shown obliquely.
+    camera = OBLIQUE if _is_3d(mech) else CAMERA
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0:
+        raise RenderError(f"{mech.name}: the model has no camera '{camera}'")
     # The builder sizes the offscreen buffer for 1080p; a larger video only needs a larger one.
     model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
     model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
@@ -249,7 +261,7 @@ def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, 
             data.qpos[:] = qpos[i]
             mujoco.mj_forward(model, data)
             try:
-                renderer.update_scene(data, camera=CAMERA, scene_option=option)
+                renderer.update_scene(data, camera=camera, scene_option=option)
                 frame = renderer.render()
             except Exception as e:
                 raise RenderError(f"rendering frame {i + 1}/{n} failed: {_clip(e)}") from e

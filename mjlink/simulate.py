@@ -17,7 +17,7 @@ step MuJoCo's derived quantities belong to the state before it). Point velocitie
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -50,6 +50,8 @@ class Trace:
     thread_length: np.ndarray | None = None
     loop_gap: np.ndarray | None = None
     qpos: np.ndarray | None = None
+    link_omega: dict[str, np.ndarray] = field(default_factory=dict)
+    link_eps: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,17 @@ class Probe:
         self.thread = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, "thread")
         self._jp = np.zeros((3, model.nv))
         self._jd = np.zeros((3, model.nv))
+        self._jr = np.zeros((3, model.nv))
+        self._jrd = np.zeros((3, model.nv))
+        self.links = [l.name for l in mech.links]
+        self.body = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n) for n in self.links}
+
+    def link_state(self, data: mujoco.MjData, name: str) -> tuple[float, float]:
+        """Angular velocity (rad/s) and acceleration (rad/s^2) of a link about Z."""
+        b = self.body[name]
+        mujoco.mj_jac(self.model, data, None, self._jr, data.xpos[b], b)
+        mujoco.mj_jacDot(self.model, data, None, self._jrd, data.xpos[b], b)
+        return float(self._jr[2] @ data.qvel), float(self._jr[2] @ data.qacc + self._jrd[2] @ data.qvel)
 
     def loop_gaps(self, data: mujoco.MjData) -> np.ndarray:
         """Distance (m) between the two anchors of every loop-closing connect equality."""
@@ -160,6 +173,8 @@ def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Tra
     P = {n: np.empty((samples, 3)) for n in probe.names}
     V = {n: np.empty((samples, 3)) for n in probe.names}
     A = {n: np.empty((samples, 3)) for n in probe.names}
+    LW = {n: np.empty(samples) for n in probe.links}
+    LE = {n: np.empty(samples) for n in probe.links}
     k = 0
     for step in range(nsteps + 1):
         if step % case.sample_every == 0:
@@ -174,6 +189,8 @@ def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Tra
                 th[k] = data.ten_length[probe.thread]
             for n in probe.names:
                 P[n][k], V[n][k], A[n][k] = probe.point_state(data, n)
+            for n in probe.links:
+                LW[n][k], LE[n][k] = probe.link_state(data, n)
             if not np.isfinite(data.qpos).all() or not np.isfinite(data.qacc).all():
                 raise SimulationError(f"{mech.name}: MuJoCo diverged (non-finite state) at t = {data.time:.6g} s")
             if gap[k] > DIVERGED_LOOP:
@@ -189,7 +206,8 @@ def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Tra
     phi = mech.phi0 + q[:k, qadr]
     return Trace("mujoco", case.kind, t[:k], phi, w[:k], e[:k], {n: a[:k] for n, a in P.items()},
                  {n: a[:k] for n, a in V.items()}, {n: a[:k] for n, a in A.items()},
-                 None if th is None else th[:k], gap[:k], q[:k])
+                 None if th is None else th[:k], gap[:k], q[:k],
+                 {n: a[:k] for n, a in LW.items()}, {n: a[:k] for n, a in LE.items()})
 
 
 def reference_trace(mech: Mechanism, motion: reference.Motion, kind: str) -> Trace:
@@ -201,4 +219,6 @@ def reference_trace(mech: Mechanism, motion: reference.Motion, kind: str) -> Tra
                  {n: kin.position(n) for n in names},
                  {n: kin.velocity(n, motion.omega) for n in names},
                  {n: kin.acceleration(n, motion.omega, motion.eps) for n in names},
-                 None if th is None else th.v)
+                 None if th is None else th.v, None, None,
+                 {l: kin.angles[l].d * motion.omega for l in kin.angles},
+                 {l: kin.angles[l].dd * motion.omega**2 + kin.angles[l].d * motion.eps for l in kin.angles})

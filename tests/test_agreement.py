@@ -22,9 +22,9 @@ def test_kinematic_run_agrees(mech):
     assert a.failures() == []
 
 
-def test_dynamic_run_agrees(mech):
-    if not pipeline.has_masses(mech):
-        pytest.skip(f"{mech.name} has no masses")
+@pytest.mark.parametrize("name", [n for n in registry.names() if pipeline.has_masses(registry.get(n))])
+def test_dynamic_run_agrees(name):
+    mech = registry.get(name)
     tr = S.run(mech, S.dynamic_case(mech))
     motion = R.forward_dynamics(mech, tr.time)
     a = compare.agreement(mech, tr, motion)

@@ -55,7 +55,10 @@ def test_build_writes_loadable_mjcf(tmp_path):
 
 def test_list_and_help():
     r = mjlink("list")
-    assert r.returncode == 0 and "takeup" in r.stdout
+    assert r.returncode == 0
+    for name in ("takeup", "crank_slider", "takeup_eyelets", "warp_knitting"):
+        assert name in r.stdout
+    assert r.stdout.count("source: seed") == 4
     r = mjlink("--help")
     assert r.returncode == 0 and "examples:" in r.stdout
     r = mjlink("simulate", "--help")
@@ -73,3 +76,25 @@ def test_errors_are_one_line_and_nonzero(tmp_path):
     assert not (tmp_path / "x").exists()
     r = mjlink("simulate", "takeup", "--speed", "0", "--out", str(tmp_path))
     assert r.returncode == 1 and "--speed" in r.stderr
+
+
+def test_synth_prints_the_table_and_writes_a_runnable_file(tmp_path):
+    f = tmp_path / "my_slider.toml"
+    r = mjlink("synth", "crank_slider", "--stroke", "45", "--offset", "15", "--lambda", "0.35",
+               "--max-pressure-angle", "40", "--write", str(f))
+    assert r.returncode == 0, r.stderr
+    assert "21.731" in r.stdout and "62.088" in r.stdout and "36.3 deg  accepted" in r.stdout
+    assert "62.3 deg  rejected" in r.stdout and "largest admissible lambda (step 0.01): 0.37" in r.stdout
+    r = mjlink("simulate", str(f), "--out", str(tmp_path), "--no-video", "--no-plots", "--strict")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "my_slider" / "kinematics.csv").is_file()
+
+
+def test_warp_knitting_crank_settings(tmp_path):
+    r = mjlink("simulate", "warp_knitting", "--phi01", "-90", "--phi04", "30", "--out", str(tmp_path),
+               "--no-video", "--no-plots", "--strict")
+    assert r.returncode == 0, r.stderr
+    rep = json.loads((tmp_path / "warp_knitting" / "report.json").read_text())
+    assert rep["failures"] == []
+    r = mjlink("simulate", "takeup", "--phi04", "30", "--out", str(tmp_path), "--no-video")
+    assert r.returncode == 1 and "no geared crank" in r.stderr

@@ -1,0 +1,54 @@
+"""Crank-slider synthesis (seed 002): the paper's table, the largest lambda, and --write."""
+
+import math
+
+import pytest
+
+from mjlink import registry, synthesis
+from mjlink.errors import MjlinkError
+from mjlink.mechanism import Crank, Slider, parse
+
+TH = math.radians(40)
+
+
+def test_reproduces_the_papers_table():
+    roots = synthesis.roots(0.045, 0.015, 0.35, TH)
+    real = [r for r in roots if r.reason != "complex" and r.l.real > 0]
+    (a, b) = sorted(real, key=lambda r: -r.l.real)
+    assert (round(a.r.real * 1e3, 1), round(a.l.real * 1e3, 1), round(math.degrees(a.theta_max), 1)) == (21.7, 62.1, 36.3)
+    assert a.accepted and abs(a.stroke - 0.045) < 1e-12
+    assert (round(b.r.real * 1e3, 1), round(b.l.real * 1e3), round(math.degrees(b.theta_max), 1)) == (9.8, 28, 62.3)
+    assert not b.accepted and "theta_max 62.3 > 40" in b.reason
+    assert len(roots) == 4  # the quartic's four roots, the negative pair rejected
+    assert sum(r.accepted for r in roots) == 1
+
+
+def test_largest_admissible_lambda_is_not_the_papers_045():
+    assert synthesis.largest_ratio(0.045, 0.015, TH) == 0.37
+    # The paper's claim fails its own criterion:
+    assert math.degrees(synthesis.roots(0.045, 0.015, 0.45, TH)[0].theta_max) > 50
+
+
+def test_registered_file_is_root_one():
+    mech = registry.get("crank_slider")
+    syn = mech.synthesis
+    best = synthesis.best(syn.stroke, syn.offset, syn.ratio, syn.max_pressure_angle)
+    crank = next(s for s in mech.steps if isinstance(s, Crank))
+    slider = next(s for s in mech.steps if isinstance(s, Slider))
+    assert abs(crank.length - best.r.real) < 1e-15 and abs(slider.length - best.l.real) < 1e-15
+    assert abs(mech.ground[slider.guide[0]][1] + syn.offset) < 1e-15
+
+
+def test_design_file_round_trips():
+    base = registry.path_of("crank_slider").read_text()
+    text = synthesis.design_file(base, 0.05, 0.01, 0.3, TH, "wide_stroke")
+    mech = registry.validate(parse(text, "wide_stroke.toml"))
+    crank = next(s for s in mech.steps if isinstance(s, Crank))
+    slider = next(s for s in mech.steps if isinstance(s, Slider))
+    assert abs(synthesis.stroke_of(crank.length, slider.length, 0.01) - 0.05) < 1e-12
+    assert mech.name == "wide_stroke"
+
+
+def test_no_admissible_design_is_an_error():
+    with pytest.raises(MjlinkError, match="no admissible design"):
+        synthesis.design_file(registry.path_of("crank_slider").read_text(), 0.045, 0.015, 0.6, TH, "x")
