@@ -20,6 +20,11 @@ examples:
   python -m mjlink simulate warp_knitting --phi01 -90 --phi04 30   # another crank setting
   python -m mjlink build takeup -o takeup.xml          # MJCF for plain mujoco.MjModel.from_xml_path
   python -m mjlink synth crank_slider --stroke 45 --offset 15 --lambda 0.35 --max-pressure-angle 40
+  python -m mjlink simulate takeup --dynamics          # + steady motion and flywheel study
+  python -m mjlink simulate crank_slider --dynamics --stall-torque -0.8 --no-load-speed -160 --duration 2
+  python -m mjlink torque warp_knitting --speed 1000    # driving torque at 1000 rpm
+  python -m mjlink reactions takeup --speed 955         # forces in every kinematic pair
+  python -m mjlink steady takeup --target-delta 0.01    # speed fluctuation and flywheel
 """
 
 
@@ -59,6 +64,34 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--phase", "--phi04", dest="phase", type=float, metavar="DEG",
                    help="angle of the geared crank at the initial input angle, deg (geared mechanisms)")
     s.add_argument("--strict", action="store_true", help="exit 3 if any agreement threshold is missed")
+    s.add_argument("--dynamics", action="store_true",
+                   help="all dynamics studies: forward dynamics, driving torque and reactions, steady motion")
+    _drive_options(s)
+
+    for cmd, what in (("torque", "driving torque to turn the crank at constant speed (inverse dynamics)"),
+                      ("reactions", "forces in every kinematic pair at constant speed (kinetostatics)")):
+        q = sub.add_parser(cmd, help=what, formatter_class=argparse.RawDescriptionHelpFormatter,
+                           epilog=f"example: python -m mjlink {cmd} takeup --speed 955")
+        q.add_argument("mechanism", help="registered name (see 'list') or path to a .toml file")
+        q.add_argument("--speed", type=float, metavar="RPM",
+                       help="crank speed, rev/min, in the file's sense of rotation (negative reverses it; "
+                            "default: the file's speed)")
+        q.add_argument("--out", type=Path, default=Path("renders"), help="output root; results go to OUT/NAME_loads/")
+        q.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+        q.add_argument("--strict", action="store_true", help="exit 3 if an agreement threshold is missed")
+    q = sub.add_parser("steady", help="steady motion under a motor characteristic, speed fluctuation, flywheel",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="example: python -m mjlink steady takeup --stall-torque 0.05 --no-load-speed 120 "
+                              "--target-delta 0.02")
+    q.add_argument("mechanism", help="registered name (see 'list') or path to a .toml file")
+    q.add_argument("--stall-torque", type=float, metavar="N_M", help="motor torque at rest, N*m (signed)")
+    q.add_argument("--no-load-speed", type=float, metavar="RAD_S", help="motor no-load speed, rad/s (signed)")
+    q.add_argument("--damping", type=float, metavar="N_M_S", help="viscous damping on the crank, N*m*s")
+    q.add_argument("--target-delta", type=float, help="wanted coefficient of speed fluctuation (default: "
+                   "the file's [steady] target_delta, else 0.02)")
+    q.add_argument("--out", type=Path, default=Path("renders"), help="output root; results go to OUT/NAME_steady/")
+    q.add_argument("--no-plots", action="store_true", help="skip the PNG plot")
+    q.add_argument("--strict", action="store_true", help="exit 3 if MuJoCo and the reference disagree")
 
     y = sub.add_parser("synth", help="metric synthesis of the offset crank-slider (seed 002)",
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=(
@@ -71,6 +104,60 @@ def _parser() -> argparse.ArgumentParser:
     y.add_argument("--max-pressure-angle", type=float, help="allowed pressure angle [theta], deg")
     y.add_argument("--write", type=Path, metavar="FILE", help="save the accepted design as a mechanism file")
     return p
+
+
+def _drive_options(p) -> None:
+    p.add_argument("--moment", type=float, metavar="N_M", help="constant driving moment on the crank, N*m")
+    p.add_argument("--stall-torque", type=float, metavar="N_M",
+                   help="motor characteristic: torque at rest, N*m (with --no-load-speed)")
+    p.add_argument("--no-load-speed", type=float, metavar="RAD_S",
+                   help="motor characteristic: speed at which the torque falls to zero, rad/s")
+    p.add_argument("--damping", type=float, metavar="N_M_S", help="viscous damping on the crank, N*m*s")
+    p.add_argument("--omega0", type=float, metavar="RAD_S", help="initial crank speed of the dynamic run, rad/s")
+    p.add_argument("--target-delta", type=float, help="target speed fluctuation for the flywheel (steady study)")
+
+
+def _with_drive(mech, args, *, steady: bool = False):
+    """``mech`` with the drive, load and duration options applied (all validated)."""
+    import dataclasses
+    import math
+
+    from .errors import MjlinkError
+    from .mechanism import Motor, SteadyCase
+
+    dyn = mech.dynamics
+    changes = {}
+    for opt, key in (("moment", "moment"), ("damping", "damping"), ("omega0", "omega0"), ("duration", "duration")):
+        v = getattr(args, opt, None)
+        if v is None:
+            continue
+        if not math.isfinite(v) or (key in ("damping",) and v < 0) or (key == "duration" and v <= 0):
+            raise MjlinkError(f"--{opt.replace('_', '-')} must be a finite number{' >= 0' if key == 'damping' else ''}"
+                              f"{' > 0' if key == 'duration' else ''}, got {v}")
+        changes[key] = v
+    ts, w0 = getattr(args, "stall_torque", None), getattr(args, "no_load_speed", None)
+    motor = None
+    if (ts is None) != (w0 is None):
+        raise MjlinkError("--stall-torque and --no-load-speed go together (a linear motor characteristic)")
+    if ts is not None:
+        if not (math.isfinite(ts) and math.isfinite(w0)) or ts == 0 or w0 == 0 or (ts > 0) != (w0 > 0):
+            raise MjlinkError("--stall-torque and --no-load-speed must be finite, non-zero and of the same sign")
+        motor = Motor(ts, w0)
+        if not steady:
+            changes["motor"] = motor
+    if changes:
+        mech = dataclasses.replace(mech, dynamics=dataclasses.replace(dyn, **changes),
+                                   has_dynamics=mech.has_dynamics or bool(changes))
+    target = getattr(args, "target_delta", None)
+    if target is not None and not (0 < target < 2):
+        raise MjlinkError(f"--target-delta must be between 0 and 2, got {target}")
+    if motor is not None or target is not None:
+        base = mech.steady or (SteadyCase(mech.dynamics.motor) if mech.dynamics.motor else None)
+        m = motor or (base.motor if base else None)
+        if m is not None:
+            mech = dataclasses.replace(mech, steady=SteadyCase(m, target if target is not None else
+                                                               (base.target_delta if base else 0.02)))
+    return mech
 
 
 def _positive(name: str, v, allow_none=True):
@@ -139,6 +226,10 @@ def _dispatch(args) -> int:
 
     if args.command == "synth":
         return _synth(args)
+    if args.command in ("torque", "reactions"):
+        return _loads(args)
+    if args.command == "steady":
+        return _steady(args)
 
     # simulate
     try:
@@ -162,9 +253,18 @@ def _dispatch(args) -> int:
     from . import compare, pipeline, registry
 
     mech = registry.with_crank_settings(registry.get(args.mechanism), args.phi0, args.phase)
-    opts = pipeline.Options(speed=args.speed, cycles=args.cycles, duration=args.duration,
+    mech = _with_drive(mech, args)
+    if args.dynamics and args.no_dynamics:
+        raise MjlinkError("--dynamics and --no-dynamics contradict each other")
+    if args.dynamics and not pipeline.has_masses(mech):
+        raise MjlinkError(f"{mech.name}: --dynamics needs masses and a [dynamics] table (or drive options) in the file")
+    if args.dynamics and mech.steady is None:
+        raise MjlinkError(f"{mech.name}: the steady-motion study needs a motor: give [steady] or [dynamics.motor] "
+                          "in the file, or --stall-torque and --no-load-speed")
+    opts = pipeline.Options(speed=args.speed, cycles=args.cycles, duration=None,
                             dynamics=not args.no_dynamics, plots=not args.no_plots, video=not args.no_video,
-                            video_seconds=args.video_seconds, fps=args.fps, width=w, height=h)
+                            video_seconds=args.video_seconds, fps=args.fps, width=w, height=h,
+                            steady=args.dynamics)
     print(f"mjlink: simulating {mech.name} ({mech.title})", file=sys.stderr)
     res = pipeline.run(mech, args.out, opts)
     print(f"\nAgreement of MuJoCo with the vector-method reference ({mech.name}):")
@@ -174,6 +274,13 @@ def _dispatch(args) -> int:
         r = dyn["paper_rk4_1000_steps"]
         print(f"paper's RK4 (1000 steps) vs tight ODE: omega differs by up to {r['omega_max_abs_diff_rad_s']:.3g} "
               f"rad/s ({r['omega_max_rel_diff']:.2%} of max), final {r['omega_final_rel_diff']:.2%}")
+    if "loads" in res.report:
+        L = res.report["loads"]
+        print(f"driving torque at {abs(L['speed_rpm']):.0f} rpm: peak {L['torque_peak_N_m']:.4g} N*m, RMS "
+              f"{L['torque_rms_N_m']:.4g} N*m, mean power {L['power_mean_W']:.4g} W; MuJoCo vs kinetostatics: torque "
+              f"{L['torque_error_rel']:.2e}, reactions {L['force_error_rel']:.2e} of range")
+    if "steady" in res.report:
+        _print_steady(res.report["steady"])
     if "video" in res.report:
         v = res.report["video"]
         print(f"video: {v['frames']} frames at {v['fps']} fps, slowed down {v['slowed_down_by']:.1f}x "
@@ -229,4 +336,69 @@ def _synth(args) -> int:
         except OSError as err:
             raise OutputError(f"cannot write {args.write}: {err.strerror or err}") from None
         print(f"wrote {args.write}")
+    return 0
+
+
+def _print_steady(s: dict) -> None:
+    print(f"steady motion: mean {s['n_mean_rpm']:.1f} rpm, delta {s['delta']:.4f} (MuJoCo {s['delta_mujoco']:.4f}); "
+          f"flywheel {s['flywheel_kg_m2']:.4g} kg*m^2 gives delta {s['delta_with_flywheel']:.4f} "
+          f"(MuJoCo {s['delta_with_flywheel_mujoco']:.4f}, target {s['target_delta']:g})")
+
+
+def _loads(args) -> int:
+    import math
+
+    import numpy as np
+
+    from . import output, pipeline, registry, simulate
+    from .errors import MjlinkError
+
+    mech = registry.get(args.mechanism)
+    if not any(l.mass > 0 for l in mech.links):
+        raise MjlinkError(f"{mech.name}: no masses in the file: give its links mass, inertia and com")
+    speed = mech.speed
+    if args.speed is not None:
+        if not math.isfinite(args.speed) or args.speed == 0:
+            raise MjlinkError(f"--speed must be a non-zero finite number of rev/min, got {args.speed}")
+        speed = math.copysign(1.0, mech.speed) * args.speed * math.pi / 30.0
+    kin = simulate.run(mech, simulate.kinematic_case(mech, speed=speed))
+    with output.staged_dir(Path(args.out) / f"{mech.name}_loads") as stage:
+        entry, failures = pipeline.loads_outputs(mech, kin, stage, plots=not args.no_plots)
+        output.write_json(stage / "report.json", {"mechanism": mech.name, "loads": entry, "failures": failures})
+    print(f"{mech.name} at {abs(entry['speed_rpm']):.1f} rpm ({entry['speed_rad_s']:.4g} rad/s):")
+    if args.command == "torque":
+        print(f"  driving torque: peak {entry['torque_peak_N_m']:.5g} N*m, RMS {entry['torque_rms_N_m']:.5g} N*m, "
+              f"mean power {entry['power_mean_W']:.5g} W")
+        print(f"  MuJoCo vs reference: max error {entry['torque_error_rel']:.2e} of the torque range "
+              f"(threshold {entry['thresholds']['torque_rel']:g})")
+    else:
+        print(f"  {'pair':<28} {'max |F| N':>10} {'MuJoCo N':>10} {'error/range':>12}")
+        for lab, p in entry["pairs"].items():
+            extra = f"   moment max {p['max_moment_N_m']:.4g} N*m" if "max_moment_N_m" in p else ""
+            print(f"  {lab:<28} {p['max_force_N']:>10.4g} {p['max_force_mujoco_N']:>10.4g} {p['error_rel']:>12.2e}{extra}")
+        print(f"  threshold {entry['thresholds']['force_rel']:g} of each pair's largest force")
+    print(f"outputs in {Path(args.out) / (mech.name + '_loads')}/")
+    if failures:
+        print("THRESHOLDS MISSED:\n  " + "\n  ".join(failures))
+        return 3 if args.strict else 0
+    return 0
+
+
+def _steady(args) -> int:
+    from . import output, pipeline, registry
+
+    mech = _with_drive(registry.get(args.mechanism), args, steady=True)
+    if mech.steady is None:
+        from .errors import MjlinkError
+
+        raise MjlinkError(f"{mech.name}: steady motion needs a motor: give [steady] or [dynamics.motor] in the file, "
+                          "or --stall-torque and --no-load-speed")
+    with output.staged_dir(Path(args.out) / f"{mech.name}_steady") as stage:
+        entry = pipeline.steady_outputs(mech, stage, plots=not args.no_plots)
+        output.write_json(stage / "report.json", {"mechanism": mech.name, "steady": entry})
+    _print_steady(entry)
+    print(f"outputs in {Path(args.out) / (mech.name + '_steady')}/")
+    if entry["failures"]:
+        print("THRESHOLDS MISSED:\n  " + "\n  ".join(entry["failures"]))
+        return 3 if args.strict else 0
     return 0

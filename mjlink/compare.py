@@ -34,6 +34,8 @@ ACCELERATION_REL = 2e-3
 LOOP_UM = 0.1
 THREAD_UM = 0.1
 OMEGA_REL = 5e-4
+TORQUE_REL = 1e-3  # of the driving torque's range (max - min)
+FORCE_REL = 1e-3  # of each pair's largest force
 
 
 @dataclass(frozen=True)
@@ -141,3 +143,56 @@ def table(agreements: list[Agreement]) -> str:
     rows.append(f"thresholds  {POSITION_UM:>9g} {VELOCITY_REL:>10.0e} {ACCELERATION_REL:>10.0e} "
                 f"{LOOP_UM:>9g} {THREAD_UM:>10g} {OMEGA_REL:>10.0e}   (omega: dynamic run; others: kinematic run)")
     return "\n".join(rows)
+
+
+@dataclass(frozen=True)
+class Loads:
+    """Driving torque and pair reactions of a constant-speed MuJoCo run against kinetostatics.
+
+    ``torque_rel``: max |tau_mj - tau_ref| / (max - min of tau_ref); ``pairs[label]``: the
+    largest reference force (N), the largest MuJoCo force (N) and max |F_mj - F_ref| / the
+    largest reference force; prismatic moments likewise (N*m, error relative to the largest
+    moment, or absolute N*m when the reference moment is zero). Torque statistics from the
+    reference: peak |tau| N*m, RMS N*m, mean power W.
+    """
+
+    speed: float
+    torque_rel: float
+    torque_peak: float
+    torque_rms: float
+    power_mean: float
+    pairs: dict
+    force_rel: float
+
+    def failures(self) -> list[str]:
+        out = []
+        if not self.torque_rel <= TORQUE_REL:
+            out.append(f"loads: driving torque error {self.torque_rel:.3g} of its range exceeds {TORQUE_REL:g}")
+        for lab, p in self.pairs.items():
+            if not p["error_rel"] <= FORCE_REL:
+                out.append(f"loads: reaction {lab} error {p['error_rel']:.3g} of its largest force exceeds {FORCE_REL:g}")
+        return out
+
+
+def loads(mech: Mechanism, mj: Trace) -> Loads:
+    """Compare a kinematic run's recorded torque and reactions with the reference kinetostatics
+    evaluated at MuJoCo's own crank state."""
+    if mj.torque is None:
+        raise ValueError("the trace has no recorded loads (run a kinematic case)")
+    rx = reference.reactions(mech, mj.phi, mj.omega, mj.eps)
+    tau = rx.torque
+    pairs = {}
+    for lab, f_ref in rx.forces.items():
+        f_mj = mj.reactions[lab]
+        peak = float(np.linalg.norm(f_ref, axis=1).max())
+        entry = {"max_force_N": peak, "max_force_mujoco_N": float(np.linalg.norm(f_mj, axis=1).max()),
+                 "error_rel": float(np.linalg.norm(f_mj - f_ref, axis=1).max() / peak) if peak > 0 else 0.0}
+        if lab in rx.moments:
+            m_ref, m_mj = rx.moments[lab], mj.moments[lab]
+            mpk = float(np.abs(m_ref).max())
+            entry["max_moment_N_m"] = mpk
+            entry["moment_error"] = float(np.abs(m_mj - m_ref).max() / mpk) if mpk > 1e-12 else float(np.abs(m_mj).max())
+        pairs[lab] = entry
+    return Loads(float(np.mean(mj.omega)), float(np.abs(mj.torque - tau).max() / np.ptp(tau)) if np.ptp(tau) > 0 else 0.0,
+                 float(np.abs(tau).max()), float(np.sqrt(np.mean(tau**2))), float(np.mean(tau * mj.omega)),
+                 pairs, max((p["error_rel"] for p in pairs.values()), default=0.0))

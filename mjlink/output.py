@@ -108,3 +108,26 @@ def staged_dir(dest: Path) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
+
+
+def _label(lab: str) -> str:
+    """A pair label as a column-name stem: ``P3:lever-rocker`` -> ``P3_lever_rocker``."""
+    return lab.replace(":", "_").replace("-", "_")
+
+
+def write_loads_csv(path: Path, trace: Trace, torque: np.ndarray, forces: dict, moments: dict) -> Path:
+    """Driving torque (N*m) and the force (N) in every pair, with its moment (N*m) for prismatic
+    pairs, against time and crank angle; full double precision."""
+    names = ["time_s", "phi1_deg", "omega1_rad_s", "torque_N_m"]
+    cols = [trace.time, np.degrees(trace.phi), trace.omega, torque]
+    for lab, f in forces.items():
+        s = _label(lab)
+        names += [f"{s}_Fx_N", f"{s}_Fy_N", f"{s}_F_N"]
+        cols += [f[:, 0], f[:, 1], np.linalg.norm(f, axis=1)]
+        if lab in moments:
+            names.append(f"{s}_M_N_m")
+            cols.append(moments[lab])
+    table = np.column_stack(cols)
+    lines = [",".join(names)] + [",".join(map(repr, row)) for row in table.tolist()]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path

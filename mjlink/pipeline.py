@@ -35,6 +35,8 @@ class Options:
     fps: int = 30
     width: int = 640
     height: int = 480
+    loads: bool = True
+    steady: bool = False
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,7 @@ class Result:
 
     @property
     def failures(self) -> list[str]:
-        return [f for a in self.agreements for f in a.failures()]
+        return list(self.report.get("failures", []))
 
 
 def has_masses(mech: Mechanism) -> bool:
@@ -116,11 +118,19 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
                     "omega_max_rel_diff": float(d.max() / np.abs(tight.omega).max()),
                     "omega_final_rel_diff": float(abs(rk4.omega[-1] - tight.omega[-1]) / abs(tight.omega[-1])),
                 }
+        load_failures: list[str] = []
+        if opts.loads and any(l.mass > 0 for l in mech.links):
+            report["loads"], load_failures = loads_outputs(mech, kin_mj, stage, plots=opts.plots)
+            t = lap("loads_s", t)
+        if opts.steady:
+            report["steady"] = steady_outputs(mech, stage, plots=opts.plots)
+            load_failures += report["steady"]["failures"]
+            t = lap("steady_s", t)
         report["agreement"] = {a.kind: a.as_dict() for a in agreements}
         report["thresholds"] = {"position_um": compare.POSITION_UM, "velocity_rel": compare.VELOCITY_REL,
                                 "acceleration_rel": compare.ACCELERATION_REL, "loop_um": compare.LOOP_UM,
                                 "thread_um": compare.THREAD_UM, "omega_rel": compare.OMEGA_REL}
-        report["failures"] = [f for a in agreements for f in a.failures()]
+        report["failures"] = [f for a in agreements for f in a.failures()] + load_failures
 
         if opts.plots:
             from . import plots
@@ -143,6 +153,56 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
         (stage / "model.xml").write_text(builder.to_xml(mech, builder.DYNAMIC), encoding="utf-8")
         files = tuple(sorted(p.name for p in stage.iterdir()))
     return Result(mech.name, Path(out_root) / mech.name, tuple(agreements), report, files)
+
+
+def loads_outputs(mech: Mechanism, kin_mj: simulate.Trace, stage: Path, *, plots: bool = True) -> tuple[dict, list[str]]:
+    """Driving torque and pair reactions of a constant-speed run: CSV, plots, report entry."""
+    loads = compare.loads(mech, kin_mj)
+    rx = reference.reactions(mech, kin_mj.phi, kin_mj.omega, kin_mj.eps)
+    output.write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
+    output.write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
+    if plots:
+        from . import plots_loads
+
+        plots_loads.torque_plot(mech, kin_mj, rx, stage)
+        plots_loads.reactions_plot(mech, kin_mj, rx, stage)
+    entry = {"speed_rad_s": loads.speed, "speed_rpm": loads.speed * 30 / np.pi,
+             "torque_peak_N_m": loads.torque_peak, "torque_rms_N_m": loads.torque_rms,
+             "power_mean_W": loads.power_mean, "torque_error_rel": loads.torque_rel,
+             "force_error_rel": loads.force_rel, "pairs": loads.pairs,
+             "thresholds": {"torque_rel": compare.TORQUE_REL, "force_rel": compare.FORCE_REL}}
+    return entry, loads.failures()
+
+
+def steady_outputs(mech: Mechanism, stage: Path, *, plots: bool = True, target: float | None = None) -> dict:
+    """Steady motion under the motor characteristic, the flywheel for the target delta, and
+    MuJoCo on both orbits: CSV, plot, report entry (with its own ``failures``)."""
+    mv = reference.steady_variant(mech)
+    target = target if target is not None else (mech.steady.target_delta if mech.steady else 0.02)
+    plain = reference.steady_motion(mv)
+    J_fly, fly = reference.flywheel_for(mv, target)
+    runs = (simulate.steady_run(mv, plain), simulate.steady_run(mv, fly))
+    lines = ["phi1_deg,omega_rad_s,t_s,omega_flywheel_rad_s,t_flywheel_s"]
+    lines += [",".join(map(repr, r)) for r in np.column_stack(
+        [np.degrees(plain.phi), plain.omega, plain.t, fly.omega, fly.t]).tolist()]
+    (stage / "reference_steady.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    if plots:
+        from . import plots_loads
+
+        plots_loads.steady_plot(mech, plain, fly, runs, stage)
+    motor = mv.dynamics.motor
+    failures = []
+    for name, st, run in (("without flywheel", plain, runs[0]), ("with flywheel", fly, runs[1])):
+        if not abs(run.delta - st.delta) <= 1e-3 * max(st.delta, 1e-3):
+            failures.append(f"steady {name}: MuJoCo delta {run.delta:.5f} vs reference {st.delta:.5f}")
+    return {"motor": {"stall_torque_N_m": motor.stall_torque, "no_load_speed_rad_s": motor.no_load_speed},
+            "omega_mean_rad_s": plain.omega_mean, "n_mean_rpm": plain.omega_mean * 30 / np.pi,
+            "delta": plain.delta, "delta_mujoco": runs[0].delta, "target_delta": target,
+            "flywheel_kg_m2": J_fly, "delta_with_flywheel": fly.delta,
+            "delta_with_flywheel_mujoco": runs[1].delta,
+            "omega_mean_with_flywheel_rad_s": fly.omega_mean,
+            "definition": "delta = (omega_max - omega_min) / omega_mean, omega_mean = time average over a period",
+            "failures": failures}
 
 
 def _on_grid(m: reference.Motion, t: np.ndarray) -> reference.Motion | None:

@@ -25,6 +25,8 @@ import numpy as np
 from . import builder, reference
 from .errors import SimulationError
 from .mechanism import Mechanism
+from .reference import pair_label
+from .topology import topology
 
 FLYWHEEL_RATIO = 1e9
 DIVERGED_LOOP = 1e-3  # m: a loop gap this large means the run has failed, not just drifted
@@ -52,12 +54,16 @@ class Trace:
     qpos: np.ndarray | None = None
     link_omega: dict[str, np.ndarray] = field(default_factory=dict)
     link_eps: dict[str, np.ndarray] = field(default_factory=dict)
+    torque: np.ndarray | None = None
+    reactions: dict[str, np.ndarray] = field(default_factory=dict)
+    moments: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
 class Case:
     """What to simulate: ``duration`` s, ``omega0`` rad/s, ``moment`` N*m on the input crank,
-    ``settings`` numerical settings, ``sample_every`` steps between recorded samples."""
+    ``settings`` numerical settings, ``sample_every`` steps between recorded samples;
+    ``loads``: also record the driving torque and the pair reaction forces."""
 
     kind: str
     duration: float
@@ -65,6 +71,7 @@ class Case:
     moment: float
     settings: builder.Settings
     sample_every: int = 1
+    loads: bool = False
 
 
 def kinematic_case(mech: Mechanism, *, speed: float | None = None, cycles: float | None = None,
@@ -77,16 +84,43 @@ def kinematic_case(mech: Mechanism, *, speed: float | None = None, cycles: float
         mech.phi0 + np.linspace(0, mech.period, 64))[0].max())
     fly = FLYWHEEL_RATIO * max(jmax, 1e-9)
     s = builder.Settings(base.timestep, base.integrator, base.solref, base.solimp, fly, base.tolerance)
-    return Case("kinematics", n * mech.period / abs(w), w, 0.0, s, 1)
+    return Case("kinematics", n * mech.period / abs(w), w, 0.0, s, 1, True)
 
 
 def dynamic_case(mech: Mechanism, *, duration: float | None = None,
-                 settings: builder.Settings | None = None, sample_dt: float = 2.5e-4) -> Case:
-    """The file's forward-dynamics case, sampled every ``sample_dt`` s."""
+                 settings: builder.Settings | None = None, sample_dt: float = 2.5e-4,
+                 omega0: float | None = None) -> Case:
+    """The file's forward-dynamics case, sampled every ``sample_dt`` s (duration s, omega0 rad/s)."""
     s = settings or builder.DYNAMIC
     every = max(1, int(round(sample_dt / s.timestep)))
+    drive = mech.dynamics.moment + (mech.dynamics.motor.stall_torque if mech.dynamics.motor else 0.0)
     return Case("dynamics", mech.dynamics.duration if duration is None else duration,
-                mech.dynamics.omega0, mech.dynamics.moment, s, every)
+                mech.dynamics.omega0 if omega0 is None else omega0, drive, s, every)
+
+
+@dataclass(frozen=True)
+class SteadyRun:
+    """MuJoCo on the reference's steady orbit: its ``delta`` and mean speed ``omega_mean``
+    (rad/s) over the last of ``periods`` crank periods, and the trace."""
+
+    delta: float
+    omega_mean: float
+    trace: Trace
+
+
+def steady_run(mech: Mechanism, steady: reference.Steady, periods: int = 3) -> SteadyRun:
+    """Simulate ``mech`` (a :func:`reference.steady_variant`) from the steady orbit's start,
+    with the steady case's flywheel as armature on the crank, and measure the fluctuation."""
+    T = float(abs(steady.t[-1]))
+    base = builder.DYNAMIC
+    s = builder.Settings(base.timestep, base.integrator, base.solref, base.solimp, steady.extra_inertia,
+                         base.tolerance)
+    case = dynamic_case(mech, duration=periods * T, settings=s, sample_dt=base.timestep, omega0=float(steady.omega[0]))
+    tr = run(mech, case)
+    last = tr.time >= tr.time[-1] - T
+    w = tr.omega[last]
+    mean = (tr.phi[last][-1] - tr.phi[last][0]) / (tr.time[last][-1] - tr.time[last][0])
+    return SteadyRun(float((w.max() - w.min()) / abs(mean)), float(mean), tr)
 
 
 def _equality_rows(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
@@ -127,6 +161,41 @@ class Probe:
         self._jrd = np.zeros((3, model.nv))
         self.links = [l.name for l in mech.links]
         self.body = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n) for n in self.links}
+        topo = topology(mech)
+        self.tree_pairs = [(pair_label(p), p) for p in topo.tree]
+        eq_names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, i): i for i in range(model.neq)}
+        self.loop_eqs = [(pair_label(p), eq_names[f"loop_{p.point}_{p.parent or 'ground'}_{p.child}"])
+                         for p in topo.loops]
+        self.mech = mech
+        self.qadr = int(model.jnt_qposadr[mujoco.mj_name2id(
+            model, mujoco.mjtObj.mjOBJ_JOINT, f"{mech.input_link.name}_{mech.input_crank.pivot}")])
+        self.forces = [(f, self.site[f.point], int(model.site_bodyid[self.site[f.point]]))
+                       for f in mech.dynamics.forces]
+        self._jac = np.zeros((3, model.nv))
+
+    def apply_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """External point forces at the current (stage) state, as body forces.
+
+        Installed as MuJoCo's control callback so that every Runge-Kutta stage sees the force
+        at its own configuration. Each goes into ``xfrc_applied`` (the force at the body's
+        centre of mass with its moment) rather than ``qfrc_applied``, so that the body
+        interaction forces of ``mj_rnePostConstraint`` count it.
+        """
+        phi = self.mech.phi0 + float(data.qpos[self.qadr])
+        data.xfrc_applied[:] = 0.0
+        for f, sid, body in self.forces:
+            F = np.asarray(f.at_scalar(phi, self.mech.period))
+            data.xfrc_applied[body, :3] += F
+            data.xfrc_applied[body, 3:] += np.cross(data.site_xpos[sid] - data.xipos[body], F)
+
+    def applied(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """Generalized force (nv,) of the external point forces in this state."""
+        phi = self.mech.phi0 + float(data.qpos[self.qadr])
+        total = np.zeros(model.nv)
+        for f, sid, body in self.forces:
+            mujoco.mj_jac(model, data, self._jac, None, data.site_xpos[sid], body)
+            total += np.asarray(f.at_scalar(phi, self.mech.period)) @ self._jac
+        return total
 
     def link_state(self, data: mujoco.MjData, name: str) -> tuple[float, float]:
         """Angular velocity (rad/s) and acceleration (rad/s^2) of a link about Z."""
@@ -134,6 +203,48 @@ class Probe:
         mujoco.mj_jac(self.model, data, None, self._jr, data.xpos[b], b)
         mujoco.mj_jacDot(self.model, data, None, self._jrd, data.xpos[b], b)
         return float(self._jr[2] @ data.qvel), float(self._jr[2] @ data.qacc + self._jrd[2] @ data.qvel)
+
+    def driving_torque(self, data: mujoco.MjData) -> float:
+        """Torque (N*m) the drive supplies to the input crank in this state, the flywheel aside.
+
+        The crank row of ``M qacc + bias = passive + constraint + applied + actuator`` with the
+        flywheel's armature taken out of M: in the kinematic run this is the effort of the
+        imposed motion, computed from ordinary-sized terms rather than as armature x a tiny
+        acceleration.
+        """
+        c = self.input_dof
+        mq = np.zeros(self.model.nv)
+        mujoco.mj_mulM(self.model, data, mq, data.qacc)
+        return float(mq[c] - self.model.dof_armature[c] * data.qacc[c] + data.qfrc_bias[c]
+                     - data.qfrc_passive[c] - data.qfrc_constraint[c] - self.applied(self.model, data)[c])
+
+    def pair_forces(self, data: mujoco.MjData) -> tuple[dict[str, np.ndarray], dict[str, float]]:
+        """Force (N) on each pair's child from its parent, and prismatic pairs' moments (N*m).
+
+        Tree pairs: the child body's interaction force with its parent (``cfrc_int`` after
+        ``mj_rnePostConstraint``, which counts the loop equalities' forces); loop pairs: the
+        connect equality's constraint force.
+        """
+        mujoco.mj_rnePostConstraint(self.model, data)
+        forces, moments = {}, {}
+        for label, pr in self.tree_pairs:
+            b = self.body[pr.child]
+            f = data.cfrc_int[b, 3:6].copy()
+            if pr.kind == "slide":
+                u = self.model.jnt_axis[self.model.body_jntadr[b]]
+                u = data.xmat[b].reshape(3, 3) @ u
+                n = np.array([-u[1], u[0], 0.0])
+                forces[label] = (f @ n) * n
+                c = data.subtree_com[self.model.body_rootid[b]]
+                o = data.xpos[b]
+                moments[label] = float(data.cfrc_int[b, 2] + np.cross(c - o, f)[2])
+            else:
+                forces[label] = f
+        for label, i in self.loop_eqs:
+            rows = np.nonzero((data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+                              & (data.efc_id[: data.nefc] == i))[0]
+            forces[label] = data.efc_force[rows].copy()
+        return forces, moments
 
     def loop_gaps(self, data: mujoco.MjData) -> np.ndarray:
         """Distance (m) between the two anchors of every loop-closing connect equality."""
@@ -160,8 +271,20 @@ class Probe:
 def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Trace:
     """Simulate ``case`` in MuJoCo and sample it. Raises SimulationError if the run diverges."""
     model = model or builder.build(mech, case.settings)
+    if case.kind == "kinematics":
+        model.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE  # the flywheel alone drives
     data = mujoco.MjData(model)
     probe = Probe(mech, model)
+    if probe.forces:
+        mujoco.set_mjcb_control(probe.apply_forces)
+    try:
+        return _run(mech, case, model, data, probe)
+    finally:
+        if probe.forces:
+            mujoco.set_mjcb_control(None)
+
+
+def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData, probe: Probe) -> Trace:
     data.qvel[:] = consistent_velocity(model, data, probe.input_dof, case.omega0)
     data.ctrl[0] = case.moment
     nsteps = int(math.ceil(case.duration / model.opt.timestep - 1e-9))
@@ -175,6 +298,9 @@ def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Tra
     A = {n: np.empty((samples, 3)) for n in probe.names}
     LW = {n: np.empty(samples) for n in probe.links}
     LE = {n: np.empty(samples) for n in probe.links}
+    tau = np.empty(samples) if case.loads else None
+    RF: dict[str, np.ndarray] = {}
+    RM: dict[str, np.ndarray] = {}
     k = 0
     for step in range(nsteps + 1):
         if step % case.sample_every == 0:
@@ -191,6 +317,13 @@ def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Tra
                 P[n][k], V[n][k], A[n][k] = probe.point_state(data, n)
             for n in probe.links:
                 LW[n][k], LE[n][k] = probe.link_state(data, n)
+            if case.loads:
+                tau[k] = probe.driving_torque(data)
+                f, m = probe.pair_forces(data)
+                for lab, v in f.items():
+                    RF.setdefault(lab, np.empty((samples, 3)))[k] = v
+                for lab, v in m.items():
+                    RM.setdefault(lab, np.empty(samples))[k] = v
             if not np.isfinite(data.qpos).all() or not np.isfinite(data.qacc).all():
                 raise SimulationError(f"{mech.name}: MuJoCo diverged (non-finite state) at t = {data.time:.6g} s")
             if gap[k] > DIVERGED_LOOP:
@@ -207,7 +340,9 @@ def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Tra
     return Trace("mujoco", case.kind, t[:k], phi, w[:k], e[:k], {n: a[:k] for n, a in P.items()},
                  {n: a[:k] for n, a in V.items()}, {n: a[:k] for n, a in A.items()},
                  None if th is None else th[:k], gap[:k], q[:k],
-                 {n: a[:k] for n, a in LW.items()}, {n: a[:k] for n, a in LE.items()})
+                 {n: a[:k] for n, a in LW.items()}, {n: a[:k] for n, a in LE.items()},
+                 None if tau is None else tau[:k], {n: a[:k] for n, a in RF.items()},
+                 {n: a[:k] for n, a in RM.items()})
 
 
 def reference_trace(mech: Mechanism, motion: reference.Motion, kind: str) -> Trace:

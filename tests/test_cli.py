@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import mujoco
+import pytest
 import numpy as np
 
 from conftest import ROOT
@@ -98,3 +99,30 @@ def test_warp_knitting_crank_settings(tmp_path):
     assert rep["failures"] == []
     r = mjlink("simulate", "takeup", "--phi04", "30", "--out", str(tmp_path), "--no-video")
     assert r.returncode == 1 and "no geared crank" in r.stderr
+
+
+def test_torque_reactions_and_steady_commands(tmp_path):
+    r = mjlink("torque", "warp_knitting", "--speed", "1000", "--out", str(tmp_path), "--strict")
+    assert r.returncode == 0, r.stderr
+    assert "driving torque: peak" in r.stdout and "1000.0 rpm" in r.stdout
+    out = tmp_path / "warp_knitting_loads"
+    for f in ("loads.csv", "reference_loads.csv", "torque.png", "reactions.png", "report.json"):
+        assert (out / f).is_file(), f
+    r = mjlink("reactions", "crank_slider", "--out", str(tmp_path), "--no-plots", "--strict")
+    assert r.returncode == 0, r.stderr
+    assert "slide:ground-needle_bar" in r.stdout
+    r = mjlink("steady", "takeup", "--target-delta", "0.05", "--out", str(tmp_path), "--strict")
+    assert r.returncode == 0, r.stderr
+    rep = json.loads((tmp_path / "takeup_steady" / "report.json").read_text())["steady"]
+    assert rep["delta_with_flywheel"] == pytest.approx(0.05, rel=1e-4)
+    r = mjlink("steady", "takeup", "--stall-torque", "0.05", "--out", str(tmp_path))
+    assert r.returncode == 1 and "go together" in r.stderr
+
+
+def test_simulate_dynamics_flag(tmp_path):
+    r = mjlink("simulate", "crank_slider", "--dynamics", "--no-video", "--no-plots", "--out", str(tmp_path),
+               "--stall-torque", "-0.8", "--no-load-speed", "-160", "--strict")
+    assert r.returncode == 0, r.stderr
+    rep = json.loads((tmp_path / "crank_slider" / "report.json").read_text())
+    assert rep["failures"] == [] and "steady" in rep and "loads" in rep
+    assert (tmp_path / "crank_slider" / "loads.csv").is_file()

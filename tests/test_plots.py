@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import functools
+import math
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
-from mjlink import mechanism, plots
+from mjlink import mechanism, plots, registry
 from mjlink import reference as R
 from mjlink import simulate as S
 
@@ -39,7 +43,7 @@ def test_all_plots(traces, tmp_path):
     paths = plots.all_plots(m, kin, kin_ref, dyn, dyn_ref, out, rk4)
     names = {p.name for p in paths}
     assert names == {"speed_vs_time.png", "speed_vs_angle.png", "positions.png",
-                     "thread_length.png", "kinematics_P5.png"}
+                     "thread_length.png", "kinematics_P5.png", "link_lever.png"}
     for p in paths:
         assert p.parent == out
         _check_png(p)
@@ -68,3 +72,127 @@ def test_overwrite_is_atomic(traces, tmp_path):
     assert first == second
     _check_png(second)
     assert [f.name for f in tmp_path.iterdir()] == ["positions.png"]
+
+
+# ----------------------------------------------------------------------------- every mechanism
+@functools.lru_cache(maxsize=None)
+def _kinematics(name: str):
+    """A registered mechanism with its kinematic MuJoCo run and the matching reference trace."""
+    m = registry.get(name)
+    kin = S.run(m, S.kinematic_case(m))
+    kin_ref = S.reference_trace(m, R.Motion(kin.time, kin.phi, kin.omega, kin.eps), "kinematics")
+    return m, kin, kin_ref
+
+
+# The files each mechanism of this checkout gets; a mechanism added later is checked against
+# the rules of all_plots instead (see _expected).
+KNOWN = {
+    "takeup": {"positions.png", "thread_length.png", "kinematics_P5.png", "link_lever.png"},
+    "crank_slider": {"positions.png", "kinematics_C.png", "slider_C.png", "slider_C_spectrum.png",
+                     "pressure_angle_C.png", "link_rod.png"},
+    "takeup_eyelets": {"positions.png", "thread_length.png", "thread_feed.png", "thread_contour.png",
+                       "kinematics_P6.png", "link_rocker.png"},
+    "warp_knitting": {"positions.png", "kinematics_P10.png", "slider_P9.png", "slider_P9_spectrum.png",
+                      "pressure_angle_P9.png", "link_cylinder.png", "phase_study.png"},
+}
+
+
+def _expected(m) -> set[str]:
+    names = {"positions.png", f"kinematics_{plots.key_point(m)}.png"}
+    if m.thread:
+        names.add("thread_length.png")
+        if m.thread_elongation is not None:
+            names.add("thread_feed.png")
+        at0 = R.solve(m, [m.phi0])
+        if any(abs(float(at0.position(p)[0, 2])) > 1e-12 for p in m.point_names):
+            names.add("thread_contour.png")  # a spatial thread
+    for s in m.steps:
+        if isinstance(s, mechanism.Slider):
+            names |= {f"slider_{s.point}.png", f"slider_{s.point}_spectrum.png", f"pressure_angle_{s.point}.png"}
+        if isinstance(s, mechanism.Crank) and s.ratio != 1.0:
+            names.add("phase_study.png")
+    names |= {f"link_{l}.png" for l in plots.motion_links(m)}
+    return names
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_all_plots_every_mechanism(name, tmp_path):
+    m, kin, kin_ref = _kinematics(name)
+    out = tmp_path / name
+    paths = plots.all_plots(m, kin, kin_ref, None, None, out)  # no dynamic run: no speed plots
+    names = {p.name for p in paths}
+    assert len(names) == len(paths), "a file returned twice"
+    assert names == KNOWN.get(name, _expected(m))
+    assert names == _expected(m)
+    for p in paths:
+        assert p.parent == out
+        _check_png(p)
+    assert sorted(f.name for f in out.iterdir()) == sorted(names), "temporary or unreported files"
+
+
+def test_slider_velocity_on_a_moving_guide():
+    """warp_knitting's plunger P9 slides in the swinging cylinder P5-P6: the relative velocity
+    and acceleration computed from the traces match time finite differences of s."""
+    m, kin, kin_ref = _kinematics("warp_knitting")
+    slider = next(s for s in m.steps if isinstance(s, mechanism.Slider) and s.point == "P9")
+    assert slider.guide[0] not in m.ground  # the guide does move
+    for tr in (kin, kin_ref):
+        s, sd, sdd = plots.slider_motion(tr, slider)
+        fd = np.gradient(s, tr.time)[1:-1]
+        assert np.abs(sd[1:-1] - fd).max() < 1e-4 * np.abs(sd).max()
+        fdd = np.gradient(sd, tr.time)[1:-1]
+        assert np.abs(sdd[1:-1] - fdd).max() < 1e-3 * np.abs(sdd).max()
+        # The absolute velocity along the guide is not the relative one: the guide's swing matters.
+        n1, n2 = slider.guide
+        u = tr.points[n2][:, :2] - tr.points[n1][:, :2]
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        naive = np.einsum("ij,ij->i", tr.velocities["P9"][:, :2], u)
+        assert np.abs(naive - sd).max() > 0.05 * np.abs(sd).max()
+    # MuJoCo and the reference agree on the relative motion.
+    a, b = plots.slider_motion(kin, slider), plots.slider_motion(kin_ref, slider)
+    for x, y in zip(a, b):
+        assert np.abs(x - y).max() < 1e-3 * np.abs(y).max()
+
+
+def test_crank_slider_pressure_angle_and_stroke():
+    """The offset crank-slider's largest pressure angle is asin((r + e) / l) and its stroke the
+    synthesis stroke; both within the sampling of the kinematic run."""
+    m, kin, kin_ref = _kinematics("crank_slider")
+    slider = next(s for s in m.steps if isinstance(s, mechanism.Slider))
+    r, l, e = m.input_crank.length, slider.length, m.synthesis.offset
+    for tr in (kin, kin_ref):
+        top = math.degrees(plots.pressure_angle(tr, slider).max())
+        assert top == pytest.approx(math.degrees(math.asin((r + e) / l)), abs=1e-3)
+        assert top < math.degrees(m.synthesis.max_pressure_angle)
+        assert np.ptp(plots.slider_motion(tr, slider)[0]) == pytest.approx(m.synthesis.stroke, abs=1e-6)
+
+
+def test_harmonics_of_a_known_signal():
+    """Amplitudes of a signal with known harmonics, over one period of a two-turn mechanism,
+    sampled at a slightly uneven speed (the resampling in phi takes that out)."""
+    t = np.linspace(0.0, 1.0, 4001)
+    phi = 0.3 - 4.0 * math.pi * (t + 0.002 * np.sin(2.0 * math.pi * t))  # clockwise, two turns
+    x = (phi - phi[0]) / 2.0  # angle of the mechanism period
+    y = 3.0 * np.cos(x) + 0.5 * np.sin(2.0 * x + 0.3) + 0.01 * np.cos(7.0 * x)
+    amp = plots.harmonics(SimpleNamespace(period=4.0 * math.pi), SimpleNamespace(phi=phi), y, kmax=8)
+    assert amp == pytest.approx([3.0, 0.5, 0, 0, 0, 0, 0.01, 0], abs=2e-4)
+    assert plots._higher_share(amp) == pytest.approx(math.hypot(0.5, 0.01) / 3.0, rel=1e-3)
+    short = SimpleNamespace(phi=phi[:2000])
+    assert plots.harmonics(SimpleNamespace(period=4.0 * math.pi), short, y[:2000]) is None
+
+
+def test_clockwise_crank_angle_axis(tmp_path):
+    """A clockwise crank (phi decreasing) is plotted against the angle turned, 0 to 360 deg; a
+    counter-clockwise one against phi itself. The speed plots of a clockwise run-up work too."""
+    m, kin, kin_ref = _kinematics("crank_slider")
+    assert m.speed < 0
+    (xm, xr), label = plots._crank_x(m, kin, kin_ref)
+    assert "turned clockwise" in label
+    assert xm[0] == pytest.approx(0.0) and np.all(np.diff(xm) > 0) and xm[-1] == pytest.approx(360.0, abs=0.5)
+    m2, kin2, _ = _kinematics("takeup_eyelets")
+    (x2,), label2 = plots._crank_x(m2, kin2)
+    assert "turned" not in label2 and x2 == pytest.approx(np.degrees(kin2.phi))
+    dyn = S.run(m, S.dynamic_case(m, duration=0.05))
+    dyn_ref = S.reference_trace(m, R.forward_dynamics(m, dyn.time), "dynamics")
+    for p in plots.speed_plots(m, dyn, dyn_ref, tmp_path):
+        _check_png(p)

@@ -1,0 +1,115 @@
+"""Dynamics for every mechanism: inverse dynamics, reactions, steady motion, drive laws."""
+
+import math
+
+import numpy as np
+import pytest
+
+from mjlink import compare, mechanism, reference as R, registry, simulate as S
+
+CRANK = """
+[mechanism]
+name = "crank"
+title = "single crank with a point mass at its tip"
+[ground]
+O = [0, 0]
+[[construct]]
+point = "A"
+block = "crank"
+pivot = "O"
+length = 50
+[links.crank]
+points = ["O", "A"]
+mass = 200
+inertia = 1e-12
+com = "A"
+[input]
+phi0 = 30
+speed = 20
+[dynamics]
+gravity = {g}
+"""
+M, RAD = 0.2, 0.05
+
+
+def crank(g=9.81):
+    return registry.validate(mechanism.parse(CRANK.format(g=g)))
+
+
+@pytest.mark.parametrize("deg", [0.0, 30.0, 90.0, 200.0, 315.0])
+def test_hand_checked_torque_at_rest(deg):
+    """Holding a crank with a point mass still takes m g r cos(phi)."""
+    mech = crank()
+    phi = math.radians(deg)
+    want = M * 9.81 * RAD * math.cos(phi)
+    assert R.driving_torque(mech, [phi], 0.0)[0] == pytest.approx(want, abs=1e-12)
+    assert R.reactions(mech, [phi], 0.0).torque[0] == pytest.approx(want, abs=1e-12)
+    # MuJoCo: the effort of holding the crank, turned by the flywheel at a crawl (1e-4 rad/s).
+    held = registry.with_crank_settings(mech, phi0_deg=deg)
+    tr = S.run(held, S.kinematic_case(held, speed=1e-4, cycles=1e-8))
+    assert tr.phi[0] == pytest.approx(phi, abs=1e-12)
+    np.testing.assert_allclose(tr.torque, M * 9.81 * RAD * np.cos(tr.phi), rtol=1e-7, atol=1e-12)
+
+
+def test_hand_checked_reaction_at_speed():
+    """Without gravity the pivot pulls the mass inward with m omega^2 r, and needs no torque."""
+    mech = crank(g=0.0)
+    w = 20.0
+    rx = R.reactions(mech, mech.phi0 + np.linspace(0, 2 * np.pi, 13), w)
+    np.testing.assert_allclose(np.linalg.norm(rx.forces["O:ground-crank"], axis=1), M * w**2 * RAD, rtol=1e-12)
+    tr = S.run(mech, S.kinematic_case(mech))
+    f = tr.reactions["O:ground-crank"]
+    np.testing.assert_allclose(np.linalg.norm(f, axis=1), M * w**2 * RAD, rtol=1e-6)
+    # Centripetal: the force on the crank points from the mass back to the pivot.
+    inward = -(tr.points["A"] - tr.points["O"]) / RAD
+    np.testing.assert_allclose(f / (M * w**2 * RAD), inward, atol=1e-6)
+    assert np.abs(tr.torque).max() < 1e-9
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_driving_torque_and_reactions_agree(name):
+    mech = registry.get(name)
+    tr = S.run(mech, S.kinematic_case(mech))
+    loads = compare.loads(mech, tr)
+    assert loads.torque_rel <= compare.TORQUE_REL
+    assert loads.force_rel <= compare.FORCE_REL
+    assert loads.failures() == []
+    # Two independent reference routes to the torque: reduced equation and kinetostatics.
+    tau = R.driving_torque(mech, tr.phi, tr.omega, tr.eps)
+    rx = R.reactions(mech, tr.phi, tr.omega, tr.eps)
+    assert np.abs(tau - rx.torque).max() < 1e-9 * np.ptp(tau)
+
+
+def test_mean_power_balances_damping_at_constant_speed():
+    """Over a full turn gravity and inertia do no net work: the mean drive power is b omega^2."""
+    mech = registry.get("takeup")
+    phi = mech.phi0 + np.linspace(0, 2 * np.pi, 4097)[:-1]
+    tau = R.driving_torque(mech, phi, 100.0)
+    assert np.mean(tau * 100.0) == pytest.approx(mech.dynamics.damping * 100.0**2, rel=1e-9)
+
+
+@pytest.mark.parametrize("name", ["takeup", "crank_slider"])
+def test_steady_motion_and_flywheel(name):
+    mech = R.steady_variant(registry.get(name))
+    st = R.steady_motion(mech)
+    assert abs(st.omega[-1] - st.omega[0]) < 1e-8 * abs(st.omega_mean)  # periodic
+    run = S.steady_run(mech, st)
+    assert run.delta == pytest.approx(st.delta, rel=1e-3)
+    J, fly = R.flywheel_for(mech, 0.02)
+    assert J > 0 and fly.delta == pytest.approx(0.02, rel=1e-5)
+    assert S.steady_run(mech, fly).delta == pytest.approx(0.02, rel=2e-3)
+
+
+def test_motor_characteristic_in_mujoco_matches_reference():
+    mech = registry.get("crank_slider")
+    motor = mech.dynamics.motor
+    assert motor.torque(0.0) == motor.stall_torque and motor.torque(motor.no_load_speed) == 0.0
+    tr = S.run(mech, S.dynamic_case(mech, duration=0.3))
+    a = compare.agreement(mech, tr, R.forward_dynamics(mech, tr.time))
+    assert a.omega_rel <= compare.OMEGA_REL
+
+
+def test_force_table_scalar_and_vector_agree():
+    f = mechanism.Force("P", angles=(0.0, 1.0, 3.0), values=((0, -1, 0), (0, -2, 0), (1, 0, 0)))
+    for phi in (-7.0, 0.0, 0.3, 1.5, 3.0, 4.0, 6.1, 12.0):
+        np.testing.assert_allclose(f.at_scalar(phi, 2 * np.pi), f.at([phi], 2 * np.pi)[0], atol=1e-15)
