@@ -174,10 +174,13 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
             body.ipos = (pos[l.com] - o).tolist()
             jz = max(l.inertia, 1e-12)
             body.inertia = [jz, jz, jz]
-        else:  # massless links: a negligible mass keeps the mass matrix regular
-            body.mass = 1e-9
+        else:
+            # A massless link (allowed only in files without dynamics, see mechanism.parse)
+            # gets a token mass: MuJoCo's mass matrix must stay regular, and 1e-15 is its
+            # own singularity threshold.
+            body.mass = 1e-6
             body.ipos = [0, 0, 0]
-            body.inertia = [1e-15, 1e-15, 1e-15]
+            body.inertia = [1e-10, 1e-10, 1e-10]
         body.explicitinertial = True
         zoff = [0, 0, (layer[l.name] - 0.5 * len(mech.links)) * 0.6 * r_link]
         mat = f"mat_{l.name}"

@@ -653,6 +653,11 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
             raise r.fail(f"{w} values", f"must list one force per angle ({len(angs)})")
         forces.append(Force(p, angles=tuple(a), values=tuple(tuple(r.vector(v, f"{w} values")) for v in vals)))
     motor = _read_motor(r, dyn_raw["motor"], "[dynamics.motor]") if "motor" in dyn_raw else None
+    if "dynamics" in data:
+        massless = [l.name for l in links if l.mass <= 0]
+        if massless:
+            raise r.fail(f"[links.{massless[0]}]", "has no mass, but the file has a [dynamics] case: give every "
+                         "link its mass, inertia and com (a massless link is allowed only for kinematics)")
     steady = None
     if "steady" in data:
         st = r.table(data["steady"], "[steady]")

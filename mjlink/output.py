@@ -7,9 +7,12 @@ looks complete.
 
 from __future__ import annotations
 
+import ctypes
+import errno
 import json
 import os
 import shutil
+import sys
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -82,32 +85,93 @@ def _jsonable(o):
 
 @contextmanager
 def staged_dir(dest: Path) -> Iterator[Path]:
-    """Yield a staging folder; on success it replaces ``dest`` whole, on failure it is removed."""
+    """Yield a staging folder; on success it replaces ``dest`` whole, on failure it is removed.
+
+    * The stage is a hidden ``.NAME.partial-XXXXXXXX`` beside ``dest`` (same file system, so
+      publishing it is a rename, never a copy).
+    * ``dest`` is replaced whole: on Linux the stage and an existing ``dest`` are exchanged
+      atomically (``renameat2(RENAME_EXCHANGE)``), so at every instant ``dest`` is either the
+      complete old output or the complete new one; elsewhere (or on file systems without the
+      exchange) by two renames, ``dest`` -> ``.NAME.old-PID`` then stage -> ``dest``, putting
+      the old one back if the second fails. The old output is then deleted.
+    * If the body raises, the stage is deleted and ``dest`` is left as it was (absent, or the
+      previous complete output): a failed run never leaves a folder that looks complete.
+      An OSError (disk full, permission, ...) becomes a one-line OutputError; anything else
+      propagates unchanged. Only a killed process (SIGKILL, power loss) can leave a hidden
+      ``.NAME.partial-*`` folder behind; it is never mistaken for an output and may be deleted.
+    * An output path that exists and is not a folder, or a parent that cannot be created or
+      written (a path under a regular file, a read-only file system), is an OutputError before
+      the body runs.
+    """
     dest = Path(dest)
     parent = dest.parent
+    if dest.exists() and not dest.is_dir():
+        raise OutputError(f"output path {dest} exists and is not a folder")
     try:
         parent.mkdir(parents=True, exist_ok=True)
         stage = Path(tempfile.mkdtemp(prefix=f".{dest.name}.partial-", dir=parent))
         stage.chmod(0o755)  # mkdtemp's 0700 would make the published folder private
     except OSError as e:
-        raise OutputError(f"cannot write to output folder {parent}: {e.strerror or e}") from None
+        raise OutputError(f"cannot write to output folder {parent}: {_why(e)}") from None
     try:
         yield stage
-        old = None
-        if dest.exists():
-            if not dest.is_dir():
-                raise OutputError(f"output path {dest} exists and is not a folder")
-            old = parent / f".{dest.name}.old-{os.getpid()}"
-            os.replace(dest, old)
-        os.replace(stage, dest)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        _publish(stage, dest)
     except OSError as e:
         shutil.rmtree(stage, ignore_errors=True)
-        raise OutputError(f"cannot write outputs to {dest}: {e.strerror or e}") from None
+        raise OutputError(f"cannot write outputs to {dest}: {_why(e)}") from None
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
+
+
+def _why(e: OSError) -> str:
+    """An OSError as a short cause: 'No space left on device (kinematics.csv)'."""
+    what = e.strerror or str(e) or type(e).__name__
+    return f"{what} ({Path(e.filename).name})" if e.filename else what
+
+
+def _publish(stage: Path, dest: Path) -> None:
+    """Put the complete ``stage`` at ``dest``, replacing an existing ``dest`` whole."""
+    if not dest.exists():
+        os.replace(stage, dest)
+        return
+    if not dest.is_dir():
+        raise OutputError(f"output path {dest} exists and is not a folder")
+    if _exchange(stage, dest):
+        shutil.rmtree(stage, ignore_errors=True)  # now holds the previous output
+        return
+    old = dest.parent / f".{dest.name}.old-{os.getpid()}"
+    shutil.rmtree(old, ignore_errors=True)
+    os.replace(dest, old)
+    try:
+        os.replace(stage, dest)
+    except OSError:
+        os.replace(old, dest)  # put the previous output back
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two existing paths atomically (Linux ``renameat2`` RENAME_EXCHANGE).
+
+    False where that is unavailable (another OS, an old C library, a file system without it);
+    raises OSError for any other failure.
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return False
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    fn.restype = ctypes.c_int
+    at_fdcwd, rename_exchange = -100, 2
+    if fn(at_fdcwd, os.fsencode(str(a)), at_fdcwd, os.fsencode(str(b)), rename_exchange) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP, errno.ENOTSUP):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
 
 
 def _label(lab: str) -> str:

@@ -205,9 +205,13 @@ def speed_plots(mech: Mechanism, dyn_mj: Trace, dyn_ref: Trace, out_dir,
                 top.set_xlabel("crank turns (angle / 360°)", fontsize=9)
         for ax in (a1, a2):
             ax.grid(True, alpha=0.3)
-        a1.legend(loc="lower right", fontsize=8)
+        # A run-up leaves the corner on the side of zero speed free: below if it turns CCW.
+        a1.legend(loc="lower right" if np.mean(dyn_mj.omega) >= 0 else "upper right", fontsize=8)
         d = mech.dynamics
-        fig.suptitle(_title(mech, f"run-up, $M_1$ = {d.moment:g} N·m, b = {d.damping:g} N·m·s, "
+        motor = getattr(d, "motor", None)
+        drive = (f"motor $M_1$ = {motor.stall_torque:g} N·m × (1 − ω / {motor.no_load_speed:g} rad/s)"
+                 if motor is not None else f"$M_1$ = {d.moment:g} N·m")
+        fig.suptitle(_title(mech, f"run-up, {drive}, b = {d.damping:g} N·m·s, "
                                   f"$\\omega_0$ = {d.omega0:g} rad/s"), fontsize=10)
         paths.append(_save(fig, out_dir, name))
     return paths

@@ -282,12 +282,13 @@ def _mobility_problem(mech: Mechanism, m: Mobility) -> MechanismFileError | None
                         f"[\"{s.guide[0]}\", \"{s.guide[1]}\"]")
                 break
         return MechanismFileError(
-            f"{src}: [links]: the links leave {m.driven} degrees of freedom with the input crank driven ({count}); "
-            f"some point the construction fixes is free in the linkage{hint or ': a link is missing'}")
+            f"{src}: [links]: the links give the linkage {m.driven} degrees of freedom ({count}) where it must have "
+            f"one, the input crank's angle: a point the construction fixes is free in the linkage"
+            f"{hint or ' (a link is missing)'}")
     return MechanismFileError(
-        f"{src}: [links]: the links are over-constrained ({count}, {m.driven} degrees of freedom with the input "
-        f"driven): a link or pair repeats a constraint another already makes; remove it (MuJoCo's loop "
-        f"closure would fight itself)")
+        f"{src}: [links]: the links over-constrain the linkage ({count} degrees of freedom where it must have "
+        f"one, the input crank's angle): a link or pair repeats a constraint another already makes; remove it "
+        f"(MuJoCo's loop closures would fight each other)")
 
 
 # --------------------------------------------------------------------------- all checks

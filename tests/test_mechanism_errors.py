@@ -60,3 +60,243 @@ def test_one_base_exception():
 def test_parse_accepts_the_shipped_file():
     m = parse(GOOD, "takeup.toml")
     assert m.name == "takeup" and len(m.links) == 3
+
+
+# ----------------------------------------------------------------------------- issue 5
+# One test (or one parameter) per class of error a user's own file can make. Every message
+# is one line naming the file, the key (where there is one) and the cause.
+
+EXAMPLE = (registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml").read_text()
+
+
+def ex(old, new, count=1):
+    assert EXAMPLE.count(old) >= count, old
+    return EXAMPLE.replace(old, new, count)
+
+
+def rejected(tmp_path, text, cls=MechanismFileError, name="mine.toml"):
+    f = tmp_path / name
+    f.write_text(text)
+    with pytest.raises(cls) as e:
+        registry.get(f)
+    msg = str(e.value)
+    assert "\n" not in msg and str(f) in msg, msg
+    return msg
+
+
+@pytest.mark.parametrize("text, match", [
+    # TOML syntax, with the line
+    ("[mechanism]\nname = \"x\"\ntitle = = 1\n", r"TOML syntax error: .*\(at line 3, column"),
+    # unknown keys, with the nearest valid one, in every table
+    (ex("[links.crank]", "[linkz.crank]"), r"unknown key 'linkz' \(did you mean 'links'\?\)"),
+    (ex('title = "Plain', 'titel = "Plain'), r"\[mechanism\]: unknown key 'titel' \(did you mean 'title'\?\)"),
+    (ex("length_a = 45.0", "lenght_a = 45.0"), r"\[\[construct\]\] C \(dyad\): unknown key 'lenght_a' "
+                                                r"\(did you mean 'length_a'\?\)"),
+    (ex("inertia = 1.0e-6", "inertial = 1.0e-6"), r"\[links.crank\]: unknown key 'inertial' \(did you mean 'inertia'\?\)"),
+    (ex("phi0 = 0.0", "phi_0 = 0.0"), r"\[input\]: unknown key 'phi_0' \(did you mean 'phi0'\?\)"),
+    (ex("damping = 1.0e-4", "dampign = 1.0e-4"), r"\[dynamics\]: unknown key 'dampign' \(did you mean 'damping'\?\)"),
+    # missing keys
+    (ex('sign = 1', ''), r"\[\[construct\]\] C \(dyad\): missing key 'sign'"),
+    (ex('speed = 100.0', ''), r"\[input\]: missing key 'speed'"),
+    (ex('point = "E"', ''), r"\[\[construct\]\] #3: missing key 'point'"),
+    # wrong types
+    (ex("length = 15.0", "length = [15.0]"), r"length: must be a number, got list"),
+    (ex("sign = 1 ", "sign = true "), r"sign: must be \+1 or -1"),
+    (ex('D = [50.0, 0.0]', 'D = "50, 0"'), r"\[ground\] D: must be a list of 2 or 3 numbers"),
+    (ex('points = ["A", "B"]', 'points = "A B"'), r"\[links.crank\] points: must be a list"),
+    (ex("[[construct]]\npoint = \"B\"", "[construct]\npoint = \"B\""), r"must be an array of tables|TOML syntax"),
+    # zero, negative, non-finite, absurd sizes
+    (ex("length = 15.0", "length = 0.0"), r"length: must be > 0, got 0"),
+    (ex("length_b = 35.0", "length_b = -35.0"), r"length_b: must be > 0, got -35"),
+    (ex("length = 15.0", "length = nan"), r"must be finite"),
+    (ex("length = 15.0", "length = -inf"), r"must be finite"),
+    (ex("length = 15.0", "length = 1" + "0" * 400), r"must be finite, got an integer of 401 digits"),
+    (ex("length = 15.0", "length = 1e6"), r"must be at most 1000 mm in magnitude"),
+    (ex("length = 15.0", "length = 1e-5"), r"must be at least 0.1 mm in magnitude"),
+    (ex('D = [50.0, 0.0]', 'D = [5e4, 0.0]'), r"\[ground\] D: coordinates must be at most 1000 mm"),
+    (ex("speed = 100.0", "speed = 1e-3"), r"\[input\] speed: must be between 1 and 10000 rad/s"),
+    (ex("speed = 100.0", "speed = 0"), r"\[input\] speed: must be non-zero"),
+    (ex("cycles = 1.0", "cycles = 1e9"), r"\[input\] cycles: must be at most 100"),
+    # references to undefined points and links
+    (ex('b = "D"', 'b = "Q"'), r"\[\[construct\]\] C: uses point 'Q', which is not defined"),
+    (ex('points = ["D", "C"]', 'points = ["D", "X"]'), r"\[links.rocker\]: uses point 'X', which is not defined"),
+    (ex('com = "S3"', 'com = "S9"'), r"\[links.rocker\]: uses point 'S9', which is not defined"),
+    (EXAMPLE + '\n[thread]\npath = ["A", "Z"]\n', r"\[thread\] path: uses point 'Z', which is not defined"),
+    (ex('points = ["B", "C", "E"]', 'points = ["B", "C"]'), r"point 'E' belongs to no link"),
+    # a block that uses a point defined later, and two blocks that depend on each other
+    (ex('toward = "C"', 'toward = "S3"'), r"\[\[construct\]\] E: uses point 'S3', which is defined later: order"),
+    (ex('origin = "A"\ntoward = "B"', 'origin = "A"\ntoward = "S2"').replace(
+        'origin = "B"\ntoward = "C"\nangle = 0.0\nlength = 22.5', 'origin = "B"\ntoward = "S1"\nangle = 0.0\nlength = 22.5'),
+     r"\[\[construct\]\] S1: uses point 'S2', which is built from 'S1' itself: the blocks S1 -> S2 -> S1 form a cycle"),
+    (ex('a = "B"\nb = "D"', 'a = "B"\nb = "D"', ).replace('origin = "B"\ntoward = "C"\nangle = 30.0',
+                                                          'origin = "B"\ntoward = "C"\nangle = 30.0')
+     .replace('block = "dyad"                         # 45 mm from B and 35 mm from D\na = "B"',
+              'block = "dyad"                         # 45 mm from B and 35 mm from D\na = "E"'),
+     r"\[\[construct\]\] C: uses point 'E', which is built from 'C' itself: the blocks C -> E -> C form a cycle"),
+    # blocks whose own points make a direction undefined
+    (ex('a = "B"\nb = "D"', 'a = "D"\nb = "D"'), r"C \(dyad\) b: must differ from a"),
+    (ex('origin = "B"\ntoward = "C"\nangle = 30.0', 'origin = "B"\ntoward = "B"\nangle = 30.0'),
+     r"E \(attached\) toward: must differ from origin"),
+    # mass and inertia
+    (ex("mass = 10.0", "mass = -10.0"), r"\[links.crank\] mass: must be >= 0"),
+    (ex("inertia = 1.0e-6", "inertia = -1.0e-6"), r"\[links.crank\] inertia: must be >= 0"),
+    (ex("mass = 10.0", "mass = 0.0"), r"\[links.crank\]: has a moment of inertia but zero mass"),
+    (ex('com = "S1"', ''), r"\[links.crank\]: has a mass but no 'com'"),
+    # names that would escape the output folder or break the MJCF
+    (ex('name = "crank_rocker"', 'name = "../x"'), r"\[mechanism\] name: invalid name '../x'"),
+    (ex('name = "crank_rocker"', 'name = "a/b"'), r"invalid name 'a/b'"),
+    (ex('name = "crank_rocker"', 'name = "/etc/passwd"'), r"invalid name '/etc/passwd'"),
+    (ex('name = "crank_rocker"', 'name = "' + "x" * 33 + '"'), r"invalid name 'x{33}'"),
+    (ex('name = "crank_rocker"', 'name = "Kurbelschwinge_ä"'), r"invalid name"),
+    (ex('name = "crank_rocker"', 'name = "crank\\n"'), r"invalid name 'crank\\n'"),
+    (ex('name = "crank_rocker"', 'name = ""'), r"invalid name ''"),
+    (ex("[links.crank]", "[links.world]"), r"\[links.world\]: 'world' is reserved"),
+    (ex("[links.crank]", "[links.ground]"), r"\[links.ground\]: 'ground' is reserved"),
+], ids=lambda v: "file" if "\n" in v or len(v) > 70 else v)
+def test_rejected_with_key_and_cause(tmp_path, text, match):
+    msg = rejected(tmp_path, text)
+    assert __import__("re").search(match, msg), msg
+
+
+def test_name_clash_between_joint_names(tmp_path):
+    # link 'a_b' at point 'c' and link 'a' at point 'b_c' would both make the joint 'a_b_c'
+    text = (ex("[links.crank]", "[links.a]").replace("[links.rocker]", "[links.a_D]")
+            .replace('D = [50.0, 0.0]', 'D = [50.0, 0.0]\nA_D = [0.0, 0.0]'))
+    text = text.replace('points = ["A", "B"]', 'points = ["A", "B", "D_C"]')
+    # simpler: the joint names a_D_C (link a_D at C) and a_D_C (link a at D_C) clash
+    text = text.replace('[[construct]]\npoint = "S1"', '[[construct]]\npoint = "D_C"\nblock = "attached"\norigin = "A"\n'
+                        'toward = "B"\nangle = 0.0\nlength = 15.0\n\n[[construct]]\npoint = "S1"', 1)
+    text = text.replace('[links.coupler]\npoints = ["B", "C", "E"]', '[links.coupler]\npoints = ["B", "C", "E", "D_C"]')
+    msg = rejected(tmp_path, text)
+    assert "would be the same as" in msg
+
+
+def test_cannot_close_names_block_and_ranges(tmp_path):
+    # rocker 15 mm: |BD| reaches 65 > 45 + 15, so the dyad cannot close around phi = 180
+    msg = rejected(tmp_path, ex("length_b = 35.0", "length_b = 15.0"), AssemblyError)
+    assert "cannot turn fully" in msg and "it is a rocker there" in msg
+    import re
+
+    lo, hi = (float(x) for x in re.search(r"dyad B-C-D cannot close for input angles ([0-9.]+)\.\.([0-9.]+) deg",
+                                          msg).groups())
+    assert 90 < lo < 180 < hi < 270
+    assert re.search(r"assembles only for input angles 0\.0\.\.[0-9.]+, [0-9.]+\.\.360\.0 deg", msg)
+
+
+def test_rocker_still_loads_without_full_turn(tmp_path):
+    f = tmp_path / "rocker.toml"
+    f.write_text(ex("length_b = 35.0", "length_b = 15.0"))
+    m = registry.get(f, full_turn=False)
+    assert m.name == "crank_rocker"
+
+
+def test_dead_point_of_a_dyad_is_rejected(tmp_path):
+    # a = 15, d = 50, b = c = 32.55: at phi = 180 |BD| = 65 and the transmission angle is 173.9 deg
+    text = ex("length_a = 45.0", "length_a = 32.55").replace("length_b = 35.0", "length_b = 32.55")
+    msg = rejected(tmp_path, text, AssemblyError)
+    assert "dyad B-C-D passes within" in msg and "of a dead point" in msg
+    assert "transmission angle at C between links coupler and rocker reaches 17" in msg
+    assert "at input angle 180.0 deg" in msg and "10..170 deg" in msg
+
+
+def test_dead_point_of_a_slider_is_rejected(tmp_path):
+    text = (registry.MECHANISMS_DIR / "crank_slider.toml").read_text()
+    # r + e = 36.7 mm and l = 37.5 mm: the pressure angle reaches asin(36.73/37.5) = 78.4 deg
+    old = "length = 62.08849880581459"
+    assert old in text
+    msg = rejected(tmp_path, text.replace(old, "length = 37.5"), AssemblyError)
+    assert "slider B-C on G1-G2 passes within" in msg and "pressure angle reaches 78." in msg
+    assert "input angle 90.0 deg" in msg and "up to 70 deg" in msg
+
+
+def test_missing_link_leaves_two_degrees_of_freedom(tmp_path):
+    # C on the rocker only: the coupler B-C is gone, the rocker swings freely
+    text = ex('[links.coupler]\npoints = ["B", "C", "E"]', '[links.coupler]\npoints = ["B", "E"]')
+    text = text.replace('origin = "B"\ntoward = "C"\nangle = 30.0', 'origin = "B"\ntoward = "A"\nangle = 30.0')
+    text = text.replace('origin = "B"\ntoward = "C"\nangle = 0.0\nlength = 22.5', 'origin = "B"\ntoward = "A"\nangle = 0.0\nlength = 22.5')
+    msg = rejected(tmp_path, text)
+    assert "the links give the linkage 3 degrees of freedom (W = 3*3 - 2*3 = 3) where it must have one" in msg
+    assert "dyad B-C-D needs its joint C on one link with B and on another with D" in msg
+
+
+def test_redundant_link_is_over_constrained(tmp_path):
+    # a second coupler on the same pins repeats the coupler's constraint
+    text = EXAMPLE + '\n[links.coupler2]\npoints = ["B", "C"]\nmass = 1.0\ncom = "C"\n'
+    msg = rejected(tmp_path, text)
+    assert "over-constrain the linkage (W = 3*4 - 2*6 = 0 degrees of freedom" in msg
+
+
+def test_coinciding_points_make_an_undefined_direction(tmp_path):
+    text = ex('D = [50.0, 0.0]', 'D = [50.0, 0.0]\nF = [0.0, 0.0]').replace(
+        'origin = "A"\ntoward = "B"\nangle = 0.0\nlength = 7.5', 'origin = "A"\ntoward = "B"\nangle = 0.0\nlength = 7.5')
+    text = text.replace('[[construct]]\npoint = "S1"', '[[construct]]\npoint = "G"\nblock = "attached"\norigin = "A"\n'
+                        'toward = "F"\nangle = 0.0\nlength = 5.0\n\n[[construct]]\npoint = "S1"', 1)
+    text = text.replace('points = ["D", "C"]', 'points = ["D", "C", "G"]')
+    msg = rejected(tmp_path, text)
+    assert "G: its origin and toward A and F come within 0 mm" in msg
+
+
+def test_point_mass_is_accepted(tmp_path):
+    # mass without inertia is an idealised point mass at 'com' (documented)
+    f = tmp_path / "pm.toml"
+    f.write_text(ex("inertia = 1.0e-6                       # kg*m^2 about the centre of mass\n", ""))
+    m = registry.get(f)
+    assert m.links[0].mass > 0 and m.links[0].inertia == 0
+
+
+def test_messages_name_the_file_as_given(tmp_path, monkeypatch):
+    d = tmp_path / "with space"
+    d.mkdir()
+    (d / "bad.toml").write_text(ex("length = 15.0", "length = -1"))
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(MechanismFileError) as e:
+        registry.get("with space/bad.toml")
+    assert str(e.value).startswith("with space/bad.toml: [[construct]] B (crank) length: must be > 0")
+
+
+# ------------------------------------------------------------------------ names and paths
+def test_paths_relative_absolute_spaces_and_home(tmp_path, monkeypatch):
+    d = tmp_path / "my linkages"
+    d.mkdir()
+    f = d / "crank rocker.toml"
+    f.write_text(EXAMPLE)
+    monkeypatch.chdir(d)
+    assert registry.path_of("crank rocker.toml") == registry.Path("crank rocker.toml")
+    assert registry.path_of("./crank rocker.toml").is_file()
+    assert registry.path_of(str(f)) == f
+    assert registry.get(f).name == "crank_rocker"
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert registry.path_of("~/my linkages/crank rocker.toml") == f
+    assert registry.get("~/my linkages/crank rocker.toml").name == "crank_rocker"
+    with pytest.raises(UnknownMechanismError, match=r"^~/nope.toml \(.*nope.toml\): no such mechanism file$"):
+        registry.path_of("~/nope.toml")
+    with pytest.raises(UnknownMechanismError, match="is a folder, not a mechanism file"):
+        registry.path_of(str(d))
+
+
+def test_names_and_paths_are_unambiguous(tmp_path, monkeypatch):
+    # A file in the current folder called like a registered mechanism: the bare name is the
+    # registered one; './takeup' or 'takeup.toml' is the file.
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "takeup").write_text(EXAMPLE)
+    (tmp_path / "takeup.toml").write_text(EXAMPLE)
+    assert registry.path_of("takeup") == registry.MECHANISMS_DIR / "takeup.toml"
+    assert registry.path_of("./takeup") == registry.Path("takeup")
+    assert registry.path_of("takeup.toml") == registry.Path("takeup.toml")
+    assert registry.get("takeup.toml").name == "crank_rocker"
+    assert registry.get("takeup").name == "takeup"
+    # a bare word that is no registered name but an existing file is that file
+    (tmp_path / "mine").write_text(EXAMPLE)
+    assert registry.get("mine").name == "crank_rocker"
+    # a path is never looked up as a name
+    with pytest.raises(UnknownMechanismError, match="no such mechanism file"):
+        registry.path_of("warp_knitting.toml")
+    with pytest.raises(UnknownMechanismError, match="unknown mechanism"):
+        registry.path_of("warp_knittin")
+    with pytest.raises(UnknownMechanismError, match="empty mechanism name"):
+        registry.path_of("")
+
+
+def test_example_file_is_valid():
+    m = registry.get(registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml")
+    assert m.name == "crank_rocker" and "crank_rocker" not in registry.names()

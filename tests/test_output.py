@@ -1,0 +1,213 @@
+"""Output safety: unwritable folders, a full disk, replacing an existing output whole, failed
+runs that leave nothing behind, and names from a file that can neither escape the output
+folder nor break the MJCF.
+
+Tests run as root, so a read-only folder made with chmod would still be writable: an
+unwritable output is made as a path under a regular file (or under /proc) instead.
+"""
+
+import errno
+import os
+import re
+
+import mujoco
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from mjlink import builder, output, pipeline, registry, simulate
+from mjlink.errors import MechanismFileError, OutputError, SimulationError
+from mjlink.mechanism import _NAME_RE, parse
+
+EXAMPLE = (registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml").read_text()
+FAST = pipeline.Options(dynamics=False, plots=False, video=False, loads=False)
+
+
+def leftovers(folder):
+    """Hidden staging or backup folders left beside the outputs."""
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+
+
+@pytest.fixture(scope="module")
+def mech():
+    return registry.get(registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml")
+
+
+@pytest.fixture
+def previous(tmp_path):
+    """An existing, complete output folder from an earlier run."""
+    old = tmp_path / "crank_rocker"
+    old.mkdir()
+    (old / "report.json").write_text('{"earlier": true}\n')
+    return old
+
+
+# ----------------------------------------------------------------------------- unwritable
+def test_output_under_a_regular_file_is_one_line_error(tmp_path, mech):
+    (tmp_path / "afile").write_text("not a folder")
+    with pytest.raises(OutputError, match=r"^cannot write to output folder .*afile/sub: ") as e:
+        pipeline.run(mech, tmp_path / "afile" / "sub", FAST)
+    assert "\n" not in str(e.value)
+    assert (tmp_path / "afile").read_text() == "not a folder"
+
+
+def test_output_under_proc_is_one_line_error(mech):
+    with pytest.raises(OutputError, match=r"^cannot write to output folder /proc/mjlink-test"):
+        pipeline.run(mech, "/proc/mjlink-test", FAST)
+
+
+def test_output_path_that_is_a_file_fails_before_running(tmp_path, mech, monkeypatch):
+    (tmp_path / "crank_rocker").write_text("a file")
+    ran = []
+    monkeypatch.setattr(simulate, "run", lambda *a, **k: ran.append(1))
+    with pytest.raises(OutputError, match="exists and is not a folder"):
+        pipeline.run(mech, tmp_path, FAST)
+    assert not ran and (tmp_path / "crank_rocker").read_text() == "a file"
+
+
+# ----------------------------------------------------------------------------- failed runs
+def test_full_disk_mid_run_leaves_nothing_and_keeps_the_previous_output(tmp_path, mech, previous, monkeypatch):
+    real = output.write_csv
+    calls = []
+
+    def full(path, *a, **k):
+        calls.append(path.name)
+        if len(calls) == 2:  # the first CSV is written, the second hits a full disk
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+        return real(path, *a, **k)
+
+    monkeypatch.setattr(output, "write_csv", full)
+    with pytest.raises(OutputError, match=r"^cannot write outputs to .*crank_rocker: No space left on device "
+                                          r"\(reference_kinematics.csv\)$"):
+        pipeline.run(mech, tmp_path, FAST)
+    assert calls == ["kinematics.csv", "reference_kinematics.csv"]
+    assert leftovers(tmp_path) == []
+    assert sorted(p.name for p in previous.iterdir()) == ["report.json"]
+    assert (previous / "report.json").read_text() == '{"earlier": true}\n'
+
+
+def test_simulation_failure_mid_run_leaves_no_folder(tmp_path, mech, monkeypatch):
+    def diverge(*a, **k):
+        raise SimulationError("crank_rocker: MuJoCo diverged (non-finite state) at t = 0.01 s")
+
+    monkeypatch.setattr(simulate, "run", diverge)
+    with pytest.raises(SimulationError):
+        pipeline.run(mech, tmp_path / "out", FAST)
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_simulation_failure_keeps_the_previous_output(tmp_path, mech, previous, monkeypatch):
+    monkeypatch.setattr(simulate, "run", lambda *a, **k: (_ for _ in ()).throw(SimulationError("diverged")))
+    with pytest.raises(SimulationError):
+        pipeline.run(mech, tmp_path, FAST)
+    assert leftovers(tmp_path) == [] and (previous / "report.json").read_text() == '{"earlier": true}\n'
+
+
+def test_interrupt_mid_run_leaves_nothing(tmp_path, previous):
+    with pytest.raises(KeyboardInterrupt):
+        with output.staged_dir(previous) as stage:
+            (stage / "kinematics.csv").write_text("half")
+            raise KeyboardInterrupt
+    assert leftovers(tmp_path) == [] and sorted(p.name for p in previous.iterdir()) == ["report.json"]
+
+
+# ----------------------------------------------------------------------------- replacing
+def test_successful_run_replaces_the_previous_output_whole(tmp_path, mech, previous):
+    (previous / "stale.png").write_text("from an older run")
+    res = pipeline.run(mech, tmp_path, FAST)
+    assert res.out_dir == previous
+    names = sorted(p.name for p in previous.iterdir())
+    assert "stale.png" not in names and "kinematics.csv" in names and "report.json" in names
+    assert '"earlier"' not in (previous / "report.json").read_text()
+    assert leftovers(tmp_path) == []
+
+
+def test_replacing_without_atomic_exchange(tmp_path, previous, monkeypatch):
+    monkeypatch.setattr(output, "_exchange", lambda a, b: False)
+    with output.staged_dir(previous) as stage:
+        (stage / "new.txt").write_text("new")
+    assert sorted(p.name for p in previous.iterdir()) == ["new.txt"] and leftovers(tmp_path) == []
+
+
+def test_failed_final_rename_puts_the_previous_output_back(tmp_path, previous, monkeypatch):
+    monkeypatch.setattr(output, "_exchange", lambda a, b: False)
+    real = os.replace
+
+    def flaky(src, dst):
+        if ".partial-" in str(src):
+            raise OSError(errno.EIO, os.strerror(errno.EIO), str(dst))
+        return real(src, dst)
+
+    monkeypatch.setattr(output.os, "replace", flaky)
+    with pytest.raises(OutputError, match="cannot write outputs to"):
+        with output.staged_dir(previous) as stage:
+            (stage / "new.txt").write_text("new")
+    assert sorted(p.name for p in previous.iterdir()) == ["report.json"]
+    assert leftovers(tmp_path) == []
+
+
+def test_atomic_exchange_is_used_on_linux(tmp_path, previous, monkeypatch):
+    if not os.uname().sysname == "Linux":
+        pytest.skip("renameat2 exchange is Linux only")
+    used = []
+    real = output._exchange
+    monkeypatch.setattr(output, "_exchange", lambda a, b: used.append(real(a, b)) or used[-1])
+    with output.staged_dir(previous) as stage:
+        (stage / "new.txt").write_text("new")
+    assert used == [True] and sorted(p.name for p in previous.iterdir()) == ["new.txt"]
+
+
+# ----------------------------------------------------------------------------- names
+@pytest.mark.parametrize("name", ["../x", "..", ".", "a/b", "a\\b", "/etc/passwd", "~root", "x" * 33, "é",
+                                  "Kurbel\u00e4", "a b", "a\n", "a\x00", "", "1abc", "_x", "a.b", "a-b", "CON:"])
+def test_names_that_could_escape_the_output_folder_are_rejected(tmp_path, name):
+    text = EXAMPLE.replace('name = "crank_rocker"', f'name = "{name.encode("unicode_escape").decode()}"')
+    with pytest.raises(MechanismFileError, match=r"\[mechanism\] name: invalid name") as e:
+        parse(text, tmp_path / "f.toml")
+    assert "\n" not in str(e.value)
+
+
+@given(name=st.from_regex(_NAME_RE.pattern.replace("\\Z", "").lstrip("^"), fullmatch=True))
+@settings(max_examples=100, deadline=None)
+def test_valid_names_stay_inside_the_output_folder(name):
+    assert _NAME_RE.match(name)
+    root = registry.MECHANISMS_DIR.parent / "renders"
+    dest = root / name
+    assert dest.parent == root and dest.name == name and os.sep not in name and ".." not in name
+    assert os.path.realpath(dest).startswith(os.path.realpath(root) + os.sep)
+
+
+_NAMES = st.from_regex(r"[A-Za-z][A-Za-z0-9_]{0,31}", fullmatch=True)
+
+
+@given(names=st.lists(_NAMES, min_size=12, max_size=12, unique=True))
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_every_valid_name_round_trips_through_the_mjcf(names):
+    """Points, links and the mechanism renamed to arbitrary valid names: the file is either
+    refused with a clear line (a reserved or clashing name) or its MJCF loads back with every
+    name intact."""
+    pts = ["A", "D", "B", "C", "E", "S1", "S2", "S3"]
+    links = ["crank", "coupler", "rocker"]
+    mapping = dict(zip(pts + links + ["crank_rocker"], names))
+    text = EXAMPLE
+    for old, new in mapping.items():
+        if old in pts:
+            text = re.sub(rf'(?<![A-Za-z0-9_"])"{old}"', f'"{new}"', text)
+            text = re.sub(rf"^{old} = \[", f"{new} = [", text, flags=re.M)
+        elif old in links:
+            text = text.replace(f"[links.{old}]", f"[links.{new}]")
+        else:
+            text = text.replace(f'name = "{old}"', f'name = "{new}"')
+    try:
+        mech = registry.validate(parse(text, "renamed.toml"))
+    except MechanismFileError as e:
+        msg = str(e)
+        assert "\n" not in msg
+        assert re.search(r"reserved|would be the same as|share its name|defined twice", msg), msg
+        return
+    xml = builder.to_xml(mech)
+    model = mujoco.MjModel.from_xml_string(xml)
+    sites = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i) for i in range(model.nsite)}
+    bodies = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(model.nbody)}
+    assert {mapping[p] for p in pts} <= sites
+    assert {mapping[l] for l in links} <= bodies
+    assert mech.name == mapping["crank_rocker"]
