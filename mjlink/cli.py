@@ -106,6 +106,19 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _write_atomic(path: Path, text: str) -> None:
+    """Write a whole file or nothing: a hidden temporary beside it, renamed into place."""
+    from .errors import OutputError
+
+    tmp = path.with_name(f".{path.name}.partial")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(path)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(f"cannot write {path}: {e.strerror or e}") from None
+
+
 def _drive_options(p) -> None:
     p.add_argument("--moment", type=float, metavar="N_M", help="constant driving moment on the crank, N*m")
     p.add_argument("--stall-torque", type=float, metavar="N_M",
@@ -213,14 +226,7 @@ def _dispatch(args) -> int:
         if args.output is None:
             sys.stdout.write(xml)
         else:
-            from .errors import OutputError
-
-            try:
-                tmp = args.output.with_name(f".{args.output.name}.partial")
-                tmp.write_text(xml, encoding="utf-8")
-                tmp.replace(args.output)
-            except OSError as e:
-                raise OutputError(f"cannot write {args.output}: {e.strerror or e}") from None
+            _write_atomic(args.output, xml)
             print(f"wrote {args.output}", file=sys.stderr)
         return 0
 
@@ -272,7 +278,7 @@ def _dispatch(args) -> int:
     dyn = res.report.get("dynamics", {})
     if "paper_rk4_1000_steps" in dyn:
         r = dyn["paper_rk4_1000_steps"]
-        print(f"paper's RK4 (1000 steps) vs tight ODE: omega differs by up to {r['omega_max_abs_diff_rad_s']:.3g} "
+        print(f"fixed-step RK4 (1000 steps, the paper's method) vs tight ODE: omega differs by up to {r['omega_max_abs_diff_rad_s']:.3g} "
               f"rad/s ({r['omega_max_rel_diff']:.2%} of max), final {r['omega_final_rel_diff']:.2%}")
     if "loads" in res.report:
         L = res.report["loads"]
@@ -297,7 +303,7 @@ def _synth(args) -> int:
     import math
 
     from . import registry, synthesis
-    from .errors import MjlinkError, OutputError
+    from .errors import MjlinkError
 
     if args.problem != "crank_slider":
         raise MjlinkError(f"unknown synthesis problem '{args.problem}' (valid: crank_slider)")
@@ -329,12 +335,7 @@ def _synth(args) -> int:
                               "(a letter, then letters, digits or _)")
         text = synthesis.design_file(base_path.read_text(encoding="utf-8"), S, e, lam, th, name)
         registry.validate(parse(text, args.write))
-        try:
-            tmp = args.write.with_name(f".{args.write.name}.partial")
-            tmp.write_text(text, encoding="utf-8")
-            tmp.replace(args.write)
-        except OSError as err:
-            raise OutputError(f"cannot write {args.write}: {err.strerror or err}") from None
+        _write_atomic(args.write, text)
         print(f"wrote {args.write}")
     return 0
 
@@ -363,7 +364,9 @@ def _loads(args) -> int:
         speed = math.copysign(1.0, mech.speed) * args.speed * math.pi / 30.0
     kin = simulate.run(mech, simulate.kinematic_case(mech, speed=speed))
     with output.staged_dir(Path(args.out) / f"{mech.name}_loads") as stage:
-        entry, failures = pipeline.loads_outputs(mech, kin, stage, plots=not args.no_plots)
+        jobs = [] if not args.no_plots else None
+        entry, failures = pipeline.loads_outputs(mech, kin, stage, jobs)
+        pipeline.run_jobs(jobs or [])
         output.write_json(stage / "report.json", {"mechanism": mech.name, "loads": entry, "failures": failures})
     print(f"{mech.name} at {abs(entry['speed_rpm']):.1f} rpm ({entry['speed_rad_s']:.4g} rad/s):")
     if args.command == "torque":
@@ -394,7 +397,9 @@ def _steady(args) -> int:
         raise MjlinkError(f"{mech.name}: steady motion needs a motor: give [steady] or [dynamics.motor] in the file, "
                           "or --stall-torque and --no-load-speed")
     with output.staged_dir(Path(args.out) / f"{mech.name}_steady") as stage:
-        entry = pipeline.steady_outputs(mech, stage, plots=not args.no_plots)
+        jobs = [] if not args.no_plots else None
+        entry = pipeline.steady_outputs(mech, stage, jobs)
+        pipeline.run_jobs(jobs or [])
         output.write_json(stage / "report.json", {"mechanism": mech.name, "steady": entry})
     _print_steady(entry)
     print(f"outputs in {Path(args.out) / (mech.name + '_steady')}/")

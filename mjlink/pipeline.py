@@ -106,7 +106,7 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
                 "moment_N_m": mech.dynamics.moment, "damping_N_m_s": mech.dynamics.damping,
                 "duration_s": dcase.duration, "settings": _settings(dcase.settings),
                 "omega_final_rad_s": {"mujoco": float(dyn_mj.omega[-1]), "reference": float(motion.omega[-1])},
-                "reference_ode": {"method": "DOP853", "rtol": 1e-12, "spectral_harmonics": sd.harmonics,
+                "reference_ode": {"method": "DOP853", "rtol": reference.TIGHT_RTOL, "spectral_harmonics": sd.harmonics,
                                   "spectral_error_rel": sd.error},
             }
             if rk4 is not None:
@@ -119,11 +119,12 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
                     "omega_final_rel_diff": float(abs(rk4.omega[-1] - tight.omega[-1]) / abs(tight.omega[-1])),
                 }
         load_failures: list[str] = []
+        jobs: list = []  # plots to draw: (function, args, kwargs)
         if opts.loads and any(l.mass > 0 for l in mech.links):
-            report["loads"], load_failures = loads_outputs(mech, kin_mj, stage, plots=opts.plots)
+            report["loads"], load_failures = loads_outputs(mech, kin_mj, stage, jobs if opts.plots else None)
             t = lap("loads_s", t)
         if opts.steady:
-            report["steady"] = steady_outputs(mech, stage, plots=opts.plots)
+            report["steady"] = steady_outputs(mech, stage, jobs if opts.plots else None)
             load_failures += report["steady"]["failures"]
             t = lap("steady_s", t)
         report["agreement"] = {a.kind: a.as_dict() for a in agreements}
@@ -135,18 +136,26 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
         if opts.plots:
             from . import plots
 
-            plots.all_plots(mech, kin_mj, kin_ref, dyn_mj, dyn_ref, stage, rk4=rk4)
+            jobs.append((plots.all_plots, (mech, kin_mj, kin_ref, dyn_mj, dyn_ref, stage), {"rk4": rk4}))
+        # Plots and video are independent and each takes seconds: on a machine with two cores
+        # the plots are drawn in a forked worker while this process renders.
+        worker = _start(jobs) if (opts.video and jobs) else None
+        if worker is None:
+            run_jobs(jobs)
             t = lap("plots_s", t)
         if opts.video:
             from . import render
 
             info = render.render_video(mech, kin_mj, stage / f"{mech.name}.mp4", seconds=opts.video_seconds,
                                        fps=opts.fps, width=opts.width, height=opts.height,
-                                       settings=kcase.settings)
+                                       settings=kcase.settings, progress=worker is None)
             report["video"] = {"file": f"{mech.name}.mp4", "frames": info.frames, "fps": info.fps,
                                "size": [info.width, info.height], "backend": info.backend,
                                "slowed_down_by": info.time_scale}
-            t = lap("video_s", t)
+            t = lap("video_s" if worker is None else "video_and_plots_s", t)
+        if worker is not None:
+            _finish(worker)
+            t = lap("plots_after_video_s", t)
         timings["total_s"] = round(time.perf_counter() - t_start, 4)
         report["timings"] = timings
         output.write_json(stage / "report.json", report)
@@ -155,17 +164,44 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
     return Result(mech.name, Path(out_root) / mech.name, tuple(agreements), report, files)
 
 
-def loads_outputs(mech: Mechanism, kin_mj: simulate.Trace, stage: Path, *, plots: bool = True) -> tuple[dict, list[str]]:
-    """Driving torque and pair reactions of a constant-speed run: CSV, plots, report entry."""
+def run_jobs(jobs: list) -> None:
+    """Draw the queued plots: (function, args, kwargs) triples."""
+    for f, args, kwargs in jobs:
+        f(*args, **kwargs)
+
+
+def _start(jobs: list):
+    """Run ``jobs`` in a forked worker process; None where fork is unavailable."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return None
+    pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"))
+    return pool, pool.submit(run_jobs, jobs)
+
+
+def _finish(worker) -> None:
+    pool, future = worker
+    try:
+        future.result()  # re-raises the worker's MjlinkError (e.g. an unwritable plot)
+    finally:
+        pool.shutdown()
+
+
+def loads_outputs(mech: Mechanism, kin_mj: simulate.Trace, stage: Path, jobs: list | None = None
+                  ) -> tuple[dict, list[str]]:
+    """Driving torque and pair reactions of a constant-speed run: CSV, report entry; the plots
+    are appended to ``jobs`` (None: no plots)."""
     loads = compare.loads(mech, kin_mj)
     rx = reference.reactions(mech, kin_mj.phi, kin_mj.omega, kin_mj.eps)
     output.write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
     output.write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
-    if plots:
+    if jobs is not None:
         from . import plots_loads
 
-        plots_loads.torque_plot(mech, kin_mj, rx, stage)
-        plots_loads.reactions_plot(mech, kin_mj, rx, stage)
+        jobs.append((plots_loads.torque_plot, (mech, kin_mj, rx, stage), {}))
+        jobs.append((plots_loads.reactions_plot, (mech, kin_mj, rx, stage), {}))
     entry = {"speed_rad_s": loads.speed, "speed_rpm": loads.speed * 30 / np.pi,
              "torque_peak_N_m": loads.torque_peak, "torque_rms_N_m": loads.torque_rms,
              "power_mean_W": loads.power_mean, "torque_error_rel": loads.torque_rel,
@@ -174,9 +210,10 @@ def loads_outputs(mech: Mechanism, kin_mj: simulate.Trace, stage: Path, *, plots
     return entry, loads.failures()
 
 
-def steady_outputs(mech: Mechanism, stage: Path, *, plots: bool = True, target: float | None = None) -> dict:
+def steady_outputs(mech: Mechanism, stage: Path, jobs: list | None = None, *, target: float | None = None) -> dict:
     """Steady motion under the motor characteristic, the flywheel for the target delta, and
-    MuJoCo on both orbits: CSV, plot, report entry (with its own ``failures``)."""
+    MuJoCo on both orbits: CSV, report entry (with its own ``failures``); the plot is
+    appended to ``jobs`` (None: no plot)."""
     mv = reference.steady_variant(mech)
     target = target if target is not None else (mech.steady.target_delta if mech.steady else 0.02)
     plain = reference.steady_motion(mv)
@@ -186,10 +223,10 @@ def steady_outputs(mech: Mechanism, stage: Path, *, plots: bool = True, target: 
     lines += [",".join(map(repr, r)) for r in np.column_stack(
         [np.degrees(plain.phi), plain.omega, plain.t, fly.omega, fly.t]).tolist()]
     (stage / "reference_steady.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    if plots:
+    if jobs is not None:
         from . import plots_loads
 
-        plots_loads.steady_plot(mech, plain, fly, runs, stage)
+        jobs.append((plots_loads.steady_plot, (mech, plain, fly, runs, stage), {}))
     motor = mv.dynamics.motor
     failures = []
     for name, st, run in (("without flywheel", plain, runs[0]), ("with flywheel", fly, runs[1])):
