@@ -37,6 +37,11 @@ def _parser() -> argparse.ArgumentParser:
 
     sub.add_parser("list", help="list the registered mechanisms", epilog="example: python -m mjlink list")
 
+    k = sub.add_parser("check", help="what a mechanism file defines and whether it can be simulated faithfully",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="example: python -m mjlink check mechanisms/examples/crank_rocker.toml")
+    k.add_argument("mechanism", help="registered name (see 'list') or path to a .toml file")
+
     b = sub.add_parser("build", help="write the MJCF of a mechanism", formatter_class=argparse.RawDescriptionHelpFormatter,
                        epilog="example: python -m mjlink build takeup -o takeup.xml")
     b.add_argument("mechanism", help="registered name (see 'list') or path to a .toml file")
@@ -173,6 +178,18 @@ def _with_drive(mech, args, *, steady: bool = False):
     return mech
 
 
+def _check_speed(name: str, w) -> None:
+    """A crank speed (rad/s) within the range the simulation is made for."""
+    from .errors import MjlinkError
+    from .mechanism import MAX_SPEED, MIN_SPEED
+
+    if w is None:
+        return
+    if not (MIN_SPEED <= abs(w) <= MAX_SPEED):
+        raise MjlinkError(f"{name} must be between {MIN_SPEED:g} and {MAX_SPEED:g} rad/s in magnitude "
+                          f"({MIN_SPEED * 30 / 3.141592653589793:.3g} to {MAX_SPEED * 30 / 3.141592653589793:.3g} rpm), got {w:g} rad/s")
+
+
 def _positive(name: str, v, allow_none=True):
     from .errors import MjlinkError
 
@@ -230,6 +247,13 @@ def _dispatch(args) -> int:
             print(f"wrote {args.output}", file=sys.stderr)
         return 0
 
+    if args.command == "check":
+        from . import check
+
+        report = check.check_file(args.mechanism)  # an unreadable file raises: nothing to report
+        print(check.format_report(report))
+        report.raise_if_failed()  # the first problem, as one line, exit 1
+        return 0
     if args.command == "synth":
         return _synth(args)
     if args.command in ("torque", "reactions"):
@@ -242,11 +266,12 @@ def _dispatch(args) -> int:
         w, h = (int(x) for x in args.size.lower().split("x"))
     except ValueError:
         raise MjlinkError(f"--size must be WIDTHxHEIGHT, e.g. 640x480; got '{args.size}'") from None
-    for name in ("speed",):
-        v = getattr(args, name)
-        if v is not None and (v == 0 or v != v or abs(v) == float("inf")):
-            raise MjlinkError(f"--speed must be a non-zero finite number (rad/s), got {v}")
+    _check_speed("--speed", args.speed)
     _positive("--cycles", args.cycles)
+    from .mechanism import MAX_CYCLES
+
+    if args.cycles is not None and args.cycles > MAX_CYCLES:
+        raise MjlinkError(f"--cycles must be at most {MAX_CYCLES:g}, got {args.cycles:g}")
     _positive("--duration", args.duration)
     _positive("--video-seconds", args.video_seconds, allow_none=False)
     _positive("--fps", args.fps, allow_none=False)
@@ -362,6 +387,7 @@ def _loads(args) -> int:
         if not math.isfinite(args.speed) or args.speed == 0:
             raise MjlinkError(f"--speed must be a non-zero finite number of rev/min, got {args.speed}")
         speed = math.copysign(1.0, mech.speed) * args.speed * math.pi / 30.0
+        _check_speed("--speed", speed)
     kin = simulate.run(mech, simulate.kinematic_case(mech, speed=speed))
     with output.staged_dir(Path(args.out) / f"{mech.name}_loads") as stage:
         jobs = [] if not args.no_plots else None

@@ -44,6 +44,12 @@ MIN_BAR_MM = 0.1
 MIN_SPEED, MAX_SPEED = 1.0, 1e4
 MAX_CYCLES = 100.0
 MAX_GEAR_RATIO = 64.0
+# Angles in files (phi0, phase, attached angle): beyond a turn or two they only lose precision
+# (phi0 = 1e300 deg leaves no digits for the crank's motion).
+MAX_ANGLE_DEG = 720.0
+# A link's mass (g) and moment of inertia (kg*m^2): a tonne and 1000 kg*m^2 are far beyond any
+# machine part; absurd values would only overflow the reduced inertia or MuJoCo's mass matrix.
+MAX_MASS_G, MAX_INERTIA = 1e6, 1e3
 # Link names the MJCF already uses for its own elements (body 'world', materials
 # 'mat_ground' and 'mat_eyelet'; a link NAME gets material 'mat_NAME').
 RESERVED_LINK_NAMES = ("world", "ground", "eyelet")
@@ -412,7 +418,8 @@ def _read_step(r: _Reader, raw: Any, i: int) -> Block:
         if not 1 / MAX_GEAR_RATIO <= abs(ratio) <= MAX_GEAR_RATIO:
             raise r.fail(f"{where} ratio", f"must be between 1/{MAX_GEAR_RATIO:g} and {MAX_GEAR_RATIO:g} in magnitude, "
                                            f"got {ratio:g}")
-        phase = r.number(raw, "phase", where, scale=DEG) if "phase" in raw else None
+        phase = (r.number(raw, "phase", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle")
+                 if "phase" in raw else None)
         return Crank(point, r.name(raw["pivot"], f"{where} pivot"), r.number(raw, "length", where, **bar), ratio, phase)
     if kind == "dyad":
         r.keys(raw, where, ["block", "point", "a", "b", "length_a", "length_b", "sign"])
@@ -431,7 +438,8 @@ def _read_step(r: _Reader, raw: Any, i: int) -> Block:
         if origin == toward:
             raise r.fail(f"{where} toward", f"must differ from origin (both are '{origin}'): "
                                             "the direction from origin to toward would be undefined")
-        return Attached(point, origin, toward, r.number(raw, "angle", where, scale=DEG),
+        return Attached(point, origin, toward,
+                        r.number(raw, "angle", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle"),
                         r.number(raw, "length", where, nonneg=True, scale=MM, hi=MAX_LENGTH_MM, unit=" mm"), z)
     r.keys(raw, where, ["block", "point", "start", "length", "guide", "toward"])
     guide = r.names(raw["guide"], f"{where} guide", length=2)
@@ -450,8 +458,10 @@ def _read_link(r: _Reader, name: str, raw: Any) -> Link:
     raw = r.table(raw, where)
     r.keys(raw, where, ["points"], ["mass", "inertia", "com", "guide"])
     points = r.names(raw["points"], f"{where} points")
-    mass = r.number(raw, "mass", where, default=0.0, nonneg=True, scale=G)
-    inertia = r.number(raw, "inertia", where, default=0.0, nonneg=True)
+    mass = r.number(raw, "mass", where, default=0.0, nonneg=True, scale=G, hi=MAX_MASS_G, unit=" g",
+                    why="a machine part")
+    inertia = r.number(raw, "inertia", where, default=0.0, nonneg=True, hi=MAX_INERTIA, unit=" kg*m^2",
+                       why="a machine part")
     com = r.name(raw["com"], f"{where} com") if "com" in raw else None
     if mass > 0 and com is None:
         raise r.fail(where, "has a mass but no 'com' (the point that is its centre of mass)")
@@ -613,7 +623,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
 
     inp = r.table(data["input"], "[input]")
     r.keys(inp, "[input]", ["phi0", "speed"], ["cycles"])
-    phi0 = r.number(inp, "phi0", "[input]", scale=DEG)
+    phi0 = r.number(inp, "phi0", "[input]", scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle")
     speed = r.number(inp, "speed", "[input]")
     if speed == 0:
         raise r.fail("[input] speed", "must be non-zero (rad/s, CCW positive)")

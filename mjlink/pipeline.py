@@ -73,6 +73,7 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
         t = time.perf_counter()
         kcase = simulate.kinematic_case(mech, speed=opts.speed, cycles=opts.cycles)
         kin_mj = simulate.run(mech, kcase)
+        _same_branch(mech, kin_mj)
         t = lap("mujoco_kinematics_s", t)
         kin_ref = simulate.reference_trace(
             mech, reference.constant_speed(mech, kin_mj.time, kcase.omega0), "kinematics")
@@ -93,6 +94,7 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
         if opts.dynamics and has_masses(mech):
             dcase = simulate.dynamic_case(mech, duration=opts.duration)
             dyn_mj = simulate.run(mech, dcase)
+            _same_branch(mech, dyn_mj)
             t = lap("mujoco_dynamics_s", t)
             sd = reference.SpectralDynamics(mech)
             motion = reference.forward_dynamics(mech, dyn_mj.time, sd=sd)
@@ -162,6 +164,16 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
         (stage / "model.xml").write_text(builder.to_xml(mech, builder.DYNAMIC), encoding="utf-8")
         files = tuple(sorted(p.name for p in stage.iterdir()))
     return Result(mech.name, Path(out_root) / mech.name, tuple(agreements), report, files)
+
+
+def _same_branch(mech: Mechanism, trace: simulate.Trace) -> None:
+    """Stop a run whose MuJoCo linkage snapped to the other assembly branch (near a dead point)."""
+    from .check import branch_switch
+    from .errors import SimulationError
+
+    switched = branch_switch(mech, trace)
+    if switched:
+        raise SimulationError(switched)
 
 
 def run_jobs(jobs: list) -> None:

@@ -117,6 +117,8 @@ def rejected(tmp_path, text, cls=MechanismFileError, name="mine.toml"):
     (ex("speed = 100.0", "speed = 1e-3"), r"\[input\] speed: must be between 1 and 10000 rad/s"),
     (ex("speed = 100.0", "speed = 0"), r"\[input\] speed: must be non-zero"),
     (ex("cycles = 1.0", "cycles = 1e9"), r"\[input\] cycles: must be at most 100"),
+    (ex("phi0 = 0.0", "phi0 = 1e300"), r"\[input\] phi0: must be at most 720 deg in magnitude \(an angle\)"),
+    (ex("angle = 30.0", "angle = -1e20"), r"E \(attached\) angle: must be at most 720 deg"),
     # references to undefined points and links
     (ex('b = "D"', 'b = "Q"'), r"\[\[construct\]\] C: uses point 'Q', which is not defined"),
     (ex('points = ["D", "C"]', 'points = ["D", "X"]'), r"\[links.rocker\]: uses point 'X', which is not defined"),
@@ -142,6 +144,8 @@ def rejected(tmp_path, text, cls=MechanismFileError, name="mine.toml"):
     (ex("inertia = 1.0e-6", "inertia = -1.0e-6"), r"\[links.crank\] inertia: must be >= 0"),
     (ex("mass = 10.0", "mass = 0.0"), r"\[links.crank\]: has a moment of inertia but zero mass"),
     (ex('com = "S1"', ''), r"\[links.crank\]: has a mass but no 'com'"),
+    (ex("mass = 10.0", "mass = 1e300"), r"\[links.crank\] mass: must be at most 1e\+06 g in magnitude \(a machine part\)"),
+    (ex("inertia = 1.0e-6", "inertia = 5e3"), r"\[links.crank\] inertia: must be at most 1000 kg\*m\^2"),
     # names that would escape the output folder or break the MJCF
     (ex('name = "crank_rocker"', 'name = "../x"'), r"\[mechanism\] name: invalid name '../x'"),
     (ex('name = "crank_rocker"', 'name = "a/b"'), r"invalid name 'a/b'"),
@@ -196,7 +200,7 @@ def test_dead_point_of_a_dyad_is_rejected(tmp_path):
     msg = rejected(tmp_path, text, AssemblyError)
     assert "dyad B-C-D passes within" in msg and "of a dead point" in msg
     assert "transmission angle at C between links coupler and rocker reaches 17" in msg
-    assert "at input angle 180.0 deg" in msg and "10..170 deg" in msg
+    assert "at input angle 180.0 deg" in msg and "20..160 deg" in msg
 
 
 def test_dead_point_of_a_slider_is_rejected(tmp_path):
@@ -206,7 +210,7 @@ def test_dead_point_of_a_slider_is_rejected(tmp_path):
     assert old in text
     msg = rejected(tmp_path, text.replace(old, "length = 37.5"), AssemblyError)
     assert "slider B-C on G1-G2 passes within" in msg and "pressure angle reaches 78." in msg
-    assert "input angle 90.0 deg" in msg and "up to 70 deg" in msg
+    assert "input angle 90.0 deg" in msg and "up to 60 deg" in msg
 
 
 def test_missing_link_leaves_two_degrees_of_freedom(tmp_path):
@@ -300,3 +304,20 @@ def test_names_and_paths_are_unambiguous(tmp_path, monkeypatch):
 def test_example_file_is_valid():
     m = registry.get(registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml")
     assert m.name == "crank_rocker" and "crank_rocker" not in registry.names()
+
+
+def test_points_of_a_link_closer_than_mujoco_resolves(tmp_path):
+    # a centre of mass 1e-4 mm from the crank's pivot: MuJoCo would put it on the pivot
+    msg = rejected(tmp_path, ex("angle = 0.0\nlength = 7.5", "angle = 0.0\nlength = 1e-4"))
+    assert "[links.crank]: points A and S1 are only 0.0001 mm apart" in msg
+    # exactly on the pivot is fine
+    f = tmp_path / "on_pivot.toml"
+    f.write_text(ex("angle = 0.0\nlength = 7.5", "angle = 0.0\nlength = 0.0"))
+    assert registry.get(f).name == "crank_rocker"
+
+
+def test_crank_setting_overrides_are_bounded():
+    m = registry.get("takeup")
+    with pytest.raises(MjlinkError, match="--phi0 must be finite and at most 720 deg"):
+        registry.with_crank_settings(m, phi0_deg=1e300)
+    assert abs(registry.with_crank_settings(m, phi0_deg=-90.0).phi0 + __import__("math").pi / 2) < 1e-15
