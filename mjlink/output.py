@@ -87,7 +87,7 @@ def _jsonable(o):
 def staged_dir(dest: Path) -> Iterator[Path]:
     """Yield a staging folder; on success it replaces ``dest`` whole, on failure it is removed.
 
-    * The stage is a hidden ``.NAME.partial-XXXXXXXX`` beside ``dest`` (same file system, so
+    * The stage is a hidden ``.NAME.partial-<random>`` beside ``dest`` (same file system, so
       publishing it is a rename, never a copy).
     * ``dest`` is replaced whole: on Linux the stage and an existing ``dest`` are exchanged
       atomically (``renameat2(RENAME_EXCHANGE)``), so at every instant ``dest`` is either the
