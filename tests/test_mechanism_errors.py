@@ -162,14 +162,20 @@ def test_rejected_with_key_and_cause(tmp_path, text, match):
     assert __import__("re").search(match, msg), msg
 
 
+def with_attached(text: str, point: str, origin: str, toward: str, length: float) -> str:
+    """The example's text with one more 'attached' block (angle 0) just before S1's."""
+    block = (f'[[construct]]\npoint = "{point}"\nblock = "attached"\norigin = "{origin}"\n'
+             f'toward = "{toward}"\nangle = 0.0\nlength = {length}\n\n')
+    return text.replace('[[construct]]\npoint = "S1"', block + '[[construct]]\npoint = "S1"', 1)
+
+
 def test_name_clash_between_joint_names(tmp_path):
     # link 'a_b' at point 'c' and link 'a' at point 'b_c' would both make the joint 'a_b_c'
     text = (ex("[links.crank]", "[links.a]").replace("[links.rocker]", "[links.a_D]")
             .replace('D = [50.0, 0.0]', 'D = [50.0, 0.0]\nA_D = [0.0, 0.0]'))
     text = text.replace('points = ["A", "B"]', 'points = ["A", "B", "D_C"]')
     # simpler: the joint names a_D_C (link a_D at C) and a_D_C (link a at D_C) clash
-    text = text.replace('[[construct]]\npoint = "S1"', '[[construct]]\npoint = "D_C"\nblock = "attached"\norigin = "A"\n'
-                        'toward = "B"\nangle = 0.0\nlength = 15.0\n\n[[construct]]\npoint = "S1"', 1)
+    text = with_attached(text, "D_C", "A", "B", 15.0)
     text = text.replace('[links.coupler]\npoints = ["B", "C", "E"]', '[links.coupler]\npoints = ["B", "C", "E", "D_C"]')
     msg = rejected(tmp_path, text)
     assert "would be the same as" in msg
@@ -231,10 +237,7 @@ def test_redundant_link_is_over_constrained(tmp_path):
 
 
 def test_coinciding_points_make_an_undefined_direction(tmp_path):
-    text = ex('D = [50.0, 0.0]', 'D = [50.0, 0.0]\nF = [0.0, 0.0]').replace(
-        'origin = "A"\ntoward = "B"\nangle = 0.0\nlength = 7.5', 'origin = "A"\ntoward = "B"\nangle = 0.0\nlength = 7.5')
-    text = text.replace('[[construct]]\npoint = "S1"', '[[construct]]\npoint = "G"\nblock = "attached"\norigin = "A"\n'
-                        'toward = "F"\nangle = 0.0\nlength = 5.0\n\n[[construct]]\npoint = "S1"', 1)
+    text = with_attached(ex('D = [50.0, 0.0]', 'D = [50.0, 0.0]\nF = [0.0, 0.0]'), "G", "A", "F", 5.0)
     text = text.replace('points = ["D", "C"]', 'points = ["D", "C", "G"]')
     msg = rejected(tmp_path, text)
     assert "G: its origin and toward A and F come within 0 mm" in msg
