@@ -37,9 +37,15 @@ def main() -> None:
     import mujoco
     import numpy as np
 
-    from mjlink import builder, reference, registry, simulate
+    from mjlink.sim import builder
 
-    mech = registry.get("takeup")
+    from mjlink import reference
+
+    from mjlink import validation
+
+    from mjlink.sim import simulate
+
+    mech = validation.get("takeup")
     for name, case in (("kinematic", simulate.kinematic_case(mech)), ("dynamic", simulate.dynamic_case(mech))):
         model = builder.build(mech, case.settings)
         data = mujoco.MjData(model)

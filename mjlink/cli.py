@@ -8,8 +8,14 @@ Heavy modules are imported only after the OpenGL backend is chosen, because MuJo
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
+
+from . import validation
+from .model import names
+from .model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
+from .units import PairKind, PairRole
 
 EXAMPLES = """\
 examples:
@@ -113,15 +119,9 @@ def _parser() -> argparse.ArgumentParser:
 
 def _write_atomic(path: Path, text: str) -> None:
     """Write a whole file or nothing: a hidden temporary beside it, renamed into place."""
-    from .errors import OutputError
+    from . import output
 
-    tmp = path.with_name(f".{path.name}.partial")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(path)
-    except OSError as e:
-        tmp.unlink(missing_ok=True)
-        raise OutputError(f"cannot write {path}: {e.strerror or e}") from None
+    output.write_text(path, text)
 
 
 def _drive_options(p) -> None:
@@ -141,7 +141,7 @@ def _with_drive(mech, args, *, steady: bool = False):
     import math
 
     from .errors import MjlinkError
-    from .mechanism import Motor, SteadyCase
+    from .model.mechanism import Motor, SteadyCase
 
     dyn = mech.dynamics
     changes = {}
@@ -181,7 +181,7 @@ def _with_drive(mech, args, *, steady: bool = False):
 def _check_speed(name: str, w) -> None:
     """A crank speed (rad/s) within the range the simulation is made for."""
     from .errors import MjlinkError
-    from .mechanism import MAX_SPEED, MIN_SPEED
+    from .model.limits import MAX_SPEED, MIN_SPEED
 
     if w is None:
         return
@@ -220,24 +220,23 @@ def _dispatch(args) -> int:
     from .errors import MjlinkError
 
     if args.command == "list":
-        from . import registry
-        from .mechanism import load
+        from .model import catalogue
+        from .model.mechanism import load
 
-        for n in registry.names():
-            m = load(registry.path_of(n))
+        for n in catalogue.names():
+            m = load(catalogue.path_of(n))
             print(f"{n:<16} {m.title}")
             if m.source:
                 print(f"{'':<16} source: {m.source}")
         return 0
 
     if args.command == "build":
-        from . import builder, registry
+        from .runs import DYNAMIC
+        from .sim import builder, simulate
 
-        mech = registry.get(args.mechanism)
-        settings = builder.DYNAMIC
+        mech = validation.get(args.mechanism)
+        settings = DYNAMIC
         if args.kinematic:
-            from . import simulate
-
             settings = simulate.kinematic_case(mech).settings
         xml = builder.to_xml(mech, settings)
         if args.output is None:
@@ -248,10 +247,8 @@ def _dispatch(args) -> int:
         return 0
 
     if args.command == "check":
-        from . import check
-
-        report = check.check_file(args.mechanism)  # an unreadable file raises: nothing to report
-        print(check.format_report(report))
+        report = validation.check_file(args.mechanism)  # an unreadable file raises: nothing to report
+        print(format_report(report))
         report.raise_if_failed()  # the first problem, as one line, exit 1
         return 0
     if args.command == "synth":
@@ -268,7 +265,7 @@ def _dispatch(args) -> int:
         raise MjlinkError(f"--size must be WIDTHxHEIGHT, e.g. 640x480; got '{args.size}'") from None
     _check_speed("--speed", args.speed)
     _positive("--cycles", args.cycles)
-    from .mechanism import MAX_CYCLES
+    from .model.limits import MAX_CYCLES
 
     if args.cycles is not None and args.cycles > MAX_CYCLES:
         raise MjlinkError(f"--cycles must be at most {MAX_CYCLES:g}, got {args.cycles:g}")
@@ -278,12 +275,12 @@ def _dispatch(args) -> int:
     if w <= 0 or h <= 0 or w % 2 or h % 2 or w > 1920 or h > 1080:
         raise MjlinkError(f"--size must be even and at most 1920x1080, got {args.size}")
     if not args.no_video:
-        from .render import ensure_gl_backend
+        from .sim.gl import ensure_gl_backend
 
         ensure_gl_backend()
-    from . import compare, pipeline, registry
+    from . import compare, pipeline
 
-    mech = registry.with_crank_settings(registry.get(args.mechanism), args.phi0, args.phase)
+    mech = validation.with_crank_settings(validation.get(args.mechanism), args.phi0, args.phase)
     mech = _with_drive(mech, args)
     if args.dynamics and args.no_dynamics:
         raise MjlinkError("--dynamics and --no-dynamics contradict each other")
@@ -327,13 +324,14 @@ def _dispatch(args) -> int:
 def _synth(args) -> int:
     import math
 
-    from . import registry, synthesis
     from .errors import MjlinkError
+    from .model import catalogue
+    from .reference import synthesis
 
     if args.problem != "crank_slider":
         raise MjlinkError(f"unknown synthesis problem '{args.problem}' (valid: crank_slider)")
-    base_path = registry.path_of("crank_slider")
-    base = registry.get("crank_slider").synthesis
+    base_path = catalogue.path_of("crank_slider")
+    base = validation.get("crank_slider").synthesis
     S = args.stroke * 1e-3 if args.stroke is not None else base.stroke
     e = args.offset * 1e-3 if args.offset is not None else base.offset
     lam = args.ratio if args.ratio is not None else base.ratio
@@ -353,13 +351,13 @@ def _synth(args) -> int:
                   f"{math.degrees(th):g} deg")
     if args.write is not None:
         name = args.write.stem
-        from .mechanism import _NAME_RE, parse
+        from .model.mechanism import parse
 
-        if not _NAME_RE.match(name):
+        if not names.is_valid(name):
             raise MjlinkError(f"--write: the file name '{args.write.name}' must make a valid mechanism name "
                               "(a letter, then letters, digits or _)")
         text = synthesis.design_file(base_path.read_text(encoding="utf-8"), S, e, lam, th, name)
-        registry.validate(parse(text, args.write))
+        validation.validate(parse(text, args.write))
         _write_atomic(args.write, text)
         print(f"wrote {args.write}")
     return 0
@@ -376,10 +374,11 @@ def _loads(args) -> int:
 
     import numpy as np
 
-    from . import output, pipeline, registry, simulate
+    from . import output, pipeline
     from .errors import MjlinkError
+    from .sim import simulate
 
-    mech = registry.get(args.mechanism)
+    mech = validation.get(args.mechanism)
     if not any(l.mass > 0 for l in mech.links):
         raise MjlinkError(f"{mech.name}: no masses in the file: give its links mass, inertia and com")
     speed = mech.speed
@@ -414,9 +413,9 @@ def _loads(args) -> int:
 
 
 def _steady(args) -> int:
-    from . import output, pipeline, registry
+    from . import output, pipeline
 
-    mech = _with_drive(registry.get(args.mechanism), args, steady=True)
+    mech = _with_drive(validation.get(args.mechanism), args, steady=True)
     if mech.steady is None:
         from .errors import MjlinkError
 
@@ -433,3 +432,85 @@ def _steady(args) -> int:
         print("THRESHOLDS MISSED:\n  " + "\n  ".join(entry["failures"]))
         return 3 if args.strict else 0
     return 0
+
+
+def format_report(r: validation.CheckReport) -> str:
+    """The report as text for a terminal (lengths mm, masses g, angles deg)."""
+    out = [f"{r.name}: {r.title}", f"file: {r.path}", ""]
+    w = max([len(p.name) for p in r.points] + [4])
+    wm = max(len(p.made_by) for p in r.points)
+    out.append(f"points ({sum(p.ground for p in r.points)} ground, {sum(not p.ground for p in r.points)} moving)")
+    for p in r.points:
+        on = f"on {', '.join(p.links)}" if p.links else "on no link"
+        out.append(f"  {p.name:<{w}}  {'ground' if p.ground else 'moving'}  {p.made_by:<{wm}}  {on}")
+    out.append("")
+    out.append(f"links ({len(r.links)} moving)")
+    wl = max([len(l.name) for l in r.links] + [4])
+    for l in r.links:
+        extra = []
+        if l.mass > 0:
+            extra.append(f"mass {l.mass * 1e3:g} g at {l.com}, inertia {l.inertia:g} kg*m^2")
+        else:
+            extra.append("massless")
+        if l.guide:
+            extra.append(f"slides along {l.guide[0]}-{l.guide[1]}")
+        out.append(f"  {l.name:<{wl}}  points {', '.join(l.points)}; {'; '.join(extra)}")
+    out.append("")
+    out.append("kinematic pairs (as MuJoCo builds them: tree joints, loop-closing equalities)")
+    if not r.pairs:
+        out.append("  none could be formed (see problems)")
+    for p in r.pairs:
+        where = f"at {p.point}" if p.kind == PairKind.REVOLUTE else f"along {p.guide[0]}-{p.guide[1]}"
+        role = {PairRole.JOINT: "joint " + (names.hinge_joint(p.child, p.point) if p.kind == PairKind.REVOLUTE
+                                            else names.slide_joint(p.child)),
+                PairRole.LOOP: "closes a loop: connect equality", PairRole.UNPLACED: "not placed"}[p.role]
+        out.append(f"  {p.kind:<9} {where:<14} {p.parent + ' - ' + p.child:<{2 * wl + 3}}  {role}")
+    loops = r.loops
+    out.append(f"loops: {len(loops)}" + (f" (closed at {', '.join(str(p.point) for p in loops)})" if loops else ""))
+    if r.gears:
+        for g in r.gears:
+            out.append(f"gear coupling: {g.link} ({g.point}) turns {g.ratio:g} times the input crank, "
+                       f"phase {math.degrees(g.phase):g} deg at phi0 (joint equality)")
+    else:
+        out.append("gear couplings: none")
+    m = r.mobility
+    out.append(f"degrees of freedom: structural W = 3 n - 2 p = 3*{m.moving_links} - 2*{m.lower_pairs} = "
+               f"{m.structural} ({m.revolute} revolute + {m.prismatic} prismatic pairs); with "
+               f"{m.gears} gear coupling{'' if m.gears == 1 else 's'}: {m.driven}"
+               + (" (the input crank's angle; none left once it is driven)" if m.driven == 1 else
+                  "  <-- must be 1"))
+    out.append("")
+    if r.full_turn:
+        out.append(f"assembly: the input crank turns fully (over {r.period_deg:g} deg)")
+    else:
+        out.append(f"assembly: NOT over a full turn; assembles only for input angles {r.assembly_ranges or 'none'} deg")
+        for a in r.angles:
+            if not a.closes:
+                out.append(f"  {a.kind} {a.label} cannot close for input angles {a.fails_deg} deg")
+    out.append(f"dead points (limits: transmission angle {MIN_TRANSMISSION_DEG:g}.."
+               f"{180 - MIN_TRANSMISSION_DEG:g} deg, pressure angle <= {MAX_PRESSURE_DEG:g} deg"
+               + ("" if r.full_turn else "; where it assembles") + ")")
+    if not r.angles:
+        out.append("  no dyad or slider")
+    for a in r.angles:
+        if math.isnan(a.worst_deg):
+            out.append(f"  {a.kind} {a.label}: never assembles")
+            continue
+        verdict = ("ok" if a.ok else "TOO CLOSE") if r.full_turn else "(not judged: no full turn)"
+        if a.kind == "dyad":
+            out.append(f"  dyad {a.label:<22} transmission angle {a.worst_deg:7.2f} deg at input {a.phi_deg:6.1f} deg "
+                       f"({a.margin_deg:.2f} deg from the dead point)  {verdict}")
+        else:
+            out.append(f"  slider {a.label:<20} pressure angle up to {a.worst_deg:5.2f} deg at input "
+                       f"{a.phi_deg:6.1f} deg ({a.margin_deg:.2f} deg from the dead point)  {verdict}")
+    if r.notes:
+        out.append("")
+        out += [f"note: {n}" for n in r.notes]
+    out.append("")
+    if r.problems:
+        out.append(f"problems ({len(r.problems)}):")
+        out += [f"  - {msg}" for _, msg in r.problems]
+        out.append("result: cannot be simulated faithfully as it stands")
+    else:
+        out.append("result: ok, ready for 'python -m mjlink simulate'")
+    return "\n".join(out)

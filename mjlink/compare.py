@@ -19,13 +19,16 @@ Definitions (all maxima over the run):
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from . import reference
-from .mechanism import Mechanism
-from .simulate import Trace, reference_trace
+from .model.mechanism import Mechanism
+from .reference import reference_trace
+from .runs import Trace
+from .units import RunKind
 
 # The issue's acceptance thresholds (tests assert them; never loosen to pass).
 POSITION_UM = 0.1
@@ -36,6 +39,21 @@ THREAD_UM = 0.1
 OMEGA_REL = 5e-4
 TORQUE_REL = 1e-3  # of the driving torque's range (max - min)
 FORCE_REL = 1e-3  # of each pair's largest force
+STEADY_DELTA_REL = 1e-3  # MuJoCo's coefficient of speed fluctuation vs the reference's, relative
+BRANCH_TOL_M = 1e-5  # 10 um: 100 times the position threshold, far below any branch's distance
+
+
+def thresholds() -> dict[str, float]:
+    """The agreement thresholds by name, as the report records them."""
+    return {"position_um": POSITION_UM, "velocity_rel": VELOCITY_REL, "acceleration_rel": ACCELERATION_REL,
+            "loop_um": LOOP_UM, "thread_um": THREAD_UM, "omega_rel": OMEGA_REL}
+
+
+def steady_failures(name: str, mujoco_delta: float, reference_delta: float) -> list[str]:
+    """The steady-motion rule: MuJoCo's delta within STEADY_DELTA_REL of the reference's."""
+    if abs(mujoco_delta - reference_delta) <= STEADY_DELTA_REL * max(reference_delta, 1e-3):
+        return []
+    return [f"steady {name}: MuJoCo delta {mujoco_delta:.5f} vs reference {reference_delta:.5f}"]
 
 
 @dataclass(frozen=True)
@@ -71,7 +89,7 @@ class Agreement:
         # The issue's thresholds: point-wise ones for the kinematic run, omega for the
         # dynamic run (whose point errors are reported, not thresholded).
         checks = []
-        if self.kind == "kinematics":
+        if self.kind == RunKind.KINEMATICS:
             checks += [("position", self.position_um, POSITION_UM, "um"),
                        ("loop gap", self.loop_um, LOOP_UM, "um"),
                        ("velocity", self.velocity_rel, VELOCITY_REL, "of range"),
@@ -196,3 +214,45 @@ def loads(mech: Mechanism, mj: Trace) -> Loads:
     return Loads(float(np.mean(mj.omega)), float(np.abs(mj.torque - tau).max() / np.ptp(tau)) if np.ptp(tau) > 0 else 0.0,
                  float(np.abs(tau).max()), float(np.sqrt(np.mean(tau**2))), float(np.mean(tau * mj.omega)),
                  pairs, max((p["error_rel"] for p in pairs.values()), default=0.0))
+
+
+# ------------------------------------------------------------------------ branch-switch watchdog
+def branch_switch(mech: Mechanism, trace, tol_m: float = BRANCH_TOL_M) -> str | None:
+    """Where a MuJoCo ``trace`` left the reference's assembly branch, as one line; None if it did not.
+
+    The reference is evaluated at MuJoCo's own input angles ``trace.phi``; a moving point more
+    than ``tol_m`` (m) away from it, or non-finite, has left it. The first such point in
+    construction order at the first such sample is named, with the time and input angle;
+    for a dyad or slider the message says whether MuJoCo follows the other branch (the mirror
+    solution, the opposite ``sign`` or ``toward``).
+    """
+    with np.errstate(all="ignore"):
+        kin = reference.solve(mech, np.asarray(trace.phi, dtype=float), check=False)
+    first, who = None, None
+    for n in mech.moving_points:
+        mj, ref = np.asarray(trace.points[n]), kin.position(n)
+        dev = np.linalg.norm(mj - ref, axis=1)
+        bad = ~(dev <= tol_m)
+        if bad.any():
+            i = int(np.argmax(bad))
+            if first is None or i < first:
+                first, who = i, n
+    if first is None:
+        return None
+    i, n = first, who
+    t, phi = float(trace.time[i]), math.degrees(float(trace.phi[i]))
+    mj = np.asarray(trace.points[n])
+    dev = np.linalg.norm(mj - kin.position(n), axis=1)
+    step = next(s for s in mech.steps if s.point == n)
+    where = f"at t = {t:.6g} s, input angle {phi:.2f} deg"
+    src = mech.path or mech.name
+    if not np.isfinite(mj[i]).all():
+        return f"{src}: MuJoCo's point {n} became non-finite {where}"
+    after = np.arange(i, len(dev))
+    j = int(after[np.argmax(np.where(np.isfinite(dev[after]), dev[after], -1.0))])
+    other = step.mirror(kin.positions(), j)
+    if other is not None and np.linalg.norm(mj[j] - other) < dev[j]:
+        return (f"{src}: MuJoCo left the reference's assembly branch at {n} ({step.named()}) {where}: it follows the "
+                f"other branch ({step.flipped()}), up to {dev[j] * 1e3:.3g} mm away; the run is not the file's mechanism")
+    return (f"{src}: MuJoCo left the reference's solution at {n} {where}: {dev[i] * 1e3:.3g} mm away, up to "
+            f"{dev[j] * 1e3:.3g} mm later (tolerance {tol_m * 1e3:g} mm)")

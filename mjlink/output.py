@@ -1,34 +1,91 @@
-"""Output files: CSV traces with units in the column names, and all-or-nothing folders.
+"""Output: the one atomic writer, CSV tables with units in the column names, JSON.
 
-A run writes into a hidden staging folder beside its destination and renames it into place
-only when everything is written, so an interrupted or failed run never leaves a folder that
-looks complete.
+Every file mjlink writes is complete or absent: a single file is written to a temporary
+name beside it and renamed into place (:func:`atomic_path`); a run writes into a hidden
+staging folder beside its destination and renames it into place only when everything is
+written (:func:`staged_dir`). CSV files are written by :func:`write_table` alone.
 """
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import errno
 import json
 import os
+import secrets
 import shutil
 import sys
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 
 from .errors import OutputError
-from .mechanism import Mechanism
-from .simulate import Trace
+from .model.mechanism import Mechanism
+from .runs import Trace
+from .units import RPM
+
+
+@contextmanager
+def atomic_path(path: Path | str, suffix: str = ".tmp") -> Iterator[Path]:
+    """A fresh, empty temporary file beside ``path`` for the body to fill; renamed onto ``path``
+    when the body returns, removed if it raises (``path`` is then untouched).
+
+    ``suffix`` keeps the extension a writer may need (ffmpeg picks its format from it). The
+    temporary is created with mode 0666 less the umask (mkstemp's 0600 would survive the
+    rename). An OSError becomes a one-line OutputError.
+    """
+    path = Path(path)
+    tmp = None
+    for _ in range(100):
+        cand = path.with_name(f".{path.name}.{secrets.token_hex(4)}{suffix}")
+        try:
+            os.close(os.open(cand, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            tmp = cand
+            break
+        except FileExistsError:
+            continue
+        except OSError as e:
+            raise OutputError(f"{path}: cannot write in {path.parent}: {e.strerror or e}") from None
+    if tmp is None:
+        raise OutputError(f"{path}: cannot find a free temporary name in {path.parent}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except OSError as e:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise OutputError(f"{path}: cannot write: {e.strerror or e}") from None
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def write_text(path: Path | str, text: str) -> Path:
+    """Write a whole text file (UTF-8) or nothing."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return path
+
+
+def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
+    """A CSV table: a header of ``names``, then the columns ``cols`` (equal lengths) at full
+    double precision (repr() is the shortest text that reads back to the same double)."""
+    table = np.column_stack(cols)
+    lines = [",".join(names)] + [",".join(map(repr, row)) for row in table.tolist()]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
 
 
 def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], np.ndarray]:
     """Column names and the (N, k) table of a trace, in mm, deg, rpm, rad/s, rad/s^2, s."""
     names = ["time_s", "phi1_deg", "omega1_rad_s", "eps1_rad_s2", "n1_rpm"]
-    cols = [trace.time, np.degrees(trace.phi), trace.omega, trace.eps, trace.omega * 30.0 / np.pi]
+    cols = [trace.time, np.degrees(trace.phi), trace.omega, trace.eps, trace.omega / RPM]
     for n in mech.point_names:
         for i, ax in enumerate("xyz"):
             names.append(f"{n}_{ax}_mm")
@@ -56,10 +113,7 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], np.ndarray]:
 def write_csv(path: Path, mech: Mechanism, trace: Trace) -> Path:
     """Write a trace as CSV at full double precision (17 significant digits)."""
     names, table = columns(mech, trace)
-    # repr() is the shortest text that reads back to the same double.
-    lines = [",".join(names)] + [",".join(map(repr, row)) for row in table.tolist()]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return write_table(path, names, [table])
 
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:
@@ -191,7 +245,4 @@ def write_loads_csv(path: Path, trace: Trace, torque: np.ndarray, forces: dict, 
         if lab in moments:
             names.append(f"{s}_M_N_m")
             cols.append(moments[lab])
-    table = np.column_stack(cols)
-    lines = [",".join(names)] + [",".join(map(repr, row)) for row in table.tolist()]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return write_table(path, names, cols)

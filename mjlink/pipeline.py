@@ -12,11 +12,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-import mujoco
 import numpy as np
 
-from . import builder, compare, output, reference, simulate
-from .mechanism import Mechanism
+from . import compare, output, reference
+from .model.mechanism import Mechanism
+from .runs import DYNAMIC, Settings, Trace
+from .sim import builder, simulate
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,7 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
         kin_mj = simulate.run(mech, kcase)
         _same_branch(mech, kin_mj)
         t = lap("mujoco_kinematics_s", t)
-        kin_ref = simulate.reference_trace(
+        kin_ref = reference.reference_trace(
             mech, reference.constant_speed(mech, kin_mj.time, kcase.omega0), "kinematics")
         agreements = [compare.agreement(mech, kin_mj)]
         t = lap("reference_kinematics_s", t)
@@ -84,7 +85,7 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
 
         report: dict = {
             "mechanism": mech.name, "title": mech.title, "source": mech.source,
-            "mujoco_version": mujoco.__version__,
+            "mujoco_version": builder.mujoco_version(),
             "kinematics": {"speed_rad_s": kcase.omega0, "duration_s": kcase.duration,
                            "settings": _settings(kcase.settings),
                            "flywheel_armature_kg_m2": kcase.settings.flywheel,
@@ -98,7 +99,7 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
             t = lap("mujoco_dynamics_s", t)
             sd = reference.SpectralDynamics(mech)
             motion = reference.forward_dynamics(mech, dyn_mj.time, sd=sd)
-            dyn_ref = simulate.reference_trace(mech, motion, "dynamics")
+            dyn_ref = reference.reference_trace(mech, motion, "dynamics")
             rk4 = reference.rk4_dynamics(mech, 1000, sd=sd) if dcase.duration == mech.dynamics.duration else None
             agreements.append(compare.agreement(mech, dyn_mj, motion))
             t = lap("reference_dynamics_s", t)
@@ -130,15 +131,13 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
             load_failures += report["steady"]["failures"]
             t = lap("steady_s", t)
         report["agreement"] = {a.kind: a.as_dict() for a in agreements}
-        report["thresholds"] = {"position_um": compare.POSITION_UM, "velocity_rel": compare.VELOCITY_REL,
-                                "acceleration_rel": compare.ACCELERATION_REL, "loop_um": compare.LOOP_UM,
-                                "thread_um": compare.THREAD_UM, "omega_rel": compare.OMEGA_REL}
+        report["thresholds"] = compare.thresholds()
         report["failures"] = [f for a in agreements for f in a.failures()] + load_failures
 
         if opts.plots:
-            from . import plots
+            from .plotting import figures
 
-            jobs.append((plots.all_plots, (mech, kin_mj, kin_ref, dyn_mj, dyn_ref, stage), {"rk4": rk4}))
+            jobs.append((figures.all_plots, (mech, kin_mj, kin_ref, dyn_mj, dyn_ref, stage), {"rk4": rk4}))
         # Plots and video are independent and each takes seconds: on a machine with two cores
         # the plots are drawn in a forked worker while this process renders.
         worker = _start(jobs) if (opts.video and jobs) else None
@@ -146,7 +145,7 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
             run_jobs(jobs)
             t = lap("plots_s", t)
         if opts.video:
-            from . import render
+            from .sim import render
 
             info = render.render_video(mech, kin_mj, stage / f"{mech.name}.mp4", seconds=opts.video_seconds,
                                        fps=opts.fps, width=opts.width, height=opts.height,
@@ -161,17 +160,16 @@ def run(mech: Mechanism, out_root: Path, opts: Options = Options(),
         timings["total_s"] = round(time.perf_counter() - t_start, 4)
         report["timings"] = timings
         output.write_json(stage / "report.json", report)
-        (stage / "model.xml").write_text(builder.to_xml(mech, builder.DYNAMIC), encoding="utf-8")
+        (stage / "model.xml").write_text(builder.to_xml(mech, DYNAMIC), encoding="utf-8")
         files = tuple(sorted(p.name for p in stage.iterdir()))
     return Result(mech.name, Path(out_root) / mech.name, tuple(agreements), report, files)
 
 
-def _same_branch(mech: Mechanism, trace: simulate.Trace) -> None:
+def _same_branch(mech: Mechanism, trace: Trace) -> None:
     """Stop a run whose MuJoCo linkage snapped to the other assembly branch (near a dead point)."""
-    from .check import branch_switch
     from .errors import SimulationError
 
-    switched = branch_switch(mech, trace)
+    switched = compare.branch_switch(mech, trace)
     if switched:
         raise SimulationError(switched)
 
@@ -201,7 +199,7 @@ def _finish(worker) -> None:
         pool.shutdown()
 
 
-def loads_outputs(mech: Mechanism, kin_mj: simulate.Trace, stage: Path, jobs: list | None = None
+def loads_outputs(mech: Mechanism, kin_mj: Trace, stage: Path, jobs: list | None = None
                   ) -> tuple[dict, list[str]]:
     """Driving torque and pair reactions of a constant-speed run: CSV, report entry; the plots
     are appended to ``jobs`` (None: no plots)."""
@@ -210,7 +208,7 @@ def loads_outputs(mech: Mechanism, kin_mj: simulate.Trace, stage: Path, jobs: li
     output.write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
     output.write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
     if jobs is not None:
-        from . import plots_loads
+        from .plotting import loads as plots_loads
 
         jobs.append((plots_loads.torque_plot, (mech, kin_mj, rx, stage), {}))
         jobs.append((plots_loads.reactions_plot, (mech, kin_mj, rx, stage), {}))
@@ -236,14 +234,13 @@ def steady_outputs(mech: Mechanism, stage: Path, jobs: list | None = None, *, ta
         [np.degrees(plain.phi), plain.omega, plain.t, fly.omega, fly.t]).tolist()]
     (stage / "reference_steady.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     if jobs is not None:
-        from . import plots_loads
+        from .plotting import loads as plots_loads
 
         jobs.append((plots_loads.steady_plot, (mech, plain, fly, runs, stage), {}))
     motor = mv.dynamics.motor
     failures = []
     for name, st, run in (("without flywheel", plain, runs[0]), ("with flywheel", fly, runs[1])):
-        if not abs(run.delta - st.delta) <= 1e-3 * max(st.delta, 1e-3):
-            failures.append(f"steady {name}: MuJoCo delta {run.delta:.5f} vs reference {st.delta:.5f}")
+        failures += compare.steady_failures(name, run.delta, st.delta)
     return {"motor": {"stall_torque_N_m": motor.stall_torque, "no_load_speed_rad_s": motor.no_load_speed},
             "omega_mean_rad_s": plain.omega_mean, "n_mean_rpm": plain.omega_mean * 30 / np.pi,
             "delta": plain.delta, "delta_mujoco": runs[0].delta, "target_delta": target,
@@ -262,6 +259,6 @@ def _on_grid(m: reference.Motion, t: np.ndarray) -> reference.Motion | None:
     return None
 
 
-def _settings(s: builder.Settings) -> dict:
+def _settings(s: Settings) -> dict:
     return {"integrator": s.integrator, "timestep_s": s.timestep, "solref": list(s.solref),
             "solimp": list(s.solimp), "solver_tolerance": s.tolerance}

@@ -6,7 +6,7 @@ import pytest
 
 # MuJoCo reads MUJOCO_GL when first imported: choose the backend before any test imports it.
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from mjlink.render import ensure_gl_backend  # noqa: E402
+from mjlink.sim.gl import ensure_gl_backend  # noqa: E402
 
 ensure_gl_backend()
 
@@ -15,6 +15,6 @@ ROOT = Path(__file__).resolve().parent.parent
 
 @pytest.fixture(scope="session")
 def takeup():
-    from mjlink import registry
+    from mjlink import validation
 
-    return registry.get("takeup")
+    return validation.get("takeup")

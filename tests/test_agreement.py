@@ -3,12 +3,17 @@
 import numpy as np
 import pytest
 
-from mjlink import compare, pipeline, reference as R, registry, simulate as S
+from mjlink import compare
+from mjlink import pipeline
+from mjlink import reference as R
+from mjlink.model import catalogue as registry
+from mjlink.sim import simulate as S
+from mjlink import validation
 
 
 @pytest.fixture(scope="module", params=registry.names())
 def mech(request):
-    return registry.get(request.param)
+    return validation.get(request.param)
 
 
 def test_kinematic_run_agrees(mech):
@@ -22,9 +27,9 @@ def test_kinematic_run_agrees(mech):
     assert a.failures() == []
 
 
-@pytest.mark.parametrize("name", [n for n in registry.names() if pipeline.has_masses(registry.get(n))])
+@pytest.mark.parametrize("name", [n for n in registry.names() if pipeline.has_masses(validation.get(n))])
 def test_dynamic_run_agrees(name):
-    mech = registry.get(name)
+    mech = validation.get(name)
     tr = S.run(mech, S.dynamic_case(mech))
     motion = R.forward_dynamics(mech, tr.time)
     a = compare.agreement(mech, tr, motion)

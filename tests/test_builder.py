@@ -4,7 +4,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjlink import builder, reference as R, registry
+from mjlink.sim import builder
+from mjlink import reference as R
+from mjlink.model import catalogue as registry
+from mjlink import validation
 
 
 def test_takeup_model_elements(takeup):
@@ -33,7 +36,7 @@ def test_initial_pose_and_thread_equal_reference(takeup):
 
 @pytest.mark.parametrize("name", registry.names())
 def test_xml_round_trip(name, tmp_path):
-    mech = registry.get(name)
+    mech = validation.get(name)
     path = tmp_path / f"{name}.xml"
     path.write_text(builder.to_xml(mech))
     model = mujoco.MjModel.from_xml_path(str(path))

@@ -11,9 +11,15 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from mjlink import builder, check, compare, registry, simulate as S
+from mjlink.sim import builder
+from mjlink import validation
+from mjlink import validation as check
+from mjlink import compare
+from mjlink.model import catalogue as registry
+from mjlink.sim import simulate as S
 from mjlink.errors import AssemblyError, MechanismFileError, SimulationError
-from mjlink.mechanism import parse
+from mjlink.model.mechanism import parse
+from mjlink.cli import format_report
 
 EXAMPLE_PATH = registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml"
 EXAMPLE = EXAMPLE_PATH.read_text()
@@ -47,7 +53,7 @@ def test_takeup_report():
     (a,) = r.angles
     assert a.kind == "dyad" and a.label == "P2-P3-P4" and a.links == ("lever", "rocker")
     assert abs(a.worst_deg - 154.59) < 0.01 and abs(a.margin_deg - 25.41) < 0.01 and abs(a.phi_deg - 195.0) < 0.2
-    text = check.format_report(r)
+    text = format_report(r)
     for s in ("points (4 ground, 6 moving)", "links (3 moving)", "revolute  at P3", "closes a loop",
               "W = 3 n - 2 p = 3*3 - 2*4 = 1", "the input crank turns fully", "transmission angle  154.59 deg",
               "result: ok"):
@@ -66,11 +72,11 @@ def test_geared_mechanism_counts_the_gear():
     assert r.period_deg == 720.0 and r.full_turn
     kinds = {a.kind: a for a in r.angles}
     assert kinds["slider"].quantity == "pressure angle" and kinds["slider"].worst_deg < 60
-    assert "gear coupling: crank2 (P8) turns -0.5 times the input crank" in check.format_report(r)
+    assert "gear coupling: crank2 (P8) turns -0.5 times the input crank" in format_report(r)
 
 
 def test_crank_slider_pressure_angle_matches_the_synthesis():
-    m = registry.get("crank_slider")
+    m = validation.get("crank_slider")
     r = check.check(m)
     (a,) = r.angles
     syn = m.synthesis
@@ -84,7 +90,7 @@ def test_crank_slider_pressure_angle_matches_the_synthesis():
 @pytest.mark.parametrize("name", registry.names())
 def test_check_agrees_with_validate(name):
     r = check.check_file(name)
-    assert r.ok and registry.problems(registry.get(name)) == []
+    assert r.ok and validation.problems(validation.get(name)) == []
 
 
 def test_unassemblable_file_is_still_reported(tmp_path):
@@ -94,7 +100,7 @@ def test_unassemblable_file_is_still_reported(tmp_path):
     assert r.assembly_ranges == "0.0..125.6, 234.4..360.0"
     (a,) = r.angles
     assert not a.closes and a.fails_deg == "125.7..234.3"
-    text = check.format_report(r)
+    text = format_report(r)
     assert "NOT over a full turn; assembles only for input angles 0.0..125.6, 234.4..360.0 deg" in text
     assert "dyad B-C-D cannot close for input angles 125.7..234.3 deg" in text
     assert "result: cannot be simulated faithfully" in text
@@ -102,14 +108,14 @@ def test_unassemblable_file_is_still_reported(tmp_path):
         r.raise_if_failed()
     assert str(f) in str(e.value) and "\n" not in str(e.value)
     # the CLI's loading for check: the file loads without the full-turn requirement
-    assert registry.get(f, full_turn=False).name == "crank_rocker"
+    assert validation.get(f, full_turn=False).name == "crank_rocker"
 
 
 def test_dead_point_is_reported_not_only_raised(tmp_path):
     r = check.check_file(write(tmp_path, DEAD))
     (a,) = r.angles
     assert not a.ok and a.margin_deg < 10
-    assert "TOO CLOSE" in check.format_report(r)
+    assert "TOO CLOSE" in format_report(r)
     assert r.problems[0][0] == "AssemblyError" and "dead point" in r.problems[0][1]
 
 
@@ -117,7 +123,7 @@ def test_structural_problem_is_reported_with_the_count(tmp_path):
     text = (EXAMPLE + '\n[links.coupler2]\npoints = ["B", "C"]\nmass = 1.0\ncom = "C"\n')
     r = check.check_file(write(tmp_path, text))
     assert r.mobility.driven == 0 and not r.ok
-    assert "<-- must be 1" in check.format_report(r)
+    assert "<-- must be 1" in format_report(r)
     with pytest.raises(MechanismFileError, match="over-constrain"):
         r.raise_if_failed()
 
@@ -138,7 +144,7 @@ def test_speed_note(tmp_path):
 
 # ----------------------------------------------------------------------------- watchdogs
 def test_huge_timestep_diverges_into_a_simulation_error():
-    m = registry.get(EXAMPLE_PATH)
+    m = validation.get(EXAMPLE_PATH)
     for dt in (0.02, 0.5):
         case = S.kinematic_case(m, settings=builder.Settings(timestep=dt))
         with pytest.raises(SimulationError, match=r"diverged") as e:
@@ -148,13 +154,13 @@ def test_huge_timestep_diverges_into_a_simulation_error():
 
 @pytest.fixture(scope="module")
 def example_run():
-    m = registry.get(EXAMPLE_PATH)
+    m = validation.get(EXAMPLE_PATH)
     return m, S.run(m, S.kinematic_case(m))
 
 
 def test_faithful_runs_stay_on_their_branch(example_run):
     m, tr = example_run
-    assert check.branch_switch(m, tr) is None
+    assert compare.branch_switch(m, tr) is None
     assert compare.agreement(m, tr).failures() == []
 
 
@@ -172,7 +178,7 @@ def test_branch_switch_of_a_dyad_is_named(example_run):
     m, tr = example_run
     flipped = parse(EXAMPLE.replace("sign = 1 ", "sign = -1 "), EXAMPLE_PATH)
     k = len(tr.time) // 3
-    msg = check.branch_switch(m, _switched(m, tr, flipped, k))
+    msg = compare.branch_switch(m, _switched(m, tr, flipped, k))
     t, phi = tr.time[k], math.degrees(tr.phi[k])
     assert msg is not None and "\n" not in msg
     assert f"at C (dyad B-C-D) at t = {t:.6g} s, input angle {phi:.2f} deg" in msg
@@ -180,11 +186,11 @@ def test_branch_switch_of_a_dyad_is_named(example_run):
 
 
 def test_branch_switch_of_a_slider_is_named():
-    m = registry.get("crank_slider")
+    m = validation.get("crank_slider")
     tr = S.run(m, S.kinematic_case(m, cycles=0.25))
     flipped = dataclasses.replace(m, steps=tuple(dataclasses.replace(s, toward="G1") if s.point == "C" else s
                                                   for s in m.steps))
-    msg = check.branch_switch(m, _switched(m, tr, flipped, 10))
+    msg = compare.branch_switch(m, _switched(m, tr, flipped, 10))
     assert "at C (slider B-C)" in msg and "toward G1 instead of G2" in msg
 
 
@@ -192,12 +198,12 @@ def test_drift_and_nan_are_not_called_a_branch(example_run):
     m, tr = example_run
     pts = dict(tr.points)
     pts["E"] = pts["E"] + np.array([0.0, 1e-3, 0.0])  # 1 mm off, on no other branch
-    msg = check.branch_switch(m, dataclasses.replace(tr, points=pts))
+    msg = compare.branch_switch(m, dataclasses.replace(tr, points=pts))
     assert "left the reference's solution at E at t = 0 s" in msg
     pts = dict(tr.points)
     pts["C"] = pts["C"].copy()
     pts["C"][5:] = np.nan
-    msg = check.branch_switch(m, dataclasses.replace(tr, points=pts))
+    msg = compare.branch_switch(m, dataclasses.replace(tr, points=pts))
     assert "MuJoCo's point C became non-finite" in msg
 
 
@@ -229,15 +235,17 @@ def test_check_command(tmp_path):
 
 def test_dyad_sign_convention_as_documented():
     """mechanisms/README.md: sign = 1 puts C counterclockwise of A as seen from B (left of B->A)."""
-    from mjlink import jet, reference
+    from mjlink.model import jet
+    from mjlink.model.blocks import Dyad
 
     a, b = jet.vconst([1.0, 0.0, 0.0], 1), jet.vconst([0.0, 0.0, 0.0], 1)
-    up, _ = reference.dyad(a, b, 1.0, 1.0, 1)
-    down, _ = reference.dyad(a, b, 1.0, 1.0, -1)
+    phi = jet.S(np.zeros(1), np.ones(1), np.zeros(1))
+    up = Dyad("C", "a", "b", 1.0, 1.0, 1).solve({"a": a, "b": b}, phi, 0.0).point
+    down = Dyad("C", "a", "b", 1.0, 1.0, -1).solve({"a": a, "b": b}, phi, 0.0).point
     np.testing.assert_allclose(up.v[0], [0.5, math.sqrt(3) / 2, 0.0], atol=1e-15)
     np.testing.assert_allclose(down.v[0], [0.5, -math.sqrt(3) / 2, 0.0], atol=1e-15)
     # the example: a = B (crank pin), b = D (rocker pivot to the right), sign 1: C below A-D
-    m = registry.get(EXAMPLE_PATH)
+    m = validation.get(EXAMPLE_PATH)
     from mjlink import reference as R
 
-    assert (R.solve(m, registry.cycle_angles(m)).position("C")[:, 1] < 0).all()
+    assert (R.solve(m, validation.cycle_angles(m)).position("C")[:, 1] < 0).all()

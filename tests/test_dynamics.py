@@ -5,7 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from mjlink import compare, mechanism, reference as R, registry, simulate as S
+from mjlink import compare
+from mjlink.model import mechanism
+from mjlink import reference as R
+from mjlink.model import catalogue as registry
+from mjlink.sim import simulate as S
+from mjlink import validation
 
 CRANK = """
 [mechanism]
@@ -33,7 +38,7 @@ M, RAD = 0.2, 0.05
 
 
 def crank(g=9.81):
-    return registry.validate(mechanism.parse(CRANK.format(g=g)))
+    return validation.validate(mechanism.parse(CRANK.format(g=g)))
 
 
 @pytest.mark.parametrize("deg", [0.0, 30.0, 90.0, 200.0, 315.0])
@@ -45,7 +50,7 @@ def test_hand_checked_torque_at_rest(deg):
     assert R.driving_torque(mech, [phi], 0.0)[0] == pytest.approx(want, abs=1e-12)
     assert R.reactions(mech, [phi], 0.0).torque[0] == pytest.approx(want, abs=1e-12)
     # MuJoCo: the effort of holding the crank, turned by the flywheel at a crawl (1e-4 rad/s).
-    held = registry.with_crank_settings(mech, phi0_deg=deg)
+    held = validation.with_crank_settings(mech, phi0_deg=deg)
     tr = S.run(held, S.kinematic_case(held, speed=1e-4, cycles=1e-8))
     assert tr.phi[0] == pytest.approx(phi, abs=1e-12)
     np.testing.assert_allclose(tr.torque, M * 9.81 * RAD * np.cos(tr.phi), rtol=1e-7, atol=1e-12)
@@ -68,7 +73,7 @@ def test_hand_checked_reaction_at_speed():
 
 @pytest.mark.parametrize("name", registry.names())
 def test_driving_torque_and_reactions_agree(name):
-    mech = registry.get(name)
+    mech = validation.get(name)
     tr = S.run(mech, S.kinematic_case(mech))
     loads = compare.loads(mech, tr)
     assert loads.torque_rel <= compare.TORQUE_REL
@@ -82,7 +87,7 @@ def test_driving_torque_and_reactions_agree(name):
 
 def test_mean_power_balances_damping_at_constant_speed():
     """Over a full turn gravity and inertia do no net work: the mean drive power is b omega^2."""
-    mech = registry.get("takeup")
+    mech = validation.get("takeup")
     phi = mech.phi0 + np.linspace(0, 2 * np.pi, 4097)[:-1]
     tau = R.driving_torque(mech, phi, 100.0)
     assert np.mean(tau * 100.0) == pytest.approx(mech.dynamics.damping * 100.0**2, rel=1e-9)
@@ -90,7 +95,7 @@ def test_mean_power_balances_damping_at_constant_speed():
 
 @pytest.mark.parametrize("name", ["takeup", "crank_slider"])
 def test_steady_motion_and_flywheel(name):
-    mech = R.steady_variant(registry.get(name))
+    mech = R.steady_variant(validation.get(name))
     st = R.steady_motion(mech)
     assert abs(st.omega[-1] - st.omega[0]) < 1e-8 * abs(st.omega_mean)  # periodic
     run = S.steady_run(mech, st)
@@ -101,7 +106,7 @@ def test_steady_motion_and_flywheel(name):
 
 
 def test_motor_characteristic_in_mujoco_matches_reference():
-    mech = registry.get("crank_slider")
+    mech = validation.get("crank_slider")
     motor = mech.dynamics.motor
     assert motor.torque(0.0) == motor.stall_torque and motor.torque(motor.no_load_speed) == 0.0
     tr = S.run(mech, S.dynamic_case(mech, duration=0.3))

@@ -2,9 +2,10 @@
 
 import pytest
 
-from mjlink import registry
+from mjlink.model import catalogue as registry
 from mjlink.errors import AssemblyError, MechanismFileError, MjlinkError, UnknownMechanismError
-from mjlink.mechanism import parse
+from mjlink.model.mechanism import parse
+from mjlink import validation
 
 GOOD = (registry.MECHANISMS_DIR / "takeup.toml").read_text()
 
@@ -35,7 +36,7 @@ def test_rejected(tmp_path, text, match):
     f = tmp_path / "bad.toml"
     f.write_text(text)
     with pytest.raises(MechanismFileError, match=match) as e:
-        registry.get(f)
+        validation.get(f)
     msg = str(e.value)
     assert "\n" not in msg and str(f) in msg
 
@@ -44,12 +45,12 @@ def test_dyad_that_cannot_close_reports_the_angle_range(tmp_path):
     f = tmp_path / "rocker.toml"
     f.write_text(bad("length_b = 19.0", "length_b = 9.0"))
     with pytest.raises(AssemblyError, match=r"cannot turn fully.*assembles only for input angles [-0-9.]+\.\.[-0-9.]+"):
-        registry.get(f)
+        validation.get(f)
 
 
 def test_unknown_name_lists_valid_choices():
     with pytest.raises(UnknownMechanismError, match="valid: .*takeup"):
-        registry.get("takup")
+        validation.get("takup")
 
 
 def test_one_base_exception():
@@ -78,7 +79,7 @@ def rejected(tmp_path, text, cls=MechanismFileError, name="mine.toml"):
     f = tmp_path / name
     f.write_text(text)
     with pytest.raises(cls) as e:
-        registry.get(f)
+        validation.get(f)
     msg = str(e.value)
     assert "\n" not in msg and str(f) in msg, msg
     return msg
@@ -196,7 +197,7 @@ def test_cannot_close_names_block_and_ranges(tmp_path):
 def test_rocker_still_loads_without_full_turn(tmp_path):
     f = tmp_path / "rocker.toml"
     f.write_text(ex("length_b = 35.0", "length_b = 15.0"))
-    m = registry.get(f, full_turn=False)
+    m = validation.get(f, full_turn=False)
     assert m.name == "crank_rocker"
 
 
@@ -247,7 +248,7 @@ def test_point_mass_is_accepted(tmp_path):
     # mass without inertia is an idealised point mass at 'com' (documented)
     f = tmp_path / "pm.toml"
     f.write_text(ex("inertia = 1.0e-6                       # kg*m^2 about the centre of mass\n", ""))
-    m = registry.get(f)
+    m = validation.get(f)
     assert m.links[0].mass > 0 and m.links[0].inertia == 0
 
 
@@ -257,7 +258,7 @@ def test_messages_name_the_file_as_given(tmp_path, monkeypatch):
     (d / "bad.toml").write_text(ex("length = 15.0", "length = -1"))
     monkeypatch.chdir(tmp_path)
     with pytest.raises(MechanismFileError) as e:
-        registry.get("with space/bad.toml")
+        validation.get("with space/bad.toml")
     assert str(e.value).startswith("with space/bad.toml: [[construct]] B (crank) length: must be > 0")
 
 
@@ -271,10 +272,10 @@ def test_paths_relative_absolute_spaces_and_home(tmp_path, monkeypatch):
     assert registry.path_of("crank rocker.toml") == registry.Path("crank rocker.toml")
     assert registry.path_of("./crank rocker.toml").is_file()
     assert registry.path_of(str(f)) == f
-    assert registry.get(f).name == "crank_rocker"
+    assert validation.get(f).name == "crank_rocker"
     monkeypatch.setenv("HOME", str(tmp_path))
     assert registry.path_of("~/my linkages/crank rocker.toml") == f
-    assert registry.get("~/my linkages/crank rocker.toml").name == "crank_rocker"
+    assert validation.get("~/my linkages/crank rocker.toml").name == "crank_rocker"
     with pytest.raises(UnknownMechanismError, match=r"^~/nope.toml \(.*nope.toml\): no such mechanism file$"):
         registry.path_of("~/nope.toml")
     with pytest.raises(UnknownMechanismError, match="is a folder, not a mechanism file"):
@@ -290,11 +291,11 @@ def test_names_and_paths_are_unambiguous(tmp_path, monkeypatch):
     assert registry.path_of("takeup") == registry.MECHANISMS_DIR / "takeup.toml"
     assert registry.path_of("./takeup") == registry.Path("takeup")
     assert registry.path_of("takeup.toml") == registry.Path("takeup.toml")
-    assert registry.get("takeup.toml").name == "crank_rocker"
-    assert registry.get("takeup").name == "takeup"
+    assert validation.get("takeup.toml").name == "crank_rocker"
+    assert validation.get("takeup").name == "takeup"
     # a bare word that is no registered name but an existing file is that file
     (tmp_path / "mine").write_text(EXAMPLE)
-    assert registry.get("mine").name == "crank_rocker"
+    assert validation.get("mine").name == "crank_rocker"
     # a path is never looked up as a name
     with pytest.raises(UnknownMechanismError, match="no such mechanism file"):
         registry.path_of("warp_knitting.toml")
@@ -305,7 +306,7 @@ def test_names_and_paths_are_unambiguous(tmp_path, monkeypatch):
 
 
 def test_example_file_is_valid():
-    m = registry.get(registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml")
+    m = validation.get(registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml")
     assert m.name == "crank_rocker" and "crank_rocker" not in registry.names()
 
 
@@ -316,11 +317,11 @@ def test_points_of_a_link_closer_than_mujoco_resolves(tmp_path):
     # exactly on the pivot is fine
     f = tmp_path / "on_pivot.toml"
     f.write_text(ex("angle = 0.0\nlength = 7.5", "angle = 0.0\nlength = 0.0"))
-    assert registry.get(f).name == "crank_rocker"
+    assert validation.get(f).name == "crank_rocker"
 
 
 def test_crank_setting_overrides_are_bounded():
-    m = registry.get("takeup")
+    m = validation.get("takeup")
     with pytest.raises(MjlinkError, match="--phi0 must be finite and at most 720 deg"):
-        registry.with_crank_settings(m, phi0_deg=1e300)
-    assert abs(registry.with_crank_settings(m, phi0_deg=-90.0).phi0 + __import__("math").pi / 2) < 1e-15
+        validation.with_crank_settings(m, phi0_deg=1e300)
+    assert abs(validation.with_crank_settings(m, phi0_deg=-90.0).phi0 + __import__("math").pi / 2) < 1e-15

@@ -14,9 +14,15 @@ import mujoco
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from mjlink import builder, output, pipeline, registry, simulate
+from mjlink.sim import builder
+from mjlink import output
+from mjlink import pipeline
+from mjlink.model import catalogue as registry
+from mjlink.sim import simulate
 from mjlink.errors import MechanismFileError, OutputError, SimulationError
-from mjlink.mechanism import _NAME_RE, parse
+from mjlink.model.mechanism import parse
+from mjlink.model.names import NAME_RE as _NAME_RE
+from mjlink import validation
 
 EXAMPLE = (registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml").read_text()
 FAST = pipeline.Options(dynamics=False, plots=False, video=False, loads=False)
@@ -29,7 +35,7 @@ def leftovers(folder):
 
 @pytest.fixture(scope="module")
 def mech():
-    return registry.get(registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml")
+    return validation.get(registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml")
 
 
 @pytest.fixture
@@ -196,7 +202,7 @@ def test_every_valid_name_round_trips_through_the_mjcf(names):
                   if m.group(1) in pts else m.group(0), text, flags=re.M)
     text = re.sub(r"^\[links\.([A-Za-z][A-Za-z0-9_]*)\]", lambda m: f"[links.{mapping[m.group(1)]}]", text, flags=re.M)
     try:
-        mech = registry.validate(parse(text, "renamed.toml"))
+        mech = validation.validate(parse(text, "renamed.toml"))
     except MechanismFileError as e:
         msg = str(e)
         assert "\n" not in msg

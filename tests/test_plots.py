@@ -10,9 +10,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from mjlink import mechanism, plots, registry
+from mjlink.model import mechanism
+from mjlink.plotting import figures as plots
+from mjlink.model import catalogue as registry
 from mjlink import reference as R
-from mjlink import simulate as S
+from mjlink.sim import simulate as S
+from mjlink import validation
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -22,10 +25,10 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 def traces():
     m = mechanism.load(ROOT / "mechanisms" / "takeup.toml")
     kin = S.run(m, S.kinematic_case(m))
-    kin_ref = S.reference_trace(m, R.Motion(kin.time, kin.phi, kin.omega, kin.eps), "kinematics")
+    kin_ref = R.reference_trace(m, R.Motion(kin.time, kin.phi, kin.omega, kin.eps), "kinematics")
     # A short run-up keeps the test fast; the plots do not depend on the duration.
     dyn = S.run(m, S.dynamic_case(m, duration=0.1))
-    dyn_ref = S.reference_trace(m, R.forward_dynamics(m, dyn.time), "dynamics")
+    dyn_ref = R.reference_trace(m, R.forward_dynamics(m, dyn.time), "dynamics")
     rk4 = R.rk4_dynamics(m)  # over the full duration: the plots clip it to the run shown
     return m, kin, kin_ref, dyn, dyn_ref, rk4
 
@@ -78,9 +81,9 @@ def test_overwrite_is_atomic(traces, tmp_path):
 @functools.lru_cache(maxsize=None)
 def _kinematics(name: str):
     """A registered mechanism with its kinematic MuJoCo run and the matching reference trace."""
-    m = registry.get(name)
+    m = validation.get(name)
     kin = S.run(m, S.kinematic_case(m))
-    kin_ref = S.reference_trace(m, R.Motion(kin.time, kin.phi, kin.omega, kin.eps), "kinematics")
+    kin_ref = R.reference_trace(m, R.Motion(kin.time, kin.phi, kin.omega, kin.eps), "kinematics")
     return m, kin, kin_ref
 
 
@@ -193,6 +196,6 @@ def test_clockwise_crank_angle_axis(tmp_path):
     (x2,), label2 = plots._crank_x(m2, kin2)
     assert "turned" not in label2 and x2 == pytest.approx(np.degrees(kin2.phi))
     dyn = S.run(m, S.dynamic_case(m, duration=0.05))
-    dyn_ref = S.reference_trace(m, R.forward_dynamics(m, dyn.time), "dynamics")
+    dyn_ref = R.reference_trace(m, R.forward_dynamics(m, dyn.time), "dynamics")
     for p in plots.speed_plots(m, dyn, dyn_ref, tmp_path):
         _check_png(p)

@@ -25,9 +25,15 @@ from collections import Counter
 
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from mjlink import check, compare, registry, simulate
+from mjlink import validation
+from mjlink import validation as check
+from mjlink import compare
+from mjlink.model import catalogue as registry
+from mjlink.sim import simulate
 from mjlink.errors import AssemblyError, MechanismFileError, SimulationError
-from mjlink.mechanism import load
+from mjlink.model.mechanism import load
+from mjlink.model import limits
+from mjlink.cli import format_report
 
 EXAMPLES = int(os.environ.get("PROPERTY_EXAMPLES", "250"))
 BAD_VALUES = ["0", "0.0", "-12.5", "-1e-3", "1e6", "1e300", "1e-7", "nan", "inf", "-inf", '"12"', "[1.0, 2.0]",
@@ -77,9 +83,9 @@ def mechanism_text(draw):
                  ("rocker", '["D", "C"]', "S3", None)]
         coms = [("S1", "A", "B", crank / 2), ("S2", "B", "C", b / 2), ("S3", "D", "C", c / 2)]
     # speed inside the verified envelope: |speed| <= 150 rad/s, 10 <= crank * speed^2 <= 2500 m/s^2
-    lo, hi = registry.VERIFIED_CRANK_ACCELERATION
+    lo, hi = limits.VERIFIED_CRANK_ACCELERATION
     w_lo = max(20.0, (lo / (crank * 1e-3)) ** 0.5)
-    w_hi = max(w_lo, min(registry.VERIFIED_SPEED, (hi / (crank * 1e-3)) ** 0.5))
+    w_hi = max(w_lo, min(limits.VERIFIED_SPEED, (hi / (crank * 1e-3)) ** 0.5))
     speed = length(w_lo, w_hi) * draw(st.sampled_from([1, -1]))
     lines += ['', '[[construct]]', 'point = "B"', 'block = "crank"', 'pivot = "A"', f"length = {_num(crank)}", '']
     lines += second + ['']
@@ -137,9 +143,9 @@ def test_random_mechanisms_fail_clearly_or_agree(tmp_path):
             return
         # 'check' describes every file that reads, whatever its geometry, without crashing
         report = check.check(mech)
-        assert check.format_report(report)
+        assert format_report(report)
         try:
-            registry.validate(mech)
+            validation.validate(mech)
         except (MechanismFileError, AssemblyError) as e:
             msg = str(e)
             assert "\n" not in msg and str(path) in msg, msg
@@ -158,7 +164,7 @@ def test_random_mechanisms_fail_clearly_or_agree(tmp_path):
                 return
         a = compare.agreement(mech, trace)
         assert a.failures() == [], f"silent disagreement: {a.failures()}\n{text}"
-        switched = check.branch_switch(mech, trace)
+        switched = compare.branch_switch(mech, trace)
         assert switched is None, f"{switched}\n{text}"
         stats["simulated within thresholds"] += 1
 

@@ -18,12 +18,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjlink import render
+from mjlink.sim import gl
 
-BACKEND = render.ensure_gl_backend()
+BACKEND = gl.ensure_gl_backend()
 
-from mjlink import mechanism, simulate  # noqa: E402  (after the backend choice)
+from mjlink.model import mechanism  # noqa: E402
+from mjlink.sim import simulate  # noqa: E402  (after the backend choice)
 from mjlink.errors import RenderError  # noqa: E402
+from mjlink.sim import render  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TAKEUP = ROOT / "mechanisms" / "takeup.toml"
@@ -73,9 +75,10 @@ def video(mech, trace, tmp_path_factory):
     else:
         fields = json.loads(_python(f"""
             import json
-            from mjlink import render
-            render.ensure_gl_backend()
-            from mjlink import mechanism, simulate
+            from mjlink.sim import gl, render
+            gl.ensure_gl_backend()
+            from mjlink.model import mechanism
+            from mjlink.sim import simulate
             m = mechanism.load({str(TAKEUP)!r})
             tr = simulate.run(m, simulate.kinematic_case(m))
             i = render.render_video(m, tr, {str(path)!r}, seconds={SECONDS}, fps={FPS}, width={WIDTH},
@@ -172,8 +175,8 @@ def test_frame_times_loop(trace):
 def test_preset_mujoco_gl_is_respected():
     out = _python("""
         import os, sys
-        from mjlink import render
-        print(render.ensure_gl_backend(), os.environ['MUJOCO_GL'], 'mujoco' in sys.modules)
+        from mjlink.sim import gl
+        print(gl.ensure_gl_backend(), os.environ['MUJOCO_GL'], 'mujoco' in sys.modules)
         """, MUJOCO_GL="osmesa")
     assert out == "osmesa osmesa False"
 
@@ -181,19 +184,19 @@ def test_preset_mujoco_gl_is_respected():
 def test_probe_sets_backend_without_importing_mujoco():
     out = _python("""
         import os, sys
-        from mjlink import render
-        b = render.ensure_gl_backend()
-        print(b, os.environ.get('MUJOCO_GL'), 'mujoco' in sys.modules, render.ensure_gl_backend() == b)
+        from mjlink.sim import gl
+        b = gl.ensure_gl_backend()
+        print(b, os.environ.get('MUJOCO_GL'), 'mujoco' in sys.modules, gl.ensure_gl_backend() == b)
         """, MUJOCO_GL=None)
     backend, env, imported, cached = out.split()
-    assert backend in render.PROBE_ORDER and env == backend
+    assert backend in gl.PROBE_ORDER and env == backend
     assert (imported, cached) == ("False", "True")
 
 
 def test_already_imported_mujoco_reports_its_choice():
     out = _python("""
         import os, mujoco
-        from mjlink import render
-        print(render.ensure_gl_backend(), os.environ.get('MUJOCO_GL'))
+        from mjlink.sim import gl
+        print(gl.ensure_gl_backend(), os.environ.get('MUJOCO_GL'))
         """, MUJOCO_GL=None)
     assert out == "glfw None"

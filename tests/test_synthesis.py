@@ -4,9 +4,11 @@ import math
 
 import pytest
 
-from mjlink import registry, synthesis
+from mjlink.model import catalogue as registry
+from mjlink.reference import synthesis
 from mjlink.errors import MjlinkError
-from mjlink.mechanism import Crank, Slider, parse
+from mjlink.model.mechanism import Crank, Slider, parse
+from mjlink import validation
 
 TH = math.radians(40)
 
@@ -30,7 +32,7 @@ def test_largest_admissible_lambda_is_not_the_papers_045():
 
 
 def test_registered_file_is_root_one():
-    mech = registry.get("crank_slider")
+    mech = validation.get("crank_slider")
     syn = mech.synthesis
     best = synthesis.best(syn.stroke, syn.offset, syn.ratio, syn.max_pressure_angle)
     crank = next(s for s in mech.steps if isinstance(s, Crank))
@@ -42,7 +44,7 @@ def test_registered_file_is_root_one():
 def test_design_file_round_trips():
     base = registry.path_of("crank_slider").read_text()
     text = synthesis.design_file(base, 0.05, 0.01, 0.3, TH, "wide_stroke")
-    mech = registry.validate(parse(text, "wide_stroke.toml"))
+    mech = validation.validate(parse(text, "wide_stroke.toml"))
     crank = next(s for s in mech.steps if isinstance(s, Crank))
     slider = next(s for s in mech.steps if isinstance(s, Slider))
     assert abs(synthesis.stroke_of(crank.length, slider.length, 0.01) - 0.05) < 1e-12

@@ -12,130 +12,25 @@ are in SI (m, rad, kg, kg*m^2, N, N*m, N*m*s, rad/s, s).
 
 from __future__ import annotations
 
-import difflib
 import math
-import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
-from .errors import MechanismFileError
+from ..errors import MechanismFileError
+from ..units import DEG, MM, G
+from . import blocks as _blocks
+from . import names as _names
+from .blocks import Attached, Block, Crank, Dyad, Slider
+from .limits import MAX_ANGLE_DEG, MAX_CYCLES, MAX_INERTIA, MAX_LENGTH_MM, MAX_MASS_G, MAX_SPEED, MIN_SPEED
+from .names import RESERVED_LINK_NAMES
+from .reader import Reader
 
-MM = 1e-3
-G = 1e-3
-DEG = math.pi / 180.0
-
-# A letter, then letters, digits or _; at most 32. ASCII only; \Z (unlike $) refuses a trailing
-# newline. Names become MuJoCo element names, CSV column prefixes and the output folder's name,
-# so they can never hold a path separator, a dot, a space or anything MJCF would need to escape.
-_NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}\Z")
-
-# Plausibility limits (mechanisms/README.md, "Limits"). Lengths and coordinates, mm: beyond a
-# metre the agreement thresholds, which are absolute (0.1 um), are no longer met at machine
-# speeds (errors grow with size); bars below 0.1 mm are not machine parts, and far below it
-# MuJoCo's fixed tolerances dominate (a 2 um crank-slider missed the thresholds).
-MAX_LENGTH_MM = 1000.0
-MIN_BAR_MM = 0.1
-# [input] speed, rad/s: below 1 rad/s a kinematic run of one turn needs > 125 000 steps;
-# above 1e4 rad/s a turn is shorter than 13 steps. [input] cycles at most MAX_CYCLES.
-MIN_SPEED, MAX_SPEED = 1.0, 1e4
-MAX_CYCLES = 100.0
-MAX_GEAR_RATIO = 64.0
-# Angles in files (phi0, phase, attached angle): beyond a turn or two they only lose precision
-# (phi0 = 1e300 deg leaves no digits for the crank's motion).
-MAX_ANGLE_DEG = 720.0
-# A link's mass (g) and moment of inertia (kg*m^2): a tonne and 1000 kg*m^2 are far beyond any
-# machine part; absurd values would only overflow the reduced inertia or MuJoCo's mass matrix.
-MAX_MASS_G, MAX_INERTIA = 1e6, 1e3
-# Link names the MJCF already uses for its own elements (body 'world', materials
-# 'mat_ground' and 'mat_eyelet'; a link NAME gets material 'mat_NAME').
-RESERVED_LINK_NAMES = ("world", "ground", "eyelet")
-
-
-# ----------------------------------------------------------------------------- blocks
-@dataclass(frozen=True)
-class Crank:
-    """Block 1: ``point = pivot + length (cos a, sin a)``.
-
-    ``a = phase + ratio (phi - phi0)`` where phi is the input crank angle. The input crank
-    has ratio 1 and phase phi0; a geared crank has its own ratio (signed: negative turns
-    the other way) and phase (its angle when phi = phi0). Lengths m, angles rad.
-    """
-
-    point: str
-    pivot: str
-    length: float
-    ratio: float = 1.0
-    phase: float | None = None
-
-    @property
-    def inputs(self) -> tuple[str, ...]:
-        return (self.pivot,)
-
-
-@dataclass(frozen=True)
-class Dyad:
-    """Block 2, RRR dyad: joint ``point`` at ``length_a`` from ``a`` and ``length_b`` from ``b``.
-
-    ``point = b + rho(a - b, sign * U, length_b)`` with U from the cosine rule; ``sign``
-    (+1 or -1) is the assembly branch. Lengths m.
-    """
-
-    point: str
-    a: str
-    b: str
-    length_a: float
-    length_b: float
-    sign: int
-
-    @property
-    def inputs(self) -> tuple[str, ...]:
-        return (self.a, self.b)
-
-
-@dataclass(frozen=True)
-class Attached:
-    """Block 3: ``point = origin + rho(toward - origin, angle, length)``, at height ``z``.
-
-    ``z`` (m) is the point's out-of-plane coordinate; None keeps the origin's. Angle rad.
-    """
-
-    point: str
-    origin: str
-    toward: str
-    angle: float
-    length: float
-    z: float | None = None
-
-    @property
-    def inputs(self) -> tuple[str, ...]:
-        return (self.origin, self.toward)
-
-
-@dataclass(frozen=True)
-class Slider:
-    """Block 4, RRP dyad: ``point`` at ``length`` from ``start``, on the guide line ``guide``.
-
-    Of the two solutions the one lying towards guide point ``toward`` is taken (the papers'
-    "point at infinity"). Length m.
-    """
-
-    point: str
-    start: str
-    length: float
-    guide: tuple[str, str]
-    toward: str
-
-    @property
-    def inputs(self) -> tuple[str, ...]:
-        return (self.start, *self.guide)
-
-
-Block = Crank | Dyad | Attached | Slider
-BLOCKS: dict[str, type] = {"crank": Crank, "dyad": Dyad, "attached": Attached, "slider": Slider}
+__all__ = ["Attached", "Block", "Crank", "Dyad", "Slider", "Link", "Force", "Motor", "Dynamics", "SteadyCase",
+           "Synthesis", "Mechanism", "parse", "load"]
 
 
 @dataclass(frozen=True)
@@ -269,12 +164,24 @@ class Mechanism:
 
     @property
     def input_crank(self) -> Crank:
-        return next(s for s in self.steps if isinstance(s, Crank))
+        return _blocks.input_crank(self.steps)
+
+    @property
+    def geared(self) -> tuple[Crank, ...]:
+        """The cranks geared to the input crank."""
+        return _blocks.geared(self.steps)
 
     @property
     def input_link(self) -> Link:
-        crank = self.input_crank
-        return next(l for l in self.links if crank.pivot in l.points and crank.point in l.points)
+        return self.link(self.input_crank.carriers(self.links)[0])
+
+    def carrier(self, block: Block) -> Link:
+        """The link that carries a crank's bar (the first of a block's carriers)."""
+        return self.link(block.carriers(self.links)[0])
+
+    def link(self, name: str) -> Link:
+        """The link called ``name``."""
+        return next(l for l in self.links if l.name == name)
 
     @property
     def point_names(self) -> tuple[str, ...]:
@@ -287,12 +194,9 @@ class Mechanism:
     @property
     def period(self) -> float:
         """Input angle (rad) after which every point repeats: 2 pi times the gears' denominator."""
-        from fractions import Fraction
-
         q = 1
         for s in self.steps:
-            if isinstance(s, Crank):
-                q = math.lcm(q, Fraction(s.ratio).limit_denominator(64).denominator)
+            q = math.lcm(q, s.period_turns)
         return 2.0 * math.pi * q
 
     def link_of(self, point: str) -> Link | None:
@@ -301,155 +205,7 @@ class Mechanism:
 
 
 # ----------------------------------------------------------------------------- reading
-class _Reader:
-    """Walks a parsed TOML table, turning every problem into one clear line."""
-
-    def __init__(self, path: Path | str):
-        self.path = str(path)
-
-    def fail(self, where: str, msg: str) -> MechanismFileError:
-        return MechanismFileError(f"{self.path}: {where}: {msg}" if where else f"{self.path}: {msg}")
-
-    def table(self, data: Any, where: str) -> dict:
-        if not isinstance(data, dict):
-            raise self.fail(where, f"must be a table, got {type(data).__name__}")
-        return data
-
-    def keys(self, data: dict, where: str, required: Iterable[str], optional: Iterable[str] = ()):
-        required, optional = list(required), list(optional)
-        valid = required + optional
-        for k in data:
-            if k not in valid:
-                near = difflib.get_close_matches(k, valid, n=1)
-                hint = f" (did you mean '{near[0]}'?)" if near else f" (valid keys: {', '.join(valid)})"
-                raise self.fail(where, f"unknown key '{k}'{hint}")
-        for k in required:
-            if k not in data:
-                raise self.fail(where, f"missing key '{k}'")
-
-    def number(self, data: dict, key: str, where: str, *, default=None, positive=False,
-               nonneg=False, scale=1.0, lo=None, hi=None, unit="", why="") -> float:
-        """A finite number; ``lo``/``hi`` bound its magnitude (file units, ``unit`` for messages)."""
-        if key not in data:
-            if default is None:
-                raise self.fail(where, f"missing key '{key}'")
-            return default
-        v = data[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(f"{where} {key}", f"must be a number, got {type(v).__name__} {v!r}")
-        try:
-            v = float(v)
-        except OverflowError:  # TOML integers may have any number of digits
-            raise self.fail(f"{where} {key}", f"must be finite, got an integer of {len(str(v))} digits") from None
-        if not math.isfinite(v):
-            raise self.fail(f"{where} {key}", f"must be finite, got {v}")
-        if positive and v <= 0:
-            raise self.fail(f"{where} {key}", f"must be > 0, got {v:g}")
-        if nonneg and v < 0:
-            raise self.fail(f"{where} {key}", f"must be >= 0, got {v:g}")
-        why = f" ({why})" if why else ""
-        if hi is not None and abs(v) > hi:
-            raise self.fail(f"{where} {key}", f"must be at most {hi:g}{unit} in magnitude{why}, got {v:g}")
-        if lo is not None and abs(v) < lo:
-            raise self.fail(f"{where} {key}", f"must be at least {lo:g}{unit} in magnitude{why}, got {v:g}")
-        return v * scale
-
-    def string(self, data: dict, key: str, where: str, *, default=None) -> str:
-        if key not in data:
-            if default is None:
-                raise self.fail(where, f"missing key '{key}'")
-            return default
-        v = data[key]
-        if not isinstance(v, str):
-            raise self.fail(f"{where} {key}", f"must be a string, got {type(v).__name__} {v!r}")
-        return v
-
-    def name(self, v: Any, where: str) -> str:
-        if not isinstance(v, str) or not _NAME_RE.match(v):
-            raise self.fail(where, f"invalid name {v!r}: use a letter then letters, digits or _ (at most 32)")
-        return v
-
-    def vector(self, v: Any, where: str, sizes=(2, 3), scale=1.0, hi=None) -> np.ndarray:
-        """A list of 2 or 3 finite numbers (z = 0 if absent); ``hi`` bounds each coordinate, mm."""
-        if not isinstance(v, list) or len(v) not in sizes:
-            raise self.fail(where, f"must be a list of {' or '.join(map(str, sizes))} numbers, got {v!r}")
-        out = []
-        for x in v:
-            try:
-                ok = not isinstance(x, bool) and isinstance(x, (int, float)) and math.isfinite(float(x))
-            except OverflowError:
-                ok = False
-            if not ok:
-                raise self.fail(where, f"must hold finite numbers, got {v!r}")
-            if hi is not None and abs(float(x)) > hi:
-                raise self.fail(where, f"coordinates must be at most {hi:g} mm in magnitude (mjlink models machine "
-                                       f"linkages; see mechanisms/README.md), got {v!r}")
-            out.append(float(x) * scale)
-        while len(out) < 3:
-            out.append(0.0)
-        return np.array(out)
-
-    def names(self, v: Any, where: str, *, length: int | None = None, min_length: int = 1) -> tuple[str, ...]:
-        if not isinstance(v, list) or (length is not None and len(v) != length) or len(v) < min_length:
-            want = f"{length}" if length is not None else f"at least {min_length}"
-            raise self.fail(where, f"must be a list of {want} point names, got {v!r}")
-        return tuple(self.name(x, where) for x in v)
-
-
-def _read_step(r: _Reader, raw: Any, i: int) -> Block:
-    where = f"[[construct]] #{i + 1}"
-    raw = r.table(raw, where)
-    kind = r.string(raw, "block", where)
-    if kind not in BLOCKS:
-        near = difflib.get_close_matches(kind, list(BLOCKS), n=1)
-        hint = f"did you mean '{near[0]}'? " if near else ""
-        raise r.fail(f"{where} block", f"unknown block '{kind}' ({hint}valid: {', '.join(BLOCKS)})")
-    point = r.name(raw.get("point"), f"{where} point") if "point" in raw else None
-    if point is None:
-        raise r.fail(where, "missing key 'point'")
-    where = f"[[construct]] {point} ({kind})"
-    bar = dict(positive=True, scale=MM, lo=MIN_BAR_MM, hi=MAX_LENGTH_MM, unit=" mm",
-               why="mjlink models machine linkages; see mechanisms/README.md")
-    if kind == "crank":
-        r.keys(raw, where, ["block", "point", "pivot", "length"], ["ratio", "phase"])
-        ratio = r.number(raw, "ratio", where, default=1.0)
-        if ratio == 0:
-            raise r.fail(f"{where} ratio", "must be non-zero")
-        if not 1 / MAX_GEAR_RATIO <= abs(ratio) <= MAX_GEAR_RATIO:
-            raise r.fail(f"{where} ratio", f"must be between 1/{MAX_GEAR_RATIO:g} and {MAX_GEAR_RATIO:g} in magnitude, "
-                                           f"got {ratio:g}")
-        phase = (r.number(raw, "phase", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle")
-                 if "phase" in raw else None)
-        return Crank(point, r.name(raw["pivot"], f"{where} pivot"), r.number(raw, "length", where, **bar), ratio, phase)
-    if kind == "dyad":
-        r.keys(raw, where, ["block", "point", "a", "b", "length_a", "length_b", "sign"])
-        sign = raw["sign"]
-        if isinstance(sign, bool) or sign not in (1, -1):
-            raise r.fail(f"{where} sign", f"must be +1 or -1 (the assembly branch), got {sign!r}")
-        a, b = r.name(raw["a"], f"{where} a"), r.name(raw["b"], f"{where} b")
-        if a == b:
-            raise r.fail(f"{where} b", f"must differ from a (both are '{a}'): a dyad joins two different points")
-        return Dyad(point, a, b, r.number(raw, "length_a", where, **bar), r.number(raw, "length_b", where, **bar),
-                    int(sign))
-    if kind == "attached":
-        r.keys(raw, where, ["block", "point", "origin", "toward", "angle", "length"], ["z"])
-        z = r.number(raw, "z", where, scale=MM, hi=MAX_LENGTH_MM, unit=" mm") if "z" in raw else None
-        origin, toward = r.name(raw["origin"], f"{where} origin"), r.name(raw["toward"], f"{where} toward")
-        if origin == toward:
-            raise r.fail(f"{where} toward", f"must differ from origin (both are '{origin}'): "
-                                            "the direction from origin to toward would be undefined")
-        return Attached(point, origin, toward,
-                        r.number(raw, "angle", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle"),
-                        r.number(raw, "length", where, nonneg=True, scale=MM, hi=MAX_LENGTH_MM, unit=" mm"), z)
-    r.keys(raw, where, ["block", "point", "start", "length", "guide", "toward"])
-    guide = r.names(raw["guide"], f"{where} guide", length=2)
-    toward = r.name(raw["toward"], f"{where} toward")
-    if toward not in guide:
-        raise r.fail(f"{where} toward", f"must be one of the guide points {guide[0]}, {guide[1]}; got '{toward}'")
-    return Slider(point, r.name(raw["start"], f"{where} start"), r.number(raw, "length", where, **bar), guide, toward)
-
-
-def _read_link(r: _Reader, name: str, raw: Any) -> Link:
+def _read_link(r: Reader, name: str, raw: Any) -> Link:
     where = f"[links.{name}]"
     r.name(name, where)
     if name in RESERVED_LINK_NAMES:
@@ -479,7 +235,7 @@ def _read_link(r: _Reader, name: str, raw: Any) -> Link:
     return Link(name, points, mass, inertia, com, guide)
 
 
-def _read_motor(r: _Reader, raw: Any, where: str) -> Motor:
+def _read_motor(r: Reader, raw: Any, where: str) -> Motor:
     raw = r.table(raw, where)
     if where == "[dynamics.motor]":
         r.keys(raw, where, ["stall_torque", "no_load_speed"])
@@ -488,39 +244,6 @@ def _read_motor(r: _Reader, raw: Any, where: str) -> Motor:
     if ts == 0 or w0 == 0 or (ts > 0) != (w0 > 0):
         raise r.fail(where, "stall_torque and no_load_speed must be non-zero and of the same sign")
     return Motor(ts, w0)
-
-
-def _element_name_clash(links: tuple[Link, ...], ground: set[str]) -> tuple[str, str] | None:
-    """Two links whose MuJoCo element names would coincide: (link, message), or None.
-
-    The builder names a link's joint ``LINK_POINT`` (or ``LINK_slide``) and a loop-closing
-    equality ``loop_POINT_PARENT_CHILD``; names with underscores can collide (link ``a_b`` at
-    point ``c`` and link ``a`` at point ``b_c``). Every candidate is checked, used or not.
-    """
-    owners: dict[str, list[str]] = {}
-    for l in links:
-        for p in l.points:
-            owners.setdefault(p, []).append(l.name)
-    joints: dict[str, tuple[str, str]] = {}
-    loops: dict[str, tuple[str, str, str]] = {}
-    for l in links:
-        cands = [(f"{l.name}_{p}", (l.name, p)) for p in l.points if p in ground or len(owners[p]) > 1]
-        if l.guide:
-            cands.append((f"{l.name}_slide", (l.name, "slide")))
-        for n, who in cands:
-            if joints.setdefault(n, who) != who:
-                return l.name, (f"its joint name '{n}' would be the same as link {joints[n][0]}'s: rename the link "
-                                f"or the point (names with underscores can run together)")
-    for p, ls in owners.items():
-        bodies = ls + (["ground"] if p in ground else [])
-        for a in bodies:
-            for b in bodies:
-                if a != b:
-                    n = f"loop_{p}_{a}_{b}"
-                    if loops.setdefault(n, (p, a, b)) != (p, a, b):
-                        return b if b != "ground" else a, (f"its loop equality name '{n}' would be the same as "
-                                                           f"another's: rename the link or the point")
-    return None
 
 
 def _cycle(steps: tuple[Block, ...], start: str, first: str) -> list[str] | None:
@@ -547,7 +270,7 @@ def _cycle(steps: tuple[Block, ...], start: str, first: str) -> list[str] | None
 
 def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     """Parse and validate a mechanism file's text. Raises MechanismFileError."""
-    r = _Reader(path)
+    r = Reader(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -572,7 +295,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         raise r.fail("[[construct]]", "must be an array of tables: write each block under its own [[construct]]")
     if not raw_steps:
         raise r.fail("[[construct]]", "needs at least one block (a crank first)")
-    steps = tuple(_read_step(r, s, i) for i, s in enumerate(raw_steps))
+    steps = tuple(_blocks.read(r, s, i) for i, s in enumerate(raw_steps))
 
     # Construction order: every block may only use points already defined.
     known = set(ground)
@@ -590,17 +313,10 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
                                         f"{' -> '.join(cycle)} form a cycle, so no order can build them")
                 raise r.fail(where, f"uses point '{p}', which is defined later: order the blocks so inputs come first")
         known.add(s.point)
-    cranks = [s for s in steps if isinstance(s, Crank)]
-    if not isinstance(steps[0], Crank) or steps[0].ratio != 1.0 or steps[0].phase is not None:
+    if not steps[0].is_input:
         raise r.fail("[[construct]]", "the first block must be the input crank (a crank with no ratio or phase)")
-    for c in cranks:
-        if c.pivot not in ground:
-            raise r.fail(f"[[construct]] {c.point}", f"crank pivot '{c.pivot}' must be a [ground] point")
-        if c is not steps[0] and c.phase is None:
-            raise r.fail(f"[[construct]] {c.point}", "a geared crank needs 'phase' (its angle at the initial input angle)")
-    for s in steps:
-        if isinstance(s, Slider) and s.guide[0] == s.guide[1]:
-            raise r.fail(f"[[construct]] {s.point} guide", "needs two different points")
+    for i, s in enumerate(steps):
+        s.check(r, ground, i == 0)
 
     links_raw = r.table(data["links"], "[links]")
     if not links_raw:
@@ -617,7 +333,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
             raise r.fail(f"[[construct]] {s.point}", f"point '{s.point}' belongs to no link: list it in a [links.*] points")
     if not any(steps[0].pivot in l.points and steps[0].point in l.points for l in links):
         raise r.fail("[links]", f"no link carries the input crank {steps[0].pivot}-{steps[0].point}")
-    clash = _element_name_clash(links, set(ground))
+    clash = _names.element_clash(links, set(ground))
     if clash:
         raise r.fail(f"[links.{clash[0]}]", clash[1])
 

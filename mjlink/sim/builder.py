@@ -12,7 +12,9 @@ every body frame aligned with the world there, so ``qpos = 0`` is that configura
 named point is a site (ground points on the world body); the thread is a spatial tendon
 through its sites, so its length is MuJoCo's ``ten_length``.
 
-Accuracy settings (see :class:`Settings`): RK4, small timestep, loop constraints with a short
+Building returns :class:`Built`: the compiled model with the ids of the elements the rest of
+mjlink reads (input joint, sites, bodies, loop and gear equalities, thread tendon), so no
+other module rebuilds an element name. Accuracy settings (see :class:`mjlink.runs.Settings`): RK4, small timestep, loop constraints with a short
 ``solref`` time constant (``refsafe`` off so it may be below two timesteps) and impedance close
 to 1: soft loop closure is the main error source, and these keep it below 0.1 um.
 """
@@ -25,52 +27,67 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from . import reference
-from .mechanism import Crank, Mechanism
-from .topology import Pair, Topology, _link, pairs, topology  # noqa: F401  (re-exported)
+from .. import reference
+from ..model import names
+from ..model.mechanism import Mechanism
+from ..model.topology import Pair, topology
+from ..runs import KINEMATIC, Settings
+from ..units import Integrator
 
 _INTEGRATORS = {
-    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    Integrator.RK4: mujoco.mjtIntegrator.mjINT_RK4,
+    Integrator.EULER: mujoco.mjtIntegrator.mjINT_EULER,
+    Integrator.IMPLICIT: mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    Integrator.IMPLICITFAST: mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
 }
-
-
-@dataclass(frozen=True)
-class Settings:
-    """Numerical settings of a model.
-
-    ``timestep`` s; ``integrator`` one of RK4, Euler, implicit, implicitfast; ``solref``
-    time constant (s) and damping ratio of the loop and gear equalities; ``solimp`` their
-    impedance; ``flywheel``: if > 0, armature (kg*m^2) added to the input crank so that it
-    turns at constant speed whatever the mechanism does (the kinematic run).
-    """
-
-    timestep: float = 1e-4
-    integrator: str = "RK4"
-    solref: tuple[float, float] = (2e-4, 1.0)
-    solimp: tuple[float, float, float, float, float] = (0.9999, 0.9999, 1e-6, 0.5, 2.0)
-    flywheel: float = 0.0
-    tolerance: float = 1e-13
-
-    def __post_init__(self):
-        if self.integrator not in _INTEGRATORS:
-            from .errors import MjlinkError
-
-            raise MjlinkError(f"unknown integrator '{self.integrator}' (valid: {', '.join(_INTEGRATORS)})")
-
-
-KINEMATIC = Settings(timestep=5e-5, solref=(2e-4, 1.0))
-DYNAMIC = Settings(timestep=5e-5, solref=(1e-4, 1.0))
 
 
 def _colors(n: int) -> list[tuple[float, float, float, float]]:
     return [(*colorsys.hsv_to_rgb((0.58 + i / max(n, 1)) % 1.0, 0.65, 0.85), 1.0) for i in range(n)]
 
 
+@dataclass(frozen=True)
+class Built:
+    """A compiled model of a mechanism and the ids of its elements.
+
+    ``input_joint`` the input crank's hinge (``input_dof``, ``input_qpos`` its addresses);
+    ``sites[point]``, ``bodies[link]``; ``tree`` each tree pair with its joint id; ``loops``
+    each loop-closing pair with its connect equality id; ``gears`` the joint equalities of
+    geared cranks; ``thread`` the tendon id (-1 without a thread); ``drive`` the actuator.
+    """
+
+    spec: mujoco.MjSpec
+    model: mujoco.MjModel
+    input_joint: int
+    input_dof: int
+    input_qpos: int
+    drive: int
+    sites: dict[str, int]
+    bodies: dict[str, int]
+    tree: tuple[tuple[Pair, int], ...]
+    loops: tuple[tuple[Pair, int], ...]
+    gears: tuple[int, ...]
+    thread: int
+
+
+@dataclass(frozen=True)
+class _Elements:
+    input_joint: mujoco.MjsJoint
+    drive: mujoco.MjsActuator
+    sites: dict[str, mujoco.MjsSite]
+    bodies: dict[str, mujoco.MjsBody]
+    tree: tuple[tuple[Pair, mujoco.MjsJoint], ...]
+    loops: tuple[tuple[Pair, mujoco.MjsEquality], ...]
+    gears: tuple[mujoco.MjsEquality, ...]
+    thread: mujoco.MjsTendon | None
+
+
 def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec:
     """The MjSpec of ``mech`` assembled at phi0, with the given numerical settings."""
+    return _spec(mech, settings)[0]
+
+
+def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements]:
     kin = reference.solve(mech, [mech.phi0])
     pos = {k: v.v[0] for k, v in kin.points.items()}
     topo = topology(mech)
@@ -103,7 +120,7 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
 
     colors = _colors(len(mech.links))
     for i, l in enumerate(mech.links):
-        m = spec.add_material(name=f"mat_{l.name}")
+        m = spec.add_material(name=names.material(l.name))
         m.rgba = colors[i]
         m.specular = 0.3
     # A light gradient backdrop: on black the dark guide sites and the thread ends vanish.
@@ -132,10 +149,11 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
     mujoco.mju_mat2Quat(quat, np.column_stack([right, up, view]).ravel())
     world.add_camera(name="oblique", pos=(center + 1.1 * dist * view).tolist(), fovy=fovy, quat=quat.tolist())
 
+    sites: dict[str, mujoco.MjsSite] = {}
     for name, p in mech.ground.items():
-        world.add_site(name=name, pos=p.tolist(), size=[1.0 * r_link, 0, 0], rgba=[0.15, 0.15, 0.15, 1.0])
+        sites[name] = world.add_site(name=name, pos=p.tolist(), size=[1.0 * r_link, 0, 0], rgba=[0.15, 0.15, 0.15, 1.0])
     for pr in topo.tree + topo.loops:
-        if pr.kind == "hinge" and pr.parent is None:
+        if pr.revolute and pr.parent is None:
             world.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=(pos[pr.point] - [0, 0, 0.02 * size]).tolist(),
                            size=[2.2 * r_link, 0.012 * size, 0], material="mat_ground", contype=0, conaffinity=0)
 
@@ -153,18 +171,23 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
         for p in l.points:
             if p not in mech.ground:
                 site_owner.setdefault(p, l.name)
+    tree: list[tuple[Pair, mujoco.MjsJoint]] = []
+    input_joint = None
     for pr in topo.tree:
-        l = _link(mech, pr.child)
+        l = mech.link(pr.child)
         o = pos[topo.origin[l.name]]
         body = bodies[pr.parent].add_body(name=l.name, pos=(o - origin[pr.parent]).tolist())
         bodies[l.name], origin[l.name] = body, o
-        if pr.kind == "hinge":
-            j = body.add_joint(name=f"{l.name}_{pr.point}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
+        if pr.revolute:
+            j = body.add_joint(name=names.hinge_joint(l.name, pr.point), type=mujoco.mjtJoint.mjJNT_HINGE,
+                               axis=[0, 0, 1])
         else:
             g = pos[pr.guide[1]] - pos[pr.guide[0]]
-            j = body.add_joint(name=f"{l.name}_slide", type=mujoco.mjtJoint.mjJNT_SLIDE,
+            j = body.add_joint(name=names.slide_joint(l.name), type=mujoco.mjtJoint.mjJNT_SLIDE,
                                axis=(g / np.linalg.norm(g)).tolist())
-        if l is mech.input_link and pr.kind == "hinge" and pr.point == mech.input_crank.pivot:
+        tree.append((pr, j))
+        if l is mech.input_link and pr.revolute and pr.point == mech.input_crank.pivot:
+            input_joint = j
             _set_first(j, "damping", mech.dynamics.damping)
             j.armature = settings.flywheel
         # Inertia: mass at the centre of mass, J about Z; the X and Y moments only need to be
@@ -183,7 +206,7 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
             body.inertia = [1e-10, 1e-10, 1e-10]
         body.explicitinertial = True
         zoff = [0, 0, (layer[l.name] - 0.5 * len(mech.links)) * 0.6 * r_link]
-        mat = f"mat_{l.name}"
+        mat = names.material(l.name)
         for p in l.points[1:]:
             if p == l.com:
                 continue
@@ -196,7 +219,7 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
                 continue
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=(pos[p] - o + zoff).tolist(),
                           size=[1.6 * r_link, 1.2 * r_link, 0], material=mat, contype=0, conaffinity=0, mass=0)
-        if pr.kind == "slide":
+        if not pr.revolute:
             g = pos[pr.guide[1]] - pos[pr.guide[0]]
             u = g / np.linalg.norm(g)
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, pos=zoff, size=[2.5 * r_link, 1.5 * r_link, r_link],
@@ -204,36 +227,40 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
     thread_pts = set(mech.thread or ())
     for p, owner in site_owner.items():
         eyelet = p in thread_pts
-        bodies[owner].add_site(name=p, pos=(pos[p] - origin[owner]).tolist(),
+        sites[p] = bodies[owner].add_site(name=p, pos=(pos[p] - origin[owner]).tolist(),
                                size=[(1.9 if eyelet else 0.5) * r_link, 0, 0],
                                material="mat_eyelet" if eyelet else "",
                                rgba=[0.95, 0.2, 0.15, 1] if eyelet else [0.1, 0.1, 0.1, 1])
 
+    loops: list[tuple[Pair, mujoco.MjsEquality]] = []
     for pr in topo.loops:
-        eq = spec.add_equality(name=f"loop_{pr.point}_{pr.parent or 'ground'}_{pr.child}",
+        eq = spec.add_equality(name=names.loop_equality(pr.point, pr.parent, pr.child),
                                type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_BODY,
                                name1=pr.child, name2=pr.parent or "world")
         eq.data[0:3] = pos[pr.point] - origin[pr.child]
         eq.solref = list(settings.solref)
         eq.solimp = list(settings.solimp)
-    inp = mech.input_crank
-    inp_joint = f"{mech.input_link.name}_{inp.pivot}"
-    for s in mech.steps:
-        if isinstance(s, Crank) and s is not inp:
-            gl = next(l for l in mech.links if s.pivot in l.points and s.point in l.points)
-            eq = spec.add_equality(name=f"gear_{gl.name}", type=mujoco.mjtEq.mjEQ_JOINT,
-                                   objtype=mujoco.mjtObj.mjOBJ_JOINT, name1=f"{gl.name}_{s.pivot}", name2=inp_joint)
-            eq.data[0:5] = [0.0, s.ratio, 0.0, 0.0, 0.0]
-            eq.solref = list(settings.solref)
-            eq.solimp = list(settings.solimp)
+        loops.append((pr, eq))
+    assert input_joint is not None  # topology puts the input crank's pivot in the tree
+    gears = []
+    for s in mech.geared:
+        gl = mech.carrier(s)
+        eq = spec.add_equality(name=names.gear_equality(gl.name), type=mujoco.mjtEq.mjEQ_JOINT,
+                               objtype=mujoco.mjtObj.mjOBJ_JOINT, name1=names.hinge_joint(gl.name, s.pivot),
+                               name2=input_joint.name)
+        eq.data[0:5] = [0.0, s.ratio, 0.0, 0.0, 0.0]
+        eq.solref = list(settings.solref)
+        eq.solimp = list(settings.solimp)
+        gears.append(eq)
 
+    t = None
     if mech.thread:
-        t = spec.add_tendon(name="thread", width=0.45 * r_link, rgba=[0.95, 0.7, 0.05, 1.0])
+        t = spec.add_tendon(name=names.THREAD, width=0.45 * r_link, rgba=[0.95, 0.7, 0.05, 1.0])
         for p in mech.thread:
             t.wrap_site(p)
     # The drive: ctrl is the moment plus the motor's stall torque; an affine bias in the joint
     # speed makes the torque fall linearly to zero at the no-load speed.
-    act = spec.add_actuator(name="drive", target=inp_joint, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+    act = spec.add_actuator(name=names.DRIVE, target=input_joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
                             gear=[1, 0, 0, 0, 0, 0], ctrllimited=False)
     motor = mech.dynamics.motor
     if motor is not None:
@@ -241,7 +268,8 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
         bias = np.zeros(len(act.biasprm))
         bias[2] = -motor.stall_torque / motor.no_load_speed
         act.biasprm = bias
-    return spec
+    return spec, _Elements(input_joint, act, sites, {k: v for k, v in bodies.items() if k is not None}, tuple(tree),
+                           tuple(loops), tuple(gears), t)
 
 
 def _set_first(obj, attr: str, value: float) -> None:
@@ -259,9 +287,20 @@ def _quat_z(a: float) -> list[float]:
     return [float(np.cos(a / 2)), 0.0, 0.0, float(np.sin(a / 2))]
 
 
+def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
+    """The compiled model of ``mech`` with the ids of its elements. See :func:`build_spec`."""
+    spec, el = _spec(mech, settings)
+    model = spec.compile()
+    return Built(spec, model, el.input_joint.id, int(model.jnt_dofadr[el.input_joint.id]),
+                 int(model.jnt_qposadr[el.input_joint.id]), el.drive.id,
+                 {k: v.id for k, v in el.sites.items()}, {k: v.id for k, v in el.bodies.items()},
+                 tuple((p, j.id) for p, j in el.tree), tuple((p, e.id) for p, e in el.loops),
+                 tuple(e.id for e in el.gears), -1 if el.thread is None else el.thread.id)
+
+
 def build(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjModel:
-    """Compiled model of ``mech``. See :func:`build_spec`."""
-    return build_spec(mech, settings).compile()
+    """The compiled model of ``mech`` alone (see :func:`make` for its element ids)."""
+    return make(mech, settings).model
 
 
 def to_xml(mech: Mechanism, settings: Settings = KINEMATIC) -> str:
@@ -269,3 +308,8 @@ def to_xml(mech: Mechanism, settings: Settings = KINEMATIC) -> str:
     spec = build_spec(mech, settings)
     spec.compile()
     return spec.to_xml()
+
+
+def mujoco_version() -> str:
+    """The MuJoCo version the models are built with."""
+    return str(mujoco.__version__)

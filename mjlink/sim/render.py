@@ -2,10 +2,8 @@
 
 Two steps, in this order:
 
-1. :func:`ensure_gl_backend` picks the offscreen OpenGL backend. MuJoCo reads ``MUJOCO_GL``
-   once, when it is first imported, so a program that renders must call this before anything
-   imports mujoco (``mjlink.builder`` and ``mjlink.simulate`` do). This module therefore never
-   imports mujoco at module level.
+1. :func:`mjlink.sim.gl.ensure_gl_backend` has picked the offscreen OpenGL backend when
+   :mod:`mjlink.sim` was imported.
 2. :func:`render_video` replays a trace's joint positions through the model's fixed camera
    ``front`` and encodes the frames as H.264 (yuv420p) with imageio's ffmpeg.
 
@@ -15,25 +13,21 @@ Units: times s, frame rates frames/s, sizes pixels; the trace is in SI units.
 from __future__ import annotations
 
 import contextlib
-import ctypes.util
 import os
-import platform
-import secrets
-import subprocess
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
+import mujoco
 import numpy as np
 
-from .errors import OutputError, RenderError
-
-if TYPE_CHECKING:  # pragma: no cover - annotations only; importing these imports mujoco
-    from .builder import Settings
-    from .mechanism import Mechanism
-    from .simulate import Trace
+from .. import output, reference
+from ..errors import OutputError, RenderError
+from ..model.mechanism import Mechanism
+from ..runs import Settings, Trace
+from . import builder, simulate
+from .gl import _clip, ensure_gl_backend
 
 CAMERA = "front"
 OBLIQUE = "oblique"
@@ -41,107 +35,9 @@ OBLIQUE = "oblique"
 
 def _is_3d(mech) -> bool:
     """Whether any point leaves the mechanism's plane (z != 0)."""
-    from . import reference
-
     k = reference.solve(mech, [mech.phi0])
     return any(abs(v.v[0, 2]) > 1e-9 for v in k.points.values())
-PROBE_ORDER = ("egl", "osmesa")
-PROBE_TIMEOUT = 10.0  # s: a broken EGL driver can hang instead of failing
 PROGRESS_AFTER = 1.0  # s of rendering before a progress line is worth printing
-
-# What mujoco does with MUJOCO_GL unset, per platform (mujoco.rendering.classic.gl_context).
-_MUJOCO_DEFAULT = {"Darwin": "cgl"}
-
-_PROBE_CODE = """\
-import mujoco
-ctx = mujoco.GLContext(16, 16)
-ctx.make_current()
-ctx.free()
-"""
-
-# Shared library each probed backend needs (ctypes.util.find_library names).
-_LIBRARY = {"egl": "EGL", "osmesa": "OSMesa"}
-
-_backend: str | None = None
-
-
-def ensure_gl_backend() -> str:
-    """Choose MuJoCo's offscreen OpenGL backend and return its name (e.g. ``'egl'``).
-
-    * ``MUJOCO_GL`` already set in the environment: respected and returned as is.
-    * mujoco already imported in this process with ``MUJOCO_GL`` unset: it is too late to
-      choose, so the backend mujoco picked at import is returned (the module of
-      ``mujoco.GLContext``: ``'glfw'`` on Linux and Windows, ``'cgl'`` or ``'glfw'`` on macOS;
-      ``'none'`` if mujoco has no usable context class). Rendering then fails with a
-      :class:`RenderError` if that backend cannot work here, e.g. glfw without a display.
-    * Otherwise, on Linux: ``'egl'`` then ``'osmesa'`` are each tried in a short subprocess
-      (import mujoco, create and make current a 16x16 context; about 0.5 s each) and the
-      first that works is written to ``os.environ['MUJOCO_GL']``. On other systems mujoco's
-      own default (cgl on macOS, glfw elsewhere) is returned and nothing is set, since EGL
-      and OSMesa are Linux-only there.
-
-    The answer is cached for the life of the process. Never imports mujoco itself.
-    Raises :class:`RenderError` if no backend works.
-    """
-    global _backend
-    if _backend is not None:
-        return _backend
-    preset = os.environ.get("MUJOCO_GL")
-    if preset:
-        _backend = preset
-        return _backend
-    if "mujoco" in sys.modules:
-        _backend = _imported_backend()
-        return _backend
-    system = platform.system()
-    if system != "Linux":
-        _backend = _MUJOCO_DEFAULT.get(system, "glfw")
-        return _backend
-    reasons = []
-    for name in PROBE_ORDER:
-        why = _probe(name)
-        if why is None:
-            os.environ["MUJOCO_GL"] = name
-            _backend = name
-            return _backend
-        reasons.append(f"{name}: {why}")
-    raise RenderError(f"no offscreen OpenGL backend works: tried {', '.join(PROBE_ORDER)} ({'; '.join(reasons)}); "
-                      f"install Mesa's libEGL or libOSMesa, or set MUJOCO_GL")
-
-
-def _imported_backend() -> str:
-    """Name of the backend an already imported mujoco chose at import."""
-    cls = getattr(sys.modules["mujoco"], "GLContext", None)
-    module = getattr(cls, "__module__", "") or ""
-    parts = module.split(".")
-    if len(parts) == 2 and parts[0] == "mujoco":  # mujoco.egl, mujoco.osmesa, mujoco.glfw, mujoco.cgl
-        return parts[1]
-    return "none"
-
-
-def _probe(name: str) -> str | None:
-    """None if backend ``name`` can make a context current in a fresh interpreter, else why not."""
-    env = dict(os.environ, MUJOCO_GL=name)
-    try:
-        res = subprocess.run([sys.executable, "-c", _PROBE_CODE], env=env, capture_output=True, text=True,
-                             timeout=PROBE_TIMEOUT)
-    except subprocess.TimeoutExpired:
-        return f"timed out after {PROBE_TIMEOUT:g} s"
-    except OSError as e:
-        return f"cannot start {sys.executable}: {e.strerror or e}"
-    if res.returncode == 0:
-        return None
-    # PyOpenGL's error for a missing library is cryptic ('NoneType' has no attribute ...).
-    lib = _LIBRARY.get(name)
-    if lib and ctypes.util.find_library(lib) is None:
-        return f"lib{lib} not found"
-    lines = [l.strip() for l in res.stderr.splitlines() if l.strip()]
-    return _clip(lines[-1] if lines else f"exit status {res.returncode}")
-
-
-def _clip(msg: str, limit: int = 160) -> str:
-    msg = " ".join(str(msg).split())
-    return msg if len(msg) <= limit else msg[: limit - 3] + "..."
 
 
 # ----------------------------------------------------------------------------- video
@@ -217,11 +113,6 @@ def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, 
                           f"(H.264 yuv420p)")
     _, qpos = frame_qpos(trace, n)
     backend = ensure_gl_backend()
-
-    import mujoco  # after ensure_gl_backend(), so a fresh process gets the chosen backend
-
-    from . import builder, simulate
-
     model = builder.build(mech, settings or simulate.kinematic_case(mech).settings)
     if qpos.shape[1] != model.nq:
         raise RenderError(f"{mech.name}: the trace has {qpos.shape[1]} joint positions per sample, the model has "
@@ -240,8 +131,17 @@ def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, 
 
     if not path.parent.is_dir():
         raise OutputError(f"{path}: folder {path.parent} does not exist")
-    tmp = _reserve_temp(path)
 
+    with output.atomic_path(path, suffix=".mp4") as tmp:
+        _frames(model, data, qpos, camera, option, tmp, fps, width, height, backend, progress)
+    span = float(trace.time[-1] - trace.time[0])
+    return VideoInfo(path, n, fps, width, height, (n / fps) / span, backend)
+
+
+def _frames(model, data, qpos, camera, option, tmp: Path, fps: float, width: int, height: int, backend: str,
+            progress: bool) -> None:
+    """Render every frame into an H.264 file at ``tmp`` (complete when this returns)."""
+    n = len(qpos)
     renderer = writer = None
     shown = False
     try:
@@ -277,18 +177,12 @@ def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, 
             w, writer = writer, None
             w.close()  # flushes ffmpeg: the file is only complete after this
         except Exception as e:
-            raise RenderError(f"video encoding failed while finishing {path.name}: {_clip(e)}") from e
-        try:
-            os.replace(tmp, path)
-        except OSError as e:
-            raise OutputError(f"{path}: cannot write: {e.strerror or e}") from e
+            raise RenderError(f"video encoding failed while finishing the video: {_clip(e)}") from e
     except BaseException:
-        # Also on KeyboardInterrupt: a half-written video must not be left behind.
+        # Also on KeyboardInterrupt: the encoder must stop before the half file is removed.
         if writer is not None:
             with contextlib.suppress(Exception):
                 writer.close()
-        with contextlib.suppress(OSError):
-            tmp.unlink()
         raise
     finally:
         if renderer is not None:
@@ -296,23 +190,6 @@ def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, 
                 renderer.close()
         if shown:
             print(file=sys.stderr, flush=True)
-    span = float(trace.time[-1] - trace.time[0])
-    return VideoInfo(path, n, fps, width, height, (n / fps) / span, backend)
-
-
-def _reserve_temp(path: Path) -> Path:
-    """Create an empty, uniquely named temporary file next to ``path`` and return its path."""
-    for _ in range(100):
-        tmp = path.with_name(f".{path.stem}.{secrets.token_hex(4)}.part.mp4")
-        try:
-            # Not mkstemp: its 0600 mode would survive the rename; 0666 lets the umask decide.
-            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-            return tmp
-        except FileExistsError:
-            continue
-        except OSError as e:
-            raise OutputError(f"{path}: cannot write in {path.parent}: {e.strerror or e}") from e
-    raise OutputError(f"{path}: cannot find a free temporary name in {path.parent}")
 
 
 def _open_writer(path: Path, fps: float):

@@ -1,98 +1,42 @@
-"""The registry of mechanisms (every ``mechanisms/*.toml`` of this checkout, by name) and the
-checks every mechanism passes before anything is built from it.
-
-Names and paths, the rule (one argument, never both readings):
-
-* An argument that ends in ``.toml``, contains a path separator (``/``, or ``\\`` on
-  Windows), or starts with ``~`` or ``.`` is a **path**, always: ``~`` is expanded, a relative
-  path is taken from the current folder, spaces need only the shell's quoting. It is never
-  looked up as a name: ``./takeup.toml`` is the file in the current folder even though
-  ``takeup`` is registered. A :class:`pathlib.Path` is always a path.
-* Any other argument is a **registered name** (:func:`names`): ``mechanisms/NAME.toml`` of
-  this checkout. A file in the current folder called like a registered mechanism is not
-  used for the bare name; write ``./takeup``. Only a bare word that is no registered name but
-  is an existing file is read as that file (so ``my_linkage`` works without an extension).
+"""Validation: whether a mechanism can be simulated faithfully, and what it is.
 
 :func:`validate` runs, in this order, the checks that need the geometry over a whole cycle
-(the file's own syntax and references are checked by :mod:`mjlink.mechanism`): assembly over
-the input crank's full period, no undefined directions, rigid links, one degree of freedom,
-no pass near a dead point, a reduced moment of inertia that never vanishes, and a model
-MuJoCo compiles. :func:`problems` lists every failing one instead of raising the first
-(``python -m mjlink check`` reports them all).
+(the file's own syntax and references are checked when it is read): assembly over the input
+crank's full period, no undefined directions, rigid links, one degree of freedom, no pass
+near a dead point, a reduced moment of inertia that never vanishes, and a model MuJoCo
+compiles. :func:`problems` lists every failing one instead of raising the first.
+
+:func:`check` describes a loaded mechanism without raising for geometric problems: its
+points and links, the kinematic pairs the MuJoCo model is built from (tree joints and
+loop-closing equalities), gear couplings, the Chebyshev-Gruebler count of degrees of
+freedom, the input-angle ranges over which it can be assembled, how near every dyad and
+slider comes to a dead point, and every problem :func:`validate` would raise;
+:meth:`CheckReport.raise_if_failed` then raises the first problem (one line), so a file that
+cannot be simulated is still described before the command fails.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from . import reference
-from .errors import AssemblyError, MechanismFileError, MjlinkError, UnknownMechanismError
-from .mechanism import MAX_ANGLE_DEG, Attached, Crank, Dyad, Mechanism, Slider, load
+from .errors import AssemblyError, MechanismFileError, MjlinkError, SimulationError, UnknownMechanismError
+from .model import catalogue
+from .model.blocks import BlockAngle
+from .model.limits import (MAX_ANGLE_DEG, MIN_DIRECTION_M, MIN_DISTINCT_M, SAMPLES_PER_TURN,
+                           VERIFIED_CRANK_ACCELERATION, VERIFIED_SPEED)
+from .model.mechanism import Mechanism, load
+from .model.topology import pairs as all_pairs
+from .model.topology import topology
+from .units import PairKind, PairRole
 
-MECHANISMS_DIR = Path(__file__).resolve().parent.parent / "mechanisms"
-
-# Dead points (mechanisms/README.md, "Dead points"), measured with the kinematic run (dt 50 us)
-# on four-bars and crank-sliders whose links carry bar-like masses: four-bars miss the
-# velocity threshold (2e-5 of range) from 8-12 deg from the dead point at 100-150 rad/s and
-# the position threshold (0.1 um) at 20 deg with a 40 mm crank at 150 rad/s; crank-sliders
-# (20 mm crank) miss 0.1 um once the pressure angle passes 75-80 deg (100 rad/s) or 70-75 deg
-# (150 rad/s). Errors grow
-# with speed and, for positions, with crank length x speed^2. Within the envelope below the
-# limits keep every run measured within the thresholds.
-MIN_TRANSMISSION_DEG = 20.0  # a dyad's transmission angle stays within [20, 160] deg
-MAX_PRESSURE_DEG = 60.0  # a slider's pressure angle stays at most 60 deg
-# The envelope over which the thresholds are verified (test_property.py generates inside it):
-# crank speed up to 150 rad/s, crank-pin acceleration r omega^2 between 10 m/s^2 (below it
-# gravity's load on the soft loop closures dominates the acceleration error) and 500 m/s^2
-# (errors grow with it), links with comparable, bar-like masses. Outside it a run is reported,
-# not refused: the agreement table shows how close it came and --strict fails on a miss.
-VERIFIED_SPEED = 150.0  # rad/s
-VERIFIED_CRANK_ACCELERATION = (10.0, 500.0)  # m/s^2, crank length x speed^2
-MIN_DIRECTION_M = 1e-6  # points that define a direction (attached, guide) stay this far apart
-# Points of one link are one point or at least this far apart: MuJoCo's compiler takes a site or
-# centre of mass within 1e-7 m of its body's frame for the frame itself (measured: a centre of
-# mass 1e-4 mm from its crank's pivot was simulated on the pivot, a 0.1 um position error).
-MIN_DISTINCT_M = 1e-6
-SAMPLES_PER_TURN = 3600  # input-angle samples per crank turn for every check over a cycle
-
-
-def names() -> list[str]:
-    """Names of the registered mechanisms, sorted."""
-    return sorted(p.stem for p in MECHANISMS_DIR.glob("*.toml"))
-
-
-def _is_path(s: str) -> bool:
-    seps = {"/", os.sep} | ({os.altsep} if os.altsep else set())
-    return s.endswith(".toml") or any(c in s for c in seps) or s.startswith(("~", "."))
-
-
-def path_of(name_or_path: str | Path) -> Path:
-    """The file of a registered name, or the given path (see the module docstring for the rule).
-
-    Raises UnknownMechanismError (one line) for an unknown name, a missing file or a folder.
-    """
-    s = str(name_or_path)
-    if not s.strip():
-        raise UnknownMechanismError(f"empty mechanism name (valid: {', '.join(names())}, or a path to a .toml file)")
-    if isinstance(name_or_path, Path) or _is_path(s):
-        p = Path(s).expanduser()
-        shown = s if str(p) == s else f"{s} ({p})"
-        if p.is_dir():
-            raise UnknownMechanismError(f"{shown}: is a folder, not a mechanism file")
-        if not p.is_file():
-            raise UnknownMechanismError(f"{shown}: no such mechanism file")
-        return p
-    if s in names():
-        return MECHANISMS_DIR / f"{s}.toml"
-    p = Path(s)
-    if p.is_file():
-        return p
-    raise UnknownMechanismError(f"unknown mechanism '{s}' (valid: {', '.join(names())}, or a path to a .toml file)")
+_ERRORS = {c.__name__: c for c in (AssemblyError, MechanismFileError, SimulationError, UnknownMechanismError,
+                                   MjlinkError)}
 
 
 def get(name_or_path: str | Path, *, full_turn: bool = True) -> Mechanism:
@@ -100,7 +44,7 @@ def get(name_or_path: str | Path, *, full_turn: bool = True) -> Mechanism:
 
     Raises MechanismFileError, UnknownMechanismError or AssemblyError with a one-line message.
     """
-    return validate(load(path_of(name_or_path)), full_turn=full_turn)
+    return validate(load(catalogue.path_of(name_or_path)), full_turn=full_turn)
 
 
 def validate(mech: Mechanism, *, full_turn: bool = True) -> Mechanism:
@@ -117,54 +61,6 @@ def validate(mech: Mechanism, *, full_turn: bool = True) -> Mechanism:
 
 
 # --------------------------------------------------------------------------- angles at joints
-@dataclass(frozen=True)
-class BlockAngle:
-    """How close one dyad or slider comes to a dead point over the input's period.
-
-    ``kind`` 'dyad' or 'slider'; ``quantity`` 'transmission angle' (dyad: the angle at its joint
-    between its two links, 0..180 deg, dead at 0 and 180) or 'pressure angle' (slider: the
-    angle between the rod start-point and the guide line, i.e. between the force the rod
-    transmits and the slider's motion, 0..90 deg, dead at 90 where the rod stands square to
-    the guide); ``worst_deg`` its value where it is closest to the dead point, ``margin_deg``
-    the distance from the dead point there, ``phi_deg`` the input angle there (deg, reduced to
-    0..period), ``limit_deg`` the allowed value (the least distance from the dead point for a
-    dyad's transmission angle, the largest pressure angle for a slider); NaN if the block
-    cannot be assembled anywhere. ``closes`` False if it cannot be assembled at some input
-    angle, ``fails_deg`` the input-angle ranges where it cannot.
-    """
-
-    kind: str
-    point: str
-    label: str  # 'P2-P3-P4' (dyad a-point-b) or 'P8-P9 on P5-P6' (slider start-point on guide)
-    links: tuple[str, ...]
-    quantity: str
-    worst_deg: float
-    margin_deg: float
-    phi_deg: float
-    limit_deg: float
-    closes: bool
-    fails_deg: str  # input-angle ranges where the block cannot close ('' if it always does)
-
-    @property
-    def ok(self) -> bool:
-        if self.kind == "dyad":
-            return self.margin_deg >= self.limit_deg
-        return self.worst_deg <= self.limit_deg
-
-    def message(self, src) -> str:
-        """The one-line AssemblyError text for a block that passes too near its dead point."""
-        if self.kind == "dyad":
-            return (f"{src}: dyad {self.label} passes within {self.margin_deg:.2f} deg of a dead point: its "
-                    f"transmission angle at {self.point}{_between(self.links)} reaches {self.worst_deg:.2f} deg at "
-                    f"input angle {self.phi_deg:.1f} deg; MuJoCo follows the linkage faithfully only while it "
-                    f"stays within {self.limit_deg:g}..{180 - self.limit_deg:g} deg (mechanisms/README.md, Dead points)")
-        return (f"{src}: slider {self.label} passes within {self.margin_deg:.2f} deg of a dead point: its pressure "
-                f"angle reaches {self.worst_deg:.2f} deg at input angle {self.phi_deg:.1f} deg; MuJoCo follows the "
-                f"linkage faithfully only up to {self.limit_deg:g} deg (mechanisms/README.md, Dead points)")
-
-
-def _between(links: tuple[str, ...]) -> str:
-    return f" between links {links[0]} and {links[1]}" if len(links) == 2 else ""
 
 
 def cycle_angles(mech: Mechanism, samples: int | None = None) -> np.ndarray:
@@ -172,6 +68,7 @@ def cycle_angles(mech: Mechanism, samples: int | None = None) -> np.ndarray:
     turns = max(1, int(round(mech.period / (2 * math.pi))))
     n = samples or SAMPLES_PER_TURN * turns + 1
     return mech.phi0 + np.linspace(0.0, mech.period, n)
+
 
 
 def block_angles(mech: Mechanism, kin: reference.Kinematics | None = None) -> tuple[BlockAngle, ...]:
@@ -182,44 +79,22 @@ def block_angles(mech: Mechanism, kin: reference.Kinematics | None = None) -> tu
     if kin is None:
         kin = reference.solve(mech, cycle_angles(mech), check=False)
     phi = kin.phi
+    P = kin.positions()
     out = []
-    every: np.ndarray | None = None
     for s in mech.steps:
-        if not isinstance(s, (Dyad, Slider)):
+        dp = s.dead_point(P)
+        if dp is None:
             continue
-        if isinstance(s, Dyad):
-            d = np.linalg.norm((kin.points[s.a].v - kin.points[s.b].v)[:, :2], axis=1)
-            cos_mu = (s.length_a**2 + s.length_b**2 - d**2) / (2 * s.length_a * s.length_b)
-            closes = np.abs(cos_mu) <= 1.0
-            mu = np.degrees(np.arccos(np.clip(cos_mu, -1.0, 1.0)))
-            margin = np.minimum(mu, 180.0 - mu)
-            value, label = mu, f"{s.a}-{s.point}-{s.b}"
-            links = _dyad_links(mech, s)
-            quantity, limit = "transmission angle", MIN_TRANSMISSION_DEG
-        else:
-            a = kin.points[s.start].v[:, :2]
-            n1, n2 = (kin.points[g].v[:, :2] for g in s.guide)
-            g = n2 - n1
-            with np.errstate(all="ignore"):
-                u = g / np.linalg.norm(g, axis=1, keepdims=True)
-                off = (a - n1) - np.einsum("ij,ij->i", a - n1, u)[:, None] * u
-                ratio = np.linalg.norm(off, axis=1) / s.length  # sin of the pressure angle
-            closes = ratio <= 1.0
-            value = np.degrees(np.arcsin(np.clip(ratio, 0.0, 1.0)))
-            margin = 90.0 - value
-            label = f"{s.start}-{s.point} on {s.guide[0]}-{s.guide[1]}"
-            links = ()
-            quantity, limit = "pressure angle", MAX_PRESSURE_DEG
-        closes = closes & np.isfinite(margin)
-        every = closes if every is None else every & closes
+        margin = dp.margin_deg
+        closes = dp.closes & np.isfinite(margin)
         if closes.any():
             i = int(np.argmin(np.where(closes, margin, np.inf)))
-            worst, mg, at = float(value[i]), float(margin[i]), _wrap(mech, phi[i])
+            worst, mg, at = float(dp.value_deg[i]), float(margin[i]), _wrap(mech, phi[i])
         else:
             worst = mg = at = math.nan
-        fails = reference._angle_ranges(phi, ~closes) if not closes.all() else ""
-        out.append(BlockAngle("dyad" if isinstance(s, Dyad) else "slider", s.point, label, links, quantity,
-                              worst, mg, at, limit, bool(closes.all()), fails))
+        fails = reference.angle_ranges(phi, ~closes) if not closes.all() else ""
+        out.append(BlockAngle(s.kind, s.point, s.label(), s.carriers(mech.links), dp.quantity, worst, mg, at,
+                              dp.limit_deg, bool(closes.all()), fails, s, dp.required_margin_deg))
     return tuple(out)
 
 
@@ -229,11 +104,6 @@ def _wrap(mech: Mechanism, phi: float) -> float:
     v = math.degrees(phi) % p
     return 0.0 if abs(v - p) < 1e-9 else v
 
-
-def _dyad_links(mech: Mechanism, s: Dyad) -> tuple[str, ...]:
-    la = next((l.name for l in mech.links if s.a in l.points and s.point in l.points), None)
-    lb = next((l.name for l in mech.links if s.b in l.points and s.point in l.points and l.name != la), None)
-    return (la, lb) if la and lb else ()
 
 
 # --------------------------------------------------------------------------- degrees of freedom
@@ -275,8 +145,10 @@ def mobility(mech: Mechanism) -> Mobility:
             bodies[p] = bodies.get(p, 0) + 1
     revolute = sum(k + (1 if p in mech.ground else 0) - 1 for p, k in bodies.items())
     prismatic = sum(1 for l in mech.links if l.guide)
-    gears = sum(1 for s in mech.steps if isinstance(s, Crank)) - 1
+    gears = len(mech.geared)
     return Mobility(len(mech.links), revolute, prismatic, gears)
+
+
 
 
 def _mobility_problem(mech: Mechanism, m: Mobility) -> MechanismFileError | None:
@@ -286,17 +158,7 @@ def _mobility_problem(mech: Mechanism, m: Mobility) -> MechanismFileError | None
     count = (f"W = 3*{m.moving_links} - 2*{m.lower_pairs} = {m.structural}"
              + (f", minus {m.gears} gear coupling{'s' if m.gears > 1 else ''}" if m.gears else ""))
     if m.driven > 1:
-        hint = ""
-        for s in mech.steps:
-            if isinstance(s, Dyad) and not _dyad_links(mech, s):
-                hint = (f": dyad {s.a}-{s.point}-{s.b} needs its joint {s.point} on one link with {s.a} and on "
-                        f"another with {s.b}")
-                break
-            if isinstance(s, Slider) and not any(s.point in l.points and l.guide and set(l.guide) == set(s.guide)
-                                                 for l in mech.links):
-                hint = (f": slider {s.point} needs a link carrying {s.point} with guide = "
-                        f"[\"{s.guide[0]}\", \"{s.guide[1]}\"]")
-                break
+        hint = next((h for s in mech.steps if (h := s.mobility_hint(mech.links))), "")
         return MechanismFileError(
             f"{src}: [links]: the links give the linkage {m.driven} degrees of freedom ({count}) where it must have "
             f"one, the input crank's angle: a point the construction fixes is free in the linkage"
@@ -308,6 +170,8 @@ def _mobility_problem(mech: Mechanism, m: Mobility) -> MechanismFileError | None
 
 
 # --------------------------------------------------------------------------- all checks
+
+
 def problems(mech: Mechanism, *, full_turn: bool = True) -> list[MjlinkError]:
     """Every check :func:`validate` makes, as a list of the errors found (in that order).
 
@@ -362,11 +226,9 @@ def _problems(mech: Mechanism, full_turn: bool) -> list[MjlinkError]:
 
 def _structure(mech: Mechanism) -> list[MjlinkError]:
     """Pairs the builder can make into a MuJoCo tree, and one degree of freedom."""
-    from . import builder  # lazily: mujoco must not be imported before the GL backend is chosen
-
     out: list[MjlinkError] = []
     try:
-        builder.topology(mech)
+        topology(mech)
     except MechanismFileError as e:
         out.append(e)
     m = _mobility_problem(mech, mobility(mech))
@@ -375,18 +237,13 @@ def _structure(mech: Mechanism) -> list[MjlinkError]:
     return out
 
 
+
+
 def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError | None:
     """A point whose block's direction is undefined (two of its points coincide) somewhere."""
     src = mech.path or mech.name
     for s in mech.steps:
-        pairs = []
-        if isinstance(s, Attached):
-            pairs = [(s.origin, s.toward, "origin and toward")]
-        elif isinstance(s, Slider):
-            pairs = [(s.guide[0], s.guide[1], "guide points")]
-        elif isinstance(s, Dyad):
-            pairs = [(s.a, s.b, "a and b")]
-        for p, q, what in pairs:
+        for p, q, what in s.directions():
             d = np.linalg.norm((kin.points[p].v - kin.points[q].v)[:, :2], axis=1)
             if not (d >= MIN_DIRECTION_M).all():
                 i = int(np.argmin(np.where(np.isfinite(d), d, -1.0)))
@@ -408,6 +265,8 @@ def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError
             return MechanismFileError(f"{src}: [[construct]] {n}: the point is undefined at input angle "
                                       f"{_wrap(mech, kin.phi[i]):.1f} deg")
     return None
+
+
 
 
 def _almost_coincident(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError | None:
@@ -445,10 +304,10 @@ def _inertia_problem(mech: Mechanism, kin: reference.Kinematics) -> MechanismFil
 
 def _compile_problem(mech: Mechanism) -> MechanismFileError | None:
     """The MJCF must compile (a last guard: names are validated when the file is read)."""
-    from . import builder
+    from .sim import builder  # the one check that needs MuJoCo; sim/ sets MUJOCO_GL first
 
     try:
-        builder.build_spec(mech).compile()
+        builder.build(mech)
     except ValueError as e:
         msg = " ".join(str(e).split())
         return MechanismFileError(f"{mech.path or mech.name}: MuJoCo cannot compile the model: {msg}")
@@ -460,14 +319,12 @@ def with_crank_settings(mech: Mechanism, phi0_deg: float | None = None, phase_de
 
     Raises MjlinkError if a phase is given for a mechanism without a geared crank.
     """
-    import dataclasses
-
     if phi0_deg is not None:
         if not math.isfinite(phi0_deg) or abs(phi0_deg) > MAX_ANGLE_DEG:
             raise MjlinkError(f"--phi0 must be finite and at most {MAX_ANGLE_DEG:g} deg in magnitude, got {phi0_deg}")
         mech = dataclasses.replace(mech, phi0=math.radians(phi0_deg))
     if phase_deg is not None:
-        geared = [s for s in mech.steps if isinstance(s, Crank) and s is not mech.input_crank]
+        geared = mech.geared
         if not geared:
             raise MjlinkError(f"{mech.name} has no geared crank: --phase/--phi04 does not apply")
         if not math.isfinite(phase_deg) or abs(phase_deg) > MAX_ANGLE_DEG:
@@ -475,3 +332,157 @@ def with_crank_settings(mech: Mechanism, phi0_deg: float | None = None, phase_de
         new = dataclasses.replace(geared[0], phase=math.radians(phase_deg))
         mech = dataclasses.replace(mech, steps=tuple(new if s is geared[0] else s for s in mech.steps))
     return validate(mech) if (phi0_deg is not None or phase_deg is not None) else mech
+
+
+
+# ------------------------------------------------------------------------ the check report
+@dataclass(frozen=True)
+class PointInfo:
+    """A named point: ``ground`` True for a [ground] point; ``made_by`` how it is built; the links carrying it."""
+
+    name: str
+    ground: bool
+    made_by: str
+    links: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class LinkInfo:
+    """A link: its points, ``mass`` kg, ``inertia`` kg*m^2 about its centre of mass, ``com``, ``guide``."""
+
+    name: str
+    points: tuple[str, ...]
+    mass: float
+    inertia: float
+    com: str | None
+    guide: tuple[str, str] | None
+
+
+@dataclass(frozen=True)
+class PairInfo:
+    """A kinematic pair as the builder makes it: ``kind`` 'revolute' (at ``point``) or 'prismatic'
+    (along ``guide``) between ``parent`` ('ground' for the frame) and ``child``; ``role`` 'joint'
+    (a MuJoCo hinge or slide in the tree), 'loop' (a connect equality closing a loop) or '' if
+    the builder cannot place it."""
+
+    kind: PairKind
+    point: str | None
+    guide: tuple[str, str] | None
+    parent: str
+    child: str
+    role: PairRole
+
+
+@dataclass(frozen=True)
+class GearInfo:
+    """A geared crank: ``point`` on ``link``, ``ratio`` to the input, ``phase`` rad at phi0."""
+
+    point: str
+    link: str
+    ratio: float
+    phase: float
+
+
+@dataclass(frozen=True)
+class CheckReport:
+    """Everything :func:`check` found. ``problems`` are (error class name, one-line message)
+    pairs in the order :func:`mjlink.validate` checks them; ``notes`` are remarks
+    that do not stop a run."""
+
+    name: str
+    title: str
+    path: str
+    points: tuple[PointInfo, ...]
+    links: tuple[LinkInfo, ...]
+    pairs: tuple[PairInfo, ...]
+    gears: tuple[GearInfo, ...]
+    mobility: Mobility
+    full_turn: bool
+    assembly_ranges: str
+    angles: tuple[BlockAngle, ...]
+    problems: tuple[tuple[str, str], ...]
+    notes: tuple[str, ...]
+    period_deg: float = 360.0
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+    @property
+    def loops(self) -> tuple[PairInfo, ...]:
+        return tuple(p for p in self.pairs if p.role is PairRole.LOOP)
+
+    def error(self) -> MjlinkError | None:
+        """The first problem as the error validate raises, or None."""
+        if not self.problems:
+            return None
+        kind, msg = self.problems[0]
+        return _ERRORS.get(kind, MjlinkError)(msg)
+
+    def raise_if_failed(self) -> None:
+        err = self.error()
+        if err is not None:
+            raise err
+
+
+def check_file(name_or_path) -> CheckReport:
+    """Load a registered name or a path and :func:`check` it.
+
+    Raises UnknownMechanismError or MechanismFileError (one line) if the file cannot be read
+    into a mechanism at all; geometric problems are in the report instead.
+    """
+    return check(load(catalogue.path_of(name_or_path)))
+
+
+def check(mech: Mechanism) -> CheckReport:
+    """Describe ``mech`` and collect every problem (see the module docstring). Never raises
+    for the mechanism's geometry or structure."""
+    made_by = {s.point: s.describe() for s in mech.steps}
+    points = tuple(
+        PointInfo(n, n in mech.ground,
+                  made_by.get(n) or "fixed at (" + ", ".join(f"{x * 1e3:g}" for x in mech.ground[n]) + ") mm",
+                  tuple(l.name for l in mech.links if n in l.points))
+        for n in mech.point_names)
+    links = tuple(LinkInfo(l.name, l.points, l.mass, l.inertia, l.com, l.guide) for l in mech.links)
+
+    pairs: list[PairInfo] = []
+    try:
+        topo = topology(mech)
+        for role, group in ((PairRole.JOINT, topo.tree), (PairRole.LOOP, topo.loops)):
+            for p in group:
+                pairs.append(PairInfo(p.kind, p.point, p.guide, p.parent or "ground", p.child, role))
+    except MechanismFileError:
+        try:
+            for _, p in all_pairs(mech):
+                pairs.append(PairInfo(p.kind, p.point, p.guide, p.parent or "ground", p.child, PairRole.UNPLACED))
+        except MechanismFileError:
+            pass
+    gears = tuple(GearInfo(s.point, next(iter(s.carriers(mech.links)), "?"), s.ratio, s.phase or 0.0)
+                  for s in mech.geared)
+
+    phi = cycle_angles(mech)
+    with np.errstate(all="ignore"):
+        full, ranges = reference.assembly_ranges(mech, samples=len(phi))
+        angles = block_angles(mech, reference.solve(mech, phi, check=False))
+    probs = tuple((type(e).__name__, str(e)) for e in problems(mech, full_turn=True))
+
+    notes = []
+    acc = mech.input_crank.length * mech.speed**2
+    lo, hi = VERIFIED_CRANK_ACCELERATION
+    if abs(mech.speed) > VERIFIED_SPEED:
+        notes.append(f"the kinematic run's speed {abs(mech.speed):g} rad/s is above the {VERIFIED_SPEED:g} "
+                     "rad/s up to which the agreement thresholds are verified; 'simulate' reports how close it comes")
+    if not lo <= acc <= hi:
+        notes.append(f"the crank pin's acceleration in the kinematic run, {acc:.3g} m/s^2 (crank length x speed^2), is "
+                     f"outside the {lo:g}..{hi:g} m/s^2 over which the agreement thresholds are verified "
+                     + ("(gravity's load on the loop closures is then not negligible)" if acc < lo else
+                        "(errors grow with it)") + "; 'simulate' reports how close it comes")
+    if not any(l.mass > 0 for l in mech.links):
+        notes.append("no link has a mass: 'simulate' makes the kinematic run only")
+    elif not mech.has_dynamics:
+        notes.append("links have masses but there is no [dynamics] table: 'simulate' makes the kinematic run only")
+    point_masses = [l.name for l in mech.links if l.mass > 0 and l.inertia == 0 and not l.guide]
+    if point_masses:
+        notes.append(f"{', '.join(point_masses)}: mass without inertia, treated as a point mass at its 'com'")
+    return CheckReport(mech.name, mech.title, str(mech.path or "<string>"), points, links, tuple(pairs), gears,
+                       mobility(mech), full, ranges, angles, probs, tuple(notes), math.degrees(mech.period))

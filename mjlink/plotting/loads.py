@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import reference
-from .mechanism import Mechanism
-from .plots import MJ_LABEL, MJ_STYLE, REF_LABEL, REF_STYLE, _crank_x, _finish_x, _save, _title, plt
-from .simulate import SteadyRun, Trace
+from .. import reference
+from ..model.mechanism import Mechanism
+from ..runs import SteadyRun, Trace
+from .figures import MJ_LABEL, MJ_STYLE, REF_LABEL, REF_STYLE, _crank_x, _finish_x, _save, _title, plt
 
 RPM = 30.0 / math.pi
 

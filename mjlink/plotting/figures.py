@@ -39,10 +39,10 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Polygon, Rectangle  # noqa: E402
 
-from . import reference  # noqa: E402
-from .errors import AssemblyError, OutputError  # noqa: E402
-from .mechanism import Attached, Crank, Dyad, Mechanism, Slider  # noqa: E402
-from .simulate import Trace  # noqa: E402
+from .. import reference  # noqa: E402
+from ..errors import AssemblyError, OutputError  # noqa: E402
+from ..model.mechanism import Attached, Crank, Dyad, Mechanism, Slider  # noqa: E402
+from ..runs import Trace  # noqa: E402
 
 DPI = 120
 RPM = 30.0 / math.pi  # (rev/min) per (rad/s)

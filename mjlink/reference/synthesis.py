@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import MjlinkError
+from ..errors import MjlinkError
 
 
 @dataclass(frozen=True)
@@ -126,7 +126,7 @@ def design_file(base_text: str, stroke: float, offset: float, ratio: float, max_
     """
     import tomllib
 
-    from . import tomlio
+    from ..model import tomlio
 
     root = best(stroke, offset, ratio, max_pressure_angle)
     if root is None:

@@ -11,19 +11,31 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .errors import MechanismFileError
-from .mechanism import Crank, Link, Mechanism
+from ..errors import MechanismFileError
+from ..units import PairKind
+from .mechanism import Mechanism
+from .names import GROUND
 
 
 @dataclass(frozen=True)
 class Pair:
     """A kinematic pair: revolute at ``point`` or prismatic along ``guide``; ``parent`` None is ground."""
 
-    kind: str  # "hinge" | "slide"
+    kind: PairKind
     parent: str | None
     child: str
     point: str | None = None
     guide: tuple[str, str] | None = None
+
+    @property
+    def revolute(self) -> bool:
+        return self.kind is PairKind.REVOLUTE
+
+    @property
+    def label(self) -> str:
+        """Readable label: ``P3:lever-rocker`` (point:parent-child), ``slide:cylinder-plunger``."""
+        parent = self.parent or GROUND
+        return f"{self.point}:{parent}-{self.child}" if self.revolute else f"slide:{parent}-{self.child}"
 
 
 @dataclass(frozen=True)
@@ -38,8 +50,9 @@ class Topology:
 def pairs(mech: Mechanism) -> list[tuple[int, Pair]]:
     """Every kinematic pair of the mechanism with its tree priority (lower goes first)."""
     out: list[tuple[int, Pair]] = []
-    crank_pivots = {(s.pivot, s.point) for s in mech.steps if isinstance(s, Crank)}
-    owners: dict[str, list[Link]] = {}
+    # A crank's pivot goes into the tree before other ground pivots, so its hinge is the drive.
+    crank_pivots = {(s.inputs[0], s.point) for s in (mech.input_crank, *mech.geared)}
+    owners: dict[str, list] = {}
     for l in mech.links:
         for p in l.points:
             owners.setdefault(p, []).append(l)
@@ -51,19 +64,19 @@ def pairs(mech: Mechanism) -> list[tuple[int, Pair]]:
             if parent == "":
                 raise MechanismFileError(
                     f"{mech.path or mech.name}: [links.{l.name}] guide: points {g1} and {g2} are not on one link or the ground")
-            out.append((0, Pair("slide", parent, l.name, guide=l.guide)))
+            out.append((0, Pair(PairKind.PRISMATIC, parent, l.name, guide=l.guide)))
     for l in mech.links:
         for p in l.points:
             if p in mech.ground:
                 crank = any(pv == p and pt in l.points for pv, pt in crank_pivots)
-                out.append((1 if crank else 2, Pair("hinge", None, l.name, point=p)))
+                out.append((1 if crank else 2, Pair(PairKind.REVOLUTE, None, l.name, point=p)))
     seen = set()
     for p, ls in owners.items():
         for i, a in enumerate(ls):
             for b in ls[i + 1:]:
                 if (a.name, b.name, p) not in seen:
                     seen.add((a.name, b.name, p))
-                    out.append((3, Pair("hinge", a.name, b.name, point=p)))
+                    out.append((3, Pair(PairKind.REVOLUTE, a.name, b.name, point=p)))
     return out
 
 
@@ -85,7 +98,7 @@ def topology(mech: Mechanism) -> Topology:
         if a != b:
             parent_of[a] = b
             chosen.append(pr)
-        elif pr.kind == "hinge":
+        elif pr.revolute:
             loops.append(pr)
         else:
             raise MechanismFileError(f"{mech.path or mech.name}: [links.{pr.child}] guide: a sliding pair "
@@ -102,7 +115,7 @@ def topology(mech: Mechanism) -> Topology:
                     pr = Pair(pr.kind, pr.child, pr.parent, pr.point, pr.guide)
                 tree.append(pr)
                 placed.add(pr.child)
-                origin[pr.child] = pr.point if pr.kind == "hinge" else _link(mech, pr.child).points[0]
+                origin[pr.child] = pr.point if pr.revolute else mech.link(pr.child).points[0]
                 remaining.remove(next(r for r in remaining if {r.parent, r.child} == {pr.parent, pr.child}
                                       and r.point == pr.point))
                 progress = True
@@ -113,10 +126,3 @@ def topology(mech: Mechanism) -> Topology:
         raise MechanismFileError(f"{mech.path or mech.name}: [links]: {', '.join(unplaced)} not connected to the ground")
     return Topology(tuple(tree), tuple(loops), origin)
 
-
-def _link(mech: Mechanism, name: str) -> Link:
-    return next(l for l in mech.links if l.name == name)
-
-
-def _link(mech: Mechanism, name: str) -> Link:
-    return next(l for l in mech.links if l.name == name)

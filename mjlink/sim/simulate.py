@@ -17,103 +17,51 @@ step MuJoCo's derived quantities belong to the state before it). Point velocitie
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
-from . import builder, reference
-from .errors import SimulationError
-from .mechanism import Mechanism
-from .reference import pair_label
-from .topology import topology
+from .. import reference
+from ..errors import SimulationError
+from ..model.mechanism import Mechanism
+from ..runs import DYNAMIC, KINEMATIC, Case, Settings, SteadyRun, Trace
+from ..units import RunKind, Source
+from . import builder
 
 FLYWHEEL_RATIO = 1e9
 DIVERGED_LOOP = 1e-3  # m: a loop gap this large means the run has failed, not just drifted
 
 
-@dataclass(frozen=True)
-class Trace:
-    """A run sampled in time. ``source`` 'mujoco' or 'reference'; ``kind`` 'kinematics' or
-    'dynamics'. ``time`` s, ``phi`` rad (unwrapped input angle), ``omega`` rad/s, ``eps``
-    rad/s^2; per point name (N, 3) arrays of position m, velocity m/s, acceleration m/s^2;
-    ``thread_length`` m (None without a thread); ``loop_gap`` m, the largest loop-closure
-    violation per sample (MuJoCo only); ``qpos`` MuJoCo joint positions (for rendering)."""
-
-    source: str
-    kind: str
-    time: np.ndarray
-    phi: np.ndarray
-    omega: np.ndarray
-    eps: np.ndarray
-    points: dict[str, np.ndarray]
-    velocities: dict[str, np.ndarray]
-    accelerations: dict[str, np.ndarray]
-    thread_length: np.ndarray | None = None
-    loop_gap: np.ndarray | None = None
-    qpos: np.ndarray | None = None
-    link_omega: dict[str, np.ndarray] = field(default_factory=dict)
-    link_eps: dict[str, np.ndarray] = field(default_factory=dict)
-    torque: np.ndarray | None = None
-    reactions: dict[str, np.ndarray] = field(default_factory=dict)
-    moments: dict[str, np.ndarray] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class Case:
-    """What to simulate: ``duration`` s, ``omega0`` rad/s, ``moment`` N*m on the input crank,
-    ``settings`` numerical settings, ``sample_every`` steps between recorded samples;
-    ``loads``: also record the driving torque and the pair reaction forces."""
-
-    kind: str
-    duration: float
-    omega0: float
-    moment: float
-    settings: builder.Settings
-    sample_every: int = 1
-    loads: bool = False
-
-
 def kinematic_case(mech: Mechanism, *, speed: float | None = None, cycles: float | None = None,
-                   settings: builder.Settings | None = None) -> Case:
+                   settings: Settings | None = None) -> Case:
     """The constant-speed case: ``cycles`` periods of the mechanism at ``speed`` rad/s."""
     w = mech.speed if speed is None else speed
     n = mech.cycles if cycles is None else cycles
-    base = settings or builder.KINEMATIC
+    base = settings or KINEMATIC
     jmax = float(reference.SpectralDynamics(mech, samples=128).evaluate(
         mech.phi0 + np.linspace(0, mech.period, 64))[0].max())
     fly = FLYWHEEL_RATIO * max(jmax, 1e-9)
-    s = builder.Settings(base.timestep, base.integrator, base.solref, base.solimp, fly, base.tolerance)
-    return Case("kinematics", n * mech.period / abs(w), w, 0.0, s, 1, True)
+    s = Settings(base.timestep, base.integrator, base.solref, base.solimp, fly, base.tolerance)
+    return Case(RunKind.KINEMATICS, n * mech.period / abs(w), w, 0.0, s, 1, True)
 
 
 def dynamic_case(mech: Mechanism, *, duration: float | None = None,
-                 settings: builder.Settings | None = None, sample_dt: float = 2.5e-4,
+                 settings: Settings | None = None, sample_dt: float = 2.5e-4,
                  omega0: float | None = None) -> Case:
     """The file's forward-dynamics case, sampled every ``sample_dt`` s (duration s, omega0 rad/s)."""
-    s = settings or builder.DYNAMIC
+    s = settings or DYNAMIC
     every = max(1, int(round(sample_dt / s.timestep)))
     drive = mech.dynamics.moment + (mech.dynamics.motor.stall_torque if mech.dynamics.motor else 0.0)
-    return Case("dynamics", mech.dynamics.duration if duration is None else duration,
+    return Case(RunKind.DYNAMICS, mech.dynamics.duration if duration is None else duration,
                 mech.dynamics.omega0 if omega0 is None else omega0, drive, s, every)
-
-
-@dataclass(frozen=True)
-class SteadyRun:
-    """MuJoCo on the reference's steady orbit: its ``delta`` and mean speed ``omega_mean``
-    (rad/s) over the last of ``periods`` crank periods, and the trace."""
-
-    delta: float
-    omega_mean: float
-    trace: Trace
 
 
 def steady_run(mech: Mechanism, steady: reference.Steady, periods: int = 3) -> SteadyRun:
     """Simulate ``mech`` (a :func:`reference.steady_variant`) from the steady orbit's start,
     with the steady case's flywheel as armature on the crank, and measure the fluctuation."""
     T = float(abs(steady.t[-1]))
-    base = builder.DYNAMIC
-    s = builder.Settings(base.timestep, base.integrator, base.solref, base.solimp, steady.extra_inertia,
+    base = DYNAMIC
+    s = Settings(base.timestep, base.integrator, base.solref, base.solimp, steady.extra_inertia,
                          base.tolerance)
     case = dynamic_case(mech, duration=periods * T, settings=s, sample_dt=base.timestep, omega0=float(steady.omega[0]))
     tr = run(mech, case)
@@ -144,31 +92,27 @@ def consistent_velocity(model: mujoco.MjModel, data: mujoco.MjData, dof: int, om
 
 
 class Probe:
-    """Reads points, thread and loop gaps off a MuJoCo state."""
+    """Reads points, thread and loop gaps off a MuJoCo state, by the builder's element ids."""
 
-    def __init__(self, mech: Mechanism, model: mujoco.MjModel):
+    def __init__(self, mech: Mechanism, built: builder.Built):
+        model = built.model
         self.model = model
         self.names = list(mech.point_names)
-        self.site = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, n) for n in self.names}
+        self.site = built.sites
         self.moving = [n for n in self.names if n not in mech.ground]
-        self.input_dof = int(model.jnt_dofadr[mujoco.mj_name2id(
-            model, mujoco.mjtObj.mjOBJ_JOINT, f"{mech.input_link.name}_{mech.input_crank.pivot}")])
-        self.connects = [i for i in range(model.neq) if model.eq_type[i] == mujoco.mjtEq.mjEQ_CONNECT]
-        self.thread = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, "thread")
+        self.input_dof = built.input_dof
+        self.qadr = built.input_qpos
+        self.connects = [i for _, i in built.loops]
+        self.thread = built.thread
         self._jp = np.zeros((3, model.nv))
         self._jd = np.zeros((3, model.nv))
         self._jr = np.zeros((3, model.nv))
         self._jrd = np.zeros((3, model.nv))
         self.links = [l.name for l in mech.links]
-        self.body = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n) for n in self.links}
-        topo = topology(mech)
-        self.tree_pairs = [(pair_label(p), p) for p in topo.tree]
-        eq_names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, i): i for i in range(model.neq)}
-        self.loop_eqs = [(pair_label(p), eq_names[f"loop_{p.point}_{p.parent or 'ground'}_{p.child}"])
-                         for p in topo.loops]
+        self.body = built.bodies
+        self.tree_pairs = [(p.label, p) for p, _ in built.tree]
+        self.loop_eqs = [(p.label, i) for p, i in built.loops]
         self.mech = mech
-        self.qadr = int(model.jnt_qposadr[mujoco.mj_name2id(
-            model, mujoco.mjtObj.mjOBJ_JOINT, f"{mech.input_link.name}_{mech.input_crank.pivot}")])
         self.forces = [(f, self.site[f.point], int(model.site_bodyid[self.site[f.point]]))
                        for f in mech.dynamics.forces]
         self._jac = np.zeros((3, model.nv))
@@ -230,7 +174,7 @@ class Probe:
         for label, pr in self.tree_pairs:
             b = self.body[pr.child]
             f = data.cfrc_int[b, 3:6].copy()
-            if pr.kind == "slide":
+            if not pr.revolute:
                 u = self.model.jnt_axis[self.model.body_jntadr[b]]
                 u = data.xmat[b].reshape(3, 3) @ u
                 n = np.array([-u[1], u[0], 0.0])
@@ -268,13 +212,14 @@ class Probe:
         return pos, self._jp @ data.qvel, self._jp @ data.qacc + self._jd @ data.qvel
 
 
-def run(mech: Mechanism, case: Case, model: mujoco.MjModel | None = None) -> Trace:
+def run(mech: Mechanism, case: Case, built: builder.Built | None = None) -> Trace:
     """Simulate ``case`` in MuJoCo and sample it. Raises SimulationError if the run diverges."""
-    model = model or builder.build(mech, case.settings)
-    if case.kind == "kinematics":
+    built = built or builder.make(mech, case.settings)
+    model = built.model
+    if case.kind == RunKind.KINEMATICS:
         model.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE  # the flywheel alone drives
     data = mujoco.MjData(model)
-    probe = Probe(mech, model)
+    probe = Probe(mech, built)
     if probe.forces:
         mujoco.set_mjcb_control(probe.apply_forces)
     try:
@@ -334,26 +279,10 @@ def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData
             k += 1
         if step < nsteps:
             mujoco.mj_step(model, data)
-    qadr = model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT,
-                                               f"{mech.input_link.name}_{mech.input_crank.pivot}")]
-    phi = mech.phi0 + q[:k, qadr]
-    return Trace("mujoco", case.kind, t[:k], phi, w[:k], e[:k], {n: a[:k] for n, a in P.items()},
+    phi = mech.phi0 + q[:k, probe.qadr]
+    return Trace(Source.MUJOCO, case.kind, t[:k], phi, w[:k], e[:k], {n: a[:k] for n, a in P.items()},
                  {n: a[:k] for n, a in V.items()}, {n: a[:k] for n, a in A.items()},
                  None if th is None else th[:k], gap[:k], q[:k],
                  {n: a[:k] for n, a in LW.items()}, {n: a[:k] for n, a in LE.items()},
                  None if tau is None else tau[:k], {n: a[:k] for n, a in RF.items()},
                  {n: a[:k] for n, a in RM.items()})
-
-
-def reference_trace(mech: Mechanism, motion: reference.Motion, kind: str) -> Trace:
-    """The reference's trace for a given crank motion (vectorized over all samples)."""
-    kin = reference.solve(mech, motion.phi)
-    names = list(mech.point_names)
-    th = kin.thread_length()
-    return Trace("reference", kind, motion.t, motion.phi, motion.omega, motion.eps,
-                 {n: kin.position(n) for n in names},
-                 {n: kin.velocity(n, motion.omega) for n in names},
-                 {n: kin.acceleration(n, motion.omega, motion.eps) for n in names},
-                 None if th is None else th.v, None, None,
-                 {l: kin.angles[l].d * motion.omega for l in kin.angles},
-                 {l: kin.angles[l].dd * motion.omega**2 + kin.angles[l].d * motion.eps for l in kin.angles})

@@ -1,0 +1,62 @@
+"""The catalogue of mechanisms: every ``mechanisms/*.toml`` of this checkout, by name.
+
+Names and paths, the rule (one argument, never both readings):
+
+* An argument that ends in ``.toml``, contains a path separator (``/``, or ``\\`` on
+  Windows), or starts with ``~`` or ``.`` is a **path**, always: ``~`` is expanded, a relative
+  path is taken from the current folder, spaces need only the shell's quoting. It is never
+  looked up as a name: ``./takeup.toml`` is the file in the current folder even though
+  ``takeup`` is registered. A :class:`pathlib.Path` is always a path.
+* Any other argument is a **registered name** (:func:`names`): ``mechanisms/NAME.toml`` of
+  this checkout. A file in the current folder called like a registered mechanism is not
+  used for the bare name; write ``./takeup``. Only a bare word that is no registered name but
+  is an existing file is read as that file (so ``my_linkage`` works without an extension).
+
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+from pathlib import Path
+
+from ..errors import UnknownMechanismError
+
+MECHANISMS_DIR = Path(__file__).resolve().parent.parent.parent / "mechanisms"
+
+
+def names() -> list[str]:
+    """Names of the registered mechanisms, sorted."""
+    return sorted(p.stem for p in MECHANISMS_DIR.glob("*.toml"))
+
+
+def _is_path(s: str) -> bool:
+    seps = {"/", os.sep} | ({os.altsep} if os.altsep else set())
+    return s.endswith(".toml") or any(c in s for c in seps) or s.startswith(("~", "."))
+
+
+def path_of(name_or_path: str | Path) -> Path:
+    """The file of a registered name, or the given path (see the module docstring for the rule).
+
+    Raises UnknownMechanismError (one line) for an unknown name, a missing file or a folder.
+    """
+    s = str(name_or_path)
+    if not s.strip():
+        raise UnknownMechanismError(f"empty mechanism name (valid: {', '.join(names())}, or a path to a .toml file)")
+    if isinstance(name_or_path, Path) or _is_path(s):
+        p = Path(s).expanduser()
+        shown = s if str(p) == s else f"{s} ({p})"
+        if p.is_dir():
+            raise UnknownMechanismError(f"{shown}: is a folder, not a mechanism file")
+        if not p.is_file():
+            raise UnknownMechanismError(f"{shown}: no such mechanism file")
+        return p
+    if s in names():
+        return MECHANISMS_DIR / f"{s}.toml"
+    p = Path(s)
+    if p.is_file():
+        return p
+    near = difflib.get_close_matches(s.lower(), [n.lower() for n in names()], n=1)
+    hint = f"did you mean '{next(n for n in names() if n.lower() == near[0])}'? " if near else ""
+    raise UnknownMechanismError(f"unknown mechanism '{s}' ({hint}valid: {', '.join(names())}, or a path to a .toml file)")
+

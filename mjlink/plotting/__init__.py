@@ -1,0 +1,1 @@
+"""Figures: drawing only. Quantities come from :mod:`mjlink.analysis` and the reference."""

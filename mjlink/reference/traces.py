@@ -1,0 +1,23 @@
+"""The reference's traces: the vector method sampled along a crank motion, as run data."""
+
+from __future__ import annotations
+
+from ..model.mechanism import Mechanism
+from ..runs import Trace
+from ..units import RunKind, Source
+from .dynamics import Motion
+from .kinematics import solve
+
+
+def reference_trace(mech: Mechanism, motion: Motion, kind: RunKind) -> Trace:
+    """The reference's trace for a given crank motion (vectorized over all samples)."""
+    kin = solve(mech, motion.phi)
+    names = list(mech.point_names)
+    th = kin.thread_length()
+    return Trace(Source.REFERENCE, kind, motion.t, motion.phi, motion.omega, motion.eps,
+                 {n: kin.position(n) for n in names},
+                 {n: kin.velocity(n, motion.omega) for n in names},
+                 {n: kin.acceleration(n, motion.omega, motion.eps) for n in names},
+                 None if th is None else th.v, None, None,
+                 {l: kin.angles[l].d * motion.omega for l in kin.angles},
+                 {l: kin.angles[l].dd * motion.omega**2 + kin.angles[l].d * motion.eps for l in kin.angles})

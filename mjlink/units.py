@@ -1,0 +1,70 @@
+"""Units and closed vocabularies, one home each.
+
+Mechanism files are written in the papers' units (mm, deg, g); everything inside mjlink is
+SI (m, rad, kg, s). Multiply a file value by the factor to get SI, divide an SI value by it
+to print in the file's unit: ``length_mm * MM`` is metres, ``phi / DEG`` is degrees.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+
+MM = 1e-3  # m per mm
+UM = 1e-6  # m per um
+G = 1e-3  # kg per g
+DEG = math.pi / 180.0  # rad per deg
+RPM = math.pi / 30.0  # rad/s per rev/min
+
+
+def to_rpm(omega):
+    """rev/min from rad/s (scalar or array)."""
+    return omega / RPM
+
+
+def to_mm(x):
+    """mm from m (scalar or array)."""
+    return x / MM
+
+
+def to_um(x):
+    """um from m (scalar or array)."""
+    return x / UM
+
+
+class PairKind(enum.StrEnum):
+    """A lower kinematic pair: a hinge about Z at a point, or a slide along a guide line."""
+
+    REVOLUTE = "revolute"
+    PRISMATIC = "prismatic"
+
+
+class RunKind(enum.StrEnum):
+    """The two MuJoCo runs: the crank turned at constant speed, or driven by its moment."""
+
+    KINEMATICS = "kinematics"
+    DYNAMICS = "dynamics"
+
+
+class Source(enum.StrEnum):
+    """Where a trace comes from."""
+
+    MUJOCO = "mujoco"
+    REFERENCE = "reference"
+
+
+class PairRole(enum.StrEnum):
+    """How the builder realises a pair: a tree joint, a loop-closing equality, or not at all."""
+
+    JOINT = "joint"
+    LOOP = "loop"
+    UNPLACED = ""
+
+
+class Integrator(enum.StrEnum):
+    """MuJoCo's integrators by the names the settings use."""
+
+    RK4 = "RK4"
+    EULER = "Euler"
+    IMPLICIT = "implicit"
+    IMPLICITFAST = "implicitfast"
