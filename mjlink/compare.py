@@ -240,6 +240,7 @@ def branch_switch(mech: Mechanism, trace, tol_m: float = BRANCH_TOL_M) -> str | 
     if first is None:
         return None
     i, n = first, who
+    assert n is not None
     t, phi = float(trace.time[i]), math.degrees(float(trace.phi[i]))
     mj = np.asarray(trace.points[n])
     dev = np.linalg.norm(mj - kin.position(n), axis=1)

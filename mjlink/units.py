@@ -19,7 +19,7 @@ RPM = math.pi / 30.0  # rad/s per rev/min
 
 def to_rpm(omega):
     """rev/min from rad/s (scalar or array)."""
-    return omega / RPM
+    return omega * 30.0 / math.pi  # not omega / RPM: this order matches the CSVs written so far bit for bit
 
 
 def to_mm(x):

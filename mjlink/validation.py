@@ -28,8 +28,14 @@ from . import reference
 from .errors import AssemblyError, MechanismFileError, MjlinkError, SimulationError, UnknownMechanismError
 from .model import catalogue
 from .model.blocks import BlockAngle
-from .model.limits import (MAX_ANGLE_DEG, MIN_DIRECTION_M, MIN_DISTINCT_M, SAMPLES_PER_TURN,
-                           VERIFIED_CRANK_ACCELERATION, VERIFIED_SPEED)
+from .model.limits import (
+    MAX_ANGLE_DEG,
+    MIN_DIRECTION_M,
+    MIN_DISTINCT_M,
+    SAMPLES_PER_TURN,
+    VERIFIED_CRANK_ACCELERATION,
+    VERIFIED_SPEED,
+)
 from .model.mechanism import Mechanism, load
 from .model.topology import pairs as all_pairs
 from .model.topology import topology
@@ -65,7 +71,7 @@ def validate(mech: Mechanism, *, full_turn: bool = True) -> Mechanism:
 
 def cycle_angles(mech: Mechanism, samples: int | None = None) -> np.ndarray:
     """Input angles (rad) over one period from phi0, SAMPLES_PER_TURN per turn, both ends included."""
-    turns = max(1, int(round(mech.period / (2 * math.pi))))
+    turns = max(1, round(mech.period / (2 * math.pi)))
     n = samples or SAMPLES_PER_TURN * turns + 1
     return mech.phi0 + np.linspace(0.0, mech.period, n)
 
@@ -204,7 +210,7 @@ def _problems(mech: Mechanism, full_turn: bool) -> list[MjlinkError]:
         kin = reference.solve(mech, phi, check=False)
     bad = _undefined(mech, kin)
     if bad:
-        return found + [bad] + _structure(mech)
+        return [*found, bad, *_structure(mech)]
     try:
         reference.check_rigidity(mech)
     except MechanismFileError as e:

@@ -16,14 +16,15 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Iterable
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import TYPE_CHECKING, Any, ClassVar, Iterable
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from . import jet
 from ..units import DEG, MM
+from . import jet
 from .limits import MAX_ANGLE_DEG, MAX_GEAR_RATIO, MAX_LENGTH_MM, MAX_PRESSURE_DEG, MIN_BAR_MM, MIN_TRANSMISSION_DEG
 
 if TYPE_CHECKING:
@@ -274,7 +275,7 @@ class Crank(Block):
     def solve(self, pts: dict[str, jet.V], phi: jet.S, phi0: float) -> Solved:
         phase = phi0 if self.phase is None else self.phase
         angle = (phi - phi0) * self.ratio + phase
-        ex = jet.vconst([self.length, 0.0, 0.0], len(angle.v))
+        ex = jet.vconst(np.array([self.length, 0.0, 0.0]), len(angle.v))
         return Solved(pts[self.pivot] + jet.rotate(ex, angle))
 
     def describe(self) -> str:

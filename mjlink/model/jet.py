@@ -21,23 +21,23 @@ class S:
     d: np.ndarray
     dd: np.ndarray
 
-    def __add__(self, o: "S | float") -> "S":
+    def __add__(self, o: S | float) -> S:
         if isinstance(o, S):
             return S(self.v + o.v, self.d + o.d, self.dd + o.dd)
         return S(self.v + o, self.d, self.dd)
 
     __radd__ = __add__
 
-    def __neg__(self) -> "S":
+    def __neg__(self) -> S:
         return S(-self.v, -self.d, -self.dd)
 
-    def __sub__(self, o: "S | float") -> "S":
+    def __sub__(self, o: S | float) -> S:
         return self + (-o)
 
-    def __rsub__(self, o: float) -> "S":
+    def __rsub__(self, o: float) -> S:
         return (-self) + o
 
-    def __mul__(self, o: "S | float") -> "S":
+    def __mul__(self, o: S | float) -> S:
         if isinstance(o, S):
             return S(self.v * o.v, self.d * o.v + self.v * o.d,
                      self.dd * o.v + 2.0 * self.d * o.d + self.v * o.dd)
@@ -45,19 +45,19 @@ class S:
 
     __rmul__ = __mul__
 
-    def __truediv__(self, o: "S | float") -> "S":
+    def __truediv__(self, o: S | float) -> S:
         if not isinstance(o, S):
             return self * (1.0 / o)
         q = self.v / o.v
         dq = (self.d - q * o.d) / o.v
         return S(q, dq, (self.dd - 2.0 * dq * o.d - q * o.dd) / o.v)
 
-    def __rtruediv__(self, o: float) -> "S":
+    def __rtruediv__(self, o: float) -> S:
         q = o / self.v
         dq = -q * self.d / self.v
         return S(q, dq, (-2.0 * dq * self.d - q * self.dd) / self.v)
 
-    def chain(self, f: np.ndarray, df: np.ndarray, ddf: np.ndarray) -> "S":
+    def chain(self, f: np.ndarray, df: np.ndarray, ddf: np.ndarray) -> S:
         """g(self) given g, g', g'' evaluated at self.v."""
         return S(f, df * self.d, ddf * self.d**2 + df * self.dd)
 
@@ -97,17 +97,17 @@ class V:
     d: np.ndarray
     dd: np.ndarray
 
-    def __add__(self, o: "V") -> "V":
+    def __add__(self, o: V) -> V:
         return V(self.v + o.v, self.d + o.d, self.dd + o.dd)
 
-    def __sub__(self, o: "V") -> "V":
+    def __sub__(self, o: V) -> V:
         return V(self.v - o.v, self.d - o.d, self.dd - o.dd)
 
-    def scale(self, s: S) -> "V":
+    def scale(self, s: S) -> V:
         a, b = s.v[:, None], s.d[:, None]
         return V(self.v * a, self.d * a + self.v * b, self.dd * a + 2.0 * self.d * b + self.v * s.dd[:, None])
 
-    def dot(self, o: "V") -> S:
+    def dot(self, o: V) -> S:
         return S(np.einsum("ij,ij->i", self.v, o.v),
                  np.einsum("ij,ij->i", self.d, o.v) + np.einsum("ij,ij->i", self.v, o.d),
                  np.einsum("ij,ij->i", self.dd, o.v) + 2.0 * np.einsum("ij,ij->i", self.d, o.d)
@@ -116,12 +116,12 @@ class V:
     def norm(self) -> S:
         return sqrt(self.dot(self))
 
-    def planar(self) -> "V":
+    def planar(self) -> V:
         """The in-plane part (z set to zero)."""
         m = np.array([1.0, 1.0, 0.0])
         return V(self.v * m, self.d * m, self.dd * m)
 
-    def with_z(self, z: float) -> "V":
+    def with_z(self, z: float) -> V:
         v = self.v.copy()
         v[:, 2] = z
         d, dd = self.d.copy(), self.dd.copy()

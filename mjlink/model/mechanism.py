@@ -29,8 +29,22 @@ from .limits import MAX_ANGLE_DEG, MAX_CYCLES, MAX_INERTIA, MAX_LENGTH_MM, MAX_M
 from .names import RESERVED_LINK_NAMES
 from .reader import Reader
 
-__all__ = ["Attached", "Block", "Crank", "Dyad", "Slider", "Link", "Force", "Motor", "Dynamics", "SteadyCase",
-           "Synthesis", "Mechanism", "parse", "load"]
+__all__ = [
+    "Attached",
+    "Block",
+    "Crank",
+    "Dyad",
+    "Dynamics",
+    "Force",
+    "Link",
+    "Mechanism",
+    "Motor",
+    "Slider",
+    "SteadyCase",
+    "Synthesis",
+    "load",
+    "parse",
+]
 
 
 @dataclass(frozen=True)
@@ -77,13 +91,14 @@ class Force:
             return self.value
         import bisect
 
-        a = self.angles
+        a, vals = self.angles, self.values
+        assert vals is not None  # a table has both angles and values (parse)
         x = (phi - a[0]) % period + a[0]
         i = bisect.bisect_right(a, x)
-        x0, v0 = a[i - 1], self.values[i - 1]
-        x1, v1 = (a[i], self.values[i]) if i < len(a) else (a[0] + period, self.values[0])
+        x0, v0 = a[i - 1], vals[i - 1]
+        x1, v1 = (a[i], vals[i]) if i < len(a) else (a[0] + period, vals[0])
         w = (x - x0) / (x1 - x0)
-        return tuple(p + w * (q - p) for p, q in zip(v0, v1))
+        return (v0[0] + w * (v1[0] - v0[0]), v0[1] + w * (v1[1] - v0[1]), v0[2] + w * (v1[2] - v0[2]))
 
 
 @dataclass(frozen=True)
@@ -223,7 +238,8 @@ def _read_link(r: Reader, name: str, raw: Any) -> Link:
         raise r.fail(where, "has a mass but no 'com' (the point that is its centre of mass)")
     if inertia > 0 and mass == 0:
         raise r.fail(where, "has a moment of inertia but zero mass")
-    guide = r.names(raw["guide"], f"{where} guide", length=2) if "guide" in raw else None
+    pair = r.names(raw["guide"], f"{where} guide", length=2) if "guide" in raw else None
+    guide = (pair[0], pair[1]) if pair else None
     if guide is not None and guide[0] == guide[1]:
         raise r.fail(f"{where} guide", "needs two different points")
     if len(set(points)) != len(points):
@@ -231,7 +247,7 @@ def _read_link(r: Reader, name: str, raw: Any) -> Link:
     if len(points) < 2 and guide is None:
         raise r.fail(f"{where} points", "a link needs two points (or one point and a 'guide' it slides on)")
     if com is not None and com not in points:
-        points = points + (com,)
+        points = (*points, com)
     return Link(name, points, mass, inertia, com, guide)
 
 
@@ -331,8 +347,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     for s in steps:
         if not any(s.point in l.points for l in links):
             raise r.fail(f"[[construct]] {s.point}", f"point '{s.point}' belongs to no link: list it in a [links.*] points")
-    if not any(steps[0].pivot in l.points and steps[0].point in l.points for l in links):
-        raise r.fail("[links]", f"no link carries the input crank {steps[0].pivot}-{steps[0].point}")
+    pivot = steps[0].inputs[0]
+    if not any(pivot in l.points and steps[0].point in l.points for l in links):
+        raise r.fail("[links]", f"no link carries the input crank {pivot}-{steps[0].point}")
     clash = _names.element_clash(links, set(ground))
     if clash:
         raise r.fail(f"[links.{clash[0]}]", clash[1])

@@ -6,7 +6,8 @@ accepts is one the builder can emit, and no other module spells an element name.
 from __future__ import annotations
 
 import re
-from typing import Any, Iterable
+from collections.abc import Iterable
+from typing import Any
 
 # A letter, then letters, digits or _; at most 32. ASCII only; \Z (unlike $) refuses a trailing
 # newline. Names become MuJoCo element names, CSV column prefixes and the output folder's name,

@@ -28,6 +28,18 @@ class Pair:
     guide: tuple[str, str] | None = None
 
     @property
+    def pin(self) -> str:
+        """The point of a revolute pair."""
+        assert self.point is not None, "a prismatic pair has no pin"
+        return self.point
+
+    @property
+    def rail(self) -> tuple[str, str]:
+        """The guide line of a prismatic pair."""
+        assert self.guide is not None, "a revolute pair has no guide"
+        return self.guide
+
+    @property
     def revolute(self) -> bool:
         return self.kind is PairKind.REVOLUTE
 
@@ -104,7 +116,8 @@ def topology(mech: Mechanism) -> Topology:
             raise MechanismFileError(f"{mech.path or mech.name}: [links.{pr.child}] guide: a sliding pair "
                                      f"that closes a loop is not supported")
     # Orient the chosen pairs away from the ground.
-    tree, placed = [], {None}
+    tree: list[Pair] = []
+    placed: set[str | None] = {None}
     origin: dict[str, str] = {}
     remaining = list(chosen)
     while remaining:
@@ -112,10 +125,11 @@ def topology(mech: Mechanism) -> Topology:
         for pr in list(remaining):
             if pr.parent in placed or pr.child in placed:
                 if pr.parent not in placed:  # chosen the other way round: flip
+                    assert pr.parent is not None  # the ground is always placed first
                     pr = Pair(pr.kind, pr.child, pr.parent, pr.point, pr.guide)
                 tree.append(pr)
                 placed.add(pr.child)
-                origin[pr.child] = pr.point if pr.revolute else mech.link(pr.child).points[0]
+                origin[pr.child] = pr.pin if pr.revolute else mech.link(pr.child).points[0]
                 remaining.remove(next(r for r in remaining if {r.parent, r.child} == {pr.parent, pr.child}
                                       and r.point == pr.point))
                 progress = True

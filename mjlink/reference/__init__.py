@@ -5,8 +5,20 @@ inertia, the equation of motion, steady motion and flywheel), :mod:`.kinetostati
 torque, forces in every pair), :mod:`.synthesis` (crank-slider metric synthesis).
 """
 
-from .dynamics import (TIGHT_RTOL, Motion, Reduced, SpectralDynamics, Steady, constant_speed, flywheel_for,
-                       forward_dynamics, reduced, rk4_dynamics, steady_motion, steady_variant)
+from .dynamics import (
+                       TIGHT_RTOL,
+                       Motion,
+                       Reduced,
+                       SpectralDynamics,
+                       Steady,
+                       constant_speed,
+                       flywheel_for,
+                       forward_dynamics,
+                       reduced,
+                       rk4_dynamics,
+                       steady_motion,
+                       steady_variant,
+)
 from .kinematics import Kinematics, angle_ranges, assembly_ranges, check_rigidity, link_angle, solve
 from .kinetostatics import Reactions, driving_torque, pair_label, reactions
 from .traces import reference_trace

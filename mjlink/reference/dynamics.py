@@ -21,8 +21,9 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from ..errors import AssemblyError
-from ..model.mechanism import Mechanism, Motor
+from ..model.mechanism import Mechanism
 from .kinematics import Kinematics, solve
+
 
 @dataclass(frozen=True)
 class Reduced:
@@ -78,7 +79,7 @@ class SpectralDynamics:
         self.period = mech.period
         self.phi0 = mech.phi0
         self.tables = [f for f in mech.dynamics.forces if f.angles is not None]
-        n = samples * int(round(self.period / (2 * np.pi)))
+        n = samples * round(self.period / (2 * np.pi))
         grid = mech.phi0 + self.period * np.arange(n) / n
         vals = self._direct(grid) + np.array([[extra_inertia], [0.0], [0.0]] + [[0.0]] * (3 * len(self.tables)))
         coef = np.fft.rfft(vals, axis=1) / n

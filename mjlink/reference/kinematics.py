@@ -11,6 +11,7 @@ All quantities SI (m, rad).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,7 +75,7 @@ class Kinematics:
         if not path:
             return None
         total = None
-        for a, b in zip(path[:-1], path[1:]):
+        for a, b in itertools.pairwise(path):
             seg = (self.points[b] - self.points[a]).norm()
             total = seg if total is None else total + seg
         return total

@@ -12,9 +12,9 @@ import numpy as np
 from ..errors import MechanismFileError
 from ..model.mechanism import Mechanism
 from ..model.topology import Pair, pairs
-from ..units import PairKind
 from .dynamics import reduced
 from .kinematics import solve
+
 
 def driving_torque(mech: Mechanism, phi, omega, eps=0.0) -> np.ndarray:
     """Torque (N*m) the drive must apply to the input crank for the motion (phi, omega, eps).
@@ -83,7 +83,7 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
     col = 0
     for pr in prs:
         if pr.revolute:
-            at = P[pr.point]
+            at = P[pr.pin]
             for link, sgn in ((pr.child, 1.0), (pr.parent, -1.0)):
                 if link is None:
                     continue
@@ -93,7 +93,7 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
                 A[:, r0 + 2, col] += -sgn * d[:, 1]  # moment of (Fx, 0): -dy Fx
                 A[:, r0 + 2, col + 1] += sgn * d[:, 0]  # moment of (0, Fy): dx Fy
         else:
-            g = (P[pr.guide[1]] - P[pr.guide[0]])[:, :2]
+            g = (P[pr.rail[1]] - P[pr.rail[0]])[:, :2]
             u = g / np.linalg.norm(g, axis=1, keepdims=True)
             nrm = np.column_stack([-u[:, 1], u[:, 0]])
             at = origin[pr.child]
@@ -153,7 +153,7 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
         if pr.revolute:
             forces[lab] = np.column_stack([x[:, col], x[:, col + 1], np.zeros(n)])
         else:
-            g = (P[pr.guide[1]] - P[pr.guide[0]])[:, :2]
+            g = (P[pr.rail[1]] - P[pr.rail[0]])[:, :2]
             u = g / np.linalg.norm(g, axis=1, keepdims=True)
             forces[lab] = np.column_stack([-u[:, 1] * x[:, col], u[:, 0] * x[:, col], np.zeros(n)])
             moments[lab] = x[:, col + 1]

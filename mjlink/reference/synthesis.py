@@ -92,7 +92,7 @@ def best(stroke: float, offset: float, ratio: float, max_pressure_angle: float) 
 
 def largest_ratio(stroke: float, offset: float, max_pressure_angle: float, step: float = 0.01) -> float | None:
     """The largest lambda on a ``step`` grid (0.01) for which some root is accepted."""
-    n = int(round(1.0 / step))
+    n = round(1.0 / step)
     found = None
     for i in range(1, n):
         lam = round(i * step, 10)
@@ -108,7 +108,7 @@ def format_table(stroke: float, offset: float, ratio: float, max_pressure_angle:
             f"{'root':>4} {'l, mm':>10} {'r, mm':>10} {'stroke, mm':>11} {'theta_max':>10}  verdict"]
     for i, r in enumerate(roots(stroke, offset, ratio, max_pressure_angle), 1):
         if r.reason == "complex":
-            rows.append(f"{i:>4} {str(np.round(r.l * 1e3, 3)):>21} {'':>11} {'':>10}  complex")
+            rows.append(f"{i:>4} {np.round(r.l * 1e3, 3)!s:>21} {'':>11} {'':>10}  complex")
             continue
         st = "-" if math.isnan(r.stroke) else f"{r.stroke * 1e3:.3f}"
         th = "-" if math.isnan(r.theta_max) else f"{math.degrees(r.theta_max):.1f} deg"

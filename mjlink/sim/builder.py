@@ -154,7 +154,7 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
         sites[name] = world.add_site(name=name, pos=p.tolist(), size=[1.0 * r_link, 0, 0], rgba=[0.15, 0.15, 0.15, 1.0])
     for pr in topo.tree + topo.loops:
         if pr.revolute and pr.parent is None:
-            world.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=(pos[pr.point] - [0, 0, 0.02 * size]).tolist(),
+            world.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=(pos[pr.pin] - [0, 0, 0.02 * size]).tolist(),
                            size=[2.2 * r_link, 0.012 * size, 0], material="mat_ground", contype=0, conaffinity=0)
 
     for l in mech.links:  # a guide on the frame is drawn as a rail
@@ -164,9 +164,9 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
                            material="mat_ground", contype=0, conaffinity=0)
 
     bodies: dict[str | None, mujoco.MjsBody] = {None: world}
-    origin = {None: np.zeros(3)}
+    origin: dict[str | None, np.ndarray] = {None: np.zeros(3)}
     layer = {l.name: i for i, l in enumerate(mech.links)}
-    site_owner = {}
+    site_owner: dict[str, str] = {}
     for l in mech.links:
         for p in l.points:
             if p not in mech.ground:
@@ -179,10 +179,10 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
         body = bodies[pr.parent].add_body(name=l.name, pos=(o - origin[pr.parent]).tolist())
         bodies[l.name], origin[l.name] = body, o
         if pr.revolute:
-            j = body.add_joint(name=names.hinge_joint(l.name, pr.point), type=mujoco.mjtJoint.mjJNT_HINGE,
+            j = body.add_joint(name=names.hinge_joint(l.name, pr.pin), type=mujoco.mjtJoint.mjJNT_HINGE,
                                axis=[0, 0, 1])
         else:
-            g = pos[pr.guide[1]] - pos[pr.guide[0]]
+            g = pos[pr.rail[1]] - pos[pr.rail[0]]
             j = body.add_joint(name=names.slide_joint(l.name), type=mujoco.mjtJoint.mjJNT_SLIDE,
                                axis=(g / np.linalg.norm(g)).tolist())
         tree.append((pr, j))
@@ -192,7 +192,7 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
             j.armature = settings.flywheel
         # Inertia: mass at the centre of mass, J about Z; the X and Y moments only need to be
         # valid (planar motion never excites them).
-        if l.mass > 0:
+        if l.mass > 0 and l.com is not None:  # parse requires a com with a mass
             body.mass = l.mass
             body.ipos = (pos[l.com] - o).tolist()
             jz = max(l.inertia, 1e-12)
@@ -220,7 +220,7 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=(pos[p] - o + zoff).tolist(),
                           size=[1.6 * r_link, 1.2 * r_link, 0], material=mat, contype=0, conaffinity=0, mass=0)
         if not pr.revolute:
-            g = pos[pr.guide[1]] - pos[pr.guide[0]]
+            g = pos[pr.rail[1]] - pos[pr.rail[0]]
             u = g / np.linalg.norm(g)
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, pos=zoff, size=[2.5 * r_link, 1.5 * r_link, r_link],
                           quat=_quat_z(np.arctan2(u[1], u[0])), material=mat, contype=0, conaffinity=0, mass=0)
@@ -234,10 +234,10 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
 
     loops: list[tuple[Pair, mujoco.MjsEquality]] = []
     for pr in topo.loops:
-        eq = spec.add_equality(name=names.loop_equality(pr.point, pr.parent, pr.child),
+        eq = spec.add_equality(name=names.loop_equality(pr.pin, pr.parent, pr.child),
                                type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_BODY,
                                name1=pr.child, name2=pr.parent or "world")
-        eq.data[0:3] = pos[pr.point] - origin[pr.child]
+        eq.data[0:3] = pos[pr.pin] - origin[pr.child]
         eq.solref = list(settings.solref)
         eq.solimp = list(settings.solimp)
         loops.append((pr, eq))

@@ -108,7 +108,7 @@ def _probe(name: str) -> str | None:
     return _clip(lines[-1] if lines else f"exit status {res.returncode}")
 
 
-def _clip(msg: str, limit: int = 160) -> str:
+def _clip(msg: object, limit: int = 160) -> str:
     msg = " ".join(str(msg).split())
     return msg if len(msg) <= limit else msg[: limit - 3] + "..."
 

@@ -65,7 +65,7 @@ class VideoInfo:
         return self.frames / self.fps
 
 
-def frame_qpos(trace: "Trace", frames: int) -> tuple[np.ndarray, np.ndarray]:
+def frame_qpos(trace: Trace, frames: int) -> tuple[np.ndarray, np.ndarray]:
     """Frame times (s) and joint positions for ``frames`` frames spread over the trace.
 
     Frame i is at ``t0 + i (t_end - t0) / frames``: the last frame stops one step short of
@@ -85,8 +85,8 @@ def frame_qpos(trace: "Trace", frames: int) -> tuple[np.ndarray, np.ndarray]:
     return times, qpos.reshape(frames, q.shape[1])
 
 
-def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, seconds: float = 3.0,
-                 fps: float = 30, width: int = 640, height: int = 480, settings: "Settings | None" = None,
+def render_video(mech: Mechanism, trace: Trace, path: str | os.PathLike, *, seconds: float = 3.0,
+                 fps: float = 30, width: int = 640, height: int = 480, settings: Settings | None = None,
                  progress: bool = True) -> VideoInfo:
     """Render ``trace`` of ``mech`` to an MP4 (H.264, yuv420p) at ``path``.
 
@@ -105,7 +105,7 @@ def render_video(mech: "Mechanism", trace: "Trace", path: str | os.PathLike, *, 
     made or encoding fails, :class:`OutputError` if the folder cannot be written.
     """
     path = Path(path)
-    n = int(round(seconds * fps))
+    n = round(seconds * fps)
     if not (np.isfinite(seconds) and np.isfinite(fps) and fps > 0 and n >= 1):
         raise RenderError(f"a video needs at least one frame: seconds = {seconds:g} s at fps = {fps:g} frames/s")
     if width <= 0 or height <= 0 or width % 2 or height % 2:

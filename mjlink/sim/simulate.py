@@ -50,7 +50,7 @@ def dynamic_case(mech: Mechanism, *, duration: float | None = None,
                  omega0: float | None = None) -> Case:
     """The file's forward-dynamics case, sampled every ``sample_dt`` s (duration s, omega0 rad/s)."""
     s = settings or DYNAMIC
-    every = max(1, int(round(sample_dt / s.timestep)))
+    every = max(1, round(sample_dt / s.timestep))
     drive = mech.dynamics.moment + (mech.dynamics.motor.stall_torque if mech.dynamics.motor else 0.0)
     return Case(RunKind.DYNAMICS, mech.dynamics.duration if duration is None else duration,
                 mech.dynamics.omega0 if omega0 is None else omega0, drive, s, every)
@@ -232,7 +232,7 @@ def run(mech: Mechanism, case: Case, built: builder.Built | None = None) -> Trac
 def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData, probe: Probe) -> Trace:
     data.qvel[:] = consistent_velocity(model, data, probe.input_dof, case.omega0)
     data.ctrl[0] = case.moment
-    nsteps = int(math.ceil(case.duration / model.opt.timestep - 1e-9))
+    nsteps = math.ceil(case.duration / model.opt.timestep - 1e-9)
     samples = nsteps // case.sample_every + 1
     t = np.empty(samples)
     q = np.empty((samples, model.nq))
@@ -243,7 +243,7 @@ def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData
     A = {n: np.empty((samples, 3)) for n in probe.names}
     LW = {n: np.empty(samples) for n in probe.links}
     LE = {n: np.empty(samples) for n in probe.links}
-    tau = np.empty(samples) if case.loads else None
+    tau = np.empty(samples)
     RF: dict[str, np.ndarray] = {}
     RM: dict[str, np.ndarray] = {}
     k = 0
@@ -284,5 +284,5 @@ def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData
                  {n: a[:k] for n, a in V.items()}, {n: a[:k] for n, a in A.items()},
                  None if th is None else th[:k], gap[:k], q[:k],
                  {n: a[:k] for n, a in LW.items()}, {n: a[:k] for n, a in LE.items()},
-                 None if tau is None else tau[:k], {n: a[:k] for n, a in RF.items()},
+                 tau[:k] if case.loads else None, {n: a[:k] for n, a in RF.items()},
                  {n: a[:k] for n, a in RM.items()})
