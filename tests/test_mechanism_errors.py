@@ -54,8 +54,16 @@ def test_unknown_name_lists_valid_choices():
 
 
 def test_one_base_exception():
-    for cls in (MechanismFileError, AssemblyError, UnknownMechanismError):
-        assert issubclass(cls, MjlinkError)
+    """Every exception mjlink declares derives from MjlinkError, so the CLI's one-line handler catches it."""
+    import inspect
+
+    from mjlink import errors
+
+    declared = [c for _, c in inspect.getmembers(errors, inspect.isclass)
+                if issubclass(c, BaseException) and c.__module__ == errors.__name__]
+    assert len(declared) >= 7
+    for cls in declared:
+        assert issubclass(cls, MjlinkError), cls
 
 
 def test_parse_accepts_the_shipped_file():

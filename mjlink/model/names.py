@@ -20,6 +20,8 @@ RESERVED_LINK_NAMES = ("world", "ground", "eyelet")
 GROUND = "ground"  # the frame, as a pair's parent in labels and element names
 THREAD = "thread"  # the tendon
 DRIVE = "drive"  # the actuator on the input crank
+FRONT = "front"  # the camera looking down -Z on the mechanism's plane
+OBLIQUE = "oblique"  # the camera from front-right-above, for points in depth
 
 
 def is_valid(name: object) -> bool:

@@ -53,7 +53,8 @@ class Built:
     ``input_joint`` the input crank's hinge (``input_dof``, ``input_qpos`` its addresses);
     ``sites[point]``, ``bodies[link]``; ``tree`` each tree pair with its joint id; ``loops``
     each loop-closing pair with its connect equality id; ``gears`` the joint equalities of
-    geared cranks; ``thread`` the tendon id (-1 without a thread); ``drive`` the actuator.
+    geared cranks; ``thread`` the tendon id (-1 without a thread); ``drive`` the actuator;
+    ``front`` and ``oblique`` the cameras.
     """
 
     spec: mujoco.MjSpec
@@ -68,6 +69,8 @@ class Built:
     loops: tuple[tuple[Pair, int], ...]
     gears: tuple[int, ...]
     thread: int
+    front: int
+    oblique: int
 
 
 @dataclass(frozen=True)
@@ -80,6 +83,8 @@ class _Elements:
     loops: tuple[tuple[Pair, mujoco.MjsEquality], ...]
     gears: tuple[mujoco.MjsEquality, ...]
     thread: mujoco.MjsTendon | None
+    front: mujoco.MjsCamera
+    oblique: mujoco.MjsCamera
 
 
 def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec:
@@ -138,7 +143,7 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
     half_h = 0.5 * max(hi[1] - lo[1], (hi[0] - lo[0]) * 3.0 / 4.0) + 8 * r_link
     dist = half_h / np.tan(np.radians(fovy / 2)) + hi[2]
     center = 0.5 * (lo + hi)
-    world.add_camera(name="front", pos=[center[0], center[1], dist], quat=[1, 0, 0, 0], fovy=fovy)
+    front = world.add_camera(name=names.FRONT, pos=[center[0], center[1], dist], quat=[1, 0, 0, 0], fovy=fovy)
     # Oblique view from front-right-above, for mechanisms whose eyelets sit in depth.
     view = np.array([0.55, 0.35, 1.0])
     view /= np.linalg.norm(view)
@@ -147,7 +152,7 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
     up = np.cross(view, right)
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.column_stack([right, up, view]).ravel())
-    world.add_camera(name="oblique", pos=(center + 1.1 * dist * view).tolist(), fovy=fovy, quat=quat.tolist())
+    oblique = world.add_camera(name=names.OBLIQUE, pos=(center + 1.1 * dist * view).tolist(), fovy=fovy, quat=quat.tolist())
 
     sites: dict[str, mujoco.MjsSite] = {}
     for name, p in mech.ground.items():
@@ -269,7 +274,7 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
         bias[2] = -motor.stall_torque / motor.no_load_speed
         act.biasprm = bias
     return spec, _Elements(input_joint, act, sites, {k: v for k, v in bodies.items() if k is not None}, tuple(tree),
-                           tuple(loops), tuple(gears), t)
+                           tuple(loops), tuple(gears), t, front, oblique)
 
 
 def _set_first(obj, attr: str, value: float) -> None:
@@ -295,7 +300,8 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
                  int(model.jnt_qposadr[el.input_joint.id]), el.drive.id,
                  {k: v.id for k, v in el.sites.items()}, {k: v.id for k, v in el.bodies.items()},
                  tuple((p, j.id) for p, j in el.tree), tuple((p, e.id) for p, e in el.loops),
-                 tuple(e.id for e in el.gears), -1 if el.thread is None else el.thread.id)
+                 tuple(e.id for e in el.gears), -1 if el.thread is None else el.thread.id, el.front.id,
+                 el.oblique.id)
 
 
 def build(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjModel:

@@ -29,8 +29,6 @@ from ..runs import Settings, Trace
 from . import builder, simulate
 from .gl import _clip, ensure_gl_backend
 
-CAMERA = "front"
-OBLIQUE = "oblique"
 
 
 def _is_3d(mech) -> bool:
@@ -113,14 +111,13 @@ def render_video(mech: Mechanism, trace: Trace, path: str | os.PathLike, *, seco
                           f"(H.264 yuv420p)")
     _, qpos = frame_qpos(trace, n)
     backend = ensure_gl_backend()
-    model = builder.build(mech, settings or simulate.kinematic_case(mech).settings)
+    built = builder.make(mech, settings or simulate.kinematic_case(mech).settings)
+    model = built.model
     if qpos.shape[1] != model.nq:
         raise RenderError(f"{mech.name}: the trace has {qpos.shape[1]} joint positions per sample, the model has "
                           f"{model.nq}: was it run on another mechanism?")
     # A mechanism with points out of its plane (eyelets in depth) is shown obliquely.
-    camera = OBLIQUE if _is_3d(mech) else CAMERA
-    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0:
-        raise RenderError(f"{mech.name}: the model has no camera '{camera}'")
+    camera = built.oblique if _is_3d(mech) else built.front
     # The builder sizes the offscreen buffer for 1080p; a larger video only needs a larger one.
     model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
     model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
@@ -138,7 +135,7 @@ def render_video(mech: Mechanism, trace: Trace, path: str | os.PathLike, *, seco
     return VideoInfo(path, n, fps, width, height, (n / fps) / span, backend)
 
 
-def _frames(model, data, qpos, camera, option, tmp: Path, fps: float, width: int, height: int, backend: str,
+def _frames(model, data, qpos, camera: int, option, tmp: Path, fps: float, width: int, height: int, backend: str,
             progress: bool) -> None:
     """Render every frame into an H.264 file at ``tmp`` (complete when this returns)."""
     n = len(qpos)
