@@ -37,13 +37,8 @@ def main() -> None:
     import mujoco
     import numpy as np
 
-    from mjlink.sim import builder
-
-    from mjlink import reference
-
-    from mjlink import validation
-
-    from mjlink.sim import simulate
+    from mjlink import reference, validation
+    from mjlink.sim import builder, simulate
 
     mech = validation.get("takeup")
     for name, case in (("kinematic", simulate.kinematic_case(mech)), ("dynamic", simulate.dynamic_case(mech))):
@@ -51,7 +46,7 @@ def main() -> None:
         data = mujoco.MjData(model)
         n = 20000
 
-        def steps():
+        def steps(model=model, data=data, n=n):
             for _ in range(n):
                 mujoco.mj_step(model, data)
 

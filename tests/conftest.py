@@ -1,4 +1,3 @@
-import os
 import sys
 from pathlib import Path
 
@@ -6,7 +5,7 @@ import pytest
 
 # MuJoCo reads MUJOCO_GL when first imported: choose the backend before any test imports it.
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from mjlink.sim.gl import ensure_gl_backend  # noqa: E402
+from mjlink.sim.gl import ensure_gl_backend
 
 ensure_gl_backend()
 

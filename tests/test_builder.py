@@ -4,10 +4,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjlink.sim import builder
 from mjlink import reference as R
-from mjlink.model import catalogue as registry
 from mjlink import validation
+from mjlink.model import catalogue as registry
+from mjlink.sim import builder
 
 
 def test_takeup_model_elements(takeup):

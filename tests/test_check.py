@@ -9,17 +9,16 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import ROOT
-from mjlink.sim import builder
-from mjlink import validation
+
+from mjlink import compare, validation
 from mjlink import validation as check
-from mjlink import compare
-from mjlink.model import catalogue as registry
-from mjlink.sim import simulate as S
-from mjlink.errors import AssemblyError, MechanismFileError, SimulationError
-from mjlink.model.mechanism import parse
 from mjlink.cli import format_report
+from mjlink.errors import AssemblyError, MechanismFileError, SimulationError
+from mjlink.model import catalogue as registry
+from mjlink.model.mechanism import parse
+from mjlink.sim import builder
+from mjlink.sim import simulate as S
 
 EXAMPLE_PATH = registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml"
 EXAMPLE = EXAMPLE_PATH.read_text()

@@ -5,12 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from mjlink import compare
-from mjlink.model import mechanism
+from mjlink import compare, validation
 from mjlink import reference as R
 from mjlink.model import catalogue as registry
+from mjlink.model import mechanism
 from mjlink.sim import simulate as S
-from mjlink import validation
 
 CRANK = """
 [mechanism]

@@ -2,10 +2,10 @@
 
 import pytest
 
-from mjlink.model import catalogue as registry
-from mjlink.errors import AssemblyError, MechanismFileError, MjlinkError, UnknownMechanismError
-from mjlink.model.mechanism import parse
 from mjlink import validation
+from mjlink.errors import AssemblyError, MechanismFileError, MjlinkError, UnknownMechanismError
+from mjlink.model import catalogue as registry
+from mjlink.model.mechanism import parse
 
 GOOD = (registry.MECHANISMS_DIR / "takeup.toml").read_text()
 
@@ -49,7 +49,7 @@ def test_dyad_that_cannot_close_reports_the_angle_range(tmp_path):
 
 
 def test_unknown_name_lists_valid_choices():
-    with pytest.raises(UnknownMechanismError, match="valid: .*takeup"):
+    with pytest.raises(UnknownMechanismError, match=r"valid: .*takeup"):
         validation.get("takup")
 
 

@@ -24,17 +24,17 @@ import warnings
 from collections import Counter
 
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from mjlink import validation
+from mjlink import compare, validation
 from mjlink import validation as check
-from mjlink import compare
-from mjlink.model import catalogue as registry
-from mjlink.sim import simulate
-from mjlink.errors import AssemblyError, MechanismFileError, SimulationError
-from mjlink.model.mechanism import load
-from mjlink.model import limits
 from mjlink.cli import format_report
+from mjlink.errors import AssemblyError, MechanismFileError, SimulationError
+from mjlink.model import catalogue as registry
+from mjlink.model import limits
+from mjlink.model.mechanism import load
+from mjlink.sim import simulate
 
 EXAMPLES = int(os.environ.get("PROPERTY_EXAMPLES", "250"))
 BAD_VALUES = ["0", "0.0", "-12.5", "-1e-3", "1e6", "1e300", "1e-7", "nan", "inf", "-inf", '"12"', "[1.0, 2.0]",
@@ -89,7 +89,7 @@ def mechanism_text(draw):
     w_hi = max(w_lo, min(limits.VERIFIED_SPEED, (hi / (crank * 1e-3)) ** 0.5))
     speed = length(w_lo, w_hi) * draw(st.sampled_from([1, -1]))
     lines += ['', '[[construct]]', 'point = "B"', 'block = "crank"', 'pivot = "A"', f"length = {_num(crank)}", '']
-    lines += second + ['']
+    lines += [*second, '']
     for p, o, t, l in coms:
         lines += ['[[construct]]', f'point = "{p}"', 'block = "attached"', f'origin = "{o}"', f'toward = "{t}"',
                   'angle = 0.0', f"length = {_num(max(l, 0.0))}", '']
@@ -132,7 +132,7 @@ def test_random_mechanisms_fail_clearly_or_agree(tmp_path):
     @settings(max_examples=EXAMPLES, deadline=None, derandomize=not os.environ.get("PROPERTY_RANDOM"),
               database=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
     def one(case):
-        kind, mutation, text = case
+        kind, _mutation, text = case
         stats["cases"] += 1
         stats[f"kind {kind}"] += 1
         path.write_text(text)
@@ -177,6 +177,6 @@ def test_random_mechanisms_fail_clearly_or_agree(tmp_path):
     print(f"\nproperty test: {summary}")
     warnings.warn(PropertyStats(f"property test: {stats['cases']} generated mechanism files, {stats['valid']} "
                                 f"valid, {stats['simulated within thresholds']} simulated within the thresholds; "
-                                f"{summary}"))
+                                f"{summary}"), stacklevel=2)
     assert stats["cases"] >= min(EXAMPLES, 50)
     assert stats["simulated within thresholds"] >= stats["cases"] // 10, summary  # the generator stays useful

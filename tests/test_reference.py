@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from mjlink.model import mechanism
 from mjlink import reference as R
+from mjlink.model import mechanism
 
 PARALLELOGRAM = """
 [mechanism]

@@ -22,10 +22,9 @@ from mjlink.sim import gl
 
 BACKEND = gl.ensure_gl_backend()
 
-from mjlink.model import mechanism  # noqa: E402
-from mjlink.sim import simulate  # noqa: E402  (after the backend choice)
 from mjlink.errors import RenderError  # noqa: E402
-from mjlink.sim import render  # noqa: E402
+from mjlink.model import mechanism  # noqa: E402
+from mjlink.sim import render, simulate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TAKEUP = ROOT / "mechanisms" / "takeup.toml"

@@ -4,11 +4,11 @@ import math
 
 import pytest
 
-from mjlink.model import catalogue as registry
-from mjlink.reference import synthesis
-from mjlink.errors import MjlinkError
-from mjlink.model.mechanism import Crank, Slider, parse
 from mjlink import validation
+from mjlink.errors import MjlinkError
+from mjlink.model import catalogue as registry
+from mjlink.model.mechanism import Crank, Slider, parse
+from mjlink.reference import synthesis
 
 TH = math.radians(40)
 

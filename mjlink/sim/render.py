@@ -30,7 +30,6 @@ from . import builder, simulate
 from .gl import _clip, ensure_gl_backend
 
 
-
 def _is_3d(mech) -> bool:
     """Whether any point leaves the mechanism's plane (z != 0)."""
     k = reference.solve(mech, [mech.phi0])
