@@ -10,12 +10,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from mjlink import analysis, validation
+from mjlink import reference as R
+from mjlink.model import catalogue as registry
 from mjlink.model import mechanism
 from mjlink.plotting import figures as plots
-from mjlink.model import catalogue as registry
-from mjlink import reference as R
+from mjlink.plotting import style
 from mjlink.sim import simulate as S
-from mjlink import validation
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -61,7 +62,7 @@ def test_without_rk4_or_thread(traces, tmp_path):
         _check_png(p)
     no_thread = mechanism.Mechanism(**{**m.__dict__, "thread": None})
     assert plots.thread_plot(no_thread, kin, kin_ref, tmp_path / "x") is None
-    assert plots.key_point(no_thread) == "P5"  # last constructed point that is not a centre of mass
+    assert analysis.key_point(no_thread) == "P5"  # last constructed point that is not a centre of mass
     _check_png(plots.positions_plot(no_thread, tmp_path, n=8, highlight="P5"))
     _check_png(plots.kinematics_plot(m, kin, kin_ref, tmp_path, "P3"))
     assert sorted(f.name for f in tmp_path.iterdir()) == sorted(
@@ -78,7 +79,7 @@ def test_overwrite_is_atomic(traces, tmp_path):
 
 
 # ----------------------------------------------------------------------------- every mechanism
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _kinematics(name: str):
     """A registered mechanism with its kinematic MuJoCo run and the matching reference trace."""
     m = validation.get(name)
@@ -101,7 +102,7 @@ KNOWN = {
 
 
 def _expected(m) -> set[str]:
-    names = {"positions.png", f"kinematics_{plots.key_point(m)}.png"}
+    names = {"positions.png", f"kinematics_{analysis.key_point(m)}.png"}
     if m.thread:
         names.add("thread_length.png")
         if m.thread_elongation is not None:
@@ -114,7 +115,7 @@ def _expected(m) -> set[str]:
             names |= {f"slider_{s.point}.png", f"slider_{s.point}_spectrum.png", f"pressure_angle_{s.point}.png"}
         if isinstance(s, mechanism.Crank) and s.ratio != 1.0:
             names.add("phase_study.png")
-    names |= {f"link_{l}.png" for l in plots.motion_links(m)}
+    names |= {f"link_{l}.png" for l in analysis.motion_links(m)}
     return names
 
 
@@ -140,7 +141,7 @@ def test_slider_velocity_on_a_moving_guide():
     slider = next(s for s in m.steps if isinstance(s, mechanism.Slider) and s.point == "P9")
     assert slider.guide[0] not in m.ground  # the guide does move
     for tr in (kin, kin_ref):
-        s, sd, sdd = plots.slider_motion(tr, slider)
+        s, sd, sdd = analysis.slider_motion(tr, slider)
         fd = np.gradient(s, tr.time)[1:-1]
         assert np.abs(sd[1:-1] - fd).max() < 1e-4 * np.abs(sd).max()
         fdd = np.gradient(sd, tr.time)[1:-1]
@@ -152,7 +153,7 @@ def test_slider_velocity_on_a_moving_guide():
         naive = np.einsum("ij,ij->i", tr.velocities["P9"][:, :2], u)
         assert np.abs(naive - sd).max() > 0.05 * np.abs(sd).max()
     # MuJoCo and the reference agree on the relative motion.
-    a, b = plots.slider_motion(kin, slider), plots.slider_motion(kin_ref, slider)
+    a, b = analysis.slider_motion(kin, slider), analysis.slider_motion(kin_ref, slider)
     for x, y in zip(a, b):
         assert np.abs(x - y).max() < 1e-3 * np.abs(y).max()
 
@@ -164,10 +165,10 @@ def test_crank_slider_pressure_angle_and_stroke():
     slider = next(s for s in m.steps if isinstance(s, mechanism.Slider))
     r, l, e = m.input_crank.length, slider.length, m.synthesis.offset
     for tr in (kin, kin_ref):
-        top = math.degrees(plots.pressure_angle(tr, slider).max())
+        top = math.degrees(analysis.pressure_angle(tr, slider).max())
         assert top == pytest.approx(math.degrees(math.asin((r + e) / l)), abs=1e-3)
         assert top < math.degrees(m.synthesis.max_pressure_angle)
-        assert np.ptp(plots.slider_motion(tr, slider)[0]) == pytest.approx(m.synthesis.stroke, abs=1e-6)
+        assert np.ptp(analysis.slider_motion(tr, slider)[0]) == pytest.approx(m.synthesis.stroke, abs=1e-6)
 
 
 def test_harmonics_of_a_known_signal():
@@ -177,11 +178,11 @@ def test_harmonics_of_a_known_signal():
     phi = 0.3 - 4.0 * math.pi * (t + 0.002 * np.sin(2.0 * math.pi * t))  # clockwise, two turns
     x = (phi - phi[0]) / 2.0  # angle of the mechanism period
     y = 3.0 * np.cos(x) + 0.5 * np.sin(2.0 * x + 0.3) + 0.01 * np.cos(7.0 * x)
-    amp = plots.harmonics(SimpleNamespace(period=4.0 * math.pi), SimpleNamespace(phi=phi), y, kmax=8)
+    amp = analysis.harmonics(SimpleNamespace(period=4.0 * math.pi), SimpleNamespace(phi=phi), y, kmax=8)
     assert amp == pytest.approx([3.0, 0.5, 0, 0, 0, 0, 0.01, 0], abs=2e-4)
-    assert plots._higher_share(amp) == pytest.approx(math.hypot(0.5, 0.01) / 3.0, rel=1e-3)
+    assert analysis.higher_harmonics_share(amp) == pytest.approx(math.hypot(0.5, 0.01) / 3.0, rel=1e-3)
     short = SimpleNamespace(phi=phi[:2000])
-    assert plots.harmonics(SimpleNamespace(period=4.0 * math.pi), short, y[:2000]) is None
+    assert analysis.harmonics(SimpleNamespace(period=4.0 * math.pi), short, y[:2000]) is None
 
 
 def test_clockwise_crank_angle_axis(tmp_path):
@@ -189,11 +190,11 @@ def test_clockwise_crank_angle_axis(tmp_path):
     counter-clockwise one against phi itself. The speed plots of a clockwise run-up work too."""
     m, kin, kin_ref = _kinematics("crank_slider")
     assert m.speed < 0
-    (xm, xr), label = plots._crank_x(m, kin, kin_ref)
+    (xm, _xr), label = style.crank_x(m, kin, kin_ref)
     assert "turned clockwise" in label
     assert xm[0] == pytest.approx(0.0) and np.all(np.diff(xm) > 0) and xm[-1] == pytest.approx(360.0, abs=0.5)
     m2, kin2, _ = _kinematics("takeup_eyelets")
-    (x2,), label2 = plots._crank_x(m2, kin2)
+    (x2,), label2 = style.crank_x(m2, kin2)
     assert "turned" not in label2 and x2 == pytest.approx(np.degrees(kin2.phi))
     dyn = S.run(m, S.dynamic_case(m, duration=0.05))
     dyn_ref = R.reference_trace(m, R.forward_dynamics(m, dyn.time), "dynamics")

@@ -1,1 +1,12 @@
-"""Figures: drawing only. Quantities come from :mod:`mjlink.analysis` and the reference."""
+"""PNG figures comparing MuJoCo runs with the vector-method reference: drawing only.
+
+:mod:`.figures` (kinematics, thread, sliders, phase study, run-up), :mod:`.loads` (torque,
+pair reactions, steady motion), :mod:`.style` (the shared look and the atomic writer). The
+quantities drawn come from the traces, :mod:`mjlink.reference` and :mod:`mjlink.analysis`.
+"""
+
+import matplotlib
+
+# Headless: the CLI and tests run without a display. Chosen here, in the package, so that it
+# happens before any module of the package imports pyplot.
+matplotlib.use("Agg")

@@ -1,0 +1,250 @@
+"""Derived quantities: what the figures show, computed from mechanisms and traces.
+
+The plots (:mod:`mjlink.plotting`) only draw; every physical quantity they show beyond a
+trace's own samples is computed here: the thread length and the needle-thread feed, a
+slider's motion along its (possibly moving) guide and its pressure angle, the harmonic
+content of a signal over the mechanism period, drive power, and the choice of what is worth
+plotting (the key point, the links whose rotation matters, the geared crank of a phase study).
+
+Inputs are :class:`mjlink.runs.Trace` objects and :class:`mjlink.model.mechanism.Mechanism`
+objects in SI units; every result is SI as well (m, m/s, m/s^2, rad, rad/s, N, N*m, W), as
+each docstring says. N below is the number of samples of a trace. No matplotlib, no mujoco.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from itertools import pairwise
+
+import numpy as np
+
+from . import reference
+from .model import blocks
+from .model.blocks import Crank, Slider
+from .model.mechanism import Mechanism
+from .runs import Trace
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot product of two (N, k) arrays: (N,)."""
+    return np.einsum("ij,ij->i", a, b)
+
+
+def magnitude(vectors: np.ndarray) -> np.ndarray:
+    """Length of every row of ``vectors`` (N, 3), in the vectors' unit (a point's speed |v| in
+    m/s from its velocities, a pair's force |F| in N from its forces): (N,)."""
+    return np.linalg.norm(vectors, axis=1)
+
+
+def angle_turned(phi: np.ndarray) -> np.ndarray:
+    """Angle (rad, >= 0) the input crank has turned since the first sample of ``phi`` (N,) rad,
+    whichever way it turns: (N,)."""
+    phi = np.asarray(phi)
+    return np.abs(phi - phi[0])
+
+
+# ----------------------------------------------------------------------------- thread
+def thread_length(mech: Mechanism, trace: Trace) -> np.ndarray:
+    """Length (m) of the thread ``mech.thread`` in every sample of ``trace``: (N,).
+
+    The run's own record if it has one, else the sum of the straight spans between the
+    thread's points (zero without a thread)."""
+    if trace.thread_length is not None:
+        return np.asarray(trace.thread_length)
+    total = np.zeros(len(trace.time))
+    for a, b in pairwise(mech.thread or ()):
+        total = total + np.linalg.norm(trace.points[b] - trace.points[a], axis=1)
+    return total
+
+
+def thread_feed(mech: Mechanism, trace: Trace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The needle-thread feed over the first turn of the input crank (seed 003).
+
+    Takes the samples of ``trace`` up to and including the first at or past a full turn from
+    its first sample (K of them). Returns the thread length lF (m), its increment
+    dlF = lF(phi) - lF(phi0) (m) and the feed Pd = dlF - dP (m), dP the file's thread
+    elongation (0 if it has none); each (K,).
+    """
+    turned = angle_turned(trace.phi)
+    k = min(int(np.searchsorted(turned, 2.0 * math.pi * (1.0 - 1e-9))) + 1, len(turned))
+    length = thread_length(mech, trace)[:k]
+    increment = length - length[0]
+    return length, increment, increment - (mech.thread_elongation or 0.0)
+
+
+# ----------------------------------------------------------------------------- sliders (seed 002)
+def slider_motion(trace: Trace, slider: Slider) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The slider point's motion along its guide, relative to the guide (which may move).
+
+    ``s = (P - n1) . u`` with ``u = (n2 - n1) / L`` and L = |n2 - n1| constant (the guide's
+    points are on one rigid link), so ``u' = (v_n2 - v_n1) / L`` and ``u'' = (a_n2 - a_n1) / L``
+    exactly, and ``s' = (v_P - v_n1) . u + (P - n1) . u'``,
+    ``s'' = (a_P - a_n1) . u + 2 (v_P - v_n1) . u' + (P - n1) . u''``. Planar components, as
+    the slider block.
+
+    Args:
+        trace: positions (m), velocities (m/s) and accelerations (m/s^2) of the slider's
+            point and of both guide points, each (N, 3).
+        slider: the slider block.
+
+    Returns:
+        s (m), ds/dt (m/s), d2s/dt2 (m/s^2), each (N,).
+    """
+    n1, n2 = slider.guide
+    P, V, A = trace.points, trace.velocities, trace.accelerations
+    g = P[n2][:, :2] - P[n1][:, :2]
+    L = np.linalg.norm(g, axis=1, keepdims=True)
+    u = g / L
+    ud = (V[n2][:, :2] - V[n1][:, :2]) / L
+    udd = (A[n2][:, :2] - A[n1][:, :2]) / L
+    r = P[slider.point][:, :2] - P[n1][:, :2]
+    rd = V[slider.point][:, :2] - V[n1][:, :2]
+    rdd = A[slider.point][:, :2] - A[n1][:, :2]
+    return _dot(r, u), _dot(rd, u) + _dot(r, ud), _dot(rdd, u) + 2.0 * _dot(rd, ud) + _dot(r, udd)
+
+
+def pressure_angle(trace: Trace, slider: Slider) -> np.ndarray:
+    """The pressure angle of the prismatic pair: the angle between the rod start->point that
+    pushes the slider and its guide (0: the rod pushes along the guide).
+
+    Args:
+        trace: positions (m) of the slider's start, point and guide points, each (N, 3).
+        slider: the slider block.
+
+    Returns:
+        The angle (rad, in [0, pi/2]), (N,).
+    """
+    n1, n2 = slider.guide
+    g = trace.points[n2][:, :2] - trace.points[n1][:, :2]
+    d = trace.points[slider.point][:, :2] - trace.points[slider.start][:, :2]
+    c = np.abs(_dot(d, g)) / (np.linalg.norm(d, axis=1) * np.linalg.norm(g, axis=1))
+    return np.arccos(np.clip(c, 0.0, 1.0))
+
+
+def guide_moves(mech: Mechanism, slider: Slider) -> bool:
+    """Whether the slider's guide moves (a guide point is not a ground point)."""
+    n1, n2 = slider.guide
+    return not (n1 in mech.ground and n2 in mech.ground)
+
+
+def sliding_with(mech: Mechanism, slider: Slider) -> list[str]:
+    """The other points of the sliding link (not mere centres of mass, see :func:`mass_centres`):
+    each moves along the guide by the same s as the slider's point, plus a constant."""
+    body = next((l for l in mech.links if slider.point in l.points and l.guide == slider.guide), None)
+    coms = mass_centres(mech)
+    return [q for q in (body.points if body else ()) if q != slider.point and q not in coms]
+
+
+# ----------------------------------------------------------------------------- harmonics
+def harmonics(mech: Mechanism, trace: Trace, y: np.ndarray, kmax: int = 12) -> np.ndarray | None:
+    """Amplitudes of the harmonics k = 1..kmax of the mechanism period in a sampled signal.
+
+    The samples are resampled uniformly in the input angle (linear interpolation of the
+    trace, whose steps are ~0.3 deg), so a crank speed that is not quite constant does not
+    smear the lines.
+
+    Args:
+        mech: the mechanism; only its ``period`` is read, the input angle (rad) after which
+            it repeats.
+        trace: the run; only its ``phi`` is read, the input angles (rad) of the samples, (N,).
+        y: the signal, (N,), in any unit.
+        kmax: the highest harmonic.
+
+    Returns:
+        The amplitudes A_1..A_kmax (the unit of ``y``), (kmax,), over one period from the first
+        sample; None if the trace covers less than one period or does not turn steadily.
+    """
+    turned = angle_turned(trace.phi)
+    if turned[-1] < mech.period * (1.0 - 1e-9) or not np.all(np.diff(turned) > 0):
+        return None
+    m = 2048 * max(1, round(mech.period / (2.0 * math.pi)))
+    grid = mech.period * np.arange(m) / m
+    c = np.fft.rfft(np.interp(grid, turned, y)) / m
+    return 2.0 * np.abs(c[1:kmax + 1])
+
+
+def higher_harmonics_share(amp: np.ndarray) -> float:
+    """The higher harmonics (k >= 2) against the first, sqrt(sum A_k^2) / A_1, as a fraction
+    (dimensionless); ``amp`` (kmax,) the amplitudes A_1..A_kmax of :func:`harmonics`."""
+    return float(np.sqrt(np.sum(amp[1:] ** 2)) / amp[0])
+
+
+# ----------------------------------------------------------------------------- loads
+def drive_power(torque: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Power (W) the drive puts in: torque (N*m) times crank speed (rad/s), each (N,): (N,)."""
+    return torque * omega
+
+
+def last_period(trace: Trace, duration: float) -> tuple[np.ndarray, np.ndarray]:
+    """The samples of ``trace`` in its last ``duration`` (s; the sign is ignored), as the angle
+    turned (rad, from the first of them) and the crank speed (rad/s), each (M,)."""
+    last = trace.time >= trace.time[-1] - abs(duration)
+    return angle_turned(trace.phi[last]), trace.omega[last]
+
+
+# ----------------------------------------------------------------------------- geometry
+def is_spatial(mech: Mechanism) -> bool:
+    """Whether some point of the mechanism lies off the plane z = 0 at phi0."""
+    kin = reference.solve(mech, [mech.phi0])
+    return any(abs(float(kin.position(p)[0, 2])) > 1e-12 for p in mech.point_names)
+
+
+def geared_crank(mech: Mechanism) -> Crank | None:
+    """The first crank geared to the input crank, None if there is none."""
+    return mech.geared[0] if mech.geared else None
+
+
+def geared_path(mech: Mechanism, crank: Crank, phase: float, point: str, phi: np.ndarray) -> np.ndarray:
+    """Positions (m), (N, 3), of ``point`` at the input angles ``phi`` (N,) rad when the geared
+    ``crank`` is set to ``phase`` (rad, its angle at phi0) instead of its file's phase.
+
+    Raises AssemblyError if the mechanism cannot assemble so."""
+    steps = tuple(dataclasses.replace(s, phase=phase) if s is crank else s for s in mech.steps)
+    return reference.solve(dataclasses.replace(mech, steps=steps), phi).position(point)
+
+
+# ----------------------------------------------------------------------------- what to plot
+def mass_centres(mech: Mechanism) -> set[str]:
+    """Points that are a link's centre of mass and nothing else: no block builds from them and
+    no other link carries them (the needle-bar joint C of the crank-slider is its centre of
+    mass too, but the rod's centre is built from it, so it stays a point of the mechanism)."""
+    used = {p for s in mech.steps for p in s.inputs}
+    return {l.com for l in mech.links if l.com is not None and l.com not in used
+            and sum(l.com in k.points for k in mech.links) == 1}
+
+
+def key_point(mech: Mechanism) -> str:
+    """The point worth a kinematics plot: the first moving thread point, else the last
+    constructed point that is not merely a centre of mass (see :func:`mass_centres`; a
+    slider joint that is also its link's centre of mass counts), else the last constructed."""
+    for p in mech.thread or ():
+        if p not in mech.ground:
+            return p
+    coms = mass_centres(mech)
+    return next((s.point for s in reversed(mech.steps) if s.point not in coms), mech.steps[-1].point)
+
+
+def motion_links(mech: Mechanism) -> list[str]:
+    """Links worth a rotation plot: every moving link carrying a slider's guide (both its
+    points); else the link carrying the key point that is neither a crank nor a slider
+    translating on a fixed guide; else none."""
+    out = []
+    for s in blocks.sliders(mech.steps):
+        if not guide_moves(mech, s):
+            continue
+        n1, n2 = s.guide
+        l = next((l for l in mech.links if n1 in l.points and n2 in l.points), None)
+        if l is not None and l.name not in out:
+            out.append(l.name)
+    if out:
+        return out
+    cranks = [(c.pivot, c.point) for c in (mech.input_crank, *mech.geared)]
+    p = key_point(mech)
+    for l in mech.links:
+        if p not in l.points or any(a in l.points and b in l.points for a, b in cranks):
+            continue
+        if l.guide and all(g in mech.ground for g in l.guide):
+            continue  # translates: no rotation to show
+        return [l.name]
+    return []
