@@ -3,7 +3,7 @@
 A mechanism file (see ``mechanisms/README.md``) names fixed points, builds every moving
 point with the papers' building blocks in order, and groups points into rigid links. Both
 the vector-method reference (:mod:`mjlink.reference`) and the MuJoCo builder
-(:mod:`mjlink.builder`) derive from the :class:`Mechanism` returned here; nothing else
+(:mod:`mjlink.sim.builder`) derive from the :class:`Mechanism` returned here; nothing else
 holds a copy of the geometry.
 
 Units: files use mm, deg, g, kg*m^2, N, N*m, N*m*s, rad/s and s. The objects returned here
