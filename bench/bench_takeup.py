@@ -30,8 +30,13 @@ def best(f, repeat=3):
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         t = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "mjlink", "simulate", "takeup", "--out", tmp], cwd=ROOT, check=True,
-                       env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True)
+        subprocess.run(
+            [sys.executable, "-m", "mjlink", "simulate", "takeup", "--out", tmp],
+            cwd=ROOT,
+            check=True,
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
+            capture_output=True,
+        )
         print(f"simulate takeup (cold, video included): {time.perf_counter() - t:.2f} s wall")
 
     import mujoco
@@ -50,16 +55,22 @@ def main() -> None:
             for _ in range(n):
                 mujoco.mj_step(model, data)
 
-        print(f"MuJoCo {name} model ({case.settings.integrator}, dt {case.settings.timestep:g} s): "
-              f"{n / best(steps):,.0f} steps/s")
+        print(
+            f"MuJoCo {name} model ({case.settings.integrator}, dt {case.settings.timestep:g} s): "
+            f"{n / best(steps):,.0f} steps/s"
+        )
     phi = np.linspace(0, 2 * np.pi, 100_000)
     dt = best(lambda: reference.solve(mech, phi))
-    print(f"reference positions with exact 1st and 2nd derivatives: {len(phi) / dt:,.0f} crank angles/s "
-          f"({len(mech.point_names)} points each)")
+    print(
+        f"reference positions with exact 1st and 2nd derivatives: {len(phi) / dt:,.0f} crank angles/s "
+        f"({len(mech.point_names)} points each)"
+    )
     sd = reference.SpectralDynamics(mech)
     t_eval = np.linspace(0, 1, 4001)
-    print(f"reference forward dynamics (DOP853, rtol {reference.TIGHT_RTOL:g}, 0..1 s): "
-          f"{best(lambda: reference.forward_dynamics(mech, t_eval, sd=sd), 1):.2f} s")
+    print(
+        f"reference forward dynamics (DOP853, rtol {reference.TIGHT_RTOL:g}, 0..1 s): "
+        f"{best(lambda: reference.forward_dynamics(mech, t_eval, sd=sd), 1):.2f} s"
+    )
 
 
 if __name__ == "__main__":

@@ -1,3 +1,5 @@
+"""``python -m mjlink``: the command line, :func:`mjlink.cli.main`."""
+
 import sys
 
 from .cli import main

@@ -161,7 +161,7 @@ def harmonics(mech: Mechanism, trace: Trace, y: np.ndarray, kmax: int = 12) -> n
     m = 2048 * max(1, round(mech.period / (2.0 * math.pi)))
     grid = mech.period * np.arange(m) / m
     c = np.fft.rfft(np.interp(grid, turned, y)) / m
-    return 2.0 * np.abs(c[1:kmax + 1])
+    return 2.0 * np.abs(c[1 : kmax + 1])
 
 
 def higher_harmonics_share(amp: np.ndarray) -> float:
@@ -210,8 +210,11 @@ def mass_centres(mech: Mechanism) -> set[str]:
     no other link carries them (the needle-bar joint C of the crank-slider is its centre of
     mass too, but the rod's centre is built from it, so it stays a point of the mechanism)."""
     used = {p for s in mech.steps for p in s.inputs}
-    return {l.com for l in mech.links if l.com is not None and l.com not in used
-            and sum(l.com in k.points for k in mech.links) == 1}
+    return {
+        l.com
+        for l in mech.links
+        if l.com is not None and l.com not in used and sum(l.com in k.points for k in mech.links) == 1
+    }
 
 
 def key_point(mech: Mechanism) -> str:

@@ -45,8 +45,14 @@ BRANCH_TOL_M = 1e-5  # 10 um: 100 times the position threshold, far below any br
 
 def thresholds() -> dict[str, float]:
     """The agreement thresholds by name, as the report records them."""
-    return {"position_um": POSITION_UM, "velocity_rel": VELOCITY_REL, "acceleration_rel": ACCELERATION_REL,
-            "loop_um": LOOP_UM, "thread_um": THREAD_UM, "omega_rel": OMEGA_REL}
+    return {
+        "position_um": POSITION_UM,
+        "velocity_rel": VELOCITY_REL,
+        "acceleration_rel": ACCELERATION_REL,
+        "loop_um": LOOP_UM,
+        "thread_um": THREAD_UM,
+        "omega_rel": OMEGA_REL,
+    }
 
 
 def steady_failures(name: str, mujoco_delta: float, reference_delta: float) -> list[str]:
@@ -90,10 +96,12 @@ class Agreement:
         # dynamic run (whose point errors are reported, not thresholded).
         checks = []
         if self.kind == RunKind.KINEMATICS:
-            checks += [("position", self.position_um, POSITION_UM, "um"),
-                       ("loop gap", self.loop_um, LOOP_UM, "um"),
-                       ("velocity", self.velocity_rel, VELOCITY_REL, "of range"),
-                       ("acceleration", self.acceleration_rel, ACCELERATION_REL, "of range")]
+            checks += [
+                ("position", self.position_um, POSITION_UM, "um"),
+                ("loop gap", self.loop_um, LOOP_UM, "um"),
+                ("velocity", self.velocity_rel, VELOCITY_REL, "of range"),
+                ("acceleration", self.acceleration_rel, ACCELERATION_REL, "of range"),
+            ]
             if self.thread_um is not None:
                 checks.append(("thread length", self.thread_um, THREAD_UM, "um"))
         if self.omega_rel is not None:
@@ -125,8 +133,14 @@ def agreement(mech: Mechanism, mj: Trace, ref_motion: reference.Motion | None = 
         if n in mech.ground:
             continue
         pos = float(np.linalg.norm(mj.points[n] - ref.points[n], axis=1).max())
-        pts.append(PointError(n, pos * 1e6, _rel(mj.velocities[n] - ref.velocities[n], ref.velocities[n]),
-                              _rel(mj.accelerations[n] - ref.accelerations[n], ref.accelerations[n])))
+        pts.append(
+            PointError(
+                n,
+                pos * 1e6,
+                _rel(mj.velocities[n] - ref.velocities[n], ref.velocities[n]),
+                _rel(mj.accelerations[n] - ref.accelerations[n], ref.accelerations[n]),
+            )
+        )
     thread = None
     if mj.thread_length is not None and ref.thread_length is not None:
         thread = float(np.abs(mj.thread_length - ref.thread_length).max()) * 1e6
@@ -145,21 +159,38 @@ def agreement(mech: Mechanism, mj: Trace, ref_motion: reference.Motion | None = 
         se = max(np.abs(ref.link_eps[l]).max() for l in links)
         lw = max(np.abs(mj.link_omega[l] - ref.link_omega[l]).max() for l in links) / sw if sw > 0 else 0.0
         le = max(np.abs(mj.link_eps[l] - ref.link_eps[l]).max() for l in links) / se if se > 0 else 0.0
-    return Agreement(mj.kind, len(mj.time), tuple(pts),
-                     max(p.position_um for p in pts), max(p.velocity_rel for p in pts),
-                     max(p.acceleration_rel for p in pts), loop, thread, w_abs, w_rel, lw, le)
+    return Agreement(
+        mj.kind,
+        len(mj.time),
+        tuple(pts),
+        max(p.position_um for p in pts),
+        max(p.velocity_rel for p in pts),
+        max(p.acceleration_rel for p in pts),
+        loop,
+        thread,
+        w_abs,
+        w_rel,
+        lw,
+        le,
+    )
 
 
 def table(agreements: list[Agreement]) -> str:
     """A short fixed-width table of the worst errors per run."""
-    rows = [f"{'run':<11} {'pos um':>9} {'vel/range':>10} {'acc/range':>10} {'loop um':>9} "
-            f"{'thread um':>10} {'omega rel':>10}"]
+    rows = [
+        f"{'run':<11} {'pos um':>9} {'vel/range':>10} {'acc/range':>10} {'loop um':>9} "
+        f"{'thread um':>10} {'omega rel':>10}"
+    ]
     f = lambda v, fmt: "-" if v is None else format(v, fmt)  # noqa: E731
     for a in agreements:
-        rows.append(f"{a.kind:<11} {a.position_um:>9.4f} {a.velocity_rel:>10.2e} {a.acceleration_rel:>10.2e} "
-                    f"{a.loop_um:>9.4f} {f(a.thread_um, '10.4f'):>10} {f(a.omega_rel, '10.2e'):>10}")
-    rows.append(f"thresholds  {POSITION_UM:>9g} {VELOCITY_REL:>10.0e} {ACCELERATION_REL:>10.0e} "
-                f"{LOOP_UM:>9g} {THREAD_UM:>10g} {OMEGA_REL:>10.0e}   (omega: dynamic run; others: kinematic run)")
+        rows.append(
+            f"{a.kind:<11} {a.position_um:>9.4f} {a.velocity_rel:>10.2e} {a.acceleration_rel:>10.2e} "
+            f"{a.loop_um:>9.4f} {f(a.thread_um, '10.4f'):>10} {f(a.omega_rel, '10.2e'):>10}"
+        )
+    rows.append(
+        f"thresholds  {POSITION_UM:>9g} {VELOCITY_REL:>10.0e} {ACCELERATION_REL:>10.0e} "
+        f"{LOOP_UM:>9g} {THREAD_UM:>10g} {OMEGA_REL:>10.0e}   (omega: dynamic run; others: kinematic run)"
+    )
     return "\n".join(rows)
 
 
@@ -188,7 +219,9 @@ class Loads:
             out.append(f"loads: driving torque error {self.torque_rel:.3g} of its range exceeds {TORQUE_REL:g}")
         for lab, p in self.pairs.items():
             if not p["error_rel"] <= FORCE_REL:
-                out.append(f"loads: reaction {lab} error {p['error_rel']:.3g} of its largest force exceeds {FORCE_REL:g}")
+                out.append(
+                    f"loads: reaction {lab} error {p['error_rel']:.3g} of its largest force exceeds {FORCE_REL:g}"
+                )
         return out
 
 
@@ -203,17 +236,28 @@ def loads(mech: Mechanism, mj: Trace) -> Loads:
     for lab, f_ref in rx.forces.items():
         f_mj = mj.reactions[lab]
         peak = float(np.linalg.norm(f_ref, axis=1).max())
-        entry = {"max_force_N": peak, "max_force_mujoco_N": float(np.linalg.norm(f_mj, axis=1).max()),
-                 "error_rel": float(np.linalg.norm(f_mj - f_ref, axis=1).max() / peak) if peak > 0 else 0.0}
+        entry = {
+            "max_force_N": peak,
+            "max_force_mujoco_N": float(np.linalg.norm(f_mj, axis=1).max()),
+            "error_rel": float(np.linalg.norm(f_mj - f_ref, axis=1).max() / peak) if peak > 0 else 0.0,
+        }
         if lab in rx.moments:
             m_ref, m_mj = rx.moments[lab], mj.moments[lab]
             mpk = float(np.abs(m_ref).max())
             entry["max_moment_N_m"] = mpk
-            entry["moment_error"] = float(np.abs(m_mj - m_ref).max() / mpk) if mpk > 1e-12 else float(np.abs(m_mj).max())
+            entry["moment_error"] = (
+                float(np.abs(m_mj - m_ref).max() / mpk) if mpk > 1e-12 else float(np.abs(m_mj).max())
+            )
         pairs[lab] = entry
-    return Loads(float(np.mean(mj.omega)), float(np.abs(mj.torque - tau).max() / np.ptp(tau)) if np.ptp(tau) > 0 else 0.0,
-                 float(np.abs(tau).max()), float(np.sqrt(np.mean(tau**2))), float(np.mean(tau * mj.omega)),
-                 pairs, max((p["error_rel"] for p in pairs.values()), default=0.0))
+    return Loads(
+        float(np.mean(mj.omega)),
+        float(np.abs(mj.torque - tau).max() / np.ptp(tau)) if np.ptp(tau) > 0 else 0.0,
+        float(np.abs(tau).max()),
+        float(np.sqrt(np.mean(tau**2))),
+        float(np.mean(tau * mj.omega)),
+        pairs,
+        max((p["error_rel"] for p in pairs.values()), default=0.0),
+    )
 
 
 # ------------------------------------------------------------------------ branch-switch watchdog
@@ -253,7 +297,11 @@ def branch_switch(mech: Mechanism, trace, tol_m: float = BRANCH_TOL_M) -> str | 
     j = int(after[np.argmax(np.where(np.isfinite(dev[after]), dev[after], -1.0))])
     other = step.mirror(kin.positions(), j)
     if other is not None and np.linalg.norm(mj[j] - other) < dev[j]:
-        return (f"{src}: MuJoCo left the reference's assembly branch at {n} ({step.named()}) {where}: it follows the "
-                f"other branch ({step.flipped()}), up to {dev[j] * 1e3:.3g} mm away; the run is not the file's mechanism")
-    return (f"{src}: MuJoCo left the reference's solution at {n} {where}: {dev[i] * 1e3:.3g} mm away, up to "
-            f"{dev[j] * 1e3:.3g} mm later (tolerance {tol_m * 1e3:g} mm)")
+        return (
+            f"{src}: MuJoCo left the reference's assembly branch at {n} ({step.named()}) {where}: it follows the "
+            f"other branch ({step.flipped()}), up to {dev[j] * 1e3:.3g} mm away; the run is not the file's mechanism"
+        )
+    return (
+        f"{src}: MuJoCo left the reference's solution at {n} {where}: {dev[i] * 1e3:.3g} mm away, up to "
+        f"{dev[j] * 1e3:.3g} mm later (tolerance {tol_m * 1e3:g} mm)"
+    )

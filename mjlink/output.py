@@ -1,9 +1,14 @@
 """Output: the one atomic writer, CSV tables with units in the column names, JSON.
 
-Every file mjlink writes is complete or absent: a single file is written to a temporary
-name beside it and renamed into place (:func:`atomic_path`); a run writes into a hidden
-staging folder beside its destination and renames it into place only when everything is
-written (:func:`staged_dir`). CSV files are written by :func:`write_table` alone.
+Every file mjlink writes is complete or absent: a file on its own is written to a temporary
+name beside it and renamed into place (:func:`atomic_path`, :func:`write_text`); a run writes
+into a hidden staging folder beside its destination and renames it into place only when
+everything is written (:func:`staged_dir`). The files of a staging folder are written in place
+(``write_text(..., in_stage=True)``): the folder is what is published atomically. CSV files are
+written by :func:`write_table` alone, report files by :func:`write_json`.
+
+CSV columns carry their unit in their name (``P5_x_mm``, ``omega1_rad_s``, ``torque_N_m``) and
+are written at full double precision.
 """
 
 from __future__ import annotations
@@ -17,16 +22,25 @@ import secrets
 import shutil
 import sys
 import tempfile
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import OutputError
 from .model.mechanism import Mechanism
 from .runs import Trace
-from .units import RPM
+from .units import MM, UM, to_rpm
+
+if TYPE_CHECKING:
+    from .reference import Steady
+
+# Exactly 1000.0 and 1e6: multiplying by them writes the same digits the CSVs have always had
+# (x / MM, i.e. units.to_mm, can differ from x * 1e3 in the last bit).
+_MM_PER_M = 1.0 / MM
+_UM_PER_M = 1.0 / UM
 
 
 @contextmanager
@@ -65,69 +79,89 @@ def atomic_path(path: Path | str, suffix: str = ".tmp") -> Iterator[Path]:
         raise
 
 
-def write_text(path: Path | str, text: str) -> Path:
-    """Write a whole text file (UTF-8) or nothing."""
+def write_text(path: Path | str, text: str, *, in_stage: bool = False) -> Path:
+    """Write a whole text file (UTF-8) at ``path``; returns the path.
+
+    A file on its own (``in_stage`` False: an MJCF from ``build -o``, a synthesized mechanism
+    file) goes through :func:`atomic_path`: complete or absent, an OSError as an OutputError.
+    A file inside a :func:`staged_dir` folder (``in_stage`` True) is written in place: the
+    folder is published whole, and an OSError reaches ``staged_dir``, whose message names the
+    output folder and the file instead of the hidden staging path.
+    """
     path = Path(path)
+    if in_stage:
+        path.write_text(text, encoding="utf-8")
+        return path
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return path
 
 
 def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
-    """A CSV table: a header of ``names``, then the columns ``cols`` (equal lengths) at full
-    double precision (repr() is the shortest text that reads back to the same double)."""
+    """Write a CSV table into a staging folder; returns ``path``.
+
+    Args:
+        path: the file, inside a :func:`staged_dir` folder.
+        names: the k column names (header), units in the names.
+        cols: arrays of N rows each, (N,) for one column or (N, m) for m columns, k columns in
+            all; written at full double precision (repr() is the shortest text that reads back
+            to the same double).
+    """
     table = np.column_stack(cols)
     lines = [",".join(names)] + [",".join(map(repr, row)) for row in table.tolist()]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return write_text(path, "\n".join(lines) + "\n", in_stage=True)
 
 
 def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], np.ndarray]:
-    """Column names and the (N, k) table of a trace, in mm, deg, rpm, rad/s, rad/s^2, s."""
+    """Column names and the (N, k) table of a trace of N samples: time s, crank angle deg,
+    speed rad/s and rpm, acceleration rad/s^2, point positions mm, velocities mm/s and
+    accelerations mm/s^2, link speeds rad/s and accelerations rad/s^2, thread length mm, loop
+    gap um."""
     names = ["time_s", "phi1_deg", "omega1_rad_s", "eps1_rad_s2", "n1_rpm"]
-    cols = [trace.time, np.degrees(trace.phi), trace.omega, trace.eps, trace.omega / RPM]
+    cols = [trace.time, np.degrees(trace.phi), trace.omega, trace.eps, to_rpm(trace.omega)]
     for n in mech.point_names:
         for i, ax in enumerate("xyz"):
             names.append(f"{n}_{ax}_mm")
-            cols.append(trace.points[n][:, i] * 1e3)
+            cols.append(trace.points[n][:, i] * _MM_PER_M)
     for n in mech.moving_points:
         for i, ax in enumerate("xyz"):
             names.append(f"{n}_v{ax}_mm_s")
-            cols.append(trace.velocities[n][:, i] * 1e3)
+            cols.append(trace.velocities[n][:, i] * _MM_PER_M)
         for i, ax in enumerate("xyz"):
             names.append(f"{n}_a{ax}_mm_s2")
-            cols.append(trace.accelerations[n][:, i] * 1e3)
+            cols.append(trace.accelerations[n][:, i] * _MM_PER_M)
     for l in mech.links:
         if l.name in trace.link_omega:
             names += [f"{l.name}_omega_rad_s", f"{l.name}_eps_rad_s2"]
             cols += [trace.link_omega[l.name], trace.link_eps[l.name]]
     if trace.thread_length is not None:
         names.append("thread_length_mm")
-        cols.append(trace.thread_length * 1e3)
+        cols.append(trace.thread_length * _MM_PER_M)
     if trace.loop_gap is not None:
         names.append("loop_gap_um")
-        cols.append(trace.loop_gap * 1e6)
+        cols.append(trace.loop_gap * _UM_PER_M)
     return names, np.column_stack(cols)
 
 
 def write_csv(path: Path, mech: Mechanism, trace: Trace) -> Path:
-    """Write a trace as CSV at full double precision (17 significant digits)."""
+    """Write a trace as CSV (the columns of :func:`columns`) at full double precision."""
     names, table = columns(mech, trace)
     return write_table(path, names, [table])
 
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:
-    """Read a trace CSV back into columns by name."""
+    """Read a CSV written here back into its columns by name, each (N,) in the unit its name says."""
     data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
-    return {n: np.asarray(data[n]) for n in data.dtype.names}
+    return {n: np.asarray(data[n]) for n in data.dtype.names or ()}
 
 
-def write_json(path: Path, obj: dict) -> Path:
-    path.write_text(json.dumps(obj, indent=2, default=_jsonable) + "\n", encoding="utf-8")
-    return path
+def write_json(path: Path, obj: Mapping[str, Any]) -> Path:
+    """Write ``obj`` as indented JSON into a staging folder; numpy numbers and arrays become
+    JSON numbers and lists, paths strings. Returns ``path``."""
+    return write_text(path, json.dumps(obj, indent=2, default=_jsonable) + "\n", in_stage=True)
 
 
-def _jsonable(o):
+def _jsonable(o: object) -> object:
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
     if isinstance(o, np.ndarray):
@@ -233,9 +267,18 @@ def _label(lab: str) -> str:
     return lab.replace(":", "_").replace("-", "_")
 
 
-def write_loads_csv(path: Path, trace: Trace, torque: np.ndarray, forces: dict, moments: dict) -> Path:
-    """Driving torque (N*m) and the force (N) in every pair, with its moment (N*m) for prismatic
-    pairs, against time and crank angle; full double precision."""
+def write_loads_csv(
+    path: Path, trace: Trace, torque: np.ndarray, forces: Mapping[str, np.ndarray], moments: Mapping[str, np.ndarray]
+) -> Path:
+    """Driving torque and pair forces against time and crank angle, as CSV.
+
+    Args:
+        path: the file, inside a staging folder.
+        trace: the run of N samples whose time (s), crank angle and speed (rad/s) head the table.
+        torque: (N,) driving torque on the input crank, N*m.
+        forces: per pair label, (N, 3) force in the pair, N (columns Fx, Fy and |F|).
+        moments: per prismatic pair label, (N,) its moment, N*m.
+    """
     names = ["time_s", "phi1_deg", "omega1_rad_s", "torque_N_m"]
     cols = [trace.time, np.degrees(trace.phi), trace.omega, torque]
     for lab, f in forces.items():
@@ -246,3 +289,14 @@ def write_loads_csv(path: Path, trace: Trace, torque: np.ndarray, forces: dict, 
             names.append(f"{s}_M_N_m")
             cols.append(moments[lab])
     return write_table(path, names, cols)
+
+
+def write_steady_csv(path: Path, plain: Steady, fly: Steady) -> Path:
+    """Steady motion over one period, without and with the flywheel, as CSV: crank angle deg
+    (``plain``'s grid), crank speed rad/s and time s of each orbit (``plain.phi``,
+    ``plain.omega``, ``plain.t``, ``fly.omega``, ``fly.t``: (N,) each)."""
+    return write_table(
+        path,
+        ["phi1_deg", "omega_rad_s", "t_s", "omega_flywheel_rad_s", "t_flywheel_s"],
+        [np.degrees(plain.phi), plain.omega, plain.t, fly.omega, fly.t],
+    )

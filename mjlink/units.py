@@ -22,6 +22,11 @@ def to_rpm(omega):
     return omega * 30.0 / math.pi  # not omega / RPM: this order matches the CSVs written so far bit for bit
 
 
+def from_rpm(n):
+    """rad/s from rev/min (scalar or array)."""
+    return n * math.pi / 30.0  # the order of operations the torque command has always used
+
+
 def to_mm(x):
     """mm from m (scalar or array)."""
     return x / MM

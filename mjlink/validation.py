@@ -41,8 +41,9 @@ from .model.topology import pairs as all_pairs
 from .model.topology import topology
 from .units import PairKind, PairRole
 
-_ERRORS = {c.__name__: c for c in (AssemblyError, MechanismFileError, SimulationError, UnknownMechanismError,
-                                   MjlinkError)}
+_ERRORS = {
+    c.__name__: c for c in (AssemblyError, MechanismFileError, SimulationError, UnknownMechanismError, MjlinkError)
+}
 
 
 def get(name_or_path: str | Path, *, full_turn: bool = True) -> Mechanism:
@@ -76,7 +77,6 @@ def cycle_angles(mech: Mechanism, samples: int | None = None) -> np.ndarray:
     return mech.phi0 + np.linspace(0.0, mech.period, n)
 
 
-
 def block_angles(mech: Mechanism, kin: reference.Kinematics | None = None) -> tuple[BlockAngle, ...]:
     """Transmission angle of every dyad and pressure angle of every slider over the period.
 
@@ -99,8 +99,23 @@ def block_angles(mech: Mechanism, kin: reference.Kinematics | None = None) -> tu
         else:
             worst = mg = at = math.nan
         fails = reference.angle_ranges(phi, ~closes) if not closes.all() else ""
-        out.append(BlockAngle(s.kind, s.point, s.label(), s.carriers(mech.links), dp.quantity, worst, mg, at,
-                              dp.limit_deg, bool(closes.all()), fails, s, dp.required_margin_deg))
+        out.append(
+            BlockAngle(
+                s.kind,
+                s.point,
+                s.label(),
+                s.carriers(mech.links),
+                dp.quantity,
+                worst,
+                mg,
+                at,
+                dp.limit_deg,
+                bool(closes.all()),
+                fails,
+                s,
+                dp.required_margin_deg,
+            )
+        )
     return tuple(out)
 
 
@@ -109,7 +124,6 @@ def _wrap(mech: Mechanism, phi: float) -> float:
     p = math.degrees(mech.period)
     v = math.degrees(phi) % p
     return 0.0 if abs(v - p) < 1e-9 else v
-
 
 
 # --------------------------------------------------------------------------- degrees of freedom
@@ -155,24 +169,25 @@ def mobility(mech: Mechanism) -> Mobility:
     return Mobility(len(mech.links), revolute, prismatic, gears)
 
 
-
-
 def _mobility_problem(mech: Mechanism, m: Mobility) -> MechanismFileError | None:
     if m.driven == 1:
         return None
     src = mech.path or mech.name
-    count = (f"W = 3*{m.moving_links} - 2*{m.lower_pairs} = {m.structural}"
-             + (f", minus {m.gears} gear coupling{'s' if m.gears > 1 else ''}" if m.gears else ""))
+    count = f"W = 3*{m.moving_links} - 2*{m.lower_pairs} = {m.structural}" + (
+        f", minus {m.gears} gear coupling{'s' if m.gears > 1 else ''}" if m.gears else ""
+    )
     if m.driven > 1:
         hint = next((h for s in mech.steps if (h := s.mobility_hint(mech.links))), "")
         return MechanismFileError(
             f"{src}: [links]: the links give the linkage {m.driven} degrees of freedom ({count}) where it must have "
             f"one, the input crank's angle: a point the construction fixes is free in the linkage"
-            f"{hint or ' (a link is missing)'}")
+            f"{hint or ' (a link is missing)'}"
+        )
     return MechanismFileError(
         f"{src}: [links]: the links over-constrain the linkage ({count} degrees of freedom where it must have "
         f"one, the input crank's angle): a link or pair repeats a constraint another already makes; remove it "
-        f"(MuJoCo's loop closures would fight each other)")
+        f"(MuJoCo's loop closures would fight each other)"
+    )
 
 
 # --------------------------------------------------------------------------- all checks
@@ -200,10 +215,13 @@ def _problems(mech: Mechanism, full_turn: bool) -> list[MjlinkError]:
                 kin = reference.solve(mech, phi, check=False)
             blocks = [b for b in block_angles(mech, kin) if not b.closes]
             which = "; ".join(f"{b.kind} {b.label} cannot close for input angles {b.fails_deg} deg" for b in blocks)
-            found.append(AssemblyError(
-                f"{src}: the input crank cannot turn fully: {which + '; ' if which else ''}the linkage assembles "
-                f"only for input angles {ranges or 'none'} deg (it is a rocker there; mjlink does not pretend "
-                f"otherwise)"))
+            found.append(
+                AssemblyError(
+                    f"{src}: the input crank cannot turn fully: {which + '; ' if which else ''}the linkage assembles "
+                    f"only for input angles {ranges or 'none'} deg (it is a rocker there; mjlink does not pretend "
+                    f"otherwise)"
+                )
+            )
         found += _structure(mech)
         return found
     with np.errstate(all="ignore"):
@@ -243,8 +261,6 @@ def _structure(mech: Mechanism) -> list[MjlinkError]:
     return out
 
 
-
-
 def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError | None:
     """A point whose block's direction is undefined (two of its points coincide) somewhere."""
     src = mech.path or mech.name
@@ -256,36 +272,39 @@ def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError
                 return MechanismFileError(
                     f"{src}: [[construct]] {s.point}: its {what} {p} and {q} come within {d[i] * 1e3:.3g} mm of each "
                     f"other at input angle {_wrap(mech, kin.phi[i]):.1f} deg, so the direction they define is "
-                    f"undefined there")
+                    f"undefined there"
+                )
     for l in mech.links:
         if l.guide:
             p, q = l.guide
             d = np.linalg.norm((kin.points[p].v - kin.points[q].v)[:, :2], axis=1)
             if not (d >= MIN_DIRECTION_M).all():
-                return MechanismFileError(f"{src}: [links.{l.name}] guide: points {p} and {q} coincide "
-                                          f"(within {MIN_DIRECTION_M * 1e3:g} mm), so the guide has no direction")
+                return MechanismFileError(
+                    f"{src}: [links.{l.name}] guide: points {p} and {q} coincide "
+                    f"(within {MIN_DIRECTION_M * 1e3:g} mm), so the guide has no direction"
+                )
     for n in mech.point_names:
         v = kin.points[n].v
         if not np.isfinite(v).all():
             i = int(np.argmax(~np.isfinite(v).all(axis=1)))
-            return MechanismFileError(f"{src}: [[construct]] {n}: the point is undefined at input angle "
-                                      f"{_wrap(mech, kin.phi[i]):.1f} deg")
+            return MechanismFileError(
+                f"{src}: [[construct]] {n}: the point is undefined at input angle {_wrap(mech, kin.phi[i]):.1f} deg"
+            )
     return None
-
-
 
 
 def _almost_coincident(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError | None:
     """Two points of one link closer than MIN_DISTINCT_M but not the same point."""
     for l in mech.links:
         for i, a in enumerate(l.points):
-            for b in l.points[i + 1:]:
+            for b in l.points[i + 1 :]:
                 d = float(np.linalg.norm(kin.points[a].v[0] - kin.points[b].v[0]))
                 if 0.0 < d < MIN_DISTINCT_M:
                     return MechanismFileError(
                         f"{mech.path or mech.name}: [links.{l.name}]: points {a} and {b} are only {d * 1e3:.3g} mm apart: "
                         f"MuJoCo merges points closer than 0.0001 mm with a body's frame, so make them one point "
-                        f"(length 0) or keep them at least {MIN_DISTINCT_M * 1e3:g} mm apart")
+                        f"(length 0) or keep them at least {MIN_DISTINCT_M * 1e3:g} mm apart"
+                    )
     return None
 
 
@@ -305,7 +324,8 @@ def _inertia_problem(mech: Mechanism, kin: reference.Kinematics) -> MechanismFil
     return MechanismFileError(
         f"{mech.path or mech.name}: [links]: the reduced moment of inertia J(phi) vanishes at input angle "
         f"{_wrap(mech, kin.phi[i]):.1f} deg (every link with mass or inertia is at rest there), so the equation "
-        f"of motion is singular: give the input crank's link {mech.input_link.name} a mass and an inertia")
+        f"of motion is singular: give the input crank's link {mech.input_link.name} a mass and an inertia"
+    )
 
 
 def _compile_problem(mech: Mechanism) -> MechanismFileError | None:
@@ -338,7 +358,6 @@ def with_crank_settings(mech: Mechanism, phi0_deg: float | None = None, phase_de
         new = dataclasses.replace(geared[0], phase=math.radians(phase_deg))
         mech = dataclasses.replace(mech, steps=tuple(new if s is geared[0] else s for s in mech.steps))
     return validate(mech) if (phi0_deg is not None or phase_deg is not None) else mech
-
 
 
 # ------------------------------------------------------------------------ the check report
@@ -445,10 +464,14 @@ def check(mech: Mechanism) -> CheckReport:
     for the mechanism's geometry or structure."""
     made_by = {s.point: s.describe() for s in mech.steps}
     points = tuple(
-        PointInfo(n, n in mech.ground,
-                  made_by.get(n) or "fixed at (" + ", ".join(f"{x * 1e3:g}" for x in mech.ground[n]) + ") mm",
-                  tuple(l.name for l in mech.links if n in l.points))
-        for n in mech.point_names)
+        PointInfo(
+            n,
+            n in mech.ground,
+            made_by.get(n) or "fixed at (" + ", ".join(f"{x * 1e3:g}" for x in mech.ground[n]) + ") mm",
+            tuple(l.name for l in mech.links if n in l.points),
+        )
+        for n in mech.point_names
+    )
     links = tuple(LinkInfo(l.name, l.points, l.mass, l.inertia, l.com, l.guide) for l in mech.links)
 
     pairs: list[PairInfo] = []
@@ -463,8 +486,9 @@ def check(mech: Mechanism) -> CheckReport:
                 pairs.append(PairInfo(p.kind, p.point, p.guide, p.parent or "ground", p.child, PairRole.UNPLACED))
         except MechanismFileError:
             pass
-    gears = tuple(GearInfo(s.point, next(iter(s.carriers(mech.links)), "?"), s.ratio, s.phase or 0.0)
-                  for s in mech.geared)
+    gears = tuple(
+        GearInfo(s.point, next(iter(s.carriers(mech.links)), "?"), s.ratio, s.phase or 0.0) for s in mech.geared
+    )
 
     phi = cycle_angles(mech)
     with np.errstate(all="ignore"):
@@ -476,13 +500,17 @@ def check(mech: Mechanism) -> CheckReport:
     acc = mech.input_crank.length * mech.speed**2
     lo, hi = VERIFIED_CRANK_ACCELERATION
     if abs(mech.speed) > VERIFIED_SPEED:
-        notes.append(f"the kinematic run's speed {abs(mech.speed):g} rad/s is above the {VERIFIED_SPEED:g} "
-                     "rad/s up to which the agreement thresholds are verified; 'simulate' reports how close it comes")
+        notes.append(
+            f"the kinematic run's speed {abs(mech.speed):g} rad/s is above the {VERIFIED_SPEED:g} "
+            "rad/s up to which the agreement thresholds are verified; 'simulate' reports how close it comes"
+        )
     if not lo <= acc <= hi:
-        notes.append(f"the crank pin's acceleration in the kinematic run, {acc:.3g} m/s^2 (crank length x speed^2), is "
-                     f"outside the {lo:g}..{hi:g} m/s^2 over which the agreement thresholds are verified "
-                     + ("(gravity's load on the loop closures is then not negligible)" if acc < lo else
-                        "(errors grow with it)") + "; 'simulate' reports how close it comes")
+        notes.append(
+            f"the crank pin's acceleration in the kinematic run, {acc:.3g} m/s^2 (crank length x speed^2), is "
+            f"outside the {lo:g}..{hi:g} m/s^2 over which the agreement thresholds are verified "
+            + ("(gravity's load on the loop closures is then not negligible)" if acc < lo else "(errors grow with it)")
+            + "; 'simulate' reports how close it comes"
+        )
     if not any(l.mass > 0 for l in mech.links):
         notes.append("no link has a mass: 'simulate' makes the kinematic run only")
     elif not mech.has_dynamics:
@@ -490,5 +518,19 @@ def check(mech: Mechanism) -> CheckReport:
     point_masses = [l.name for l in mech.links if l.mass > 0 and l.inertia == 0 and not l.guide]
     if point_masses:
         notes.append(f"{', '.join(point_masses)}: mass without inertia, treated as a point mass at its 'com'")
-    return CheckReport(mech.name, mech.title, str(mech.path or "<string>"), points, links, tuple(pairs), gears,
-                       mobility(mech), full, ranges, angles, probs, tuple(notes), math.degrees(mech.period))
+    return CheckReport(
+        mech.name,
+        mech.title,
+        str(mech.path or "<string>"),
+        points,
+        links,
+        tuple(pairs),
+        gears,
+        mobility(mech),
+        full,
+        ranges,
+        angles,
+        probs,
+        tuple(notes),
+        math.degrees(mech.period),
+    )

@@ -3,12 +3,10 @@
 import numpy as np
 import pytest
 
-from mjlink import compare
-from mjlink import pipeline
+from mjlink import compare, pipeline, validation
 from mjlink import reference as R
 from mjlink.model import catalogue as registry
 from mjlink.sim import simulate as S
-from mjlink import validation
 
 
 @pytest.fixture(scope="module", params=registry.names())
@@ -27,7 +25,15 @@ def test_kinematic_run_agrees(mech):
     assert a.failures() == []
 
 
-@pytest.mark.parametrize("name", [n for n in registry.names() if pipeline.has_masses(validation.get(n))])
+# takeup_eyelets' dynamic run takes about 8 s (a force table applied at every RK4 stage).
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.slow) if n == "takeup_eyelets" else n
+        for n in registry.names()
+        if pipeline.has_masses(validation.get(n))
+    ],
+)
 def test_dynamic_run_agrees(name):
     mech = validation.get(name)
     tr = S.run(mech, S.dynamic_case(mech))

@@ -26,8 +26,9 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
 def mjlink(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "mjlink", *args], capture_output=True, text=True,
-                          cwd=cwd or ROOT, env=ENV, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd or ROOT, env=ENV, timeout=600
+    )
 
 
 def write(tmp_path, text, name="mine.toml"):
@@ -53,9 +54,16 @@ def test_takeup_report():
     assert a.kind == "dyad" and a.label == "P2-P3-P4" and a.links == ("lever", "rocker")
     assert abs(a.worst_deg - 154.59) < 0.01 and abs(a.margin_deg - 25.41) < 0.01 and abs(a.phi_deg - 195.0) < 0.2
     text = format_report(r)
-    for s in ("points (4 ground, 6 moving)", "links (3 moving)", "revolute  at P3", "closes a loop",
-              "W = 3 n - 2 p = 3*3 - 2*4 = 1", "the input crank turns fully", "transmission angle  154.59 deg",
-              "result: ok"):
+    for s in (
+        "points (4 ground, 6 moving)",
+        "links (3 moving)",
+        "revolute  at P3",
+        "closes a loop",
+        "W = 3 n - 2 p = 3*3 - 2*4 = 1",
+        "the input crank turns fully",
+        "transmission angle  154.59 deg",
+        "result: ok",
+    ):
         assert s in text, s
     mass = {l.name: l.mass for l in r.links}
     assert mass == pytest.approx({"crank": 0.01, "lever": 0.0065, "rocker": 0.0085}, rel=1e-12)
@@ -119,7 +127,7 @@ def test_dead_point_is_reported_not_only_raised(tmp_path):
 
 
 def test_structural_problem_is_reported_with_the_count(tmp_path):
-    text = (EXAMPLE + '\n[links.coupler2]\npoints = ["B", "C"]\nmass = 1.0\ncom = "C"\n')
+    text = EXAMPLE + '\n[links.coupler2]\npoints = ["B", "C"]\nmass = 1.0\ncom = "C"\n'
     r = check.check_file(write(tmp_path, text))
     assert r.mobility.driven == 0 and not r.ok
     assert "<-- must be 1" in format_report(r)
@@ -168,8 +176,10 @@ def _switched(mech, tr, flipped, k):
     from mjlink import reference
 
     other = reference.solve(flipped, tr.phi)
-    pts = {n: np.where((np.arange(len(tr.time)) >= k)[:, None], other.position(n), v) if n in mech.moving_points
-           else v for n, v in tr.points.items()}
+    pts = {
+        n: np.where((np.arange(len(tr.time)) >= k)[:, None], other.position(n), v) if n in mech.moving_points else v
+        for n, v in tr.points.items()
+    }
     return dataclasses.replace(tr, points=pts)
 
 
@@ -187,8 +197,9 @@ def test_branch_switch_of_a_dyad_is_named(example_run):
 def test_branch_switch_of_a_slider_is_named():
     m = validation.get("crank_slider")
     tr = S.run(m, S.kinematic_case(m, cycles=0.25))
-    flipped = dataclasses.replace(m, steps=tuple(dataclasses.replace(s, toward="G1") if s.point == "C" else s
-                                                  for s in m.steps))
+    flipped = dataclasses.replace(
+        m, steps=tuple(dataclasses.replace(s, toward="G1") if s.point == "C" else s for s in m.steps)
+    )
     msg = compare.branch_switch(m, _switched(m, tr, flipped, 10))
     assert "at C (slider B-C)" in msg and "toward G1 instead of G2" in msg
 

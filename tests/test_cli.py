@@ -6,28 +6,39 @@ import subprocess
 import sys
 
 import mujoco
-import pytest
 import numpy as np
-
+import pytest
 from conftest import ROOT
+
 from mjlink import output
 
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
 def mjlink(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "mjlink", *args], capture_output=True, text=True,
-                          cwd=cwd or ROOT, env=ENV, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd or ROOT, env=ENV, timeout=600
+    )
 
 
+@pytest.mark.slow
 def test_simulate_takeup_end_to_end(tmp_path):
-    r = mjlink("simulate", "takeup", "--out", str(tmp_path), "--video-seconds", "1", "--size", "320x240",
-               "--strict")
+    r = mjlink("simulate", "takeup", "--out", str(tmp_path), "--video-seconds", "1", "--size", "320x240", "--strict")
     assert r.returncode == 0, r.stderr
     out = tmp_path / "takeup"
-    for f in ("kinematics.csv", "dynamics.csv", "reference_kinematics.csv", "reference_dynamics.csv",
-              "report.json", "model.xml", "takeup.mp4", "speed_vs_time.png", "speed_vs_angle.png",
-              "positions.png", "thread_length.png"):
+    for f in (
+        "kinematics.csv",
+        "dynamics.csv",
+        "reference_kinematics.csv",
+        "reference_dynamics.csv",
+        "report.json",
+        "model.xml",
+        "takeup.mp4",
+        "speed_vs_time.png",
+        "speed_vs_angle.png",
+        "positions.png",
+        "thread_length.png",
+    ):
         assert (out / f).is_file(), f
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")], "staging folder left behind"
     rep = json.loads((out / "report.json").read_text())
@@ -37,8 +48,17 @@ def test_simulate_takeup_end_to_end(tmp_path):
     assert rep["video"]["frames"] == 30
     assert "Agreement of MuJoCo" in r.stdout and "thresholds" in r.stdout
     kin = output.read_csv(out / "kinematics.csv")
-    for col in ("time_s", "phi1_deg", "omega1_rad_s", "eps1_rad_s2", "n1_rpm", "P5_x_mm", "P5_y_mm", "P5_z_mm",
-                "thread_length_mm"):
+    for col in (
+        "time_s",
+        "phi1_deg",
+        "omega1_rad_s",
+        "eps1_rad_s2",
+        "n1_rpm",
+        "P5_x_mm",
+        "P5_y_mm",
+        "P5_z_mm",
+        "thread_length_mm",
+    ):
         assert col in kin
     assert kin["phi1_deg"][-1] - kin["phi1_deg"][0] >= 359.0
     ref = output.read_csv(out / "reference_kinematics.csv")
@@ -81,8 +101,20 @@ def test_errors_are_one_line_and_nonzero(tmp_path):
 
 def test_synth_prints_the_table_and_writes_a_runnable_file(tmp_path):
     f = tmp_path / "my_slider.toml"
-    r = mjlink("synth", "crank_slider", "--stroke", "45", "--offset", "15", "--lambda", "0.35",
-               "--max-pressure-angle", "40", "--write", str(f))
+    r = mjlink(
+        "synth",
+        "crank_slider",
+        "--stroke",
+        "45",
+        "--offset",
+        "15",
+        "--lambda",
+        "0.35",
+        "--max-pressure-angle",
+        "40",
+        "--write",
+        str(f),
+    )
     assert r.returncode == 0, r.stderr
     assert "21.731" in r.stdout and "62.088" in r.stdout and "36.3 deg  accepted" in r.stdout
     assert "62.3 deg  rejected" in r.stdout and "largest admissible lambda (step 0.01): 0.37" in r.stdout
@@ -91,9 +123,21 @@ def test_synth_prints_the_table_and_writes_a_runnable_file(tmp_path):
     assert (tmp_path / "my_slider" / "kinematics.csv").is_file()
 
 
+@pytest.mark.slow
 def test_warp_knitting_crank_settings(tmp_path):
-    r = mjlink("simulate", "warp_knitting", "--phi01", "-90", "--phi04", "30", "--out", str(tmp_path),
-               "--no-video", "--no-plots", "--strict")
+    r = mjlink(
+        "simulate",
+        "warp_knitting",
+        "--phi01",
+        "-90",
+        "--phi04",
+        "30",
+        "--out",
+        str(tmp_path),
+        "--no-video",
+        "--no-plots",
+        "--strict",
+    )
     assert r.returncode == 0, r.stderr
     rep = json.loads((tmp_path / "warp_knitting" / "report.json").read_text())
     assert rep["failures"] == []
@@ -101,6 +145,7 @@ def test_warp_knitting_crank_settings(tmp_path):
     assert r.returncode == 1 and "no geared crank" in r.stderr
 
 
+@pytest.mark.slow
 def test_torque_reactions_and_steady_commands(tmp_path):
     r = mjlink("torque", "warp_knitting", "--speed", "1000", "--out", str(tmp_path), "--strict")
     assert r.returncode == 0, r.stderr
@@ -120,8 +165,20 @@ def test_torque_reactions_and_steady_commands(tmp_path):
 
 
 def test_simulate_dynamics_flag(tmp_path):
-    r = mjlink("simulate", "crank_slider", "--dynamics", "--no-video", "--no-plots", "--out", str(tmp_path),
-               "--stall-torque", "-0.8", "--no-load-speed", "-160", "--strict")
+    r = mjlink(
+        "simulate",
+        "crank_slider",
+        "--dynamics",
+        "--no-video",
+        "--no-plots",
+        "--out",
+        str(tmp_path),
+        "--stall-torque",
+        "-0.8",
+        "--no-load-speed",
+        "-160",
+        "--strict",
+    )
     assert r.returncode == 0, r.stderr
     rep = json.loads((tmp_path / "crank_slider" / "report.json").read_text())
     assert rep["failures"] == [] and "steady" in rep and "loads" in rep

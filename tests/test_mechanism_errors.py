@@ -15,23 +15,27 @@ def bad(old, new, count=1):
     return GOOD.replace(old, new, count)
 
 
-@pytest.mark.parametrize("text, match", [
-    ("[mechanism\nname=1", "TOML syntax error"),
-    (bad("length = 30.0", "lenght = 30.0"), "unknown key 'lenght' \\(did you mean 'length'\\?\\)"),
-    (bad("length = 30.0", ""), "missing key 'length'"),
-    (bad("length = 30.0", "length = \"30\""), "must be a number"),
-    (bad("length = 30.0", "length = -30.0"), "must be > 0"),
-    (bad("length = 30.0", "length = nan"), "must be finite"),
-    (bad("length = 30.0", "length = inf"), "must be finite"),
-    (bad('a = "P2"', 'a = "P9"'), "uses point 'P9', which is not defined"),
-    (bad('toward = "P2"', 'toward = "S2"'), "is defined later"),
-    (bad("sign = -1", "sign = 0"), "must be \\+1 or -1"),
-    (bad('block = "dyad"', 'block = "dyadd"'), "unknown block 'dyadd' \\(did you mean 'dyad'\\?"),
-    (bad("mass = 10.0", "mass = -10.0"), "must be >= 0"),
-    (bad('com = "S1"\n', ""), "has a mass but no 'com'"),
-    (bad('name = "takeup"', 'name = "../../etc"'), "invalid name"),
-    (bad('points = ["P4", "P3"]', 'points = ["P4", "P3", "P5"]'), "do not stay at a fixed distance"),
-], ids=lambda v: v if len(v) < 40 else None)
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("[mechanism\nname=1", "TOML syntax error"),
+        (bad("length = 30.0", "lenght = 30.0"), "unknown key 'lenght' \\(did you mean 'length'\\?\\)"),
+        (bad("length = 30.0", ""), "missing key 'length'"),
+        (bad("length = 30.0", 'length = "30"'), "must be a number"),
+        (bad("length = 30.0", "length = -30.0"), "must be > 0"),
+        (bad("length = 30.0", "length = nan"), "must be finite"),
+        (bad("length = 30.0", "length = inf"), "must be finite"),
+        (bad('a = "P2"', 'a = "P9"'), "uses point 'P9', which is not defined"),
+        (bad('toward = "P2"', 'toward = "S2"'), "is defined later"),
+        (bad("sign = -1", "sign = 0"), "must be \\+1 or -1"),
+        (bad('block = "dyad"', 'block = "dyadd"'), "unknown block 'dyadd' \\(did you mean 'dyad'\\?"),
+        (bad("mass = 10.0", "mass = -10.0"), "must be >= 0"),
+        (bad('com = "S1"\n', ""), "has a mass but no 'com'"),
+        (bad('name = "takeup"', 'name = "../../etc"'), "invalid name"),
+        (bad('points = ["P4", "P3"]', 'points = ["P4", "P3", "P5"]'), "do not stay at a fixed distance"),
+    ],
+    ids=lambda v: v if len(v) < 40 else None,
+)
 def test_rejected(tmp_path, text, match):
     f = tmp_path / "bad.toml"
     f.write_text(text)
@@ -59,8 +63,11 @@ def test_one_base_exception():
 
     from mjlink import errors
 
-    declared = [c for _, c in inspect.getmembers(errors, inspect.isclass)
-                if issubclass(c, BaseException) and c.__module__ == errors.__name__]
+    declared = [
+        c
+        for _, c in inspect.getmembers(errors, inspect.isclass)
+        if issubclass(c, BaseException) and c.__module__ == errors.__name__
+    ]
     assert len(declared) >= 7
     for cls in declared:
         assert issubclass(cls, MjlinkError), cls
@@ -93,79 +100,108 @@ def rejected(tmp_path, text, cls=MechanismFileError, name="mine.toml"):
     return msg
 
 
-@pytest.mark.parametrize("text, match", [
-    # TOML syntax, with the line
-    ("[mechanism]\nname = \"x\"\ntitle = = 1\n", r"TOML syntax error: .*\(at line 3, column"),
-    # unknown keys, with the nearest valid one, in every table
-    (ex("[links.crank]", "[linkz.crank]"), r"unknown key 'linkz' \(did you mean 'links'\?\)"),
-    (ex('title = "Plain', 'titel = "Plain'), r"\[mechanism\]: unknown key 'titel' \(did you mean 'title'\?\)"),
-    (ex("length_a = 45.0", "lenght_a = 45.0"), r"\[\[construct\]\] C \(dyad\): unknown key 'lenght_a' "
-                                                r"\(did you mean 'length_a'\?\)"),
-    (ex("inertia = 1.0e-6", "inertial = 1.0e-6"), r"\[links.crank\]: unknown key 'inertial' \(did you mean 'inertia'\?\)"),
-    (ex("phi0 = 0.0", "phi_0 = 0.0"), r"\[input\]: unknown key 'phi_0' \(did you mean 'phi0'\?\)"),
-    (ex("damping = 1.0e-4", "dampign = 1.0e-4"), r"\[dynamics\]: unknown key 'dampign' \(did you mean 'damping'\?\)"),
-    # missing keys
-    (ex('sign = 1', ''), r"\[\[construct\]\] C \(dyad\): missing key 'sign'"),
-    (ex('speed = 100.0', ''), r"\[input\]: missing key 'speed'"),
-    (ex('point = "E"', ''), r"\[\[construct\]\] #3: missing key 'point'"),
-    # wrong types
-    (ex("length = 15.0", "length = [15.0]"), r"length: must be a number, got list"),
-    (ex("sign = 1 ", "sign = true "), r"sign: must be \+1 or -1"),
-    (ex('D = [50.0, 0.0]', 'D = "50, 0"'), r"\[ground\] D: must be a list of 2 or 3 numbers"),
-    (ex('points = ["A", "B"]', 'points = "A B"'), r"\[links.crank\] points: must be a list"),
-    (ex("[[construct]]\npoint = \"B\"", "[construct]\npoint = \"B\""), r"must be an array of tables|TOML syntax"),
-    # zero, negative, non-finite, absurd sizes
-    (ex("length = 15.0", "length = 0.0"), r"length: must be > 0, got 0"),
-    (ex("length_b = 35.0", "length_b = -35.0"), r"length_b: must be > 0, got -35"),
-    (ex("length = 15.0", "length = nan"), r"must be finite"),
-    (ex("length = 15.0", "length = -inf"), r"must be finite"),
-    (ex("length = 15.0", "length = 1" + "0" * 400), r"must be finite, got an integer of 401 digits"),
-    (ex("length = 15.0", "length = 1e6"), r"must be at most 1000 mm in magnitude"),
-    (ex("length = 15.0", "length = 1e-5"), r"must be at least 0.1 mm in magnitude"),
-    (ex('D = [50.0, 0.0]', 'D = [5e4, 0.0]'), r"\[ground\] D: coordinates must be at most 1000 mm"),
-    (ex("speed = 100.0", "speed = 1e-3"), r"\[input\] speed: must be between 1 and 10000 rad/s"),
-    (ex("speed = 100.0", "speed = 0"), r"\[input\] speed: must be non-zero"),
-    (ex("cycles = 1.0", "cycles = 1e9"), r"\[input\] cycles: must be at most 100"),
-    (ex("phi0 = 0.0", "phi0 = 1e300"), r"\[input\] phi0: must be at most 720 deg in magnitude \(an angle\)"),
-    (ex("angle = 30.0", "angle = -1e20"), r"E \(attached\) angle: must be at most 720 deg"),
-    # references to undefined points and links
-    (ex('b = "D"', 'b = "Q"'), r"\[\[construct\]\] C: uses point 'Q', which is not defined"),
-    (ex('points = ["D", "C"]', 'points = ["D", "X"]'), r"\[links.rocker\]: uses point 'X', which is not defined"),
-    (ex('com = "S3"', 'com = "S9"'), r"\[links.rocker\]: uses point 'S9', which is not defined"),
-    (EXAMPLE + '\n[thread]\npath = ["A", "Z"]\n', r"\[thread\] path: uses point 'Z', which is not defined"),
-    (ex('points = ["B", "C", "E"]', 'points = ["B", "C"]'), r"point 'E' belongs to no link"),
-    # a block that uses a point defined later, and two blocks that depend on each other
-    (ex('toward = "C"', 'toward = "S3"'), r"\[\[construct\]\] E: uses point 'S3', which is defined later: order"),
-    (ex('origin = "A"\ntoward = "B"', 'origin = "A"\ntoward = "S2"').replace(
-        'origin = "B"\ntoward = "C"\nangle = 0.0\nlength = 22.5', 'origin = "B"\ntoward = "S1"\nangle = 0.0\nlength = 22.5'),
-     r"\[\[construct\]\] S1: uses point 'S2', which is built from 'S1' itself: the blocks S1 -> S2 -> S1 form a cycle"),
-    (ex('a = "B"\nb = "D"', 'a = "B"\nb = "D"', ).replace('origin = "B"\ntoward = "C"\nangle = 30.0',
-                                                          'origin = "B"\ntoward = "C"\nangle = 30.0')
-     .replace('block = "dyad"                         # 45 mm from B and 35 mm from D\na = "B"',
-              'block = "dyad"                         # 45 mm from B and 35 mm from D\na = "E"'),
-     r"\[\[construct\]\] C: uses point 'E', which is built from 'C' itself: the blocks C -> E -> C form a cycle"),
-    # blocks whose own points make a direction undefined
-    (ex('a = "B"\nb = "D"', 'a = "D"\nb = "D"'), r"C \(dyad\) b: must differ from a"),
-    (ex('origin = "B"\ntoward = "C"\nangle = 30.0', 'origin = "B"\ntoward = "B"\nangle = 30.0'),
-     r"E \(attached\) toward: must differ from origin"),
-    # mass and inertia
-    (ex("mass = 10.0", "mass = -10.0"), r"\[links.crank\] mass: must be >= 0"),
-    (ex("inertia = 1.0e-6", "inertia = -1.0e-6"), r"\[links.crank\] inertia: must be >= 0"),
-    (ex("mass = 10.0", "mass = 0.0"), r"\[links.crank\]: has a moment of inertia but zero mass"),
-    (ex('com = "S1"', ''), r"\[links.crank\]: has a mass but no 'com'"),
-    (ex("mass = 10.0", "mass = 1e300"), r"\[links.crank\] mass: must be at most 1e\+06 g in magnitude \(a machine part\)"),
-    (ex("inertia = 1.0e-6", "inertia = 5e3"), r"\[links.crank\] inertia: must be at most 1000 kg\*m\^2"),
-    # names that would escape the output folder or break the MJCF
-    (ex('name = "crank_rocker"', 'name = "../x"'), r"\[mechanism\] name: invalid name '../x'"),
-    (ex('name = "crank_rocker"', 'name = "a/b"'), r"invalid name 'a/b'"),
-    (ex('name = "crank_rocker"', 'name = "/etc/passwd"'), r"invalid name '/etc/passwd'"),
-    (ex('name = "crank_rocker"', 'name = "' + "x" * 33 + '"'), r"invalid name 'x{33}'"),
-    (ex('name = "crank_rocker"', 'name = "Kurbelschwinge_ä"'), r"invalid name"),
-    (ex('name = "crank_rocker"', 'name = "crank\\n"'), r"invalid name 'crank\\n'"),
-    (ex('name = "crank_rocker"', 'name = ""'), r"invalid name ''"),
-    (ex("[links.crank]", "[links.world]"), r"\[links.world\]: 'world' is reserved"),
-    (ex("[links.crank]", "[links.ground]"), r"\[links.ground\]: 'ground' is reserved"),
-], ids=lambda v: "file" if "\n" in v or len(v) > 70 else v)
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        # TOML syntax, with the line
+        ('[mechanism]\nname = "x"\ntitle = = 1\n', r"TOML syntax error: .*\(at line 3, column"),
+        # unknown keys, with the nearest valid one, in every table
+        (ex("[links.crank]", "[linkz.crank]"), r"unknown key 'linkz' \(did you mean 'links'\?\)"),
+        (ex('title = "Plain', 'titel = "Plain'), r"\[mechanism\]: unknown key 'titel' \(did you mean 'title'\?\)"),
+        (
+            ex("length_a = 45.0", "lenght_a = 45.0"),
+            r"\[\[construct\]\] C \(dyad\): unknown key 'lenght_a' "
+            r"\(did you mean 'length_a'\?\)",
+        ),
+        (
+            ex("inertia = 1.0e-6", "inertial = 1.0e-6"),
+            r"\[links.crank\]: unknown key 'inertial' \(did you mean 'inertia'\?\)",
+        ),
+        (ex("phi0 = 0.0", "phi_0 = 0.0"), r"\[input\]: unknown key 'phi_0' \(did you mean 'phi0'\?\)"),
+        (
+            ex("damping = 1.0e-4", "dampign = 1.0e-4"),
+            r"\[dynamics\]: unknown key 'dampign' \(did you mean 'damping'\?\)",
+        ),
+        # missing keys
+        (ex("sign = 1", ""), r"\[\[construct\]\] C \(dyad\): missing key 'sign'"),
+        (ex("speed = 100.0", ""), r"\[input\]: missing key 'speed'"),
+        (ex('point = "E"', ""), r"\[\[construct\]\] #3: missing key 'point'"),
+        # wrong types
+        (ex("length = 15.0", "length = [15.0]"), r"length: must be a number, got list"),
+        (ex("sign = 1 ", "sign = true "), r"sign: must be \+1 or -1"),
+        (ex("D = [50.0, 0.0]", 'D = "50, 0"'), r"\[ground\] D: must be a list of 2 or 3 numbers"),
+        (ex('points = ["A", "B"]', 'points = "A B"'), r"\[links.crank\] points: must be a list"),
+        (ex('[[construct]]\npoint = "B"', '[construct]\npoint = "B"'), r"must be an array of tables|TOML syntax"),
+        # zero, negative, non-finite, absurd sizes
+        (ex("length = 15.0", "length = 0.0"), r"length: must be > 0, got 0"),
+        (ex("length_b = 35.0", "length_b = -35.0"), r"length_b: must be > 0, got -35"),
+        (ex("length = 15.0", "length = nan"), r"must be finite"),
+        (ex("length = 15.0", "length = -inf"), r"must be finite"),
+        (ex("length = 15.0", "length = 1" + "0" * 400), r"must be finite, got an integer of 401 digits"),
+        (ex("length = 15.0", "length = 1e6"), r"must be at most 1000 mm in magnitude"),
+        (ex("length = 15.0", "length = 1e-5"), r"must be at least 0.1 mm in magnitude"),
+        (ex("D = [50.0, 0.0]", "D = [5e4, 0.0]"), r"\[ground\] D: coordinates must be at most 1000 mm"),
+        (ex("speed = 100.0", "speed = 1e-3"), r"\[input\] speed: must be between 1 and 10000 rad/s"),
+        (ex("speed = 100.0", "speed = 0"), r"\[input\] speed: must be non-zero"),
+        (ex("cycles = 1.0", "cycles = 1e9"), r"\[input\] cycles: must be at most 100"),
+        (ex("phi0 = 0.0", "phi0 = 1e300"), r"\[input\] phi0: must be at most 720 deg in magnitude \(an angle\)"),
+        (ex("angle = 30.0", "angle = -1e20"), r"E \(attached\) angle: must be at most 720 deg"),
+        # references to undefined points and links
+        (ex('b = "D"', 'b = "Q"'), r"\[\[construct\]\] C: uses point 'Q', which is not defined"),
+        (ex('points = ["D", "C"]', 'points = ["D", "X"]'), r"\[links.rocker\]: uses point 'X', which is not defined"),
+        (ex('com = "S3"', 'com = "S9"'), r"\[links.rocker\]: uses point 'S9', which is not defined"),
+        (EXAMPLE + '\n[thread]\npath = ["A", "Z"]\n', r"\[thread\] path: uses point 'Z', which is not defined"),
+        (ex('points = ["B", "C", "E"]', 'points = ["B", "C"]'), r"point 'E' belongs to no link"),
+        # a block that uses a point defined later, and two blocks that depend on each other
+        (ex('toward = "C"', 'toward = "S3"'), r"\[\[construct\]\] E: uses point 'S3', which is defined later: order"),
+        (
+            ex('origin = "A"\ntoward = "B"', 'origin = "A"\ntoward = "S2"').replace(
+                'origin = "B"\ntoward = "C"\nangle = 0.0\nlength = 22.5',
+                'origin = "B"\ntoward = "S1"\nangle = 0.0\nlength = 22.5',
+            ),
+            r"\[\[construct\]\] S1: uses point 'S2', which is built from 'S1' itself: the blocks S1 -> S2 -> S1 form a cycle",
+        ),
+        (
+            ex(
+                'a = "B"\nb = "D"',
+                'a = "B"\nb = "D"',
+            )
+            .replace('origin = "B"\ntoward = "C"\nangle = 30.0', 'origin = "B"\ntoward = "C"\nangle = 30.0')
+            .replace(
+                'block = "dyad"                         # 45 mm from B and 35 mm from D\na = "B"',
+                'block = "dyad"                         # 45 mm from B and 35 mm from D\na = "E"',
+            ),
+            r"\[\[construct\]\] C: uses point 'E', which is built from 'C' itself: the blocks C -> E -> C form a cycle",
+        ),
+        # blocks whose own points make a direction undefined
+        (ex('a = "B"\nb = "D"', 'a = "D"\nb = "D"'), r"C \(dyad\) b: must differ from a"),
+        (
+            ex('origin = "B"\ntoward = "C"\nangle = 30.0', 'origin = "B"\ntoward = "B"\nangle = 30.0'),
+            r"E \(attached\) toward: must differ from origin",
+        ),
+        # mass and inertia
+        (ex("mass = 10.0", "mass = -10.0"), r"\[links.crank\] mass: must be >= 0"),
+        (ex("inertia = 1.0e-6", "inertia = -1.0e-6"), r"\[links.crank\] inertia: must be >= 0"),
+        (ex("mass = 10.0", "mass = 0.0"), r"\[links.crank\]: has a moment of inertia but zero mass"),
+        (ex('com = "S1"', ""), r"\[links.crank\]: has a mass but no 'com'"),
+        (
+            ex("mass = 10.0", "mass = 1e300"),
+            r"\[links.crank\] mass: must be at most 1e\+06 g in magnitude \(a machine part\)",
+        ),
+        (ex("inertia = 1.0e-6", "inertia = 5e3"), r"\[links.crank\] inertia: must be at most 1000 kg\*m\^2"),
+        # names that would escape the output folder or break the MJCF
+        (ex('name = "crank_rocker"', 'name = "../x"'), r"\[mechanism\] name: invalid name '../x'"),
+        (ex('name = "crank_rocker"', 'name = "a/b"'), r"invalid name 'a/b'"),
+        (ex('name = "crank_rocker"', 'name = "/etc/passwd"'), r"invalid name '/etc/passwd'"),
+        (ex('name = "crank_rocker"', 'name = "' + "x" * 33 + '"'), r"invalid name 'x{33}'"),
+        (ex('name = "crank_rocker"', 'name = "Kurbelschwinge_ä"'), r"invalid name"),
+        (ex('name = "crank_rocker"', 'name = "crank\\n"'), r"invalid name 'crank\\n'"),
+        (ex('name = "crank_rocker"', 'name = ""'), r"invalid name ''"),
+        (ex("[links.crank]", "[links.world]"), r"\[links.world\]: 'world' is reserved"),
+        (ex("[links.crank]", "[links.ground]"), r"\[links.ground\]: 'ground' is reserved"),
+    ],
+    ids=lambda v: "file" if "\n" in v or len(v) > 70 else v,
+)
 def test_rejected_with_key_and_cause(tmp_path, text, match):
     msg = rejected(tmp_path, text)
     assert __import__("re").search(match, msg), msg
@@ -173,15 +209,20 @@ def test_rejected_with_key_and_cause(tmp_path, text, match):
 
 def with_attached(text: str, point: str, origin: str, toward: str, length: float) -> str:
     """The example's text with one more 'attached' block (angle 0) just before S1's."""
-    block = (f'[[construct]]\npoint = "{point}"\nblock = "attached"\norigin = "{origin}"\n'
-             f'toward = "{toward}"\nangle = 0.0\nlength = {length}\n\n')
+    block = (
+        f'[[construct]]\npoint = "{point}"\nblock = "attached"\norigin = "{origin}"\n'
+        f'toward = "{toward}"\nangle = 0.0\nlength = {length}\n\n'
+    )
     return text.replace('[[construct]]\npoint = "S1"', block + '[[construct]]\npoint = "S1"', 1)
 
 
 def test_name_clash_between_joint_names(tmp_path):
     # link 'a_b' at point 'c' and link 'a' at point 'b_c' would both make the joint 'a_b_c'
-    text = (ex("[links.crank]", "[links.a]").replace("[links.rocker]", "[links.a_D]")
-            .replace('D = [50.0, 0.0]', 'D = [50.0, 0.0]\nA_D = [0.0, 0.0]'))
+    text = (
+        ex("[links.crank]", "[links.a]")
+        .replace("[links.rocker]", "[links.a_D]")
+        .replace("D = [50.0, 0.0]", "D = [50.0, 0.0]\nA_D = [0.0, 0.0]")
+    )
     text = text.replace('points = ["A", "B"]', 'points = ["A", "B", "D_C"]')
     # simpler: the joint names a_D_C (link a_D at C) and a_D_C (link a at D_C) clash
     text = with_attached(text, "D_C", "A", "B", 15.0)
@@ -196,8 +237,10 @@ def test_cannot_close_names_block_and_ranges(tmp_path):
     assert "cannot turn fully" in msg and "it is a rocker there" in msg
     import re
 
-    lo, hi = (float(x) for x in re.search(r"dyad B-C-D cannot close for input angles ([0-9.]+)\.\.([0-9.]+) deg",
-                                          msg).groups())
+    lo, hi = (
+        float(x)
+        for x in re.search(r"dyad B-C-D cannot close for input angles ([0-9.]+)\.\.([0-9.]+) deg", msg).groups()
+    )
     assert 90 < lo < 180 < hi < 270
     assert re.search(r"assembles only for input angles 0\.0\.\.[0-9.]+, [0-9.]+\.\.360\.0 deg", msg)
 
@@ -232,7 +275,10 @@ def test_missing_link_leaves_two_degrees_of_freedom(tmp_path):
     # C on the rocker only: the coupler B-C is gone, the rocker swings freely
     text = ex('[links.coupler]\npoints = ["B", "C", "E"]', '[links.coupler]\npoints = ["B", "E"]')
     text = text.replace('origin = "B"\ntoward = "C"\nangle = 30.0', 'origin = "B"\ntoward = "A"\nangle = 30.0')
-    text = text.replace('origin = "B"\ntoward = "C"\nangle = 0.0\nlength = 22.5', 'origin = "B"\ntoward = "A"\nangle = 0.0\nlength = 22.5')
+    text = text.replace(
+        'origin = "B"\ntoward = "C"\nangle = 0.0\nlength = 22.5',
+        'origin = "B"\ntoward = "A"\nangle = 0.0\nlength = 22.5',
+    )
     msg = rejected(tmp_path, text)
     assert "the links give the linkage 3 degrees of freedom (W = 3*3 - 2*3 = 3) where it must have one" in msg
     assert "dyad B-C-D needs its joint C on one link with B and on another with D" in msg
@@ -246,7 +292,7 @@ def test_redundant_link_is_over_constrained(tmp_path):
 
 
 def test_coinciding_points_make_an_undefined_direction(tmp_path):
-    text = with_attached(ex('D = [50.0, 0.0]', 'D = [50.0, 0.0]\nF = [0.0, 0.0]'), "G", "A", "F", 5.0)
+    text = with_attached(ex("D = [50.0, 0.0]", "D = [50.0, 0.0]\nF = [0.0, 0.0]"), "G", "A", "F", 5.0)
     text = text.replace('points = ["D", "C"]', 'points = ["D", "C", "G"]')
     msg = rejected(tmp_path, text)
     assert "G: its origin and toward A and F come within 0 mm" in msg

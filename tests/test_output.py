@@ -12,17 +12,15 @@ import re
 
 import mujoco
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from mjlink.sim import builder
-from mjlink import output
-from mjlink import pipeline
-from mjlink.model import catalogue as registry
-from mjlink.sim import simulate
+from mjlink import output, pipeline, validation
 from mjlink.errors import MechanismFileError, OutputError, SimulationError
+from mjlink.model import catalogue as registry
 from mjlink.model.mechanism import parse
 from mjlink.model.names import NAME_RE as _NAME_RE
-from mjlink import validation
+from mjlink.sim import builder, simulate
 
 EXAMPLE = (registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml").read_text()
 FAST = pipeline.Options(dynamics=False, plots=False, video=False, loads=False)
@@ -82,8 +80,11 @@ def test_full_disk_mid_run_leaves_nothing_and_keeps_the_previous_output(tmp_path
         return real(path, *a, **k)
 
     monkeypatch.setattr(output, "write_csv", full)
-    with pytest.raises(OutputError, match=r"^cannot write outputs to .*crank_rocker: No space left on device "
-                                          r"\(reference_kinematics.csv\)$"):
+    with pytest.raises(
+        OutputError,
+        match=r"^cannot write outputs to .*crank_rocker: No space left on device "
+        r"\(reference_kinematics.csv\)$",
+    ):
         pipeline.run(mech, tmp_path, FAST)
     assert calls == ["kinematics.csv", "reference_kinematics.csv"]
     assert leftovers(tmp_path) == []
@@ -163,8 +164,30 @@ def test_atomic_exchange_is_used_on_linux(tmp_path, previous, monkeypatch):
 
 
 # ----------------------------------------------------------------------------- names
-@pytest.mark.parametrize("name", ["../x", "..", ".", "a/b", "a\\b", "/etc/passwd", "~root", "x" * 33, "é",
-                                  "Kurbel\u00e4", "a b", "a\n", "a\x00", "", "1abc", "_x", "a.b", "a-b", "CON:"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "../x",
+        "..",
+        ".",
+        "a/b",
+        "a\\b",
+        "/etc/passwd",
+        "~root",
+        "x" * 33,
+        "é",
+        "Kurbel\u00e4",
+        "a b",
+        "a\n",
+        "a\x00",
+        "",
+        "1abc",
+        "_x",
+        "a.b",
+        "a-b",
+        "CON:",
+    ],
+)
 def test_names_that_could_escape_the_output_folder_are_rejected(tmp_path, name):
     quoted = "".join(c if c.isprintable() and c not in '"\\' else f"\\u{ord(c):04x}" for c in name)
     text = EXAMPLE.replace('name = "crank_rocker"', f'name = "{quoted}"')
@@ -196,10 +219,21 @@ def test_every_valid_name_round_trips_through_the_mjcf(names):
     links = ["crank", "coupler", "rocker"]
     mapping = dict(zip(pts + links + ["crank_rocker"], names))
     # one pass, so that a new name equal to an old one is not renamed again
-    text = re.sub(r'"([A-Za-z][A-Za-z0-9_]*)"', lambda m: f'"{mapping.get(m.group(1), m.group(1))}"'
-                  if m.group(1) in pts or m.group(1) == "crank_rocker" else m.group(0), EXAMPLE)
-    text = re.sub(r"^([A-Za-z][A-Za-z0-9_]*) = \[", lambda m: f"{mapping.get(m.group(1), m.group(1))} = ["
-                  if m.group(1) in pts else m.group(0), text, flags=re.M)
+    text = re.sub(
+        r'"([A-Za-z][A-Za-z0-9_]*)"',
+        lambda m: (
+            f'"{mapping.get(m.group(1), m.group(1))}"'
+            if m.group(1) in pts or m.group(1) == "crank_rocker"
+            else m.group(0)
+        ),
+        EXAMPLE,
+    )
+    text = re.sub(
+        r"^([A-Za-z][A-Za-z0-9_]*) = \[",
+        lambda m: f"{mapping.get(m.group(1), m.group(1))} = [" if m.group(1) in pts else m.group(0),
+        text,
+        flags=re.M,
+    )
     text = re.sub(r"^\[links\.([A-Za-z][A-Za-z0-9_]*)\]", lambda m: f"[links.{mapping[m.group(1)]}]", text, flags=re.M)
     try:
         mech = validation.validate(parse(text, "renamed.toml"))

@@ -46,8 +46,14 @@ def test_all_plots(traces, tmp_path):
     out = tmp_path / "plots"  # does not exist yet: all_plots creates it
     paths = plots.all_plots(m, kin, kin_ref, dyn, dyn_ref, out, rk4)
     names = {p.name for p in paths}
-    assert names == {"speed_vs_time.png", "speed_vs_angle.png", "positions.png",
-                     "thread_length.png", "kinematics_P5.png", "link_lever.png"}
+    assert names == {
+        "speed_vs_time.png",
+        "speed_vs_angle.png",
+        "positions.png",
+        "thread_length.png",
+        "kinematics_P5.png",
+        "link_lever.png",
+    }
     for p in paths:
         assert p.parent == out
         _check_png(p)
@@ -66,7 +72,8 @@ def test_without_rk4_or_thread(traces, tmp_path):
     _check_png(plots.positions_plot(no_thread, tmp_path, n=8, highlight="P5"))
     _check_png(plots.kinematics_plot(m, kin, kin_ref, tmp_path, "P3"))
     assert sorted(f.name for f in tmp_path.iterdir()) == sorted(
-        ["speed_vs_time.png", "speed_vs_angle.png", "positions.png", "kinematics_P3.png"])
+        ["speed_vs_time.png", "speed_vs_angle.png", "positions.png", "kinematics_P3.png"]
+    )
 
 
 def test_overwrite_is_atomic(traces, tmp_path):
@@ -92,12 +99,31 @@ def _kinematics(name: str):
 # the rules of all_plots instead (see _expected).
 KNOWN = {
     "takeup": {"positions.png", "thread_length.png", "kinematics_P5.png", "link_lever.png"},
-    "crank_slider": {"positions.png", "kinematics_C.png", "slider_C.png", "slider_C_spectrum.png",
-                     "pressure_angle_C.png", "link_rod.png"},
-    "takeup_eyelets": {"positions.png", "thread_length.png", "thread_feed.png", "thread_contour.png",
-                       "kinematics_P6.png", "link_rocker.png"},
-    "warp_knitting": {"positions.png", "kinematics_P10.png", "slider_P9.png", "slider_P9_spectrum.png",
-                      "pressure_angle_P9.png", "link_cylinder.png", "phase_study.png"},
+    "crank_slider": {
+        "positions.png",
+        "kinematics_C.png",
+        "slider_C.png",
+        "slider_C_spectrum.png",
+        "pressure_angle_C.png",
+        "link_rod.png",
+    },
+    "takeup_eyelets": {
+        "positions.png",
+        "thread_length.png",
+        "thread_feed.png",
+        "thread_contour.png",
+        "kinematics_P6.png",
+        "link_rocker.png",
+    },
+    "warp_knitting": {
+        "positions.png",
+        "kinematics_P10.png",
+        "slider_P9.png",
+        "slider_P9_spectrum.png",
+        "pressure_angle_P9.png",
+        "link_cylinder.png",
+        "phase_study.png",
+    },
 }
 
 

@@ -46,8 +46,14 @@ def _env(**overrides: str | None) -> dict[str, str]:
 
 
 def _python(code: str, **env: str | None) -> str:
-    res = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], env=_env(**env), capture_output=True,
-                         text=True, timeout=60, cwd=ROOT)
+    res = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        env=_env(**env),
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+    )
     assert res.returncode == 0, res.stderr
     return res.stdout.strip().splitlines()[-1]
 
@@ -67,12 +73,22 @@ def video(mech, trace, tmp_path_factory):
     folder = tmp_path_factory.mktemp("video")
     path = folder / "takeup.mp4"
     if IN_PROCESS:
-        info = render.render_video(mech, trace, path, seconds=SECONDS, fps=FPS, width=WIDTH, height=HEIGHT,
-                                   progress=False)
-        fields = dict(frames=info.frames, fps=info.fps, width=info.width, height=info.height,
-                      time_scale=info.time_scale, backend=info.backend, path=str(info.path))
+        info = render.render_video(
+            mech, trace, path, seconds=SECONDS, fps=FPS, width=WIDTH, height=HEIGHT, progress=False
+        )
+        fields = dict(
+            frames=info.frames,
+            fps=info.fps,
+            width=info.width,
+            height=info.height,
+            time_scale=info.time_scale,
+            backend=info.backend,
+            path=str(info.path),
+        )
     else:
-        fields = json.loads(_python(f"""
+        fields = json.loads(
+            _python(
+                f"""
             import json
             from mjlink.sim import gl, render
             gl.ensure_gl_backend()
@@ -84,7 +100,10 @@ def video(mech, trace, tmp_path_factory):
                                     height={HEIGHT}, progress=False)
             print(json.dumps(dict(frames=i.frames, fps=i.fps, width=i.width, height=i.height,
                                   time_scale=i.time_scale, backend=i.backend, path=str(i.path))))
-            """, MUJOCO_GL=None))
+            """,
+                MUJOCO_GL=None,
+            )
+        )
     return path, fields
 
 
@@ -172,30 +191,39 @@ def test_frame_times_loop(trace):
 
 
 def test_preset_mujoco_gl_is_respected():
-    out = _python("""
+    out = _python(
+        """
         import os, sys
         from mjlink.sim import gl
         print(gl.ensure_gl_backend(), os.environ['MUJOCO_GL'], 'mujoco' in sys.modules)
-        """, MUJOCO_GL="osmesa")
+        """,
+        MUJOCO_GL="osmesa",
+    )
     assert out == "osmesa osmesa False"
 
 
 def test_probe_sets_backend_without_importing_mujoco():
-    out = _python("""
+    out = _python(
+        """
         import os, sys
         from mjlink.sim import gl
         b = gl.ensure_gl_backend()
         print(b, os.environ.get('MUJOCO_GL'), 'mujoco' in sys.modules, gl.ensure_gl_backend() == b)
-        """, MUJOCO_GL=None)
+        """,
+        MUJOCO_GL=None,
+    )
     backend, env, imported, cached = out.split()
     assert backend in gl.PROBE_ORDER and env == backend
     assert (imported, cached) == ("False", "True")
 
 
 def test_already_imported_mujoco_reports_its_choice():
-    out = _python("""
+    out = _python(
+        """
         import os, mujoco
         from mjlink.sim import gl
         print(gl.ensure_gl_backend(), os.environ.get('MUJOCO_GL'))
-        """, MUJOCO_GL=None)
+        """,
+        MUJOCO_GL=None,
+    )
     assert out == "glfw None"

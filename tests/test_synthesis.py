@@ -17,7 +17,11 @@ def test_reproduces_the_papers_table():
     roots = synthesis.roots(0.045, 0.015, 0.35, TH)
     real = [r for r in roots if r.reason != "complex" and r.l.real > 0]
     (a, b) = sorted(real, key=lambda r: -r.l.real)
-    assert (round(a.r.real * 1e3, 1), round(a.l.real * 1e3, 1), round(math.degrees(a.theta_max), 1)) == (21.7, 62.1, 36.3)
+    assert (round(a.r.real * 1e3, 1), round(a.l.real * 1e3, 1), round(math.degrees(a.theta_max), 1)) == (
+        21.7,
+        62.1,
+        36.3,
+    )
     assert a.accepted and abs(a.stroke - 0.045) < 1e-12
     assert (round(b.r.real * 1e3, 1), round(b.l.real * 1e3), round(math.degrees(b.theta_max), 1)) == (9.8, 28, 62.3)
     assert not b.accepted and "theta_max 62.3 > 40" in b.reason

@@ -206,8 +206,14 @@ class Block(ABC):
 
 
 def _bar(r: Reader) -> dict:
-    return dict(positive=True, scale=MM, lo=MIN_BAR_MM, hi=MAX_LENGTH_MM, unit=" mm",
-                why="mjlink models machine linkages; see mechanisms/README.md")
+    return dict(
+        positive=True,
+        scale=MM,
+        lo=MIN_BAR_MM,
+        hi=MAX_LENGTH_MM,
+        unit=" mm",
+        why="mjlink models machine linkages; see mechanisms/README.md",
+    )
 
 
 def _links_with(links: Iterable[Link], *points: str) -> list[str]:
@@ -238,12 +244,18 @@ class Crank(Block):
         if ratio == 0:
             raise r.fail(f"{where} ratio", "must be non-zero")
         if not 1 / MAX_GEAR_RATIO <= abs(ratio) <= MAX_GEAR_RATIO:
-            raise r.fail(f"{where} ratio", f"must be between 1/{MAX_GEAR_RATIO:g} and {MAX_GEAR_RATIO:g} in magnitude, "
-                                           f"got {ratio:g}")
-        phase = (r.number(raw, "phase", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle")
-                 if "phase" in raw else None)
-        return cls(point, r.name(raw["pivot"], f"{where} pivot"), r.number(raw, "length", where, **_bar(r)),
-                   ratio, phase)
+            raise r.fail(
+                f"{where} ratio",
+                f"must be between 1/{MAX_GEAR_RATIO:g} and {MAX_GEAR_RATIO:g} in magnitude, got {ratio:g}",
+            )
+        phase = (
+            r.number(raw, "phase", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle")
+            if "phase" in raw
+            else None
+        )
+        return cls(
+            point, r.name(raw["pivot"], f"{where} pivot"), r.number(raw, "length", where, **_bar(r)), ratio, phase
+        )
 
     def check(self, r: Reader, ground: dict, first: bool) -> None:
         if first and (self.ratio != 1.0 or self.phase is not None):
@@ -251,7 +263,9 @@ class Crank(Block):
         if self.pivot not in ground:
             raise r.fail(f"[[construct]] {self.point}", f"crank pivot '{self.pivot}' must be a [ground] point")
         if not first and self.phase is None:
-            raise r.fail(f"[[construct]] {self.point}", "a geared crank needs 'phase' (its angle at the initial input angle)")
+            raise r.fail(
+                f"[[construct]] {self.point}", "a geared crank needs 'phase' (its angle at the initial input angle)"
+            )
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -281,8 +295,10 @@ class Crank(Block):
     def describe(self) -> str:
         if self.is_input:
             return f"crank about {self.pivot}, {self.length * 1e3:g} mm"
-        return (f"geared crank about {self.pivot}, {self.length * 1e3:g} mm, ratio {self.ratio:g}, "
-                f"phase {math.degrees(self.phase or 0.0):g} deg")
+        return (
+            f"geared crank about {self.pivot}, {self.length * 1e3:g} mm, ratio {self.ratio:g}, "
+            f"phase {math.degrees(self.phase or 0.0):g} deg"
+        )
 
 
 # ---------------------------------------------------------------------------------- dyad
@@ -311,8 +327,14 @@ class Dyad(Block):
         a, b = r.name(raw["a"], f"{where} a"), r.name(raw["b"], f"{where} b")
         if a == b:
             raise r.fail(f"{where} b", f"must differ from a (both are '{a}'): a dyad joins two different points")
-        return cls(point, a, b, r.number(raw, "length_a", where, **_bar(r)),
-                   r.number(raw, "length_b", where, **_bar(r)), int(sign))
+        return cls(
+            point,
+            a,
+            b,
+            r.number(raw, "length_a", where, **_bar(r)),
+            r.number(raw, "length_b", where, **_bar(r)),
+            int(sign),
+        )
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -330,8 +352,10 @@ class Dyad(Block):
     def mobility_hint(self, links: Iterable[Link]) -> str | None:
         if self.carriers(links):
             return None
-        return (f": dyad {self.a}-{self.point}-{self.b} needs its joint {self.point} on one link with {self.a} and on "
-                f"another with {self.b}")
+        return (
+            f": dyad {self.a}-{self.point}-{self.b} needs its joint {self.point} on one link with {self.a} and on "
+            f"another with {self.b}"
+        )
 
     def solve(self, pts: dict[str, jet.V], phi: jet.S, phi0: float) -> Solved:
         a, b = pts[self.a], pts[self.b]
@@ -343,25 +367,35 @@ class Dyad(Block):
         return Solved(c, 1.0 - np.abs(cos_u.v))
 
     def cannot_close(self, mech_name: str, ranges: str) -> str:
-        return (f"{mech_name}: dyad {self.a}-{self.point}-{self.b} cannot close for input angles "
-                f"{ranges} deg (|cos U| > 1): the input crank cannot turn through these angles (it is a rocker there)")
+        return (
+            f"{mech_name}: dyad {self.a}-{self.point}-{self.b} cannot close for input angles "
+            f"{ranges} deg (|cos U| > 1): the input crank cannot turn through these angles (it is a rocker there)"
+        )
 
     def dead_point(self, P: Points) -> DeadPoint:
         d = np.linalg.norm((P[self.a] - P[self.b])[:, :2], axis=1)
         cos_mu = (self.length_a**2 + self.length_b**2 - d**2) / (2 * self.length_a * self.length_b)
         mu = np.degrees(np.arccos(np.clip(cos_mu, -1.0, 1.0)))
-        return DeadPoint("transmission angle", mu, np.minimum(mu, 180.0 - mu), np.abs(cos_mu) <= 1.0,
-                         MIN_TRANSMISSION_DEG, MIN_TRANSMISSION_DEG)
+        return DeadPoint(
+            "transmission angle",
+            mu,
+            np.minimum(mu, 180.0 - mu),
+            np.abs(cos_mu) <= 1.0,
+            MIN_TRANSMISSION_DEG,
+            MIN_TRANSMISSION_DEG,
+        )
 
     def label(self) -> str:
         return f"{self.a}-{self.point}-{self.b}"
 
     def dead_point_message(self, a: BlockAngle, src: object) -> str:
         between = f" between links {a.links[0]} and {a.links[1]}" if len(a.links) == 2 else ""
-        return (f"{src}: dyad {a.label} passes within {a.margin_deg:.2f} deg of a dead point: its "
-                f"transmission angle at {self.point}{between} reaches {a.worst_deg:.2f} deg at "
-                f"input angle {a.phi_deg:.1f} deg; MuJoCo follows the linkage faithfully only while it "
-                f"stays within {a.limit_deg:g}..{180 - a.limit_deg:g} deg (mechanisms/README.md, Dead points)")
+        return (
+            f"{src}: dyad {a.label} passes within {a.margin_deg:.2f} deg of a dead point: its "
+            f"transmission angle at {self.point}{between} reaches {a.worst_deg:.2f} deg at "
+            f"input angle {a.phi_deg:.1f} deg; MuJoCo follows the linkage faithfully only while it "
+            f"stays within {a.limit_deg:g}..{180 - a.limit_deg:g} deg (mechanisms/README.md, Dead points)"
+        )
 
     def mirror(self, P: Points, j: int) -> np.ndarray:
         c, a, b = (P[p][j] for p in (self.point, self.a, self.b))
@@ -377,8 +411,10 @@ class Dyad(Block):
         return f"dyad {self.a}-{self.point}-{self.b}"
 
     def describe(self) -> str:
-        return (f"dyad {self.a}-{self.point}-{self.b}, {self.length_a * 1e3:g} / {self.length_b * 1e3:g} mm, "
-                f"sign {self.sign:+d}")
+        return (
+            f"dyad {self.a}-{self.point}-{self.b}, {self.length_a * 1e3:g} / {self.length_b * 1e3:g} mm, "
+            f"sign {self.sign:+d}"
+        )
 
 
 # ------------------------------------------------------------------------------ attached
@@ -403,11 +439,19 @@ class Attached(Block):
         z = r.number(raw, "z", where, scale=MM, hi=MAX_LENGTH_MM, unit=" mm") if "z" in raw else None
         origin, toward = r.name(raw["origin"], f"{where} origin"), r.name(raw["toward"], f"{where} toward")
         if origin == toward:
-            raise r.fail(f"{where} toward", f"must differ from origin (both are '{origin}'): "
-                                            "the direction from origin to toward would be undefined")
-        return cls(point, origin, toward,
-                   r.number(raw, "angle", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle"),
-                   r.number(raw, "length", where, nonneg=True, scale=MM, hi=MAX_LENGTH_MM, unit=" mm"), z)
+            raise r.fail(
+                f"{where} toward",
+                f"must differ from origin (both are '{origin}'): "
+                "the direction from origin to toward would be undefined",
+            )
+        return cls(
+            point,
+            origin,
+            toward,
+            r.number(raw, "angle", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle"),
+            r.number(raw, "length", where, nonneg=True, scale=MM, hi=MAX_LENGTH_MM, unit=" mm"),
+            z,
+        )
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -423,8 +467,10 @@ class Attached(Block):
         return Solved(q.with_z(self.z) if self.z is not None else q)
 
     def describe(self) -> str:
-        return (f"attached to {self.origin}->{self.toward}, {math.degrees(self.angle):g} deg, "
-                f"{self.length * 1e3:g} mm" + ("" if self.z is None else f", z {self.z * 1e3:g} mm"))
+        return (
+            f"attached to {self.origin}->{self.toward}, {math.degrees(self.angle):g} deg, "
+            f"{self.length * 1e3:g} mm" + ("" if self.z is None else f", z {self.z * 1e3:g} mm")
+        )
 
 
 # -------------------------------------------------------------------------------- slider
@@ -450,8 +496,13 @@ class Slider(Block):
         toward = r.name(raw["toward"], f"{where} toward")
         if toward not in guide:
             raise r.fail(f"{where} toward", f"must be one of the guide points {guide[0]}, {guide[1]}; got '{toward}'")
-        return cls(point, r.name(raw["start"], f"{where} start"), r.number(raw, "length", where, **_bar(r)),
-                   (guide[0], guide[1]), toward)
+        return cls(
+            point,
+            r.name(raw["start"], f"{where} start"),
+            r.number(raw, "length", where, **_bar(r)),
+            (guide[0], guide[1]),
+            toward,
+        )
 
     def check(self, r: Reader, ground: dict, first: bool) -> None:
         if self.guide[0] == self.guide[1]:
@@ -471,7 +522,7 @@ class Slider(Block):
     def mobility_hint(self, links: Iterable[Link]) -> str | None:
         if any(self.point in l.points and l.guide and set(l.guide) == set(self.guide) for l in links):
             return None
-        return f": slider {self.point} needs a link carrying {self.point} with guide = [\"{self.guide[0]}\", \"{self.guide[1]}\"]"
+        return f': slider {self.point} needs a link carrying {self.point} with guide = ["{self.guide[0]}", "{self.guide[1]}"]'
 
     def solve(self, pts: dict[str, jet.V], phi: jet.S, phi0: float) -> Solved:
         # F +- sqrt(L^2 - |A - F|^2) u, F the foot of the perpendicular from the start point,
@@ -486,8 +537,10 @@ class Slider(Block):
         return Solved(foot + u.scale(h if self.toward == self.guide[1] else -h), h2.v)
 
     def cannot_close(self, mech_name: str, ranges: str) -> str:
-        return (f"{mech_name}: slider {self.start}-{self.point} (length {self.length * 1e3:g} mm) cannot "
-                f"reach its guide {self.guide[0]}-{self.guide[1]} for input angles {ranges} deg")
+        return (
+            f"{mech_name}: slider {self.start}-{self.point} (length {self.length * 1e3:g} mm) cannot "
+            f"reach its guide {self.guide[0]}-{self.guide[1]} for input angles {ranges} deg"
+        )
 
     def dead_point(self, P: Points) -> DeadPoint:
         a = P[self.start][:, :2]
@@ -498,16 +551,17 @@ class Slider(Block):
             off = (a - n1) - np.einsum("ij,ij->i", a - n1, u)[:, None] * u
             ratio = np.linalg.norm(off, axis=1) / self.length  # sin of the pressure angle
         value = np.degrees(np.arcsin(np.clip(ratio, 0.0, 1.0)))
-        return DeadPoint("pressure angle", value, 90.0 - value, ratio <= 1.0, 90.0 - MAX_PRESSURE_DEG,
-                         MAX_PRESSURE_DEG)
+        return DeadPoint("pressure angle", value, 90.0 - value, ratio <= 1.0, 90.0 - MAX_PRESSURE_DEG, MAX_PRESSURE_DEG)
 
     def label(self) -> str:
         return f"{self.start}-{self.point} on {self.guide[0]}-{self.guide[1]}"
 
     def dead_point_message(self, a: BlockAngle, src: object) -> str:
-        return (f"{src}: slider {a.label} passes within {a.margin_deg:.2f} deg of a dead point: its pressure "
-                f"angle reaches {a.worst_deg:.2f} deg at input angle {a.phi_deg:.1f} deg; MuJoCo follows the "
-                f"linkage faithfully only up to {a.limit_deg:g} deg (mechanisms/README.md, Dead points)")
+        return (
+            f"{src}: slider {a.label} passes within {a.margin_deg:.2f} deg of a dead point: its pressure "
+            f"angle reaches {a.worst_deg:.2f} deg at input angle {a.phi_deg:.1f} deg; MuJoCo follows the "
+            f"linkage faithfully only up to {a.limit_deg:g} deg (mechanisms/README.md, Dead points)"
+        )
 
     def mirror(self, P: Points, j: int) -> np.ndarray:
         c, s, n1, n2 = (P[p][j] for p in (self.point, self.start, *self.guide))
@@ -523,8 +577,10 @@ class Slider(Block):
         return f"slider {self.start}-{self.point}"
 
     def describe(self) -> str:
-        return (f"slider from {self.start}, {self.length * 1e3:g} mm, on {self.guide[0]}-{self.guide[1]} "
-                f"towards {self.toward}")
+        return (
+            f"slider from {self.start}, {self.length * 1e3:g} mm, on {self.guide[0]}-{self.guide[1]} "
+            f"towards {self.toward}"
+        )
 
 
 # ------------------------------------------------------------------------ whole sequences

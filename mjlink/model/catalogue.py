@@ -58,5 +58,6 @@ def path_of(name_or_path: str | Path) -> Path:
         return p
     near = difflib.get_close_matches(s.lower(), [n.lower() for n in names()], n=1)
     hint = f"did you mean '{next(n for n in names() if n.lower() == near[0])}'? " if near else ""
-    raise UnknownMechanismError(f"unknown mechanism '{s}' ({hint}valid: {', '.join(names())}, or a path to a .toml file)")
-
+    raise UnknownMechanismError(
+        f"unknown mechanism '{s}' ({hint}valid: {', '.join(names())}, or a path to a .toml file)"
+    )

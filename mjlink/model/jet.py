@@ -39,8 +39,7 @@ class S:
 
     def __mul__(self, o: S | float) -> S:
         if isinstance(o, S):
-            return S(self.v * o.v, self.d * o.v + self.v * o.d,
-                     self.dd * o.v + 2.0 * self.d * o.d + self.v * o.dd)
+            return S(self.v * o.v, self.d * o.v + self.v * o.d, self.dd * o.v + 2.0 * self.d * o.d + self.v * o.dd)
         return S(self.v * o, self.d * o, self.dd * o)
 
     __rmul__ = __mul__
@@ -108,10 +107,13 @@ class V:
         return V(self.v * a, self.d * a + self.v * b, self.dd * a + 2.0 * self.d * b + self.v * s.dd[:, None])
 
     def dot(self, o: V) -> S:
-        return S(np.einsum("ij,ij->i", self.v, o.v),
-                 np.einsum("ij,ij->i", self.d, o.v) + np.einsum("ij,ij->i", self.v, o.d),
-                 np.einsum("ij,ij->i", self.dd, o.v) + 2.0 * np.einsum("ij,ij->i", self.d, o.d)
-                 + np.einsum("ij,ij->i", self.v, o.dd))
+        return S(
+            np.einsum("ij,ij->i", self.v, o.v),
+            np.einsum("ij,ij->i", self.d, o.v) + np.einsum("ij,ij->i", self.v, o.d),
+            np.einsum("ij,ij->i", self.dd, o.v)
+            + 2.0 * np.einsum("ij,ij->i", self.d, o.d)
+            + np.einsum("ij,ij->i", self.v, o.dd),
+        )
 
     def norm(self) -> S:
         return sqrt(self.dot(self))
@@ -158,9 +160,9 @@ def rotate(p: V, a: S) -> V:
     c, s = np.cos(a.v), np.sin(a.v)
     rv, rd, rdd = _rot(p.v, c, s), _rot(p.d, c, s), _rot(p.dd, c, s)
     ad, add = a.d[:, None], a.dd[:, None]
-    return V(rv,
-             rd + ad * _perp(rv),
-             rdd + 2.0 * ad * _perp(rd) + add * _perp(rv) - ad**2 * rv * np.array([1.0, 1.0, 0.0]))
+    return V(
+        rv, rd + ad * _perp(rv), rdd + 2.0 * ad * _perp(rd) + add * _perp(rv) - ad**2 * rv * np.array([1.0, 1.0, 0.0])
+    )
 
 
 def angle(p: V) -> S:

@@ -224,15 +224,20 @@ def _read_link(r: Reader, name: str, raw: Any) -> Link:
     where = f"[links.{name}]"
     r.name(name, where)
     if name in RESERVED_LINK_NAMES:
-        raise r.fail(where, f"'{name}' is reserved for the model's own elements (reserved: "
-                            f"{', '.join(RESERVED_LINK_NAMES)}): choose another link name")
+        raise r.fail(
+            where,
+            f"'{name}' is reserved for the model's own elements (reserved: "
+            f"{', '.join(RESERVED_LINK_NAMES)}): choose another link name",
+        )
     raw = r.table(raw, where)
     r.keys(raw, where, ["points"], ["mass", "inertia", "com", "guide"])
     points = r.names(raw["points"], f"{where} points")
-    mass = r.number(raw, "mass", where, default=0.0, nonneg=True, scale=G, hi=MAX_MASS_G, unit=" g",
-                    why="a machine part")
-    inertia = r.number(raw, "inertia", where, default=0.0, nonneg=True, hi=MAX_INERTIA, unit=" kg*m^2",
-                       why="a machine part")
+    mass = r.number(
+        raw, "mass", where, default=0.0, nonneg=True, scale=G, hi=MAX_MASS_G, unit=" g", why="a machine part"
+    )
+    inertia = r.number(
+        raw, "inertia", where, default=0.0, nonneg=True, hi=MAX_INERTIA, unit=" kg*m^2", why="a machine part"
+    )
     com = r.name(raw["com"], f"{where} com") if "com" in raw else None
     if mass > 0 and com is None:
         raise r.fail(where, "has a mass but no 'com' (the point that is its centre of mass)")
@@ -291,8 +296,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise r.fail("", f"TOML syntax error: {e}") from None
-    r.keys(data, "", ["mechanism", "ground", "construct", "links", "input"],
-           ["dynamics", "thread", "synthesis", "steady"])
+    r.keys(
+        data, "", ["mechanism", "ground", "construct", "links", "input"], ["dynamics", "thread", "synthesis", "steady"]
+    )
 
     meta = r.table(data["mechanism"], "[mechanism]")
     r.keys(meta, "[mechanism]", ["name", "title"], ["source"])
@@ -325,8 +331,11 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
                     raise r.fail(where, f"uses point '{p}', which is not defined")
                 cycle = _cycle(steps, s.point, p)
                 if cycle:
-                    raise r.fail(where, f"uses point '{p}', which is built from '{s.point}' itself: the blocks "
-                                        f"{' -> '.join(cycle)} form a cycle, so no order can build them")
+                    raise r.fail(
+                        where,
+                        f"uses point '{p}', which is built from '{s.point}' itself: the blocks "
+                        f"{' -> '.join(cycle)} form a cycle, so no order can build them",
+                    )
                 raise r.fail(where, f"uses point '{p}', which is defined later: order the blocks so inputs come first")
         known.add(s.point)
     if not steps[0].is_input:
@@ -346,7 +355,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
             raise r.fail(f"[links.{l.name}]", "a link may not share its name with a point")
     for s in steps:
         if not any(s.point in l.points for l in links):
-            raise r.fail(f"[[construct]] {s.point}", f"point '{s.point}' belongs to no link: list it in a [links.*] points")
+            raise r.fail(
+                f"[[construct]] {s.point}", f"point '{s.point}' belongs to no link: list it in a [links.*] points"
+            )
     pivot = steps[0].inputs[0]
     if not any(pivot in l.points and steps[0].point in l.points for l in links):
         raise r.fail("[links]", f"no link carries the input crank {pivot}-{steps[0].point}")
@@ -361,8 +372,11 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     if speed == 0:
         raise r.fail("[input] speed", "must be non-zero (rad/s, CCW positive)")
     if not MIN_SPEED <= abs(speed) <= MAX_SPEED:
-        raise r.fail("[input] speed", f"must be between {MIN_SPEED:g} and {MAX_SPEED:g} rad/s in magnitude "
-                                      f"(see mechanisms/README.md, Limits), got {speed:g}")
+        raise r.fail(
+            "[input] speed",
+            f"must be between {MIN_SPEED:g} and {MAX_SPEED:g} rad/s in magnitude "
+            f"(see mechanisms/README.md, Limits), got {speed:g}",
+        )
     cycles = r.number(inp, "cycles", "[input]", default=1.0, positive=True, hi=MAX_CYCLES)
 
     dyn_raw = r.table(data.get("dynamics", {}), "[dynamics]")
@@ -399,14 +413,18 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     if "dynamics" in data:
         massless = [l.name for l in links if l.mass <= 0]
         if massless:
-            raise r.fail(f"[links.{massless[0]}]", "has no mass, but the file has a [dynamics] case: give every "
-                         "link its mass, inertia and com (a massless link is allowed only for kinematics)")
+            raise r.fail(
+                f"[links.{massless[0]}]",
+                "has no mass, but the file has a [dynamics] case: give every "
+                "link its mass, inertia and com (a massless link is allowed only for kinematics)",
+            )
     steady = None
     if "steady" in data:
         st = r.table(data["steady"], "[steady]")
         r.keys(st, "[steady]", ["stall_torque", "no_load_speed"], ["target_delta"])
-        steady = SteadyCase(_read_motor(r, st, "[steady]"),
-                            r.number(st, "target_delta", "[steady]", default=0.02, positive=True))
+        steady = SteadyCase(
+            _read_motor(r, st, "[steady]"), r.number(st, "target_delta", "[steady]", default=0.02, positive=True)
+        )
     elif motor is not None:
         steady = SteadyCase(motor)
     dynamics = Dynamics(
@@ -437,13 +455,31 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         theta = r.number(sy, "max_pressure_angle", "[synthesis]", positive=True)
         if theta >= 90:
             raise r.fail("[synthesis] max_pressure_angle", f"must be below 90 deg, got {theta:g}")
-        synthesis = Synthesis(r.number(sy, "stroke", "[synthesis]", positive=True, scale=MM),
-                              r.number(sy, "offset", "[synthesis]", nonneg=True, scale=MM),
-                              r.number(sy, "lambda", "[synthesis]", positive=True), theta * DEG)
+        synthesis = Synthesis(
+            r.number(sy, "stroke", "[synthesis]", positive=True, scale=MM),
+            r.number(sy, "offset", "[synthesis]", nonneg=True, scale=MM),
+            r.number(sy, "lambda", "[synthesis]", positive=True),
+            theta * DEG,
+        )
 
-    return Mechanism(name, title, source, Path(path) if path != "<string>" else None, ground, steps,
-                     links, phi0, speed, cycles, dynamics, thread, elongation, "dynamics" in data, synthesis,
-                     steady)
+    return Mechanism(
+        name,
+        title,
+        source,
+        Path(path) if path != "<string>" else None,
+        ground,
+        steps,
+        links,
+        phi0,
+        speed,
+        cycles,
+        dynamics,
+        thread,
+        elongation,
+        "dynamics" in data,
+        synthesis,
+        steady,
+    )
 
 
 def load(path: str | Path) -> Mechanism:

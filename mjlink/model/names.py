@@ -72,8 +72,10 @@ def element_clash(links: Iterable[Any], ground: set[str]) -> tuple[str, str] | N
             cands.append((slide_joint(l.name), (l.name, "slide")))
         for n, who in cands:
             if joints.setdefault(n, who) != who:
-                return l.name, (f"its joint name '{n}' would be the same as link {joints[n][0]}'s: rename the link "
-                                f"or the point (names with underscores can run together)")
+                return l.name, (
+                    f"its joint name '{n}' would be the same as link {joints[n][0]}'s: rename the link "
+                    f"or the point (names with underscores can run together)"
+                )
     for p, ls in owners.items():
         bodies = ls + ([GROUND] if p in ground else [])
         for a in bodies:
@@ -81,6 +83,7 @@ def element_clash(links: Iterable[Any], ground: set[str]) -> tuple[str, str] | N
                 if a != b:
                     n = loop_equality(p, a, b)
                     if loops.setdefault(n, (p, a, b)) != (p, a, b):
-                        return b if b != GROUND else a, (f"its loop equality name '{n}' would be the same as "
-                                                           f"another's: rename the link or the point")
+                        return b if b != GROUND else a, (
+                            f"its loop equality name '{n}' would be the same as another's: rename the link or the point"
+                        )
     return None

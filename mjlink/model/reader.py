@@ -43,8 +43,21 @@ class Reader:
             if k not in data:
                 raise self.fail(where, f"missing key '{k}'")
 
-    def number(self, data: dict, key: str, where: str, *, default=None, positive=False,
-               nonneg=False, scale=1.0, lo=None, hi=None, unit="", why="") -> float:
+    def number(
+        self,
+        data: dict,
+        key: str,
+        where: str,
+        *,
+        default=None,
+        positive=False,
+        nonneg=False,
+        scale=1.0,
+        lo=None,
+        hi=None,
+        unit="",
+        why="",
+    ) -> float:
         """A finite number; ``lo``/``hi`` bound its magnitude (file units, ``unit`` for messages)."""
         if key not in data:
             if default is None:
@@ -98,8 +111,11 @@ class Reader:
             if not ok:
                 raise self.fail(where, f"must hold finite numbers, got {v!r}")
             if hi is not None and abs(float(x)) > hi:
-                raise self.fail(where, f"coordinates must be at most {hi:g} mm in magnitude (mjlink models machine "
-                                       f"linkages; see mechanisms/README.md), got {v!r}")
+                raise self.fail(
+                    where,
+                    f"coordinates must be at most {hi:g} mm in magnitude (mjlink models machine "
+                    f"linkages; see mechanisms/README.md), got {v!r}",
+                )
             out.append(float(x) * scale)
         while len(out) < 3:
             out.append(0.0)
@@ -110,4 +126,3 @@ class Reader:
             want = f"{length}" if length is not None else f"at least {min_length}"
             raise self.fail(where, f"must be a list of {want} point names, got {v!r}")
         return tuple(self.name(x, where) for x in v)
-

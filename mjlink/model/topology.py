@@ -75,7 +75,8 @@ def pairs(mech: Mechanism) -> list[tuple[int, Pair]]:
             parent = None if (g1 in mech.ground and g2 in mech.ground) else (both[0].name if both else "")
             if parent == "":
                 raise MechanismFileError(
-                    f"{mech.path or mech.name}: [links.{l.name}] guide: points {g1} and {g2} are not on one link or the ground")
+                    f"{mech.path or mech.name}: [links.{l.name}] guide: points {g1} and {g2} are not on one link or the ground"
+                )
             out.append((0, Pair(PairKind.PRISMATIC, parent, l.name, guide=l.guide)))
     for l in mech.links:
         for p in l.points:
@@ -85,7 +86,7 @@ def pairs(mech: Mechanism) -> list[tuple[int, Pair]]:
     seen = set()
     for p, ls in owners.items():
         for i, a in enumerate(ls):
-            for b in ls[i + 1:]:
+            for b in ls[i + 1 :]:
                 if (a.name, b.name, p) not in seen:
                     seen.add((a.name, b.name, p))
                     out.append((3, Pair(PairKind.REVOLUTE, a.name, b.name, point=p)))
@@ -113,8 +114,10 @@ def topology(mech: Mechanism) -> Topology:
         elif pr.revolute:
             loops.append(pr)
         else:
-            raise MechanismFileError(f"{mech.path or mech.name}: [links.{pr.child}] guide: a sliding pair "
-                                     f"that closes a loop is not supported")
+            raise MechanismFileError(
+                f"{mech.path or mech.name}: [links.{pr.child}] guide: a sliding pair "
+                f"that closes a loop is not supported"
+            )
     # Orient the chosen pairs away from the ground.
     tree: list[Pair] = []
     placed: set[str | None] = {None}
@@ -130,13 +133,15 @@ def topology(mech: Mechanism) -> Topology:
                 tree.append(pr)
                 placed.add(pr.child)
                 origin[pr.child] = pr.pin if pr.revolute else mech.link(pr.child).points[0]
-                remaining.remove(next(r for r in remaining if {r.parent, r.child} == {pr.parent, pr.child}
-                                      and r.point == pr.point))
+                remaining.remove(
+                    next(r for r in remaining if {r.parent, r.child} == {pr.parent, pr.child} and r.point == pr.point)
+                )
                 progress = True
         if not progress:
             break
     unplaced = [l.name for l in mech.links if l.name not in placed]
     if unplaced:
-        raise MechanismFileError(f"{mech.path or mech.name}: [links]: {', '.join(unplaced)} not connected to the ground")
+        raise MechanismFileError(
+            f"{mech.path or mech.name}: [links]: {', '.join(unplaced)} not connected to the ground"
+        )
     return Topology(tuple(tree), tuple(loops), origin)
-

@@ -53,8 +53,9 @@ from .style import (
 
 
 # ----------------------------------------------------------------------------- speed (Figs. 3, 4)
-def speed_plots(mech: Mechanism, dyn_mj: Trace, dyn_ref: Trace, out_dir,
-                rk4: reference.Motion | None = None) -> list[Path]:
+def speed_plots(
+    mech: Mechanism, dyn_mj: Trace, dyn_ref: Trace, out_dir, rk4: reference.Motion | None = None
+) -> list[Path]:
     """The run-up of the forward-dynamics case, as the paper's Figs. 3 and 4.
 
     ``speed_vs_time.png``: crank speed n1 (rpm) and angular acceleration eps1 (rad/s^2)
@@ -64,8 +65,10 @@ def speed_plots(mech: Mechanism, dyn_mj: Trace, dyn_ref: Trace, out_dir,
     """
     paths = []
     angle, angle_label = crank_axis(mech, dyn_mj.phi)
-    for name, xlabel, key in (("speed_vs_time.png", "time t [s]", "t"),
-                              ("speed_vs_angle.png", angle_label + " (unwrapped)", "phi")):
+    for name, xlabel, key in (
+        ("speed_vs_time.png", "time t [s]", "t"),
+        ("speed_vs_angle.png", angle_label + " (unwrapped)", "phi"),
+    ):
         fig, (a1, a2) = plt.subplots(2, 1, figsize=(8.0, 6.6), sharex=True, layout="constrained")
         by_time = key == "t"
         xm = dyn_mj.time if by_time else angle(dyn_mj.phi)
@@ -100,10 +103,14 @@ def speed_plots(mech: Mechanism, dyn_mj: Trace, dyn_ref: Trace, out_dir,
         a1.legend(loc="lower right" if np.mean(dyn_mj.omega) >= 0 else "upper right", fontsize=8)
         d = mech.dynamics
         motor = getattr(d, "motor", None)
-        drive = (f"motor $M_1$ = {motor.stall_torque:g} N·m × (1 − ω / {motor.no_load_speed:g} rad/s)"
-                 if motor is not None else f"$M_1$ = {d.moment:g} N·m")
-        fig.suptitle(title(mech, f"run-up, {drive}, b = {d.damping:g} N·m·s, "
-                                 f"$\\omega_0$ = {d.omega0:g} rad/s"), fontsize=10)
+        drive = (
+            f"motor $M_1$ = {motor.stall_torque:g} N·m × (1 − ω / {motor.no_load_speed:g} rad/s)"
+            if motor is not None
+            else f"$M_1$ = {d.moment:g} N·m"
+        )
+        fig.suptitle(
+            title(mech, f"run-up, {drive}, b = {d.damping:g} N·m·s, $\\omega_0$ = {d.omega0:g} rad/s"), fontsize=10
+        )
         paths.append(save(fig, out_dir, name))
     return paths
 
@@ -175,16 +182,28 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
     if others:
         ax.plot([], [], color="0.3", lw=0.9, label="paths of the other points\n(in their link's colour)")
     for k, p in enumerate(traced):
-        ax.plot(paths[p][:, 0], paths[p][:, 1], color=("#c51b7d", "#00a0a0", "#8c6d00")[k % 3], lw=1.8,
-                zorder=2, label=f"path of {p}")
+        ax.plot(
+            paths[p][:, 0],
+            paths[p][:, 1],
+            color=("#c51b7d", "#00a0a0", "#8c6d00")[k % 3],
+            lw=1.8,
+            zorder=2,
+            label=f"path of {p}",
+        )
     # Ghost positions of the traced points, so the crank-angle spacing along the path shows.
     for p in traced:
         ax.plot(P[p][1:, 0], P[p][1:, 1], "o", ms=2.5, color="0.4", zorder=2)
 
     if mech.thread:
         th = np.stack([P[p][0, :2] for p in mech.thread])
-        ax.plot(th[:, 0], th[:, 1], color="orange", lw=2.0, zorder=3,
-                label="thread at $\\varphi_0$ (" + "–".join(mech.thread) + ")")
+        ax.plot(
+            th[:, 0],
+            th[:, 1],
+            color="orange",
+            lw=2.0,
+            zorder=3,
+            label="thread at $\\varphi_0$ (" + "–".join(mech.thread) + ")",
+        )
 
     for k, link in enumerate(mech.links):
         segs = [np.stack([P[a][0, :2], P[b][0, :2]]) for a, b in pairs if a in link.points and b in link.points]
@@ -192,8 +211,7 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         ax.add_collection(LineCollection(segs, colors=[c], linewidths=3.0, zorder=4, capstyle="round"))
         ax.plot([], [], color=c, lw=3.0, label=link.name)  # legend proxy for the collection
         pts = [p for p in link.points if p not in mech.ground and p != link.com]
-        ax.plot([P[p][0, 0] for p in pts], [P[p][0, 1] for p in pts], "o", ms=5, mfc="white",
-                mec=c, mew=1.5, zorder=5)
+        ax.plot([P[p][0, 0] for p in pts], [P[p][0, 1] for p in pts], "o", ms=5, mfc="white", mec=c, mew=1.5, zorder=5)
         if link.com is not None:
             s = P[link.com][0]
             ax.plot(s[0], s[1], marker="$\\oplus$", ms=8, color=c, zorder=5, ls="none")
@@ -204,8 +222,17 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         if g in pivots:
             tri = [(x, y), (x - 0.6 * size, y - size), (x + 0.6 * size, y - size)]
             ax.add_patch(Polygon(tri, closed=True, fc="white", ec="k", lw=1.0, zorder=3.5))
-            ax.add_patch(Rectangle((x - 0.9 * size, y - 1.35 * size), 1.8 * size, 0.35 * size,
-                                   fc="none", ec="none", hatch="////", zorder=3.4))
+            ax.add_patch(
+                Rectangle(
+                    (x - 0.9 * size, y - 1.35 * size),
+                    1.8 * size,
+                    0.35 * size,
+                    fc="none",
+                    ec="none",
+                    hatch="////",
+                    zorder=3.4,
+                )
+            )
             ax.plot([x - 0.9 * size, x + 0.9 * size], [y - size] * 2, color="k", lw=1.0, zorder=3.5)
             ax.plot(x, y, "o", ms=4.5, mfc="white", mec="k", zorder=6)
         else:
@@ -224,11 +251,19 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         near = r2 > 1e-12
         push = (d[near] / r2[near, None] ** 1.5).sum(axis=0)
         push = push / (np.linalg.norm(push) or 1.0)
-        ax.annotate(p, xy0[i], xytext=(11 * push[0], 11 * push[1]), textcoords="offset points",
-                    ha="center", va="center", zorder=7,
-                    fontsize=7.5 if p in coms else 9, color="0.3" if p in coms else "k",
-                    fontweight="normal" if p in coms else "bold",
-                    bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7))
+        ax.annotate(
+            p,
+            xy0[i],
+            xytext=(11 * push[0], 11 * push[1]),
+            textcoords="offset points",
+            ha="center",
+            va="center",
+            zorder=7,
+            fontsize=7.5 if p in coms else 9,
+            color="0.3" if p in coms else "k",
+            fontweight="normal" if p in coms else "bold",
+            bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7),
+        )
 
     ax.set_xlim(lo[0] - pad, hi[0] + pad)
     ax.set_ylim(lo[1] - pad - size, hi[1] + pad)
@@ -239,8 +274,11 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
     ax.plot([], [], color="0.55", lw=0.7, label=f"{n} crank positions")
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=8, framealpha=0.9)
     # Left-aligned: a tall drawing's axes are narrower than the title, which runs on over the legend.
-    ax.set_title(title(mech, f"{n} positions over one period, bold: $\\varphi_0$ = "
-                             f"{math.degrees(mech.phi0):g}°"), fontsize=10, loc="left")
+    ax.set_title(
+        title(mech, f"{n} positions over one period, bold: $\\varphi_0$ = {math.degrees(mech.phi0):g}°"),
+        fontsize=10,
+        loc="left",
+    )
     return save(fig, out_dir, "positions.png", tight=True)
 
 
@@ -253,8 +291,9 @@ def thread_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> Path
         return None
     Lm, Lr = analysis.thread_length(mech, kin_mj), analysis.thread_length(mech, kin_ref)
     (xm, xr), xlabel = crank_x(mech, kin_mj, kin_ref)
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8.0, 6.2), sharex=True, layout="constrained",
-                                 gridspec_kw=dict(height_ratios=(2.2, 1)))
+    fig, (a1, a2) = plt.subplots(
+        2, 1, figsize=(8.0, 6.2), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(2.2, 1))
+    )
     a1.plot(xm, to_mm(Lm), color="tab:orange", label=MJ_LABEL + " (spatial tendon)", **MJ_STYLE)
     a1.plot(xr, to_mm(Lr), label=REF_LABEL, **REF_STYLE)
     a1.set_ylabel("thread length [mm]")
@@ -267,8 +306,10 @@ def thread_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> Path
     finish_x(a2, [xm, xr], xlabel)
     for ax in (a1, a2):
         ax.grid(True, alpha=0.3)
-    a1.set_title(title(mech, "thread " + "–".join(mech.thread)
-                       + f", max |difference| = {np.abs(diff).max():.3g} µm"), fontsize=10)
+    a1.set_title(
+        title(mech, "thread " + "–".join(mech.thread) + f", max |difference| = {np.abs(diff).max():.3g} µm"),
+        fontsize=10,
+    )
     return save(fig, out_dir, "thread_length.png")
 
 
@@ -283,20 +324,31 @@ def kinematics_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, poi
     pair(axs[0], xm, pm[:, 1], xr, pr[:, 1], "tab:green", "y")
     axs[0].set_ylabel(f"position of {point} [mm]")
     axs[0].legend(loc="best", fontsize=8, ncol=2)
-    pair(axs[1], xm, analysis.magnitude(kin_mj.velocities[point]),
-         xr, analysis.magnitude(kin_ref.velocities[point]), "tab:purple")
+    pair(
+        axs[1],
+        xm,
+        analysis.magnitude(kin_mj.velocities[point]),
+        xr,
+        analysis.magnitude(kin_ref.velocities[point]),
+        "tab:purple",
+    )
     axs[1].set_ylabel(f"speed |v| of {point} [m/s]")
     axs[1].legend(loc="best", fontsize=8)
-    pair(axs[2], xm, analysis.magnitude(kin_mj.accelerations[point]),
-         xr, analysis.magnitude(kin_ref.accelerations[point]), "tab:red")
+    pair(
+        axs[2],
+        xm,
+        analysis.magnitude(kin_mj.accelerations[point]),
+        xr,
+        analysis.magnitude(kin_ref.accelerations[point]),
+        "tab:red",
+    )
     axs[2].set_ylabel(f"acceleration |a| of {point} [m/s$^2$]")
     axs[2].legend(loc="best", fontsize=8)
     finish_x(axs[2], [xm, xr], xlabel)
     for ax in axs:
         ax.grid(True, alpha=0.3)
     w = float(np.mean(kin_mj.omega))
-    axs[0].set_title(title(mech, f"point {point}, crank at {w:.4g} rad/s ({to_rpm(w):.4g} rpm)"),
-                     fontsize=10)
+    axs[0].set_title(title(mech, f"point {point}, crank at {w:.4g} rad/s ({to_rpm(w):.4g} rpm)"), fontsize=10)
     return save(fig, out_dir, f"kinematics_{point}.png")
 
 
@@ -323,9 +375,11 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         # --- s, ds/dt, d2s/dt2
         fig, axs = plt.subplots(3, 1, figsize=(8.0, 8.0), sharex=True, layout="constrained")
         # Velocity and acceleration reverse within a stroke: a zero line shows where.
-        panels = (("position $s$ along the guide [mm]", to_mm, "tab:blue"),
-                  ("velocity $ds/dt$ [m/s]", None, "tab:purple"),
-                  ("acceleration $d^2s/dt^2$ [m/s$^2$]", None, "tab:red"))
+        panels = (
+            ("position $s$ along the guide [mm]", to_mm, "tab:blue"),
+            ("velocity $ds/dt$ [m/s]", None, "tab:purple"),
+            ("acceleration $d^2s/dt^2$ [m/s$^2$]", None, "tab:red"),
+        )
         for ax, a, b, (lab, scale, c) in zip(axs, sm, sr, panels):
             if scale is None:
                 pair(ax, xm, a, xr, b, c)
@@ -336,16 +390,14 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
             ax.grid(True, alpha=0.3)
         axs[0].legend(loc="best", fontsize=8)
         stroke = float(np.ptp(sr[0]))
-        syn = (f" (synthesis: {to_mm(mech.synthesis.stroke):g} mm)"
-               if mech.synthesis is not None and not moving else "")
+        syn = f" (synthesis: {to_mm(mech.synthesis.stroke):g} mm)" if mech.synthesis is not None and not moving else ""
         also = analysis.sliding_with(mech, sl)
         if also:
             syn += f" (also of {', '.join(also)})"
         for v in (sr[0].min(), sr[0].max()):
             axs[0].axhline(to_mm(v), color="0.4", lw=0.7, ls=":")
         finish_x(axs[2], [xm, xr], xlabel)
-        axs[0].set_title(title(mech, f"slider {p} {guide}: stroke {to_mm(stroke):.2f} mm{syn}"),
-                         fontsize=10)
+        axs[0].set_title(title(mech, f"slider {p} {guide}: stroke {to_mm(stroke):.2f} mm{syn}"), fontsize=10)
         paths.append(save(fig, out_dir, f"slider_{p}.png"))
 
         # --- harmonic content of the acceleration
@@ -354,29 +406,42 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
             fig, ax = plt.subplots(figsize=(8.0, 5.0), layout="constrained")
             k = np.arange(1, len(ar) + 1)
             ax.bar(k - 0.2, am, width=0.4, color="tab:red", alpha=0.75, label=MJ_LABEL)
-            ax.bar(k + 0.2, ar, width=0.4, color="white", edgecolor="k", hatch="////", lw=0.8,
-                   label=REF_LABEL)
+            ax.bar(k + 0.2, ar, width=0.4, color="white", edgecolor="k", hatch="////", lw=0.8, label=REF_LABEL)
             ax.set_yscale("log")
             ax.set_xticks(k)
             if turns > 1:
-                ax.set_xlabel(f"harmonic k of the mechanism period ({turns} turns of the input crank = "
-                              f"{math.degrees(mech.period):g}°; k = {turns}: once per turn)")
+                ax.set_xlabel(
+                    f"harmonic k of the mechanism period ({turns} turns of the input crank = "
+                    f"{math.degrees(mech.period):g}°; k = {turns}: once per turn)"
+                )
             else:
                 ax.set_xlabel("harmonic k of the crank rotation (order)")
             ax.set_ylabel(f"amplitude of $d^2s/dt^2$ of {p} [m/s$^2$]")
             ax.grid(True, which="major", axis="y", alpha=0.3)
             ks = f"2..{len(ar)}"
-            txt = (f"higher harmonics k = {ks} relative to the first, "
-                   f"$\\sqrt{{\\Sigma A_k^2}}\\,/\\,A_1$:\n"
-                   f"MuJoCo {100 * analysis.higher_harmonics_share(am):.1f} %, "
-                   f"reference {100 * analysis.higher_harmonics_share(ar):.1f} %\n"
-                   f"$A_2/A_1$ = {100 * ar[1] / ar[0]:.1f} %,  $A_1$ = {ar[0]:.4g} m/s$^2$ (reference)")
-            ax.text(0.98, 0.97, txt, transform=ax.transAxes, ha="right", va="top", fontsize=8.5,
-                    bbox=dict(boxstyle="round", fc="white", ec="0.7"))
+            txt = (
+                f"higher harmonics k = {ks} relative to the first, "
+                f"$\\sqrt{{\\Sigma A_k^2}}\\,/\\,A_1$:\n"
+                f"MuJoCo {100 * analysis.higher_harmonics_share(am):.1f} %, "
+                f"reference {100 * analysis.higher_harmonics_share(ar):.1f} %\n"
+                f"$A_2/A_1$ = {100 * ar[1] / ar[0]:.1f} %,  $A_1$ = {ar[0]:.4g} m/s$^2$ (reference)"
+            )
+            ax.text(
+                0.98,
+                0.97,
+                txt,
+                transform=ax.transAxes,
+                ha="right",
+                va="top",
+                fontsize=8.5,
+                bbox=dict(boxstyle="round", fc="white", ec="0.7"),
+            )
             ax.legend(loc="lower left", fontsize=8)
             w = float(np.mean(np.abs(kin_mj.omega)))
-            ax.set_title(title(mech, f"harmonics of the acceleration of slider {p}, "
-                                     f"{w:.4g} rad/s ({to_rpm(w):.4g} rpm)"), fontsize=10)
+            ax.set_title(
+                title(mech, f"harmonics of the acceleration of slider {p}, {w:.4g} rad/s ({to_rpm(w):.4g} rpm)"),
+                fontsize=10,
+            )
             paths.append(save(fig, out_dir, f"slider_{p}_spectrum.png"))
 
         # --- pressure angle
@@ -386,8 +451,14 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         i = int(np.argmax(gr))
         top = float(gr[i])
         ax.plot(xr[i], top, "v", color="k", ms=7, zorder=5)
-        ax.annotate(f"max {top:.2f}° (MuJoCo {gm.max():.2f}°)", (xr[i], top), xytext=(0, 9),
-                    textcoords="offset points", ha="center", fontsize=8.5)
+        ax.annotate(
+            f"max {top:.2f}° (MuJoCo {gm.max():.2f}°)",
+            (xr[i], top),
+            xytext=(0, 9),
+            textcoords="offset points",
+            ha="center",
+            fontsize=8.5,
+        )
         ymax = top
         if mech.synthesis is not None:
             lim = math.degrees(mech.synthesis.max_pressure_angle)
@@ -399,8 +470,9 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         ax.grid(True, alpha=0.3)
         ax.legend(loc="lower right", fontsize=8)
         finish_x(ax, [xm, xr], xlabel)
-        ax.set_title(title(mech, f"pressure angle of slider {p}, rod {sl.start}→{p} against "
-                                 f"guide {n1}→{n2}"), fontsize=10)
+        ax.set_title(
+            title(mech, f"pressure angle of slider {p}, rod {sl.start}→{p} against guide {n1}→{n2}"), fontsize=10
+        )
         paths.append(save(fig, out_dir, f"pressure_angle_{p}.png"))
     return paths
 
@@ -416,7 +488,7 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
     dp = mech.thread_elongation
     Lm, dm, fm = analysis.thread_feed(mech, kin_mj)
     Lr, dr, fr = analysis.thread_feed(mech, kin_ref)
-    xm, xr = xm[:len(Lm)], xr[:len(Lr)]  # the axis is cut at one turn
+    xm, xr = xm[: len(Lm)], xr[: len(Lr)]  # the axis is cut at one turn
     fig, axs = plt.subplots(3, 1, figsize=(8.0, 8.0), sharex=True, layout="constrained")
     pair(axs[0], xm, to_mm(Lm), xr, to_mm(Lr), "tab:orange")
     axs[0].set_ylabel(f"thread length $l_F$ [mm]\n{'–'.join(mech.thread)}")
@@ -431,14 +503,27 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
     for v, va in ((pd.max(), "bottom"), (pd.min(), "top")):
         i = int(np.argmin(np.abs(pd - v)))
         axs[2].plot(xr[i], v, "o", color="k", ms=4, zorder=5)
-        axs[2].annotate(f"{v:+.2f} mm", (xr[i], v), xytext=(0, 5 if va == "bottom" else -5),
-                        textcoords="offset points", ha="center", va=va, fontsize=8.5)
+        axs[2].annotate(
+            f"{v:+.2f} mm",
+            (xr[i], v),
+            xytext=(0, 5 if va == "bottom" else -5),
+            textcoords="offset points",
+            ha="center",
+            va=va,
+            fontsize=8.5,
+        )
     axs[2].margins(y=0.15)
     axs[0].legend(loc="best", fontsize=8)
     axs[2].set_xlabel(xlabel)
     angle_ticks(axs[2], float(xr[0]), float(xr[0]) + 360.0)
-    axs[0].set_title(title(mech, f"needle-thread feed over one turn: $P_d$ from {pd.min():+.2f} "
-                                 f"to {pd.max():+.2f} mm (swing {np.ptp(pd):.2f} mm)"), fontsize=10)
+    axs[0].set_title(
+        title(
+            mech,
+            f"needle-thread feed over one turn: $P_d$ from {pd.min():+.2f} "
+            f"to {pd.max():+.2f} mm (swing {np.ptp(pd):.2f} mm)",
+        ),
+        fontsize=10,
+    )
     return save(fig, out_dir, "thread_feed.png")
 
 
@@ -458,8 +543,7 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
     path = reference.solve(mech, mech.phi0 + np.linspace(0.0, mech.period, 361))
     eyelets = [p for p in mech.thread if p not in mech.ground]
     guides = [p for p in mech.thread if p in mech.ground]
-    pivots = [p for p in mech.ground if p not in guides
-              and any(p in l.points for l in mech.links)]
+    pivots = [p for p in mech.ground if p not in guides and any(p in l.points for l in mech.links)]
     cmap = plt.get_cmap("viridis")
     cols = [cmap(0.78 * i / max(n - 1, 1)) for i in range(n)]
 
@@ -479,24 +563,59 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
         for i in reversed(range(n)):  # phi0 last, on top
             c, first = cols[i], i == 0
             segs = [np.stack([P[a][i, [0, j]], P[b][i, [0, j]]]) for a, b in pairs]
-            ax.add_collection(LineCollection(segs, colors=[c], linewidths=1.6 if first else 0.8,
-                                             alpha=0.9 if first else 0.45, zorder=2 + first))
+            ax.add_collection(
+                LineCollection(
+                    segs, colors=[c], linewidths=1.6 if first else 0.8, alpha=0.9 if first else 0.45, zorder=2 + first
+                )
+            )
             th = np.stack([P[p][i, [0, j]] for p in mech.thread])
-            ax.plot(th[:, 0], th[:, 1], color=c, lw=2.6 if first else 1.5, zorder=4 + first,
-                    marker="o", ms=4 if first else 3, mfc="white", mec=c,
-                    label=f"$\\varphi_1$ = {math.degrees(phi[i]):g}°" + (" ($\\varphi_0$)" if first else ""))
+            ax.plot(
+                th[:, 0],
+                th[:, 1],
+                color=c,
+                lw=2.6 if first else 1.5,
+                zorder=4 + first,
+                marker="o",
+                ms=4 if first else 3,
+                mfc="white",
+                mec=c,
+                label=f"$\\varphi_1$ = {math.degrees(phi[i]):g}°" + (" ($\\varphi_0$)" if first else ""),
+            )
         for g in guides:
             ax.plot(P[g][0, 0], P[g][0, j], "s", ms=8, mfc="white", mec="k", mew=1.3, zorder=7)
-            ax.annotate(g, (P[g][0, 0], P[g][0, j]), xytext=(8, 0), textcoords="offset points",
-                        ha="left", va="center", fontsize=9, fontweight="bold")
+            ax.annotate(
+                g,
+                (P[g][0, 0], P[g][0, j]),
+                xytext=(8, 0),
+                textcoords="offset points",
+                ha="left",
+                va="center",
+                fontsize=9,
+                fontweight="bold",
+            )
         for g in pivots:
             ax.plot(P[g][0, 0], P[g][0, j], "^", ms=8, mfc="white", mec="k", zorder=7)
-            ax.annotate(g, (P[g][0, 0], P[g][0, j]), xytext=(0, -9), textcoords="offset points",
-                        ha="center", va="top", fontsize=8)
+            ax.annotate(
+                g,
+                (P[g][0, 0], P[g][0, j]),
+                xytext=(0, -9),
+                textcoords="offset points",
+                ha="center",
+                va="top",
+                fontsize=8,
+            )
         for e in eyelets:
-            ax.annotate(e, (P[e][0, 0], P[e][0, j]), xytext=(7, 5), textcoords="offset points",
-                        fontsize=9, fontweight="bold", color=darker(cols[0]), zorder=8,
-                        bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.75))
+            ax.annotate(
+                e,
+                (P[e][0, 0], P[e][0, j]),
+                xytext=(7, 5),
+                textcoords="offset points",
+                fontsize=9,
+                fontweight="bold",
+                color=darker(cols[0]),
+                zorder=8,
+                bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.75),
+            )
         ax.grid(True, alpha=0.25)
         ax.set_xlabel("x [mm]")
     af.set_xlim(lo[0] - pad, hi[0] + pad + 0.04 * float(hi[0] - lo[0]))  # room for guide names
@@ -512,9 +631,16 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
     handles, labels = handles[::-1], labels[::-1]  # drawn last to first: list from phi0
     handles.append(Line2D([], [], color="0.7", lw=0.8))
     labels.append("eyelet paths over one turn")
-    al.legend(handles, labels, loc="upper center", ncol=2, fontsize=9, frameon=False,
-              title=f"crank positions: thread {'–'.join(mech.thread)} thick, links thin",
-              title_fontsize=9)
+    al.legend(
+        handles,
+        labels,
+        loc="upper center",
+        ncol=2,
+        fontsize=9,
+        frameon=False,
+        title=f"crank positions: thread {'–'.join(mech.thread)} thick, links thin",
+        title_fontsize=9,
+    )
     fig.suptitle(title(mech, f"needle-thread contour in {n} crank positions"), fontsize=10)
     return save(fig, out_dir, "thread_contour.png", tight=True)
 
@@ -525,8 +651,9 @@ def _link_number(mech: Mechanism, crank: Crank) -> int:
     return 1 + [l.name for l in mech.links].index(crank.carriers(mech.links)[0])
 
 
-def phase_study_plot(mech: Mechanism, out_dir, point: str | None = None,
-                     offsets_deg=(-90, -60, -30, 0, 30, 60, 90)) -> Path | None:
+def phase_study_plot(
+    mech: Mechanism, out_dir, point: str | None = None, offsets_deg=(-90, -60, -30, 0, 30, 60, 90)
+) -> Path | None:
     """``phase_study.png``: the path of ``point`` (default :func:`mjlink.analysis.key_point`)
     over one period for several mutual settings of the cranks: the geared crank's phase is its
     file's phase plus each offset (seed 004, Fig. 3). Settings that cannot assemble are
@@ -543,8 +670,7 @@ def phase_study_plot(mech: Mechanism, out_dir, point: str | None = None,
     drawn = []
     for off in offsets_deg:
         ph = (crank.phase or 0.0) + math.radians(off)  # a geared crank always has its phase
-        lab = (f"$\\varphi_{{0{i_in}}}$ = {math.degrees(mech.phi0):g}°, "
-               f"$\\varphi_{{0{i_g}}}$ = {math.degrees(ph):g}°")
+        lab = f"$\\varphi_{{0{i_in}}}$ = {math.degrees(mech.phi0):g}°, $\\varphi_{{0{i_g}}}$ = {math.degrees(ph):g}°"
         try:
             xy = to_mm(analysis.geared_path(mech, crank, ph, point, phi)[:, :2])
         except AssemblyError:
@@ -552,8 +678,14 @@ def phase_study_plot(mech: Mechanism, out_dir, point: str | None = None,
             continue
         file = off == 0
         c = "k" if file else cmap(0.5 + 0.5 * off / span)
-        ax.plot(xy[:, 0], xy[:, 1], color=c, lw=2.2 if file else 1.3, zorder=3 if file else 2,
-                label=lab + f": Δx {np.ptp(xy[:, 0]):.1f}, Δy {np.ptp(xy[:, 1]):.1f} mm" + (" (file)" if file else ""))
+        ax.plot(
+            xy[:, 0],
+            xy[:, 1],
+            color=c,
+            lw=2.2 if file else 1.3,
+            zorder=3 if file else 2,
+            label=lab + f": Δx {np.ptp(xy[:, 0]):.1f}, Δy {np.ptp(xy[:, 1]):.1f} mm" + (" (file)" if file else ""),
+        )
         ax.plot(xy[0, 0], xy[0, 1], "o", color=c, ms=5, zorder=4)
         drawn.append(xy)
     if drawn:
@@ -568,9 +700,16 @@ def phase_study_plot(mech: Mechanism, out_dir, point: str | None = None,
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=8, framealpha=0.9)
-    ax.set_title(title(mech, f"path of {point} over {math.degrees(mech.period):g}° of crank {i_in}\n"
-                             f"for settings of the geared crank {crank.pivot}–{crank.point} "
-                             f"(ratio {crank.ratio:g})"), fontsize=10, loc="left")
+    ax.set_title(
+        title(
+            mech,
+            f"path of {point} over {math.degrees(mech.period):g}° of crank {i_in}\n"
+            f"for settings of the geared crank {crank.pivot}–{crank.point} "
+            f"(ratio {crank.ratio:g})",
+        ),
+        fontsize=10,
+        loc="left",
+    )
     return save(fig, out_dir, "phase_study.png", tight=True)
 
 
@@ -580,10 +719,16 @@ def link_motion_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, li
     ``link`` about z against crank angle, MuJoCo (its body's) vs reference."""
     (xm, xr), xlabel = crank_x(mech, kin_mj, kin_ref)
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8.0, 6.4), sharex=True, layout="constrained")
-    for ax, mj, ref, lab, c in ((a1, kin_mj.link_omega, kin_ref.link_omega,
-                                 f"angular velocity $\\omega$ of {link} [rad/s]", "tab:blue"),
-                                (a2, kin_mj.link_eps, kin_ref.link_eps,
-                                 f"angular acceleration $\\varepsilon$ of {link} [rad/s$^2$]", "tab:red")):
+    for ax, mj, ref, lab, c in (
+        (a1, kin_mj.link_omega, kin_ref.link_omega, f"angular velocity $\\omega$ of {link} [rad/s]", "tab:blue"),
+        (
+            a2,
+            kin_mj.link_eps,
+            kin_ref.link_eps,
+            f"angular acceleration $\\varepsilon$ of {link} [rad/s$^2$]",
+            "tab:red",
+        ),
+    ):
         if link in mj:
             ax.plot(xm, mj[link], color=c, label=MJ_LABEL, **MJ_STYLE)
         ax.plot(xr, ref[link], label=REF_LABEL, **REF_STYLE)
@@ -593,14 +738,23 @@ def link_motion_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, li
     a1.legend(loc="best", fontsize=8)
     finish_x(a2, [xm, xr], xlabel)
     w, e = kin_ref.link_omega[link], kin_ref.link_eps[link]
-    a1.set_title(title(mech, f"rotation of link {link}: |ω| ≤ {np.abs(w).max():.4g} rad/s, "
-                             f"|ε| ≤ {np.abs(e).max():.4g} rad/s²"), fontsize=10)
+    a1.set_title(
+        title(mech, f"rotation of link {link}: |ω| ≤ {np.abs(w).max():.4g} rad/s, |ε| ≤ {np.abs(e).max():.4g} rad/s²"),
+        fontsize=10,
+    )
     return save(fig, out_dir, f"link_{link}.png")
 
 
 # ----------------------------------------------------------------------------- all
-def all_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, dyn_mj: Trace | None, dyn_ref: Trace | None,
-              out_dir, rk4: reference.Motion | None = None) -> list[Path]:
+def all_plots(
+    mech: Mechanism,
+    kin_mj: Trace,
+    kin_ref: Trace,
+    dyn_mj: Trace | None,
+    dyn_ref: Trace | None,
+    out_dir,
+    rk4: reference.Motion | None = None,
+) -> list[Path]:
     """Every plot above that applies into ``out_dir`` (created if missing); returns the paths.
 
     The speed plots need the dynamic runs (skipped if ``dyn_mj`` or ``dyn_ref`` is None); the
@@ -611,9 +765,15 @@ def all_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, dyn_mj: Trace | No
     if dyn_mj is not None and dyn_ref is not None:
         paths += speed_plots(mech, dyn_mj, dyn_ref, out_dir, rk4)
     paths.append(positions_plot(mech, out_dir, highlight=None if mech.thread else point))
-    paths += [p for p in (thread_plot(mech, kin_mj, kin_ref, out_dir),
-                          thread_feed_plot(mech, kin_mj, kin_ref, out_dir),
-                          contour_plot(mech, out_dir)) if p is not None]
+    paths += [
+        p
+        for p in (
+            thread_plot(mech, kin_mj, kin_ref, out_dir),
+            thread_feed_plot(mech, kin_mj, kin_ref, out_dir),
+            contour_plot(mech, out_dir),
+        )
+        if p is not None
+    ]
     paths.append(kinematics_plot(mech, kin_mj, kin_ref, out_dir, point))
     paths += slider_plots(mech, kin_mj, kin_ref, out_dir)
     paths += [link_motion_plot(mech, kin_mj, kin_ref, out_dir, l) for l in analysis.motion_links(mech)]

@@ -35,8 +35,7 @@ def torque_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_dir
     power_ref = analysis.drive_power(rx.torque, kin_mj.omega)
     a2.plot(x, analysis.drive_power(torque, kin_mj.omega), color="tab:orange", label=MJ_LABEL, **MJ_STYLE)
     a2.plot(x, power_ref, label=REF_LABEL, **REF_STYLE)
-    a2.axhline(float(np.mean(power_ref)), color="tab:red", lw=1, ls="-.",
-               label=f"mean {np.mean(power_ref):.3g} W")
+    a2.axhline(float(np.mean(power_ref)), color="tab:red", lw=1, ls="-.", label=f"mean {np.mean(power_ref):.3g} W")
     a2.set_ylabel("drive power [W]")
     a2.legend(loc="best", fontsize=8)
     finish_x(a2, [x], label)
@@ -63,18 +62,26 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
     return save(fig, out_dir, "reactions.png")
 
 
-def steady_plot(mech: Mechanism, plain: reference.Steady, fly: reference.Steady,
-                runs: tuple[SteadyRun, SteadyRun], out_dir) -> Path:
+def steady_plot(
+    mech: Mechanism, plain: reference.Steady, fly: reference.Steady, runs: tuple[SteadyRun, SteadyRun], out_dir
+) -> Path:
     """``steady.png``: crank speed over one period of steady motion, without and with the flywheel."""
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
-    for st, run, color, what in ((plain, runs[0], "tab:blue", "no flywheel"),
-                                 (fly, runs[1], "tab:green", f"flywheel {fly.extra_inertia:.3g} kg·m²")):
+    for st, run, color, what in (
+        (plain, runs[0], "tab:blue", "no flywheel"),
+        (fly, runs[1], "tab:green", f"flywheel {fly.extra_inertia:.3g} kg·m²"),
+    ):
         # MuJoCo's run spans several periods to settle: only its last, as long as the reference's.
         turned, omega = analysis.last_period(run.trace, st.t[-1])
-        ax.plot(np.degrees(turned), to_rpm(omega), color=color, label=f"{what}: {MJ_LABEL}, δ = {run.delta:.4f}",
-                **MJ_STYLE)
-        ax.plot(np.degrees(analysis.angle_turned(st.phi)), to_rpm(st.omega),
-                label=f"{what}: reference, δ = {st.delta:.4f}", **REF_STYLE)
+        ax.plot(
+            np.degrees(turned), to_rpm(omega), color=color, label=f"{what}: {MJ_LABEL}, δ = {run.delta:.4f}", **MJ_STYLE
+        )
+        ax.plot(
+            np.degrees(analysis.angle_turned(st.phi)),
+            to_rpm(st.omega),
+            label=f"{what}: reference, δ = {st.delta:.4f}",
+            **REF_STYLE,
+        )
     ax.set_xlabel("crank angle turned in the period [deg]")
     ax.set_ylabel("crank speed $n_1$ [rpm]")
     ax.legend(loc="best", fontsize=8)

@@ -106,9 +106,11 @@ def crank_axis(mech: Mechanism, phi: np.ndarray) -> tuple[Callable[[Any], np.nda
     phi = np.asarray(phi)
     if phi[-1] >= phi[0]:
         return deg, "crank angle $\\varphi_1$ [deg]"
-    return (lambda p: deg(mech.phi0 - np.asarray(p, dtype=float)),
-            "crank angle turned clockwise, $\\varphi_{01} - \\varphi_1$ [deg] "
-            f"($\\varphi_{{01}}$ = {math.degrees(mech.phi0):g}°)")
+    return (
+        lambda p: deg(mech.phi0 - np.asarray(p, dtype=float)),
+        "crank angle turned clockwise, $\\varphi_{01} - \\varphi_1$ [deg] "
+        f"($\\varphi_{{01}}$ = {math.degrees(mech.phi0):g}°)",
+    )
 
 
 def crank_x(mech: Mechanism, *traces: Trace) -> tuple[list[np.ndarray], str]:

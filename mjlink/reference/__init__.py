@@ -6,24 +6,45 @@ torque, forces in every pair), :mod:`.synthesis` (crank-slider metric synthesis)
 """
 
 from .dynamics import (
-                       TIGHT_RTOL,
-                       Motion,
-                       Reduced,
-                       SpectralDynamics,
-                       Steady,
-                       constant_speed,
-                       flywheel_for,
-                       forward_dynamics,
-                       reduced,
-                       rk4_dynamics,
-                       steady_motion,
-                       steady_variant,
+    TIGHT_RTOL,
+    Motion,
+    Reduced,
+    SpectralDynamics,
+    Steady,
+    constant_speed,
+    flywheel_for,
+    forward_dynamics,
+    reduced,
+    rk4_dynamics,
+    steady_motion,
+    steady_variant,
 )
 from .kinematics import Kinematics, angle_ranges, assembly_ranges, check_rigidity, link_angle, solve
 from .kinetostatics import Reactions, driving_torque, pair_label, reactions
 from .traces import reference_trace
 
-__all__ = ["TIGHT_RTOL", "Kinematics", "Motion", "Reactions", "Reduced", "SpectralDynamics", "Steady",
-           "angle_ranges", "assembly_ranges", "check_rigidity", "constant_speed", "driving_torque", "flywheel_for",
-           "forward_dynamics", "link_angle", "pair_label", "reactions", "reduced", "reference_trace", "rk4_dynamics", "solve",
-           "steady_motion", "steady_variant"]
+__all__ = [
+    "TIGHT_RTOL",
+    "Kinematics",
+    "Motion",
+    "Reactions",
+    "Reduced",
+    "SpectralDynamics",
+    "Steady",
+    "angle_ranges",
+    "assembly_ranges",
+    "check_rigidity",
+    "constant_speed",
+    "driving_torque",
+    "flywheel_for",
+    "forward_dynamics",
+    "link_angle",
+    "pair_label",
+    "reactions",
+    "reduced",
+    "reference_trace",
+    "rk4_dynamics",
+    "solve",
+    "steady_motion",
+    "steady_variant",
+]

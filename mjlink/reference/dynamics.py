@@ -124,7 +124,7 @@ class SpectralDynamics:
         s = self._series(phi)
         out = s[:3].copy()
         for i, f in enumerate(self.tables):
-            out[2] += np.einsum("ij,ji->i", f.at(phi, self.period), s[3 + 3 * i: 6 + 3 * i])
+            out[2] += np.einsum("ij,ji->i", f.at(phi, self.period), s[3 + 3 * i : 6 + 3 * i])
         return out
 
     def scalar(self, phi: float) -> tuple[float, float, float]:
@@ -160,6 +160,7 @@ def _rhs(sd: SpectralDynamics):
     def f(_t, y):
         J, dJ, Q = sd.scalar(y[0])
         return [y[1], _accel(mech, J, dJ, Q, y[1])]
+
     return f
 
 
@@ -168,14 +169,21 @@ def _rhs(sd: SpectralDynamics):
 TIGHT_RTOL = 1e-10
 
 
-def forward_dynamics(mech: Mechanism, t_eval: np.ndarray, *, rtol: float = TIGHT_RTOL,
-                     sd: SpectralDynamics | None = None, phi0: float | None = None,
-                     omega0: float | None = None) -> Motion:
+def forward_dynamics(
+    mech: Mechanism,
+    t_eval: np.ndarray,
+    *,
+    rtol: float = TIGHT_RTOL,
+    sd: SpectralDynamics | None = None,
+    phi0: float | None = None,
+    omega0: float | None = None,
+) -> Motion:
     """phi(t) from (phi0, omega0) (default: the file's), the equation of motion solved tightly (DOP853)."""
     sd = sd or SpectralDynamics(mech)
     y0 = [mech.phi0 if phi0 is None else phi0, mech.dynamics.omega0 if omega0 is None else omega0]
-    sol = solve_ivp(_rhs(sd), (float(t_eval[0]), float(t_eval[-1])), y0,
-                    method="DOP853", t_eval=t_eval, rtol=rtol, atol=rtol * 1e-2)
+    sol = solve_ivp(
+        _rhs(sd), (float(t_eval[0]), float(t_eval[-1])), y0, method="DOP853", t_eval=t_eval, rtol=rtol, atol=rtol * 1e-2
+    )
     if not sol.success:
         raise AssemblyError(f"{mech.name}: reference ODE failed: {sol.message}")
     phi, omega = sol.y
@@ -228,13 +236,16 @@ def steady_variant(mech: Mechanism, motor=None) -> Mechanism:
     """``mech`` driven by the steady-motion motor (argument, or the file's [steady] one) alone."""
     motor = motor or (mech.steady.motor if mech.steady else None)
     if motor is None:
-        raise AssemblyError(f"{mech.name}: no steady motion without a motor characteristic "
-                            "(give [steady] or [dynamics.motor] in the file, or --stall-torque and --no-load-speed)")
+        raise AssemblyError(
+            f"{mech.name}: no steady motion without a motor characteristic "
+            "(give [steady] or [dynamics.motor] in the file, or --stall-torque and --no-load-speed)"
+        )
     return dataclasses.replace(mech, dynamics=dataclasses.replace(mech.dynamics, motor=motor, moment=0.0))
 
 
-def steady_motion(mech: Mechanism, *, extra_inertia: float = 0.0, samples: int = 2049,
-                  start: float | None = None) -> Steady:
+def steady_motion(
+    mech: Mechanism, *, extra_inertia: float = 0.0, samples: int = 2049, start: float | None = None
+) -> Steady:
     """The periodic orbit omega(phi) of the equation of motion under the drive of ``mech``
     (see :func:`steady_variant`), found by shooting in phi with a secant iteration.
 
@@ -308,4 +319,3 @@ def flywheel_for(mech: Mechanism, target_delta: float) -> tuple[float, Steady]:
             break
         x0, x1, g0 = x1, max(x1 - g1 * (x1 - x0) / (g1 - g0), 0.5 * x1), g1
     return x1, st
-

@@ -143,17 +143,18 @@ def check_rigidity(mech: Mechanism, samples: int = 361, rtol: float = 1e-9) -> N
     src = mech.path or mech.name
     for l in mech.links:
         for i, a in enumerate(l.points):
-            for b in l.points[i + 1:]:
+            for b in l.points[i + 1 :]:
                 d = np.linalg.norm(kin.points[a].v - kin.points[b].v, axis=1)
                 if d.max() - d.min() > rtol * max(d.max(), 1e-3):
                     raise MechanismFileError(
                         f"{src}: [links.{l.name}]: points {a} and {b} do not stay at a fixed distance "
-                        f"({d.min() * 1e3:.4f}..{d.max() * 1e3:.4f} mm): they are not on one rigid link")
+                        f"({d.min() * 1e3:.4f}..{d.max() * 1e3:.4f} mm): they are not on one rigid link"
+                    )
         if len(l.points) >= 2 and l.guide:
             own = jet.angle((kin.points[l.points[1]] - kin.points[l.points[0]]).planar()).v
             ref = kin.angles[l.name].v
             dev = np.abs(np.angle(np.exp(1j * (own - ref)) / np.exp(1j * (own[0] - ref[0]))))
             if dev.max() > 1e-9:
                 raise MechanismFileError(
-                    f"{src}: [links.{l.name}]: slides on {l.guide[0]}-{l.guide[1]} but turns relative to that guide")
-
+                    f"{src}: [links.{l.name}]: slides on {l.guide[0]}-{l.guide[1]} but turns relative to that guide"
+                )

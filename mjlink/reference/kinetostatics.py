@@ -75,7 +75,8 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
         raise MechanismFileError(
             f"{mech.path or mech.name}: kinetostatics needs a mechanism with one degree of freedom as driven "
             f"({len(prs)} pairs, {len(geared)} gears and {len(links)} links give {nu} unknowns for "
-            f"{3 * len(links)} equations)")
+            f"{3 * len(links)} equations)"
+        )
     A = np.zeros((n, 3 * len(links), nu))
     b = np.zeros((n, 3 * len(links)))
     origin = {l.name: P[l.points[0]] for l in mech.links}
@@ -131,7 +132,7 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
             f_net = l.mass * (a - grav)  # inertial force minus gravity: what the pairs must supply
             rhs_f += f_net
             rhs_m = rhs_m + d[:, 0] * f_net[:, 1] - d[:, 1] * f_net[:, 0]
-        b[:, r0:r0 + 2] = rhs_f
+        b[:, r0 : r0 + 2] = rhs_f
         b[:, r0 + 2] = rhs_m
     for f in mech.dynamics.forces:
         owner = mech.link_of(f.point)
@@ -140,7 +141,7 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
         F = f.at(phi, mech.period)[:, :2]
         d = (P[f.point] - origin[owner.name])[:, :2]
         r0 = row[owner.name]
-        b[:, r0:r0 + 2] -= F
+        b[:, r0 : r0 + 2] -= F
         b[:, r0 + 2] -= d[:, 0] * F[:, 1] - d[:, 1] * F[:, 0]
     # Damping acts on the input crank joint like a torque -b omega.
     b[:, row[mech.input_link.name] + 2] += mech.dynamics.damping * w
@@ -159,4 +160,3 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
             moments[lab] = x[:, col + 1]
         col += 2
     return Reactions(phi, forces, moments, x[:, col_tau], {k: x[:, c] for k, c in gear_cols.items()})
-

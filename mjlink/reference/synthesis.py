@@ -79,8 +79,16 @@ def roots(stroke: float, offset: float, ratio: float, max_pressure_angle: float)
             reasons.append("rod too short: the slider cannot pass (l - r <= e)")
         elif not abs(got - S) <= 1e-9 * S:
             reasons.append(f"spurious: gives stroke {got * 1e3:.3f} mm")
-        out.append(Root(complex(lr), complex(r), got, theta, not reasons,
-                        "rejected: " + "; ".join(reasons) if reasons else "accepted"))
+        out.append(
+            Root(
+                complex(lr),
+                complex(r),
+                got,
+                theta,
+                not reasons,
+                "rejected: " + "; ".join(reasons) if reasons else "accepted",
+            )
+        )
     return out
 
 
@@ -103,9 +111,11 @@ def largest_ratio(stroke: float, offset: float, max_pressure_angle: float, step:
 
 def format_table(stroke: float, offset: float, ratio: float, max_pressure_angle: float) -> str:
     """The paper's table: every root with r, l, the stroke it gives, theta_max and the verdict."""
-    rows = [f"S = {stroke * 1e3:g} mm, e = {offset * 1e3:g} mm, lambda = {ratio:g}, "
-            f"[theta] = {math.degrees(max_pressure_angle):g} deg",
-            f"{'root':>4} {'l, mm':>10} {'r, mm':>10} {'stroke, mm':>11} {'theta_max':>10}  verdict"]
+    rows = [
+        f"S = {stroke * 1e3:g} mm, e = {offset * 1e3:g} mm, lambda = {ratio:g}, "
+        f"[theta] = {math.degrees(max_pressure_angle):g} deg",
+        f"{'root':>4} {'l, mm':>10} {'r, mm':>10} {'stroke, mm':>11} {'theta_max':>10}  verdict",
+    ]
     for i, r in enumerate(roots(stroke, offset, ratio, max_pressure_angle), 1):
         if r.reason == "complex":
             rows.append(f"{i:>4} {np.round(r.l * 1e3, 3)!s:>21} {'':>11} {'':>10}  complex")
@@ -116,8 +126,9 @@ def format_table(stroke: float, offset: float, ratio: float, max_pressure_angle:
     return "\n".join(rows)
 
 
-def design_file(base_text: str, stroke: float, offset: float, ratio: float, max_pressure_angle: float,
-                name: str) -> str:
+def design_file(
+    base_text: str, stroke: float, offset: float, ratio: float, max_pressure_angle: float, name: str
+) -> str:
     """A mechanism file (TOML text) for the best accepted root, from a crank-slider base file.
 
     The base file (``mechanisms/crank_slider.toml``) gives the structure; the synthesized r and
@@ -130,13 +141,19 @@ def design_file(base_text: str, stroke: float, offset: float, ratio: float, max_
 
     root = best(stroke, offset, ratio, max_pressure_angle)
     if root is None:
-        raise MjlinkError(f"no admissible design for S = {stroke * 1e3:g} mm, e = {offset * 1e3:g} mm, "
-                          f"lambda = {ratio:g}, [theta] = {math.degrees(max_pressure_angle):g} deg")
+        raise MjlinkError(
+            f"no admissible design for S = {stroke * 1e3:g} mm, e = {offset * 1e3:g} mm, "
+            f"lambda = {ratio:g}, [theta] = {math.degrees(max_pressure_angle):g} deg"
+        )
     r_mm, l_mm = root.r.real * 1e3, root.l.real * 1e3
     d = tomllib.loads(base_text)
     d["mechanism"]["name"] = name
-    d["synthesis"] = {"stroke": stroke * 1e3, "offset": offset * 1e3, "lambda": ratio,
-                      "max_pressure_angle": math.degrees(max_pressure_angle)}
+    d["synthesis"] = {
+        "stroke": stroke * 1e3,
+        "offset": offset * 1e3,
+        "lambda": ratio,
+        "max_pressure_angle": math.degrees(max_pressure_angle),
+    }
     for step in d["construct"]:
         if step["block"] == "crank":
             step["length"] = r_mm
@@ -151,8 +168,10 @@ def design_file(base_text: str, stroke: float, offset: float, ratio: float, max_
             step["length"] = r_mm / 2
         if step["block"] == "attached" and step["origin"] == slider["start"] and step["toward"] == slider["point"]:
             step["length"] = l_mm / 2
-    header = (f"Crank-slider designed by 'python -m mjlink synth crank_slider': S = {stroke * 1e3:g} mm, "
-              f"e = {offset * 1e3:g} mm,\nlambda = {ratio:g}, [theta] = {math.degrees(max_pressure_angle):g} deg: "
-              f"r = {r_mm:.4f} mm, l = {l_mm:.4f} mm, theta_max = {math.degrees(root.theta_max):.2f} deg.\n"
-              "Units: lengths mm, angles deg, masses g, inertias kg*m^2, speeds rad/s.")
+    header = (
+        f"Crank-slider designed by 'python -m mjlink synth crank_slider': S = {stroke * 1e3:g} mm, "
+        f"e = {offset * 1e3:g} mm,\nlambda = {ratio:g}, [theta] = {math.degrees(max_pressure_angle):g} deg: "
+        f"r = {r_mm:.4f} mm, l = {l_mm:.4f} mm, theta_max = {math.degrees(root.theta_max):.2f} deg.\n"
+        "Units: lengths mm, angles deg, masses g, inertias kg*m^2, speeds rad/s."
+    )
     return tomlio.dumps(d, header)

@@ -14,10 +14,19 @@ def reference_trace(mech: Mechanism, motion: Motion, kind: RunKind) -> Trace:
     kin = solve(mech, motion.phi)
     names = list(mech.point_names)
     th = kin.thread_length()
-    return Trace(Source.REFERENCE, kind, motion.t, motion.phi, motion.omega, motion.eps,
-                 {n: kin.position(n) for n in names},
-                 {n: kin.velocity(n, motion.omega) for n in names},
-                 {n: kin.acceleration(n, motion.omega, motion.eps) for n in names},
-                 None if th is None else th.v, None, None,
-                 {l: kin.angles[l].d * motion.omega for l in kin.angles},
-                 {l: kin.angles[l].dd * motion.omega**2 + kin.angles[l].d * motion.eps for l in kin.angles})
+    return Trace(
+        Source.REFERENCE,
+        kind,
+        motion.t,
+        motion.phi,
+        motion.omega,
+        motion.eps,
+        {n: kin.position(n) for n in names},
+        {n: kin.velocity(n, motion.omega) for n in names},
+        {n: kin.acceleration(n, motion.omega, motion.eps) for n in names},
+        None if th is None else th.v,
+        None,
+        None,
+        {l: kin.angles[l].d * motion.omega for l in kin.angles},
+        {l: kin.angles[l].dd * motion.omega**2 + kin.angles[l].d * motion.eps for l in kin.angles},
+    )

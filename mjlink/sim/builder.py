@@ -129,15 +129,27 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
         m.rgba = colors[i]
         m.specular = 0.3
     # A light gradient backdrop: on black the dark guide sites and the thread ends vanish.
-    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-                     rgb1=[0.95, 0.95, 0.97], rgb2=[0.75, 0.78, 0.82], width=256, height=1536)
+    spec.add_texture(
+        name="sky",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+        rgb1=[0.95, 0.95, 0.97],
+        rgb2=[0.75, 0.78, 0.82],
+        width=256,
+        height=1536,
+    )
     spec.add_material(name="mat_ground").rgba = [0.35, 0.35, 0.38, 1.0]
     spec.add_material(name="mat_eyelet").rgba = [0.95, 0.2, 0.15, 1.0]
 
     world = spec.worldbody
-    world.add_light(name="key", pos=[lo[0], hi[1] + size, 2.0 * size], dir=[0.3, -0.4, -1.0],
-                    diffuse=[0.7, 0.7, 0.7], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
-                    castshadow=False)  # shadows cost 60 % of a software-rendered frame
+    world.add_light(
+        name="key",
+        pos=[lo[0], hi[1] + size, 2.0 * size],
+        dir=[0.3, -0.4, -1.0],
+        diffuse=[0.7, 0.7, 0.7],
+        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+        castshadow=False,
+    )  # shadows cost 60 % of a software-rendered frame
     # Looking down -Z with Y up; far enough to hold the swept box in a 4:3 frame.
     fovy = 40.0
     half_h = 0.5 * max(hi[1] - lo[1], (hi[0] - lo[0]) * 3.0 / 4.0) + 8 * r_link
@@ -152,21 +164,35 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
     up = np.cross(view, right)
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.column_stack([right, up, view]).ravel())
-    oblique = world.add_camera(name=names.OBLIQUE, pos=(center + 1.1 * dist * view).tolist(), fovy=fovy, quat=quat.tolist())
+    oblique = world.add_camera(
+        name=names.OBLIQUE, pos=(center + 1.1 * dist * view).tolist(), fovy=fovy, quat=quat.tolist()
+    )
 
     sites: dict[str, mujoco.MjsSite] = {}
     for name, p in mech.ground.items():
         sites[name] = world.add_site(name=name, pos=p.tolist(), size=[1.0 * r_link, 0, 0], rgba=[0.15, 0.15, 0.15, 1.0])
     for pr in topo.tree + topo.loops:
         if pr.revolute and pr.parent is None:
-            world.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=(pos[pr.pin] - [0, 0, 0.02 * size]).tolist(),
-                           size=[2.2 * r_link, 0.012 * size, 0], material="mat_ground", contype=0, conaffinity=0)
+            world.add_geom(
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                pos=(pos[pr.pin] - [0, 0, 0.02 * size]).tolist(),
+                size=[2.2 * r_link, 0.012 * size, 0],
+                material="mat_ground",
+                contype=0,
+                conaffinity=0,
+            )
 
     for l in mech.links:  # a guide on the frame is drawn as a rail
         if l.guide and all(g in mech.ground for g in l.guide):
             a, c = (pos[g] - [0, 0, 0.03 * size] for g in l.guide)
-            world.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[*a, *c], size=[0.5 * r_link, 0, 0],
-                           material="mat_ground", contype=0, conaffinity=0)
+            world.add_geom(
+                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                fromto=[*a, *c],
+                size=[0.5 * r_link, 0, 0],
+                material="mat_ground",
+                contype=0,
+                conaffinity=0,
+            )
 
     bodies: dict[str | None, mujoco.MjsBody] = {None: world}
     origin: dict[str | None, np.ndarray] = {None: np.zeros(3)}
@@ -184,12 +210,12 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
         body = bodies[pr.parent].add_body(name=l.name, pos=(o - origin[pr.parent]).tolist())
         bodies[l.name], origin[l.name] = body, o
         if pr.revolute:
-            j = body.add_joint(name=names.hinge_joint(l.name, pr.pin), type=mujoco.mjtJoint.mjJNT_HINGE,
-                               axis=[0, 0, 1])
+            j = body.add_joint(name=names.hinge_joint(l.name, pr.pin), type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
         else:
             g = pos[pr.rail[1]] - pos[pr.rail[0]]
-            j = body.add_joint(name=names.slide_joint(l.name), type=mujoco.mjtJoint.mjJNT_SLIDE,
-                               axis=(g / np.linalg.norm(g)).tolist())
+            j = body.add_joint(
+                name=names.slide_joint(l.name), type=mujoco.mjtJoint.mjJNT_SLIDE, axis=(g / np.linalg.norm(g)).tolist()
+            )
         tree.append((pr, j))
         if l is mech.input_link and pr.revolute and pr.point == mech.input_crank.pivot:
             input_joint = j
@@ -217,31 +243,60 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
                 continue
             a, b = pos[l.points[0]] - o + zoff, pos[p] - o + zoff
             if np.linalg.norm(b - a) > 1e-9:
-                body.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[*a, *b], size=[r_link, 0, 0],
-                              material=mat, contype=0, conaffinity=0, mass=0)
+                body.add_geom(
+                    type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                    fromto=[*a, *b],
+                    size=[r_link, 0, 0],
+                    material=mat,
+                    contype=0,
+                    conaffinity=0,
+                    mass=0,
+                )
         for p in l.points:
             if p == l.com:
                 continue
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=(pos[p] - o + zoff).tolist(),
-                          size=[1.6 * r_link, 1.2 * r_link, 0], material=mat, contype=0, conaffinity=0, mass=0)
+            body.add_geom(
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                pos=(pos[p] - o + zoff).tolist(),
+                size=[1.6 * r_link, 1.2 * r_link, 0],
+                material=mat,
+                contype=0,
+                conaffinity=0,
+                mass=0,
+            )
         if not pr.revolute:
             g = pos[pr.rail[1]] - pos[pr.rail[0]]
             u = g / np.linalg.norm(g)
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, pos=zoff, size=[2.5 * r_link, 1.5 * r_link, r_link],
-                          quat=_quat_z(np.arctan2(u[1], u[0])), material=mat, contype=0, conaffinity=0, mass=0)
+            body.add_geom(
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                pos=zoff,
+                size=[2.5 * r_link, 1.5 * r_link, r_link],
+                quat=_quat_z(np.arctan2(u[1], u[0])),
+                material=mat,
+                contype=0,
+                conaffinity=0,
+                mass=0,
+            )
     thread_pts = set(mech.thread or ())
     for p, owner in site_owner.items():
         eyelet = p in thread_pts
-        sites[p] = bodies[owner].add_site(name=p, pos=(pos[p] - origin[owner]).tolist(),
-                               size=[(1.9 if eyelet else 0.5) * r_link, 0, 0],
-                               material="mat_eyelet" if eyelet else "",
-                               rgba=[0.95, 0.2, 0.15, 1] if eyelet else [0.1, 0.1, 0.1, 1])
+        sites[p] = bodies[owner].add_site(
+            name=p,
+            pos=(pos[p] - origin[owner]).tolist(),
+            size=[(1.9 if eyelet else 0.5) * r_link, 0, 0],
+            material="mat_eyelet" if eyelet else "",
+            rgba=[0.95, 0.2, 0.15, 1] if eyelet else [0.1, 0.1, 0.1, 1],
+        )
 
     loops: list[tuple[Pair, mujoco.MjsEquality]] = []
     for pr in topo.loops:
-        eq = spec.add_equality(name=names.loop_equality(pr.pin, pr.parent, pr.child),
-                               type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_BODY,
-                               name1=pr.child, name2=pr.parent or "world")
+        eq = spec.add_equality(
+            name=names.loop_equality(pr.pin, pr.parent, pr.child),
+            type=mujoco.mjtEq.mjEQ_CONNECT,
+            objtype=mujoco.mjtObj.mjOBJ_BODY,
+            name1=pr.child,
+            name2=pr.parent or "world",
+        )
         eq.data[0:3] = pos[pr.pin] - origin[pr.child]
         eq.solref = list(settings.solref)
         eq.solimp = list(settings.solimp)
@@ -250,9 +305,13 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
     gears = []
     for s in mech.geared:
         gl = mech.carrier(s)
-        eq = spec.add_equality(name=names.gear_equality(gl.name), type=mujoco.mjtEq.mjEQ_JOINT,
-                               objtype=mujoco.mjtObj.mjOBJ_JOINT, name1=names.hinge_joint(gl.name, s.pivot),
-                               name2=input_joint.name)
+        eq = spec.add_equality(
+            name=names.gear_equality(gl.name),
+            type=mujoco.mjtEq.mjEQ_JOINT,
+            objtype=mujoco.mjtObj.mjOBJ_JOINT,
+            name1=names.hinge_joint(gl.name, s.pivot),
+            name2=input_joint.name,
+        )
         eq.data[0:5] = [0.0, s.ratio, 0.0, 0.0, 0.0]
         eq.solref = list(settings.solref)
         eq.solimp = list(settings.solimp)
@@ -265,16 +324,31 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
             t.wrap_site(p)
     # The drive: ctrl is the moment plus the motor's stall torque; an affine bias in the joint
     # speed makes the torque fall linearly to zero at the no-load speed.
-    act = spec.add_actuator(name=names.DRIVE, target=input_joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
-                            gear=[1, 0, 0, 0, 0, 0], ctrllimited=False)
+    act = spec.add_actuator(
+        name=names.DRIVE,
+        target=input_joint.name,
+        trntype=mujoco.mjtTrn.mjTRN_JOINT,
+        gear=[1, 0, 0, 0, 0, 0],
+        ctrllimited=False,
+    )
     motor = mech.dynamics.motor
     if motor is not None:
         act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
         bias = np.zeros(len(act.biasprm))
         bias[2] = -motor.stall_torque / motor.no_load_speed
         act.biasprm = bias
-    return spec, _Elements(input_joint, act, sites, {k: v for k, v in bodies.items() if k is not None}, tuple(tree),
-                           tuple(loops), tuple(gears), t, front, oblique)
+    return spec, _Elements(
+        input_joint,
+        act,
+        sites,
+        {k: v for k, v in bodies.items() if k is not None},
+        tuple(tree),
+        tuple(loops),
+        tuple(gears),
+        t,
+        front,
+        oblique,
+    )
 
 
 def _set_first(obj, attr: str, value: float) -> None:
@@ -296,12 +370,22 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
     """The compiled model of ``mech`` with the ids of its elements. See :func:`build_spec`."""
     spec, el = _spec(mech, settings)
     model = spec.compile()
-    return Built(spec, model, el.input_joint.id, int(model.jnt_dofadr[el.input_joint.id]),
-                 int(model.jnt_qposadr[el.input_joint.id]), el.drive.id,
-                 {k: v.id for k, v in el.sites.items()}, {k: v.id for k, v in el.bodies.items()},
-                 tuple((p, j.id) for p, j in el.tree), tuple((p, e.id) for p, e in el.loops),
-                 tuple(e.id for e in el.gears), -1 if el.thread is None else el.thread.id, el.front.id,
-                 el.oblique.id)
+    return Built(
+        spec,
+        model,
+        el.input_joint.id,
+        int(model.jnt_dofadr[el.input_joint.id]),
+        int(model.jnt_qposadr[el.input_joint.id]),
+        el.drive.id,
+        {k: v.id for k, v in el.sites.items()},
+        {k: v.id for k, v in el.bodies.items()},
+        tuple((p, j.id) for p, j in el.tree),
+        tuple((p, e.id) for p, e in el.loops),
+        tuple(e.id for e in el.gears),
+        -1 if el.thread is None else el.thread.id,
+        el.front.id,
+        el.oblique.id,
+    )
 
 
 def build(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjModel:

@@ -74,8 +74,10 @@ def ensure_gl_backend() -> str:
             _backend = name
             return _backend
         reasons.append(f"{name}: {why}")
-    raise RenderError(f"no offscreen OpenGL backend works: tried {', '.join(PROBE_ORDER)} ({'; '.join(reasons)}); "
-                      f"install Mesa's libEGL or libOSMesa, or set MUJOCO_GL")
+    raise RenderError(
+        f"no offscreen OpenGL backend works: tried {', '.join(PROBE_ORDER)} ({'; '.join(reasons)}); "
+        f"install Mesa's libEGL or libOSMesa, or set MUJOCO_GL"
+    )
 
 
 def _imported_backend() -> str:
@@ -92,8 +94,9 @@ def _probe(name: str) -> str | None:
     """None if backend ``name`` can make a context current in a fresh interpreter, else why not."""
     env = dict(os.environ, MUJOCO_GL=name)
     try:
-        res = subprocess.run([sys.executable, "-c", _PROBE_CODE], env=env, capture_output=True, text=True,
-                             timeout=PROBE_TIMEOUT)
+        res = subprocess.run(
+            [sys.executable, "-c", _PROBE_CODE], env=env, capture_output=True, text=True, timeout=PROBE_TIMEOUT
+        )
     except subprocess.TimeoutExpired:
         return f"timed out after {PROBE_TIMEOUT:g} s"
     except OSError as e:

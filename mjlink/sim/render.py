@@ -34,6 +34,8 @@ def _is_3d(mech) -> bool:
     """Whether any point leaves the mechanism's plane (z != 0)."""
     k = reference.solve(mech, [mech.phi0])
     return any(abs(v.v[0, 2]) > 1e-9 for v in k.points.values())
+
+
 PROGRESS_AFTER = 1.0  # s of rendering before a progress line is worth printing
 
 
@@ -82,9 +84,18 @@ def frame_qpos(trace: Trace, frames: int) -> tuple[np.ndarray, np.ndarray]:
     return times, qpos.reshape(frames, q.shape[1])
 
 
-def render_video(mech: Mechanism, trace: Trace, path: str | os.PathLike, *, seconds: float = 3.0,
-                 fps: float = 30, width: int = 640, height: int = 480, settings: Settings | None = None,
-                 progress: bool = True) -> VideoInfo:
+def render_video(
+    mech: Mechanism,
+    trace: Trace,
+    path: str | os.PathLike,
+    *,
+    seconds: float = 3.0,
+    fps: float = 30,
+    width: int = 640,
+    height: int = 480,
+    settings: Settings | None = None,
+    progress: bool = True,
+) -> VideoInfo:
     """Render ``trace`` of ``mech`` to an MP4 (H.264, yuv420p) at ``path``.
 
     ``seconds`` video duration (s) over which the whole trace is played, ``fps`` frames/s,
@@ -106,15 +117,18 @@ def render_video(mech: Mechanism, trace: Trace, path: str | os.PathLike, *, seco
     if not (np.isfinite(seconds) and np.isfinite(fps) and fps > 0 and n >= 1):
         raise RenderError(f"a video needs at least one frame: seconds = {seconds:g} s at fps = {fps:g} frames/s")
     if width <= 0 or height <= 0 or width % 2 or height % 2:
-        raise RenderError(f"video size {width}x{height} pixels: width and height must be positive and even "
-                          f"(H.264 yuv420p)")
+        raise RenderError(
+            f"video size {width}x{height} pixels: width and height must be positive and even (H.264 yuv420p)"
+        )
     _, qpos = frame_qpos(trace, n)
     backend = ensure_gl_backend()
     built = builder.make(mech, settings or simulate.kinematic_case(mech).settings)
     model = built.model
     if qpos.shape[1] != model.nq:
-        raise RenderError(f"{mech.name}: the trace has {qpos.shape[1]} joint positions per sample, the model has "
-                          f"{model.nq}: was it run on another mechanism?")
+        raise RenderError(
+            f"{mech.name}: the trace has {qpos.shape[1]} joint positions per sample, the model has "
+            f"{model.nq}: was it run on another mechanism?"
+        )
     # A mechanism with points out of its plane (eyelets in depth) is shown obliquely.
     camera = built.oblique if _is_3d(mech) else built.front
     # The builder sizes the offscreen buffer for 1080p; a larger video only needs a larger one.
@@ -134,8 +148,9 @@ def render_video(mech: Mechanism, trace: Trace, path: str | os.PathLike, *, seco
     return VideoInfo(path, n, fps, width, height, (n / fps) / span, backend)
 
 
-def _frames(model, data, qpos, camera: int, option, tmp: Path, fps: float, width: int, height: int, backend: str,
-            progress: bool) -> None:
+def _frames(
+    model, data, qpos, camera: int, option, tmp: Path, fps: float, width: int, height: int, backend: str, progress: bool
+) -> None:
     """Render every frame into an H.264 file at ``tmp`` (complete when this returns)."""
     n = len(qpos)
     renderer = writer = None
@@ -144,10 +159,17 @@ def _frames(model, data, qpos, camera: int, option, tmp: Path, fps: float, width
         try:
             renderer = mujoco.Renderer(model, height, width)
         except Exception as e:
-            hint = ("; mujoco was imported before ensure_gl_backend() and chose glfw: call "
-                    "mjlink.render.ensure_gl_backend() first or set MUJOCO_GL=egl") if backend == "glfw" else ""
-            raise RenderError(f"cannot create a {width}x{height} offscreen renderer with MUJOCO_GL={backend}: "
-                              f"{_clip(e)}{hint}") from e
+            hint = (
+                (
+                    "; mujoco was imported before ensure_gl_backend() and chose glfw: call "
+                    "mjlink.render.ensure_gl_backend() first or set MUJOCO_GL=egl"
+                )
+                if backend == "glfw"
+                else ""
+            )
+            raise RenderError(
+                f"cannot create a {width}x{height} offscreen renderer with MUJOCO_GL={backend}: {_clip(e)}{hint}"
+            ) from e
         # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
         # yet the 4096^2 shadow map costs ~2/3 of a frame on a software (Mesa) renderer.
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
@@ -193,10 +215,21 @@ def _open_writer(path: Path, fps: float):
     try:
         import imageio.v2 as iio
     except ImportError as e:
-        raise RenderError(f"cannot encode video: imageio is not installed ({e}); pip install imageio imageio-ffmpeg") from e
+        raise RenderError(
+            f"cannot encode video: imageio is not installed ({e}); pip install imageio imageio-ffmpeg"
+        ) from e
     try:
         # macro_block_size=2: sizes are already even, so imageio must not rescale the frames.
-        return iio.get_writer(path, format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=8,
-                              pixelformat="yuv420p", macro_block_size=2, ffmpeg_log_level="error")
+        return iio.get_writer(
+            path,
+            format="FFMPEG",
+            mode="I",
+            fps=fps,
+            codec="libx264",
+            quality=8,
+            pixelformat="yuv420p",
+            macro_block_size=2,
+            ffmpeg_log_level="error",
+        )
     except Exception as e:
         raise RenderError(f"cannot start the video encoder: {_clip(e)}") from e

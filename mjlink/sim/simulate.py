@@ -32,28 +32,41 @@ FLYWHEEL_RATIO = 1e9
 DIVERGED_LOOP = 1e-3  # m: a loop gap this large means the run has failed, not just drifted
 
 
-def kinematic_case(mech: Mechanism, *, speed: float | None = None, cycles: float | None = None,
-                   settings: Settings | None = None) -> Case:
+def kinematic_case(
+    mech: Mechanism, *, speed: float | None = None, cycles: float | None = None, settings: Settings | None = None
+) -> Case:
     """The constant-speed case: ``cycles`` periods of the mechanism at ``speed`` rad/s."""
     w = mech.speed if speed is None else speed
     n = mech.cycles if cycles is None else cycles
     base = settings or KINEMATIC
-    jmax = float(reference.SpectralDynamics(mech, samples=128).evaluate(
-        mech.phi0 + np.linspace(0, mech.period, 64))[0].max())
+    jmax = float(
+        reference.SpectralDynamics(mech, samples=128).evaluate(mech.phi0 + np.linspace(0, mech.period, 64))[0].max()
+    )
     fly = FLYWHEEL_RATIO * max(jmax, 1e-9)
     s = Settings(base.timestep, base.integrator, base.solref, base.solimp, fly, base.tolerance)
     return Case(RunKind.KINEMATICS, n * mech.period / abs(w), w, 0.0, s, 1, True)
 
 
-def dynamic_case(mech: Mechanism, *, duration: float | None = None,
-                 settings: Settings | None = None, sample_dt: float = 2.5e-4,
-                 omega0: float | None = None) -> Case:
+def dynamic_case(
+    mech: Mechanism,
+    *,
+    duration: float | None = None,
+    settings: Settings | None = None,
+    sample_dt: float = 2.5e-4,
+    omega0: float | None = None,
+) -> Case:
     """The file's forward-dynamics case, sampled every ``sample_dt`` s (duration s, omega0 rad/s)."""
     s = settings or DYNAMIC
     every = max(1, round(sample_dt / s.timestep))
     drive = mech.dynamics.moment + (mech.dynamics.motor.stall_torque if mech.dynamics.motor else 0.0)
-    return Case(RunKind.DYNAMICS, mech.dynamics.duration if duration is None else duration,
-                mech.dynamics.omega0 if omega0 is None else omega0, drive, s, every)
+    return Case(
+        RunKind.DYNAMICS,
+        mech.dynamics.duration if duration is None else duration,
+        mech.dynamics.omega0 if omega0 is None else omega0,
+        drive,
+        s,
+        every,
+    )
 
 
 def steady_run(mech: Mechanism, steady: reference.Steady, periods: int = 3) -> SteadyRun:
@@ -61,8 +74,7 @@ def steady_run(mech: Mechanism, steady: reference.Steady, periods: int = 3) -> S
     with the steady case's flywheel as armature on the crank, and measure the fluctuation."""
     T = float(abs(steady.t[-1]))
     base = DYNAMIC
-    s = Settings(base.timestep, base.integrator, base.solref, base.solimp, steady.extra_inertia,
-                         base.tolerance)
+    s = Settings(base.timestep, base.integrator, base.solref, base.solimp, steady.extra_inertia, base.tolerance)
     case = dynamic_case(mech, duration=periods * T, settings=s, sample_dt=base.timestep, omega0=float(steady.omega[0]))
     tr = run(mech, case)
     last = tr.time >= tr.time[-1] - T
@@ -113,8 +125,9 @@ class Probe:
         self.tree_pairs = [(p.label, p) for p, _ in built.tree]
         self.loop_eqs = [(p.label, i) for p, i in built.loops]
         self.mech = mech
-        self.forces = [(f, self.site[f.point], int(model.site_bodyid[self.site[f.point]]))
-                       for f in mech.dynamics.forces]
+        self.forces = [
+            (f, self.site[f.point], int(model.site_bodyid[self.site[f.point]])) for f in mech.dynamics.forces
+        ]
         self._jac = np.zeros((3, model.nv))
 
     def apply_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -159,8 +172,14 @@ class Probe:
         c = self.input_dof
         mq = np.zeros(self.model.nv)
         mujoco.mj_mulM(self.model, data, mq, data.qacc)
-        return float(mq[c] - self.model.dof_armature[c] * data.qacc[c] + data.qfrc_bias[c]
-                     - data.qfrc_passive[c] - data.qfrc_constraint[c] - self.applied(self.model, data)[c])
+        return float(
+            mq[c]
+            - self.model.dof_armature[c] * data.qacc[c]
+            + data.qfrc_bias[c]
+            - data.qfrc_passive[c]
+            - data.qfrc_constraint[c]
+            - self.applied(self.model, data)[c]
+        )
 
     def pair_forces(self, data: mujoco.MjData) -> tuple[dict[str, np.ndarray], dict[str, float]]:
         """Force (N) on each pair's child from its parent, and prismatic pairs' moments (N*m).
@@ -185,8 +204,9 @@ class Probe:
             else:
                 forces[label] = f
         for label, i in self.loop_eqs:
-            rows = np.nonzero((data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY)
-                              & (data.efc_id[: data.nefc] == i))[0]
+            rows = np.nonzero(
+                (data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (data.efc_id[: data.nefc] == i)
+            )[0]
             forces[label] = data.efc_force[rows].copy()
         return forces, moments
 
@@ -275,14 +295,28 @@ def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData
                 worst = probe.connects[int(np.argmax(gaps))]
                 raise SimulationError(
                     f"{mech.name}: loop constraint {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, worst)} "
-                    f"opened to {gap[k] * 1e3:.3g} mm at t = {data.time:.6g} s: the run diverged")
+                    f"opened to {gap[k] * 1e3:.3g} mm at t = {data.time:.6g} s: the run diverged"
+                )
             k += 1
         if step < nsteps:
             mujoco.mj_step(model, data)
     phi = mech.phi0 + q[:k, probe.qadr]
-    return Trace(Source.MUJOCO, case.kind, t[:k], phi, w[:k], e[:k], {n: a[:k] for n, a in P.items()},
-                 {n: a[:k] for n, a in V.items()}, {n: a[:k] for n, a in A.items()},
-                 None if th is None else th[:k], gap[:k], q[:k],
-                 {n: a[:k] for n, a in LW.items()}, {n: a[:k] for n, a in LE.items()},
-                 tau[:k] if case.loads else None, {n: a[:k] for n, a in RF.items()},
-                 {n: a[:k] for n, a in RM.items()})
+    return Trace(
+        Source.MUJOCO,
+        case.kind,
+        t[:k],
+        phi,
+        w[:k],
+        e[:k],
+        {n: a[:k] for n, a in P.items()},
+        {n: a[:k] for n, a in V.items()},
+        {n: a[:k] for n, a in A.items()},
+        None if th is None else th[:k],
+        gap[:k],
+        q[:k],
+        {n: a[:k] for n, a in LW.items()},
+        {n: a[:k] for n, a in LE.items()},
+        tau[:k] if case.loads else None,
+        {n: a[:k] for n, a in RF.items()},
+        {n: a[:k] for n, a in RM.items()},
+    )

@@ -1,0 +1,243 @@
+"""What the commands print: each typed result of :mod:`mjlink.pipeline` (or check report) as text.
+
+Units as printed: speeds rad/s and rev/min, torques N*m, forces N, power W, inertia kg*m^2,
+lengths mm, masses g, angles deg; errors relative unless a unit is given.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+from .. import compare, validation
+from ..model import names
+from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
+from ..units import G, PairKind, PairRole, to_mm
+
+if TYPE_CHECKING:
+    from ..model.mechanism import Mechanism
+    from ..pipeline import LoadsResult, SimulateResult, SteadyResult, SteadySummary, SynthResult
+
+
+def missed(failures: Sequence[str]) -> str:
+    """The thresholds missed, one per line under a heading."""
+    return "THRESHOLDS MISSED:\n  " + "\n  ".join(failures)
+
+
+def catalogue_listing(mechs: Sequence[Mechanism]) -> str:
+    """What ``list`` prints: each registered mechanism's name and title, and its source."""
+    out = []
+    for m in mechs:
+        out.append(f"{m.name:<16} {m.title}")
+        if m.source:
+            out.append(f"{'':<16} source: {m.source}")
+    return "\n".join(out)
+
+
+def simulation(res: SimulateResult) -> str:
+    """What ``simulate`` prints after the runs: the agreement table, the paper's RK4 against the
+    tight solution, the loads, steady motion and video summaries, the files and the time taken."""
+    from ..pipeline import PAPER_RK4_STEPS
+
+    out = [
+        f"\nAgreement of MuJoCo with the vector-method reference ({res.mechanism}):",
+        compare.table(list(res.agreements)),
+    ]
+    if res.dynamics is not None and res.dynamics.rk4 is not None:
+        r = res.dynamics.rk4
+        out.append(
+            f"fixed-step RK4 ({PAPER_RK4_STEPS} steps, the paper's method) vs tight ODE: omega differs by up "
+            f"to {r.omega_max_abs_diff:.3g} rad/s ({r.omega_max_rel_diff:.2%} of max), final "
+            f"{r.omega_final_rel_diff:.2%}"
+        )
+    if res.loads is not None:
+        L = res.loads
+        out.append(
+            f"driving torque at {abs(L.speed_rpm):.0f} rpm: peak {L.torque_peak:.4g} N*m, RMS "
+            f"{L.torque_rms:.4g} N*m, mean power {L.power_mean:.4g} W; MuJoCo vs kinetostatics: torque "
+            f"{L.torque_error:.2e}, reactions {L.force_error:.2e} of range"
+        )
+    if res.steady is not None:
+        out.append(steady_line(res.steady))
+    if res.video is not None:
+        v = res.video
+        out.append(f"video: {v.frames} frames at {v.fps} fps, slowed down {v.slowed_down_by:.1f}x ({v.backend})")
+    out.append(f"outputs in {res.out_dir}/: {', '.join(res.files)}")
+    out.append(f"total {res.timings.total:.2f} s")
+    return "\n".join(out)
+
+
+def _loads_heading(res: LoadsResult) -> str:
+    L = res.loads
+    return f"{res.mechanism} at {abs(L.speed_rpm):.1f} rpm ({L.speed:.4g} rad/s):"
+
+
+def torque(res: LoadsResult) -> str:
+    """What ``torque`` prints: the driving torque's peak and RMS, mean power, MuJoCo's error."""
+    L = res.loads
+    return "\n".join(
+        [
+            _loads_heading(res),
+            f"  driving torque: peak {L.torque_peak:.5g} N*m, RMS {L.torque_rms:.5g} N*m, mean power {L.power_mean:.5g} W",
+            f"  MuJoCo vs reference: max error {L.torque_error:.2e} of the torque range "
+            f"(threshold {L.torque_threshold:g})",
+            f"outputs in {res.out_dir}/",
+        ]
+    )
+
+
+def reactions(res: LoadsResult) -> str:
+    """What ``reactions`` prints: per pair the largest force (reference, MuJoCo) and MuJoCo's error."""
+    L = res.loads
+    out = [_loads_heading(res), f"  {'pair':<28} {'max |F| N':>10} {'MuJoCo N':>10} {'error/range':>12}"]
+    for lab, p in L.pairs.items():
+        extra = f"   moment max {p['max_moment_N_m']:.4g} N*m" if "max_moment_N_m" in p else ""
+        out.append(
+            f"  {lab:<28} {p['max_force_N']:>10.4g} {p['max_force_mujoco_N']:>10.4g} {p['error_rel']:>12.2e}{extra}"
+        )
+    out.append(f"  threshold {L.force_threshold:g} of each pair's largest force")
+    out.append(f"outputs in {res.out_dir}/")
+    return "\n".join(out)
+
+
+def steady_line(s: SteadySummary) -> str:
+    """Steady motion in one line: mean speed, delta without and with the flywheel, MuJoCo's."""
+    return (
+        f"steady motion: mean {s.n_mean_rpm:.1f} rpm, delta {s.delta:.4f} (MuJoCo {s.delta_mujoco:.4f}); "
+        f"flywheel {s.flywheel:.4g} kg*m^2 gives delta {s.delta_with_flywheel:.4f} "
+        f"(MuJoCo {s.delta_with_flywheel_mujoco:.4f}, target {s.target_delta:g})"
+    )
+
+
+def steady(res: SteadyResult) -> str:
+    """What ``steady`` prints."""
+    return f"{steady_line(res.steady)}\noutputs in {res.out_dir}/"
+
+
+def synthesis(res: SynthResult) -> str:
+    """What ``synth`` prints: the roots' table, the chosen design, the largest admissible lambda."""
+    th = math.degrees(res.max_pressure_angle)
+    b = res.best
+    chosen = (
+        "none admissible"
+        if b is None
+        else f"r = {to_mm(b.r.real):.4f} mm, l = {to_mm(b.l.real):.4f} mm, "
+        f"theta_max = {math.degrees(b.theta_max):.2f} deg"
+    )
+    out = [res.table, f"\nchosen: {chosen}"]
+    if res.largest_ratio is None or res.at_largest is None:
+        out.append(f"no lambda in 0.01..0.99 gives an admissible design with [theta] = {th:g} deg")
+    else:
+        top = res.largest_ratio
+        out.append(
+            f"largest admissible lambda (step 0.01): {top:.2f} (theta_max "
+            f"{math.degrees(res.at_largest.theta_max):.2f} deg)"
+        )
+        if res.beyond_largest is not None:
+            out.append(
+                f"  at lambda = {top + 0.01:.2f}: theta_max {math.degrees(res.beyond_largest.theta_max):.2f} deg > "
+                f"{th:g} deg"
+            )
+    return "\n".join(out)
+
+
+def format_report(r: validation.CheckReport) -> str:
+    """What ``check`` prints: the points, links, pairs, loops, gears, degrees of freedom,
+    assembly and dead points of a file, its notes and problems (masses g, angles deg, lengths
+    as the file gives them)."""
+    out = [f"{r.name}: {r.title}", f"file: {r.path}", ""]
+    w = max([len(p.name) for p in r.points] + [4])
+    wm = max(len(p.made_by) for p in r.points)
+    out.append(f"points ({sum(p.ground for p in r.points)} ground, {sum(not p.ground for p in r.points)} moving)")
+    for p in r.points:
+        on = f"on {', '.join(p.links)}" if p.links else "on no link"
+        out.append(f"  {p.name:<{w}}  {'ground' if p.ground else 'moving'}  {p.made_by:<{wm}}  {on}")
+    out.append("")
+    out.append(f"links ({len(r.links)} moving)")
+    wl = max([len(l.name) for l in r.links] + [4])
+    for l in r.links:
+        extra = []
+        if l.mass > 0:
+            extra.append(f"mass {l.mass / G:g} g at {l.com}, inertia {l.inertia:g} kg*m^2")
+        else:
+            extra.append("massless")
+        if l.guide:
+            extra.append(f"slides along {l.guide[0]}-{l.guide[1]}")
+        out.append(f"  {l.name:<{wl}}  points {', '.join(l.points)}; {'; '.join(extra)}")
+    out.append("")
+    out.append("kinematic pairs (as MuJoCo builds them: tree joints, loop-closing equalities)")
+    if not r.pairs:
+        out.append("  none could be formed (see problems)")
+    for p in r.pairs:
+        if p.kind == PairKind.REVOLUTE:
+            assert p.point is not None  # a hinge is about a point, a slide along a guide
+            where, joint = f"at {p.point}", names.hinge_joint(p.child, p.point)
+        else:
+            assert p.guide is not None
+            where, joint = f"along {p.guide[0]}-{p.guide[1]}", names.slide_joint(p.child)
+        role = {
+            PairRole.JOINT: f"joint {joint}",
+            PairRole.LOOP: "closes a loop: connect equality",
+            PairRole.UNPLACED: "not placed",
+        }[p.role]
+        out.append(f"  {p.kind:<9} {where:<14} {p.parent + ' - ' + p.child:<{2 * wl + 3}}  {role}")
+    loops = r.loops
+    out.append(f"loops: {len(loops)}" + (f" (closed at {', '.join(str(p.point) for p in loops)})" if loops else ""))
+    if r.gears:
+        for g in r.gears:
+            out.append(
+                f"gear coupling: {g.link} ({g.point}) turns {g.ratio:g} times the input crank, "
+                f"phase {math.degrees(g.phase):g} deg at phi0 (joint equality)"
+            )
+    else:
+        out.append("gear couplings: none")
+    m = r.mobility
+    out.append(
+        f"degrees of freedom: structural W = 3 n - 2 p = 3*{m.moving_links} - 2*{m.lower_pairs} = "
+        f"{m.structural} ({m.revolute} revolute + {m.prismatic} prismatic pairs); with "
+        f"{m.gears} gear coupling{'' if m.gears == 1 else 's'}: {m.driven}"
+        + (" (the input crank's angle; none left once it is driven)" if m.driven == 1 else "  <-- must be 1")
+    )
+    out.append("")
+    if r.full_turn:
+        out.append(f"assembly: the input crank turns fully (over {r.period_deg:g} deg)")
+    else:
+        out.append(f"assembly: NOT over a full turn; assembles only for input angles {r.assembly_ranges or 'none'} deg")
+        for a in r.angles:
+            if not a.closes:
+                out.append(f"  {a.kind} {a.label} cannot close for input angles {a.fails_deg} deg")
+    out.append(
+        f"dead points (limits: transmission angle {MIN_TRANSMISSION_DEG:g}.."
+        f"{180 - MIN_TRANSMISSION_DEG:g} deg, pressure angle <= {MAX_PRESSURE_DEG:g} deg"
+        + ("" if r.full_turn else "; where it assembles")
+        + ")"
+    )
+    if not r.angles:
+        out.append("  no dyad or slider")
+    for a in r.angles:
+        if math.isnan(a.worst_deg):
+            out.append(f"  {a.kind} {a.label}: never assembles")
+            continue
+        verdict = ("ok" if a.ok else "TOO CLOSE") if r.full_turn else "(not judged: no full turn)"
+        if a.kind == "dyad":
+            out.append(
+                f"  dyad {a.label:<22} transmission angle {a.worst_deg:7.2f} deg at input {a.phi_deg:6.1f} deg "
+                f"({a.margin_deg:.2f} deg from the dead point)  {verdict}"
+            )
+        else:
+            out.append(
+                f"  slider {a.label:<20} pressure angle up to {a.worst_deg:5.2f} deg at input "
+                f"{a.phi_deg:6.1f} deg ({a.margin_deg:.2f} deg from the dead point)  {verdict}"
+            )
+    if r.notes:
+        out.append("")
+        out += [f"note: {n}" for n in r.notes]
+    out.append("")
+    if r.problems:
+        out.append(f"problems ({len(r.problems)}):")
+        out += [f"  - {msg}" for _, msg in r.problems]
+        out.append("result: cannot be simulated faithfully as it stands")
+    else:
+        out.append("result: ok, ready for 'python -m mjlink simulate'")
+    return "\n".join(out)
