@@ -19,7 +19,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Iterable
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
@@ -28,10 +28,21 @@ from . import jet
 from .limits import MAX_ANGLE_DEG, MAX_GEAR_RATIO, MAX_LENGTH_MM, MAX_PRESSURE_DEG, MIN_BAR_MM, MIN_TRANSMISSION_DEG
 
 if TYPE_CHECKING:
-    from .mechanism import Link
     from .reader import Reader
 
 Points = dict[str, np.ndarray]  # point name -> (N, 3) positions, m
+
+
+class Link(Protocol):
+    """What a block needs to know of a link (:class:`mjlink.model.mechanism.Link` is one):
+    blocks come before links in a file, so they depend on this shape, not on that module."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def points(self) -> tuple[str, ...]: ...
+    @property
+    def guide(self) -> tuple[str, str] | None: ...
 
 
 @dataclass(frozen=True)
