@@ -21,6 +21,7 @@ reformatting of this file would draw other cases.
 """
 
 import contextlib
+import math
 import os
 import warnings
 from collections import Counter
@@ -127,8 +128,59 @@ def mechanism_text(draw):
     w_lo = max(20.0, (lo / (crank * 1e-3)) ** 0.5)
     w_hi = max(w_lo, min(limits.VERIFIED_SPEED, (hi / (crank * 1e-3)) ** 0.5))
     speed = length(w_lo, w_hi) * draw(st.sampled_from([1, -1]))
+    # Shared pins and longer chains: a second rod on the crank pin (to a rocker or a slider),
+    # or a second dyad on the coupler; three bodies then meet at one point.
+    extra = draw(st.sampled_from(["none", "none", "dyad_on_pin", "slider_on_pin", "dyad_on_coupler"]))
+    if extra == "dyad_on_coupler" and kind == "crank_slider":
+        extra = "dyad_on_pin"
+    more_ground: list[str] = []
+    more_construct: list[str] = []
+    more_links: list[tuple[str, str, float, float]] = []  # name, points, length mm, mass g
+    if extra in ("dyad_on_pin", "dyad_on_coupler"):
+        # E at distance d from the chain's driving point's centre; lengths chosen so that the
+        # dyad closes over the whole turn for a crank of length r (Grashof-like bounds).
+        r = crank if extra == "dyad_on_pin" else length(2.0, 60.0)
+        d = length(r + 20.0, 200.0)
+        b2 = length(20.0, 200.0)
+        lo2, hi2 = abs(b2 - (d - r)) + 5.0, b2 + (d - r) - 5.0
+        lo2 = max(lo2, d + r - b2 + 5.0)
+        c2 = length(lo2, hi2) if lo2 < hi2 else length(20.0, 200.0)
+        ang = length(-180.0, 180.0)
+        origin = "B" if extra == "dyad_on_pin" else "C"
+        more_ground.append(f"E = [{_num(d * math.cos(math.radians(ang)))}, {_num(d * math.sin(math.radians(ang)))}]")
+        more_construct += [
+            "[[construct]]",
+            'point = "X"',
+            'block = "dyad"',
+            f'a = "{origin}"',
+            'b = "E"',
+            f"length_a = {_num(b2)}",
+            f"length_b = {_num(c2)}",
+            f"sign = {draw(st.sampled_from([1, -1]))}",
+            "",
+        ]
+        more_links += [
+            ("rod2", f'["{origin}", "X"]', b2, length(5.0, 50.0)),
+            ("rocker2", '["E", "X"]', c2, length(5.0, 50.0)),
+        ]
+    elif extra == "slider_on_pin":
+        rod2, e2 = length(crank + 20.0, 250.0), length(-60.0, 60.0)
+        more_ground += [f"H1 = [{_num(e2)}, 0.0]", f"H2 = [{_num(e2)}, 100.0]"]
+        more_construct += [
+            "[[construct]]",
+            'point = "X"',
+            'block = "slider"',
+            'start = "B"',
+            f"length = {_num(rod2)}",
+            'guide = ["H1", "H2"]',
+            f'toward = "{draw(st.sampled_from(["H1", "H2"]))}"',
+            "",
+        ]
+        more_links += [("rod2", '["B", "X"]', rod2, length(5.0, 50.0)), ("slide2", '["X"]', 10.0, length(5.0, 50.0))]
+    lines += more_ground
     lines += ["", "[[construct]]", 'point = "B"', 'block = "crank"', 'pivot = "A"', f"length = {_num(crank)}", ""]
     lines += [*second, ""]
+    lines += more_construct
     for p, o, t, l in coms:
         lines += [
             "[[construct]]",
@@ -154,6 +206,19 @@ def mechanism_text(draw):
             + ([f"guide = {guide}"] if guide else [])
             + [""]
         )
+    for name, pts, bar_mm, m in more_links:
+        guide = ['guide = ["H1", "H2"]'] if name == "slide2" else []
+        inertia = m * 1e-3 * (bar_mm * 1e-3) ** 2 / 12
+        # a point mass at the link's last point: the links' own centres need no extra blocks
+        lines += [
+            f"[links.{name}]",
+            f"points = {pts}",
+            f"mass = {_num(m)}",
+            f"inertia = {inertia!r}",
+            'com = "X"',
+            *guide,
+            "",
+        ]
     lines += ["[input]", f"phi0 = {_num(phi0)}", f"speed = {_num(speed)}", "cycles = 1.0"]
 
     keyed = [i for i, l in enumerate(lines) if " = " in l and not l.startswith(("name", "title"))]
@@ -176,7 +241,7 @@ def mechanism_text(draw):
         i = draw(st.sampled_from(refs))
         key = lines[i].split(" = ")[0]
         lines[i] = f"{key} = " + draw(st.sampled_from(['"Q"', '"S3"', '"C"', "0", "2", '"1"', "1.5"]))
-    return kind, mutation, "\n".join(lines) + "\n"
+    return f"{kind}+{extra}" if extra != "none" else kind, mutation, "\n".join(lines) + "\n"
 
 
 @pytest.mark.slow
@@ -231,6 +296,8 @@ def test_random_mechanisms_fail_clearly_or_agree(tmp_path):
         switched = compare.branch_switch(mech, trace)
         assert switched is None, f"{switched}\n{text}"
         stats["simulated within thresholds"] += 1
+        if "+" in kind:
+            stats["simulated within thresholds: shared pins and longer chains"] += 1
 
     with contextlib.chdir(tmp_path):  # MuJoCo writes MUJOCO_LOG.TXT into the current folder
         (one if os.environ.get("PROPERTY_RANDOM") else seed(PROPERTY_SEED)(one))()

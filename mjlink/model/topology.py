@@ -83,13 +83,15 @@ def pairs(mech: Mechanism) -> list[tuple[int, Pair]]:
             if p in mech.ground:
                 crank = any(pv == p and pt in l.points for pv, pt in crank_pivots)
                 out.append((1 if crank else 2, Pair(PairKind.REVOLUTE, None, l.name, point=p)))
-    seen = set()
+    # k bodies pinned at one point make k - 1 pairs, not one per two of them: the others would
+    # repeat a constraint (a redundant connect equality gets no constraint rows in MuJoCo, and
+    # kinetostatics would count unknowns twice). At a ground point every link is pinned to the
+    # frame above; elsewhere the links pinned there join the first of them.
     for p, ls in owners.items():
-        for i, a in enumerate(ls):
-            for b in ls[i + 1 :]:
-                if (a.name, b.name, p) not in seen:
-                    seen.add((a.name, b.name, p))
-                    out.append((3, Pair(PairKind.REVOLUTE, a.name, b.name, point=p)))
+        if p in mech.ground:
+            continue
+        for b in ls[1:]:
+            out.append((3, Pair(PairKind.REVOLUTE, ls[0].name, b.name, point=p)))
     return out
 
 
