@@ -21,8 +21,10 @@ class Settings:
 
     ``timestep`` s; ``integrator`` one of RK4, Euler, implicit, implicitfast; ``solref``
     time constant (s) and damping ratio of the loop and gear equalities; ``solimp`` their
-    impedance; ``flywheel``: if > 0, armature (kg*m^2) added to the input crank so that it
-    turns at constant speed whatever the mechanism does (the kinematic run).
+    impedance; ``flywheel`` armature (kg*m^2) added to the input crank; ``imposed_speed``
+    (rad/s, CCW positive): if given, the model's drive holds the crank at this speed (the
+    kinematic run: a flywheel with a speed servo, as a machine's handwheel and motor do);
+    otherwise the drive is the file's moment and motor characteristic.
     """
 
     timestep: float = 1e-4
@@ -31,6 +33,7 @@ class Settings:
     solimp: tuple[float, float, float, float, float] = (0.9999, 0.9999, 1e-6, 0.5, 2.0)
     flywheel: float = 0.0
     tolerance: float = 1e-13
+    imposed_speed: float | None = None
 
     def __post_init__(self) -> None:
         if self.integrator not in set(Integrator):
@@ -73,14 +76,14 @@ class Trace:
 
 @dataclass(frozen=True)
 class Case:
-    """What to simulate: ``duration`` s, ``omega0`` rad/s, ``moment`` N*m on the input crank,
-    ``settings`` numerical settings, ``sample_every`` steps between recorded samples;
-    ``loads``: also record the driving torque and the pair reaction forces."""
+    """What to simulate: ``duration`` s, ``omega0`` initial crank speed rad/s (CCW positive),
+    ``settings`` numerical settings (the drive is in the model they build), ``sample_every``
+    steps between recorded samples; ``loads``: also record the driving torque and the pair
+    reaction forces."""
 
     kind: RunKind
     duration: float
     omega0: float
-    moment: float
     settings: Settings
     sample_every: int = 1
     loads: bool = False

@@ -42,3 +42,51 @@ def test_xml_round_trip(name, tmp_path):
     model = mujoco.MjModel.from_xml_path(str(path))
     assert model.nbody == len(mech.links) + 1
     assert model.nsite >= len(mech.point_names)
+
+
+def _sensor(model, data, name):
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)
+    assert i >= 0, name
+    return data.sensordata[model.sensor_adr[i] : model.sensor_adr[i] + model.sensor_dim[i]]
+
+
+def test_written_mjcf_runs_the_dynamic_case_as_written(takeup, tmp_path):
+    """Plain MuJoCo on the written file reproduces the dynamic run: drive, damping, initial state
+    and sensors are in the model itself (no ctrl, no callback)."""
+    from mjlink.runs import DYNAMIC
+    from mjlink.sim import simulate
+
+    path = tmp_path / "takeup.xml"
+    path.write_text(builder.to_xml(takeup, DYNAMIC))
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    for _ in range(round(1.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)  # sensors after mj_step belong to the state before it
+    run = simulate.run(takeup, simulate.dynamic_case(takeup))
+    assert data.time == pytest.approx(run.time[-1], abs=1e-9)
+    omega = float(_sensor(model, data, "crank_speed")[0])
+    assert abs(omega - run.omega[-1]) <= 5e-4 * abs(run.omega[-1])
+    # Points and thread where the reference puts them at the model's own crank angle (1 um: the
+    # dynamic run's positions are not thresholded, and MJCF text rounds the geometry).
+    k = R.solve(takeup, [takeup.phi0 + float(_sensor(model, data, "crank_angle")[0])])
+    np.testing.assert_allclose(_sensor(model, data, "P5_pos"), k.position("P5")[0], atol=1e-6)
+    assert abs(float(_sensor(model, data, "thread_length")[0]) - k.thread_length().v[0]) < 1e-6
+
+
+def test_written_kinematic_mjcf_holds_its_speed(takeup, tmp_path):
+    """The kinematic model turns the crank at the file's speed by itself, from its keyframe or
+    from rest (its speed servo brings it up within a few milliseconds)."""
+    from mjlink.sim import simulate
+
+    case = simulate.kinematic_case(takeup)
+    model = mujoco.MjModel.from_xml_string(builder.to_xml(takeup, case.settings))
+    for keyframe in (True, False):
+        data = mujoco.MjData(model)
+        if keyframe:
+            mujoco.mj_resetDataKeyframe(model, data, 0)
+        for _ in range(round(0.1 / model.opt.timestep)):
+            mujoco.mj_step(model, data)
+        mujoco.mj_forward(model, data)
+        assert abs(float(_sensor(model, data, "crank_speed")[0]) - takeup.speed) < 1e-6 * takeup.speed

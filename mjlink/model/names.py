@@ -49,6 +49,14 @@ def gear_equality(link: str) -> str:
     return f"gear_{link}"
 
 
+def sensor(element: str, quantity: str) -> str:
+    """A sensor's name: ``P5_pos``, ``P5_vel``, ``thread_length``, ``crank_angle``."""
+    return f"{element}_{quantity}"
+
+
+INITIAL = "initial"  # the keyframe of the file's initial state
+
+
 def material(link: str) -> str:
     return f"mat_{link}"
 

@@ -34,6 +34,8 @@ from ..model.topology import Pair, topology
 from ..runs import KINEMATIC, Settings
 from ..units import Integrator
 
+SERVO_STEPS = 100  # the kinematic drive's speed servo: time constant in timesteps
+
 _INTEGRATORS = {
     Integrator.RK4: mujoco.mjtIntegrator.mjINT_RK4,
     Integrator.EULER: mujoco.mjtIntegrator.mjINT_EULER,
@@ -331,12 +333,23 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
         gear=[1, 0, 0, 0, 0, 0],
         ctrllimited=False,
     )
-    motor = mech.dynamics.motor
-    if motor is not None:
-        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
-        bias = np.zeros(len(act.biasprm))
-        bias[2] = -motor.stall_torque / motor.no_load_speed
-        act.biasprm = bias
+    # The drive lives in the model itself (its bias terms), so that the MJCF runs as written
+    # with ctrl left at 0: torque = biasprm[0] + biasprm[2] * speed.
+    act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+    bias = np.zeros(len(act.biasprm))
+    if settings.imposed_speed is not None:
+        # A speed servo on the flywheel, kv (w - speed): its time constant flywheel / kv is
+        # SERVO_STEPS timesteps, short against a crank turn yet far inside RK4's stability
+        # bound; whatever the loads, the speed then stays within load / kv of the imposed one.
+        kv = settings.flywheel / (SERVO_STEPS * settings.timestep)
+        bias[0], bias[2] = kv * settings.imposed_speed, -kv
+    else:
+        motor = mech.dynamics.motor
+        bias[0] = mech.dynamics.moment + (motor.stall_torque if motor else 0.0)
+        if motor is not None:
+            bias[2] = -motor.stall_torque / motor.no_load_speed
+    act.biasprm = bias
+    _add_sensors(spec, mech, input_joint)
     return spec, _Elements(
         input_joint,
         act,
@@ -366,9 +379,64 @@ def _quat_z(a: float) -> list[float]:
     return [float(np.cos(a / 2)), 0.0, 0.0, float(np.sin(a / 2))]
 
 
+def _add_sensors(spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJoint) -> None:
+    """Position and velocity of every moving point, the thread's length and the crank's angle
+    and speed: what a user of the MJCF alone reads (SI units, world frame)."""
+    site, sens = mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtSensor
+    for p in mech.moving_points:
+        spec.add_sensor(name=names.sensor(p, "pos"), type=sens.mjSENS_FRAMEPOS, objtype=site, objname=p)
+        spec.add_sensor(name=names.sensor(p, "vel"), type=sens.mjSENS_FRAMELINVEL, objtype=site, objname=p)
+    if mech.thread:
+        spec.add_sensor(
+            name=names.sensor(names.THREAD, "length"),
+            type=sens.mjSENS_TENDONPOS,
+            objtype=mujoco.mjtObj.mjOBJ_TENDON,
+            objname=names.THREAD,
+        )
+    joint = mujoco.mjtObj.mjOBJ_JOINT
+    link = input_joint.name.rsplit("_", 1)[0] if input_joint.name else names.DRIVE
+    spec.add_sensor(
+        name=names.sensor(link, "angle"), type=sens.mjSENS_JOINTPOS, objtype=joint, objname=input_joint.name
+    )
+    spec.add_sensor(
+        name=names.sensor(link, "speed"), type=sens.mjSENS_JOINTVEL, objtype=joint, objname=input_joint.name
+    )
+
+
+def _equality_rows(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """Rows of the (dense) constraint Jacobian that belong to equality constraints."""
+    jac = np.asarray(data.efc_J).reshape(-1, model.nv)[: data.nefc]
+    return jac[data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY]
+
+
+def consistent_velocity(model: mujoco.MjModel, data: mujoco.MjData, dof: int, omega: float) -> np.ndarray:
+    """qvel (nv,) with ``qvel[dof] = omega`` (rad/s) that satisfies every equality constraint
+    (least squares), at the configuration in ``data``."""
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(model, data)
+    E = _equality_rows(model, data)
+    qvel = np.zeros(model.nv)
+    qvel[dof] = omega
+    if len(E):
+        others = [i for i in range(model.nv) if i != dof]
+        x, *_ = np.linalg.lstsq(E[:, others], -E[:, dof] * omega, rcond=None)
+        qvel[others] = x
+    return qvel
+
+
 def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
-    """The compiled model of ``mech`` with the ids of its elements. See :func:`build_spec`."""
+    """The compiled model of ``mech`` with the ids of its elements. See :func:`build_spec`.
+
+    The model carries the file's initial state as its keyframe ``initial``: qpos = qpos0
+    (the model is assembled at phi0) and joint speeds consistent with the crank's initial
+    speed (the imposed speed, or the dynamics case's omega0).
+    """
     spec, el = _spec(mech, settings)
+    model = spec.compile()
+    omega = settings.imposed_speed if settings.imposed_speed is not None else mech.dynamics.omega0
+    dof = int(model.jnt_dofadr[el.input_joint.id])
+    qvel = consistent_velocity(model, mujoco.MjData(model), dof, omega)
+    spec.add_key(name=names.INITIAL, qpos=model.qpos0.tolist(), qvel=qvel.tolist())
     model = spec.compile()
     return Built(
         spec,
@@ -394,10 +462,9 @@ def build(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjModel:
 
 
 def to_xml(mech: Mechanism, settings: Settings = KINEMATIC) -> str:
-    """MJCF text of ``mech``; loads with plain ``mujoco.MjModel.from_xml_string``."""
-    spec = build_spec(mech, settings)
-    spec.compile()
-    return spec.to_xml()
+    """MJCF text of ``mech``; loads with plain ``mujoco.MjModel.from_xml_string`` and runs the
+    file's case as written (drive and sensors in the model, initial state as keyframe 0)."""
+    return make(mech, settings).spec.to_xml()
 
 
 def mujoco_version() -> str:

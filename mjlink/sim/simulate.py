@@ -16,6 +16,7 @@ step MuJoCo's derived quantities belong to the state before it). Point velocitie
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mujoco
@@ -29,22 +30,30 @@ from ..units import RunKind, Source
 from . import builder
 
 FLYWHEEL_RATIO = 1e9
+SPEED_HOLD = 1e-9  # relative speed error the kinematic drive's servo is sized for
 DIVERGED_LOOP = 1e-3  # m: a loop gap this large means the run has failed, not just drifted
 
 
 def kinematic_case(
     mech: Mechanism, *, speed: float | None = None, cycles: float | None = None, settings: Settings | None = None
 ) -> Case:
-    """The constant-speed case: ``cycles`` periods of the mechanism at ``speed`` rad/s."""
+    """The constant-speed case: ``cycles`` periods of the mechanism at ``speed`` rad/s.
+
+    The flywheel is sized twice over: ``FLYWHEEL_RATIO`` times the largest reduced inertia,
+    so that the mechanism's inertia barely moves it, and large enough that its speed servo
+    (see :mod:`mjlink.sim.builder`) holds the speed within ``SPEED_HOLD`` of nominal against
+    the largest torque the motion needs (inertia, gravity, damping and the file's forces).
+    """
     w = mech.speed if speed is None else speed
     n = mech.cycles if cycles is None else cycles
     base = settings or KINEMATIC
-    jmax = float(
-        reference.SpectralDynamics(mech, samples=128).evaluate(mech.phi0 + np.linspace(0, mech.period, 64))[0].max()
-    )
-    fly = FLYWHEEL_RATIO * max(jmax, 1e-9)
-    s = Settings(base.timestep, base.integrator, base.solref, base.solimp, fly, base.tolerance)
-    return Case(RunKind.KINEMATICS, n * mech.period / abs(w), w, 0.0, s, 1, True)
+    phi = mech.phi0 + np.linspace(0, mech.period, 64, endpoint=False)
+    jmax = float(reference.SpectralDynamics(mech, samples=128).evaluate(phi)[0].max())
+    tau_max = float(np.abs(reference.driving_torque(mech, phi, w)).max())
+    held = builder.SERVO_STEPS * base.timestep * tau_max / (abs(w) * SPEED_HOLD)
+    fly = max(FLYWHEEL_RATIO * max(jmax, 1e-9), held)
+    s = dataclasses.replace(base, flywheel=fly, imposed_speed=w)
+    return Case(RunKind.KINEMATICS, n * mech.period / abs(w), w, s, 1, True)
 
 
 def dynamic_case(
@@ -58,12 +67,10 @@ def dynamic_case(
     """The file's forward-dynamics case, sampled every ``sample_dt`` s (duration s, omega0 rad/s)."""
     s = settings or DYNAMIC
     every = max(1, round(sample_dt / s.timestep))
-    drive = mech.dynamics.moment + (mech.dynamics.motor.stall_torque if mech.dynamics.motor else 0.0)
     return Case(
         RunKind.DYNAMICS,
         mech.dynamics.duration if duration is None else duration,
         mech.dynamics.omega0 if omega0 is None else omega0,
-        drive,
         s,
         every,
     )
@@ -74,33 +81,13 @@ def steady_run(mech: Mechanism, steady: reference.Steady, periods: int = 3) -> S
     with the steady case's flywheel as armature on the crank, and measure the fluctuation."""
     T = float(abs(steady.t[-1]))
     base = DYNAMIC
-    s = Settings(base.timestep, base.integrator, base.solref, base.solimp, steady.extra_inertia, base.tolerance)
+    s = dataclasses.replace(base, flywheel=steady.extra_inertia)
     case = dynamic_case(mech, duration=periods * T, settings=s, sample_dt=base.timestep, omega0=float(steady.omega[0]))
     tr = run(mech, case)
     last = tr.time >= tr.time[-1] - T
     w = tr.omega[last]
     mean = (tr.phi[last][-1] - tr.phi[last][0]) / (tr.time[last][-1] - tr.time[last][0])
     return SteadyRun(float((w.max() - w.min()) / abs(mean)), float(mean), tr)
-
-
-def _equality_rows(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-    """Rows of the (dense) constraint Jacobian that belong to equality constraints."""
-    jac = np.asarray(data.efc_J).reshape(-1, model.nv)[: data.nefc]
-    return jac[data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY]
-
-
-def consistent_velocity(model: mujoco.MjModel, data: mujoco.MjData, dof: int, omega: float) -> np.ndarray:
-    """qvel with ``qvel[dof] = omega`` that satisfies every equality constraint (least squares)."""
-    data.qvel[:] = 0.0
-    mujoco.mj_forward(model, data)
-    E = _equality_rows(model, data)
-    qvel = np.zeros(model.nv)
-    qvel[dof] = omega
-    if len(E):
-        others = [i for i in range(model.nv) if i != dof]
-        x, *_ = np.linalg.lstsq(E[:, others], -E[:, dof] * omega, rcond=None)
-        qvel[others] = x
-    return qvel
 
 
 class Probe:
@@ -236,8 +223,6 @@ def run(mech: Mechanism, case: Case, built: builder.Built | None = None) -> Trac
     """Simulate ``case`` in MuJoCo and sample it. Raises SimulationError if the run diverges."""
     built = built or builder.make(mech, case.settings)
     model = built.model
-    if case.kind == RunKind.KINEMATICS:
-        model.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE  # the flywheel alone drives
     data = mujoco.MjData(model)
     probe = Probe(mech, built)
     if probe.forces:
@@ -250,8 +235,7 @@ def run(mech: Mechanism, case: Case, built: builder.Built | None = None) -> Trac
 
 
 def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData, probe: Probe) -> Trace:
-    data.qvel[:] = consistent_velocity(model, data, probe.input_dof, case.omega0)
-    data.ctrl[0] = case.moment
+    data.qvel[:] = builder.consistent_velocity(model, data, probe.input_dof, case.omega0)
     nsteps = math.ceil(case.duration / model.opt.timestep - 1e-9)
     samples = nsteps // case.sample_every + 1
     t = np.empty(samples)
