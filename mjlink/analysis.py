@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
@@ -251,3 +252,51 @@ def motion_links(mech: Mechanism) -> list[str]:
             continue  # translates: no rotation to show
         return [l.name]
     return []
+
+
+# ----------------------------------------------------------------------------- cycle statistics
+CYCLE_SAMPLES = 3600  # input-angle samples per crank turn for per-cycle statistics
+
+
+def one_period(mech: Mechanism, per_turn: int = CYCLE_SAMPLES) -> np.ndarray:
+    """Input angles (rad) covering exactly one period from phi0, uniformly, the end excluded:
+    (per_turn x turns,). The mean of a periodic quantity over these is its cycle mean (exact
+    for the trigonometric polynomials the reference's smooth quantities are, to rounding);
+    counting the period's end as well would weigh one angle twice."""
+    turns = max(1, round(mech.period / (2.0 * math.pi)))
+    n = per_turn * turns
+    return mech.phi0 + mech.period * np.arange(n) / n
+
+
+@dataclass(frozen=True)
+class TorqueCycle:
+    """The driving torque over exactly one period at constant crank speed ``omega`` (rad/s).
+
+    ``peak`` max |tau| N*m; ``rms`` sqrt(mean tau^2) N*m; ``mean`` mean tau N*m; ``power``
+    mean power tau * omega, W (at constant speed only damping and the file's non-conservative
+    loads contribute: inertia and gravity give back over a cycle what they take); ``energy``
+    the swing of the energy fluctuation, max - min of the integral of (tau - mean) dphi, J.
+    """
+
+    omega: float
+    peak: float
+    rms: float
+    mean: float
+    power: float
+    energy: float
+
+
+def torque_cycle(mech: Mechanism, omega: float, per_turn: int = CYCLE_SAMPLES) -> TorqueCycle:
+    """Statistics of the reference driving torque over exactly one period (see :class:`TorqueCycle`)."""
+    phi = one_period(mech, per_turn)
+    tau = reference.driving_torque(mech, phi, omega)
+    mean = float(tau.mean())
+    work = np.concatenate([[0.0], np.cumsum(tau - mean)]) * (mech.period / len(phi))
+    return TorqueCycle(
+        float(omega),
+        float(np.abs(tau).max()),
+        float(np.sqrt(np.mean(tau**2))),
+        mean,
+        mean * float(omega),
+        float(np.ptp(work)),
+    )

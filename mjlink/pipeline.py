@@ -36,13 +36,13 @@ from typing import Any
 
 import numpy as np
 
-from . import compare, output, reference, validation
+from . import analysis, compare, output, reference, validation
 from .errors import MjlinkError, SimulationError
 from .model import catalogue, names
 from .model.limits import MAX_SPEED, MIN_SPEED
 from .model.mechanism import Mechanism, Motor, SteadyCase, parse
 from .reference import synthesis
-from .runs import DYNAMIC, Settings, Trace
+from .runs import DYNAMIC, Case, Settings, Trace
 from .sim import builder, simulate
 from .units import DEG, MM, RunKind, from_rpm, to_rpm
 
@@ -194,13 +194,12 @@ class KinematicsSummary:
 
     ``speed`` crank speed, rad/s (signed, CCW positive); ``duration`` s; ``settings`` the
     model's numerical settings, whose ``flywheel`` (kg*m^2) is the armature that holds the
-    speed; ``omega_spread`` (max - min) of MuJoCo's crank speed relative to ``|speed|``.
+    speed (how well it held is the agreement's checked ``crank speed held``).
     """
 
     speed: float
     duration: float
     settings: Settings
-    omega_spread: float
 
     def as_dict(self) -> dict[str, Any]:
         """The report's ``kinematics`` entry."""
@@ -209,7 +208,6 @@ class KinematicsSummary:
             "duration_s": self.duration,
             "settings": settings_dict(self.settings),
             "flywheel_armature_kg_m2": self.settings.flywheel,
-            "omega_spread_rel": self.omega_spread,
         }
 
 
@@ -582,6 +580,7 @@ def run(mech: Mechanism, out_root: Path | str, opts: Options = Options()) -> Sim
     out_dir = Path(out_root) / mech.name
     with output.staged_dir(out_dir) as stage:
         kcase = simulate.kinematic_case(mech, speed=opts.speed, cycles=opts.cycles)
+        _enough_samples(mech, kcase, "--cycles")
         kin_mj = simulate.run(mech, kcase)
         _same_branch(mech, kin_mj)
         clock.lap("mujoco_kinematics")
@@ -592,9 +591,7 @@ def run(mech: Mechanism, out_root: Path | str, opts: Options = Options()) -> Sim
         clock.lap("reference_kinematics")
         output.write_csv(stage / "kinematics.csv", mech, kin_mj)
         output.write_csv(stage / "reference_kinematics.csv", mech, kin_ref)
-        kinematics = KinematicsSummary(
-            kcase.omega0, kcase.duration, kcase.settings, float(np.ptp(kin_mj.omega) / abs(kcase.omega0))
-        )
+        kinematics = KinematicsSummary(kcase.omega0, kcase.duration, kcase.settings)
 
         dyn = None
         if opts.dynamics and has_masses(mech):
@@ -667,6 +664,7 @@ def _forward_dynamics(mech: Mechanism, duration: float | None, stage: Path, cloc
     """The dynamic run (``duration`` s, None: the file's), the reference's tight solution and,
     over the file's duration, the paper's RK4; their CSVs into ``stage``."""
     dcase = simulate.dynamic_case(mech, duration=duration)
+    _enough_samples(mech, dcase, "--duration")
     dyn_mj = simulate.run(mech, dcase)
     _same_branch(mech, dyn_mj)
     clock.lap("mujoco_dynamics")
@@ -724,6 +722,23 @@ def _video(
     return VideoSummary(file, info.frames, info.fps, info.width, info.height, info.backend, info.time_scale)
 
 
+def _enough_samples(mech: Mechanism, case: Case, option: str) -> None:
+    """Refuse a run too short to be compared with the reference (fewer than compare.MIN_SAMPLES
+    samples), before it starts; the message names the option that lengthens it and how far."""
+    if case.samples >= compare.MIN_SAMPLES:
+        return
+    need = (compare.MIN_SAMPLES - 1) * case.sample_every * case.settings.timestep  # s
+    if case.kind == RunKind.KINEMATICS:
+        least = f"{option} of at least {need * abs(case.omega0) / mech.period:.3g}"
+    else:
+        least = f"{option} of at least {need:.3g} s"
+    raise SimulationError(
+        f"the {'kinematic' if case.kind == RunKind.KINEMATICS else 'dynamic'} run would have only "
+        f"{case.samples} sample{'s' if case.samples != 1 else ''} ({case.duration:.3g} s): at least "
+        f"{compare.MIN_SAMPLES} are needed to compare it with the reference; give {least}"
+    )
+
+
 def _same_branch(mech: Mechanism, trace: Trace) -> None:
     """Stop a run whose MuJoCo linkage snapped to the other assembly branch (near a dead point)."""
     switched = compare.branch_switch(mech, trace)
@@ -779,11 +794,14 @@ def _loads_study(mech: Mechanism, kin_mj: Trace, stage: Path, plots: list[PlotJo
 
         plots.append(functools.partial(loads_plots.torque_plot, mech, kin_mj, rx, stage))
         plots.append(functools.partial(loads_plots.reactions_plot, mech, kin_mj, rx, stage))
+    # Statistics over exactly one period from the reference: the run's samples span a period
+    # and its end, and counting that end twice biases means of large periodic torques.
+    cycle = analysis.torque_cycle(mech, cmp.speed)
     return LoadsSummary(
         cmp.speed,
-        cmp.torque_peak,
-        cmp.torque_rms,
-        cmp.power_mean,
+        cycle.peak,
+        cycle.rms,
+        cycle.power,
         cmp.torque_rel,
         cmp.force_rel,
         cmp.pairs,
@@ -844,7 +862,9 @@ def loads(mech: Mechanism, out_root: Path | str, *, rpm: float | None = None, pl
             raise MjlinkError(f"--speed must be a non-zero finite number of rev/min, got {rpm}")
         speed = math.copysign(1.0, mech.speed) * from_rpm(rpm)
         check_speed("--speed", speed)
-    kin = simulate.run(mech, simulate.kinematic_case(mech, speed=speed))
+    case = simulate.kinematic_case(mech, speed=speed)
+    _enough_samples(mech, case, "[input] cycles")
+    kin = simulate.run(mech, case)
     out_dir = Path(out_root) / f"{mech.name}_loads"
     with output.staged_dir(out_dir) as stage:
         jobs: list[PlotJob] = []

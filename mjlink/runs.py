@@ -7,6 +7,7 @@ comparison, output and plotting read them without importing mujoco. Units SI.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,6 +88,16 @@ class Case:
     settings: Settings
     sample_every: int = 1
     loads: bool = False
+
+    @property
+    def steps(self) -> int:
+        """Integrator steps of the run (the last one may pass ``duration`` by less than a step)."""
+        return math.ceil(self.duration / self.settings.timestep - 1e-9)
+
+    @property
+    def samples(self) -> int:
+        """Recorded samples, the initial state included."""
+        return self.steps // self.sample_every + 1
 
 
 @dataclass(frozen=True)

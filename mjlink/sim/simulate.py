@@ -17,7 +17,6 @@ step MuJoCo's derived quantities belong to the state before it). Point velocitie
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import mujoco
 import numpy as np
@@ -236,8 +235,7 @@ def run(mech: Mechanism, case: Case, built: builder.Built | None = None) -> Trac
 
 def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData, probe: Probe) -> Trace:
     data.qvel[:] = builder.consistent_velocity(model, data, probe.input_dof, case.omega0)
-    nsteps = math.ceil(case.duration / model.opt.timestep - 1e-9)
-    samples = nsteps // case.sample_every + 1
+    nsteps, samples = case.steps, case.samples
     t = np.empty(samples)
     q = np.empty((samples, model.nq))
     w, e, gap = (np.empty(samples) for _ in range(3))
