@@ -129,20 +129,32 @@ def _wrap(mech: Mechanism, phi: float) -> float:
 # --------------------------------------------------------------------------- degrees of freedom
 @dataclass(frozen=True)
 class Mobility:
-    """The Chebyshev-Gruebler count ``W = 3 n - 2 p`` of a planar linkage.
+    """Degrees of freedom: the Chebyshev-Gruebler count ``W = 3 n - 2 p``, backed by the rank
+    of the constraint Jacobian.
 
     ``moving_links`` n; ``revolute`` pairs: at every point, (bodies meeting there) - 1, the
     ground counting as a body at a [ground] point (so k links pinned together make k - 1
     pairs); ``prismatic`` pairs: one per link with a ``guide``; ``structural`` W; ``gears``
     geared cranks, each tying its crank to the input (one more constraint); ``driven`` =
-    W - gears, the degrees of freedom of the whole machine: a sound mechanism file has exactly
-    one, the input crank's angle (the motor drives it; nothing else may move freely).
+    W - gears, the count's degrees of freedom of the whole machine.
+
+    The count can balance a free sub-chain against a redundant one (a free-spinning flap and a
+    doubled rocker give W = 1), so the constraints themselves are linearized about generic
+    positions (link poses x, y, theta; two rows per revolute pair, two per prismatic pair, one
+    per gear): ``actual`` = 3 n - rank is the true number of degrees of freedom, ``free`` the
+    links that still move with the input crank held, ``redundant`` the pairs whose
+    constraints repeat others. A sound mechanism file has ``actual`` 1, nothing free and
+    nothing redundant: the input crank's angle drives everything, and no loop closure fights
+    another in MuJoCo.
     """
 
     moving_links: int
     revolute: int
     prismatic: int
     gears: int
+    actual: int = 1
+    free: tuple[str, ...] = ()
+    redundant: tuple[str, ...] = ()
 
     @property
     def lower_pairs(self) -> int:
@@ -156,9 +168,14 @@ class Mobility:
     def driven(self) -> int:
         return self.structural - self.gears
 
+    @property
+    def sound(self) -> bool:
+        return self.actual == 1 and not self.free and not self.redundant
+
 
 def mobility(mech: Mechanism) -> Mobility:
-    """Count links, lower pairs and gear couplings (see :class:`Mobility`)."""
+    """Count links, lower pairs and gear couplings, and check the count against the rank of the
+    constraint Jacobian (see :class:`Mobility`)."""
     bodies: dict[str, int] = {}
     for l in mech.links:
         for p in l.points:
@@ -166,16 +183,139 @@ def mobility(mech: Mechanism) -> Mobility:
     revolute = sum(k + (1 if p in mech.ground else 0) - 1 for p, k in bodies.items())
     prismatic = sum(1 for l in mech.links if l.guide)
     gears = len(mech.geared)
-    return Mobility(len(mech.links), revolute, prismatic, gears)
+    count = Mobility(len(mech.links), revolute, prismatic, gears)
+    try:
+        actual, free, redundant = _rank_mobility(mech)
+    except (MechanismFileError, AssemblyError, KeyError, StopIteration, IndexError):
+        return count  # a structure the tree or the solver refuses is reported by those checks
+    return dataclasses.replace(count, actual=actual, free=free, redundant=redundant)
+
+
+RANK_TOL = 1e-9  # singular values below this fraction of the largest are zero
+
+
+def _rank_mobility(mech: Mechanism) -> tuple[int, tuple[str, ...], tuple[str, ...]]:
+    """(3 n - rank, links free with the input held, redundant pairs) from the constraints
+    linearized at three generic input angles (the largest rank: a special position can lose
+    some)."""
+    with np.errstate(all="ignore"):
+        phi = cycle_angles(mech, 721)
+        kin = reference.solve(mech, phi, check=False)
+        ok = np.flatnonzero(kin.assembles() & np.all([np.isfinite(v.v).all(axis=1) for v in kin.points.values()], 0))
+    if not len(ok):
+        raise AssemblyError("no assembled position")
+    picks = ok[[len(ok) * 13 // 100, len(ok) * 47 // 100, len(ok) * 81 // 100]]
+    best: tuple[int, np.ndarray, list[tuple[str, int]]] | None = None
+    for i in picks:
+        J, rows = _constraint_jacobian(mech, kin, int(i))
+        r = int(np.linalg.matrix_rank(J, tol=RANK_TOL * max(float(np.linalg.norm(J, 2)), 1e-300)))
+        if best is None or r > best[0]:
+            best = (r, J, rows)
+    assert best is not None
+    rank, J, rows = best
+    n = len(mech.links)
+    tol = RANK_TOL * max(float(np.linalg.norm(J, 2)), 1e-300)
+    # Redundant pairs: adding their rows in order leaves the rank where it was.
+    redundant: list[str] = []
+    start, have = 0, 0
+    for label, k in rows:
+        r = int(np.linalg.matrix_rank(J[: start + k], tol=tol)) if start + k else 0
+        if r < have + k:
+            redundant.append(label)
+        have, start = r, start + k
+    # Free links: what the null space moves with the input crank's angle held.
+    held = np.zeros((1, 3 * n))
+    held[0, 3 * [l.name for l in mech.links].index(mech.input_link.name) + 2] = 1.0
+    A = np.vstack([J, held])
+    _, sv, vt = np.linalg.svd(A)
+    null = vt[int(np.sum(sv > RANK_TOL * sv.max())) :]
+    free = tuple(
+        l.name for k, l in enumerate(mech.links) if null.size and np.abs(null[:, 3 * k : 3 * k + 3]).max() > 1e-6
+    )
+    return 3 * n - rank, free, tuple(dict.fromkeys(redundant))
+
+
+def _constraint_jacobian(
+    mech: Mechanism, kin: reference.Kinematics, i: int
+) -> tuple[np.ndarray, list[tuple[str, int]]]:
+    """The Jacobian (rows, 3 n) of the pair and gear constraints with respect to the links'
+    poses (x, y m; theta rad) at sample ``i``, by central differences (the constraints are
+    smooth and the step is far above rounding), and each pair's label with its row count."""
+    links = [l.name for l in mech.links]
+    P = {k: v.v[i, :2] for k, v in kin.points.items()}
+    origin = {l.name: P[l.points[0]] for l in mech.links}
+    theta = {l.name: float(kin.angles[l.name].v[i]) for l in mech.links}
+
+    def local(link: str, p: str) -> np.ndarray:
+        c, s = math.cos(theta[link]), math.sin(theta[link])
+        d = P[p] - origin[link]
+        return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+    def world(q: np.ndarray, link: str | None, p: str) -> np.ndarray:
+        if link is None:
+            return P[p]
+        k = links.index(link)
+        x, y, t = q[3 * k : 3 * k + 3]
+        c, s = math.cos(t), math.sin(t)
+        r = local(link, p)
+        return np.array([x + c * r[0] - s * r[1], y + s * r[0] + c * r[1]])
+
+    def angle(q: np.ndarray, link: str | None) -> float:
+        return 0.0 if link is None else float(q[3 * links.index(link) + 2])
+
+    prs = [p for _, p in all_pairs(mech)]
+
+    def constraints(q: np.ndarray) -> np.ndarray:
+        out: list[float] = []
+        for pr in prs:
+            if pr.revolute:
+                out += list(world(q, pr.parent, pr.pin) - world(q, pr.child, pr.pin))
+            else:
+                g1, g2 = pr.rail
+                u = world(q, pr.parent, g2) - world(q, pr.parent, g1)
+                nrm = np.array([-u[1], u[0]]) / np.linalg.norm(u)
+                o = mech.link(pr.child).points[0]
+                out += [
+                    float(nrm @ (world(q, pr.child, o) - world(q, pr.parent, g1))),
+                    angle(q, pr.child) - angle(q, pr.parent),
+                ]
+        for s in mech.geared:
+            out.append(angle(q, mech.carrier(s).name) - s.ratio * angle(q, mech.input_link.name))
+        return np.array(out)
+
+    q0 = np.concatenate([[*origin[l], theta[l]] for l in links])
+    h = 1e-6 * max(1e-3, float(np.abs(q0[np.arange(len(q0)) % 3 != 2]).max(initial=0.0)))
+    J = np.empty((len(constraints(q0)), len(q0)))
+    for k in range(len(q0)):
+        step = 1e-6 if k % 3 == 2 else h
+        dq = np.zeros(len(q0))
+        dq[k] = step
+        J[:, k] = (constraints(q0 + dq) - constraints(q0 - dq)) / (2 * step)
+    rows = [(pr.label, 2) for pr in prs] + [(f"gear {mech.carrier(s).name}", 1) for s in mech.geared]
+    return J, rows
 
 
 def _mobility_problem(mech: Mechanism, m: Mobility) -> MechanismFileError | None:
-    if m.driven == 1:
-        return None
     src = mech.path or mech.name
     count = f"W = 3*{m.moving_links} - 2*{m.lower_pairs} = {m.structural}" + (
         f", minus {m.gears} gear coupling{'s' if m.gears > 1 else ''}" if m.gears else ""
     )
+    if m.driven == 1 and m.sound:
+        return None
+    if m.driven == 1:
+        parts = []
+        if m.free:
+            parts.append(f"{', '.join(m.free)} still move{'s' if len(m.free) == 1 else ''} with the input crank held")
+        if m.redundant:
+            parts.append(
+                f"pair{'s' if len(m.redundant) > 1 else ''} {', '.join(m.redundant)} repeat constraints "
+                f"other pairs already make"
+            )
+        return MechanismFileError(
+            f"{src}: [links]: the count {count} balances, but the linkage has {m.actual} degrees of freedom by the rank "
+            f"of its constraints: {'; '.join(parts)} (MuJoCo's loop closures would fight each other or leave a link "
+            f"loose)"
+        )
     if m.driven > 1:
         hint = next((h for s in mech.steps if (h := s.mobility_hint(mech.links))), "")
         return MechanismFileError(

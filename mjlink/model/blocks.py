@@ -277,6 +277,14 @@ class Crank(Block):
             raise r.fail(
                 f"[[construct]] {self.point}", "a geared crank needs 'phase' (its angle at the initial input angle)"
             )
+        if self._turns() is None:
+            q = int(MAX_GEAR_RATIO)
+            raise r.fail(
+                f"[[construct]] {self.point} ratio",
+                f"{self.ratio:g} is no ratio p/q with q <= {q}: the mechanism would repeat only after more than {q} "
+                f"input turns (or never), so neither its full rotation nor its cycle can be judged; write the ratio "
+                f"of the gears' teeth",
+            )
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -295,7 +303,14 @@ class Crank(Block):
 
     @property
     def period_turns(self) -> int:
-        return Fraction(self.ratio).limit_denominator(int(MAX_GEAR_RATIO)).denominator
+        turns = self._turns()
+        assert turns is not None, "a ratio without a common period is refused when the file is read"
+        return turns
+
+    def _turns(self) -> int | None:
+        """Input turns after which this crank's angle repeats, if within MAX_GEAR_RATIO."""
+        frac = Fraction(self.ratio).limit_denominator(int(MAX_GEAR_RATIO))
+        return frac.denominator if abs(float(frac) - self.ratio) <= 1e-12 * abs(self.ratio) else None
 
     def solve(self, pts: dict[str, jet.V], phi: jet.S, phi0: float) -> Solved:
         phase = phi0 if self.phase is None else self.phase
