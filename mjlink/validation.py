@@ -330,6 +330,47 @@ def _mobility_problem(mech: Mechanism, m: Mobility) -> MechanismFileError | None
     )
 
 
+# --------------------------------------------------------------------------- plausibility
+# A link's mass and moment of inertia against its size L, the largest distance of its points
+# from its centre of mass. No bound is a law: a crank carries a disc and a shaft well beyond
+# its pin (warp_knitting's 150 g cranks of 5 mm), the take-up's printed inertias are 1-4 times
+# m L^2. So the bounds allow a part ten times the link's size, and give warnings, never errors.
+MAX_DENSITY = 2.0e4  # kg/m^3, about tungsten's
+MAX_MASS_FACTOR = 1e3  # a solid tungsten block ten times the link's size across
+MAX_INERTIA_RATIO = 1e3  # J / (m L^2): a ring thirty times the link's size
+MIN_INERTIA_RATIO = 1e-3  # radius of gyration under L / 30: a mass in g written as kg, or an inertia in g*mm^2
+
+
+def plausibility(mech: Mechanism) -> list[str]:
+    """Warnings for masses and inertias far outside what a link's size allows (g, kg*m^2, mm)."""
+    kin = reference.solve(mech, [mech.phi0], check=False)
+    out = []
+    for l in mech.links:
+        if l.mass <= 0 or l.com is None:
+            continue
+        com = kin.position(l.com)[0]
+        size = max((float(np.linalg.norm(kin.position(p)[0] - com)) for p in l.points), default=0.0)
+        if size <= 0:
+            continue
+        if l.mass > MAX_MASS_FACTOR * MAX_DENSITY * (2 * size) ** 3:
+            out.append(
+                f"warning: link {l.name}: {l.mass * 1e3:g} g is heavier than a solid tungsten block ten times its "
+                f"size ({20 * size * 1e3:.3g} mm across); check the mass (g in the file)"
+            )
+        ratio = l.inertia / (l.mass * size**2)
+        if ratio > MAX_INERTIA_RATIO:
+            out.append(
+                f"warning: link {l.name}: inertia {l.inertia:g} kg*m^2 is {ratio:.3g} times m L^2 of a {l.mass * 1e3:g} g "
+                f"link reaching {size * 1e3:.3g} mm from its centre of mass; check the inertia (kg*m^2 in the file)"
+            )
+        elif 0 < ratio < MIN_INERTIA_RATIO:
+            out.append(
+                f"warning: link {l.name}: inertia {l.inertia:g} kg*m^2 is only {ratio:.3g} times m L^2: is it in "
+                f"kg*m^2 (not g*mm^2)?"
+            )
+    return out
+
+
 # --------------------------------------------------------------------------- all checks
 
 
@@ -658,6 +699,7 @@ def check(mech: Mechanism) -> CheckReport:
     point_masses = [l.name for l in mech.links if l.mass > 0 and l.inertia == 0 and not l.guide]
     if point_masses:
         notes.append(f"{', '.join(point_masses)}: mass without inertia, treated as a point mass at its 'com'")
+    notes += plausibility(mech)
     return CheckReport(
         mech.name,
         mech.title,

@@ -64,3 +64,25 @@ def test_full_rotation_is_judged_over_the_common_period():
     report = validation.check(mech)
     assert report.period_deg == pytest.approx(1440.0)
     assert report.full_turn or re.search(r"\d+\.\d\.\.\d+", report.assembly_ranges)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "words"),
+    # a tonne for 10 g: the inertia is then implausibly small for the mass
+    [("inertia", 1000.0, "inertia 1000 kg*m^2 is"), ("mass", 1e3, "is only")],
+)
+def test_implausible_masses_and_inertias_are_warned_of(field, value, words):
+    import dataclasses
+
+    mech = validation.get("takeup")
+    crank = dataclasses.replace(mech.links[0], **{field: value})
+    odd = dataclasses.replace(mech, links=(crank, *mech.links[1:]))
+    warnings = validation.plausibility(odd)
+    assert len(warnings) == 1 and words in warnings[0] and "crank" in warnings[0]
+    assert validation.check(odd).ok  # a warning, not an error
+    assert any(words in n for n in validation.check(odd).notes)
+
+
+@pytest.mark.parametrize("name", catalogue.names())
+def test_shipped_mechanisms_are_plausible(name):
+    assert validation.plausibility(validation.get(name)) == []
