@@ -7,6 +7,13 @@ everything is written (:func:`staged_dir`). The files of a staging folder are wr
 (``write_text(..., in_stage=True)``): the folder is what is published atomically. CSV files are
 written by :func:`write_table` alone, report files by :func:`write_json`.
 
+mjlink replaces only what it wrote itself: a single file only if it is a regular file (a FIFO, a
+device or a folder is refused; a symbolic link is written through, its target replaced), an
+output folder only if its marker (:data:`MARKER`) says mjlink wrote it for the same command and
+mechanism, and then only the files the marker lists; anything else in it is kept. A run ends
+cleanly on SIGINT and SIGTERM (:func:`interruptible`, :class:`Terminated`), and the staging
+folders of runs that were killed are removed by the next run into the same folder.
+
 CSV columns carry their unit in their name (``P5_x_mm``, ``omega1_rad_s``, ``torque_N_m``) and
 are written at full double precision.
 """
@@ -18,11 +25,15 @@ import ctypes
 import errno
 import json
 import os
+import re
 import secrets
 import shutil
+import signal
+import stat
 import sys
 import tempfile
-from collections.abc import Iterator, Mapping, Sequence
+import threading
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -51,8 +62,14 @@ def atomic_path(path: Path | str, suffix: str = ".tmp") -> Iterator[Path]:
     ``suffix`` keeps the extension a writer may need (ffmpeg picks its format from it). The
     temporary is created with mode 0666 less the umask (mkstemp's 0600 would survive the
     rename). An OSError becomes a one-line OutputError.
+
+    Only a regular file is ever replaced. ``path`` may be absent or a regular file; a FIFO, a
+    device, a socket or a folder there is refused with a one-line OutputError before the body
+    runs (``build -o /dev/null`` must not replace /dev/null with a file). A symbolic link is
+    written through: the file it points to (which must be absent or regular) is replaced
+    atomically in its own folder and the link is kept.
     """
-    path = Path(path)
+    path = _write_target(Path(path))
     tmp = None
     for _ in range(100):
         cand = path.with_name(f".{path.name}.{secrets.token_hex(4)}{suffix}")
@@ -77,6 +94,32 @@ def atomic_path(path: Path | str, suffix: str = ".tmp") -> Iterator[Path]:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+_FILE_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _write_target(path: Path) -> Path:
+    """The file a whole-file write to ``path`` replaces: ``path``, or for a symbolic link the
+    file it finally points to; OutputError if that exists and is not a regular file."""
+    target = Path(os.path.realpath(path)) if path.is_symlink() else path
+    try:
+        mode = os.stat(target).st_mode
+    except FileNotFoundError:
+        return target
+    except OSError as e:
+        raise OutputError(f"{path}: cannot write: {e.strerror or e}") from None
+    if stat.S_ISREG(mode):
+        return target
+    what = next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
+    via = f" (a link to {target})" if target != path else ""
+    raise OutputError(f"{path}{via} is {what}, not a regular file: refusing to replace it")
 
 
 def write_text(path: Path | str, text: str, *, in_stage: bool = False) -> Path:
@@ -171,45 +214,233 @@ def _jsonable(o: object) -> object:
     raise TypeError(f"not JSON serializable: {type(o).__name__}")
 
 
-@contextmanager
-def staged_dir(dest: Path) -> Iterator[Path]:
-    """Yield a staging folder; on success it replaces ``dest`` whole, on failure it is removed.
+# ============================================================================ interruption
+class Terminated(BaseException):
+    """SIGTERM arrived while :func:`interruptible` was in force. Like KeyboardInterrupt it is no
+    Exception: only cleanups (``finally``, ``with``) run as it unwinds, which remove the staging
+    folder and stop the plot worker. The command line exits 143 (128 + SIGTERM)."""
 
-    * The stage is a hidden ``.NAME.partial-<random>`` beside ``dest`` (same file system, so
-      publishing it is a rename, never a copy).
-    * ``dest`` is replaced whole: on Linux the stage and an existing ``dest`` are exchanged
-      atomically (``renameat2(RENAME_EXCHANGE)``), so at every instant ``dest`` is either the
-      complete old output or the complete new one; elsewhere (or on file systems without the
-      exchange) by two renames, ``dest`` -> ``.NAME.old-PID`` then stage -> ``dest``, putting
-      the old one back if the second fails. The old output is then deleted.
-    * If the body raises, the stage is deleted and ``dest`` is left as it was (absent, or the
-      previous complete output): a failed run never leaves a folder that looks complete.
-      An OSError (disk full, permission, ...) becomes a one-line OutputError; anything else
-      propagates unchanged. Only a killed process (SIGKILL, power loss) can leave a hidden
-      ``.NAME.partial-*`` folder behind; it is never mistaken for an output and may be deleted.
+
+_signalled: list[int] = []  # SIGINT / SIGTERM received during the current interruptible run
+
+
+def _interruption(signum: int) -> BaseException:
+    return Terminated(f"terminated by signal {signum}") if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def _on_signal(signum: int, frame: object) -> None:
+    if signum == signal.SIGTERM and signum in _signalled:
+        return  # once: a second SIGTERM must not cut short the clean-up the first one started
+    _signalled.append(signum)
+    raise _interruption(signum)
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextmanager
+def interruptible() -> Iterator[None]:
+    """Make SIGINT and SIGTERM end the body cleanly, whatever code they land in.
+
+    For its duration (main thread only) SIGTERM raises :class:`Terminated`, as SIGINT raises
+    KeyboardInterrupt, so that a terminated run cleans up like an interrupted one instead of
+    dying in the middle of its work; a second SIGTERM is ignored while that happens. The
+    signals are also recorded: code that catches the exception and fails otherwise (a C
+    library's callback turning it into an ordinary error) or swallows it cannot hide it, since
+    the body then ends with KeyboardInterrupt or Terminated all the same (chained to the other
+    error), and :func:`staged_dir` publishes nothing once a signal came. Nothing changes in
+    another thread, or for a signal whose handler is not Python's default (an embedding
+    program's choice, an ignored signal, or an outer ``interruptible``).
+    """
+    install: dict[int, Any] = {}  # signal -> the handler to put back
+    if _main_thread():
+        if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+            install[signal.SIGTERM] = signal.SIG_DFL
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            install[signal.SIGINT] = signal.default_int_handler
+    if not install:
+        yield
+        return
+    _signalled.clear()
+    for sig in install:
+        signal.signal(sig, _on_signal)
+    try:
+        yield
+    except BaseException as e:
+        if _signalled and not isinstance(e, KeyboardInterrupt | Terminated):
+            raise _interruption(_signalled[0]) from e
+        raise
+    else:
+        if _signalled:
+            raise _interruption(_signalled[0])
+    finally:
+        for sig, old in install.items():
+            signal.signal(sig, old)
+        _signalled.clear()
+
+
+@contextmanager
+def uninterrupted() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back while the body runs (their Python handlers, in the main
+    thread), so that a cleanup or a publication is not cut in half by a second Ctrl-C. A signal
+    that came meanwhile is acted on when the body returns (its handler runs then: raises
+    KeyboardInterrupt or :class:`Terminated`); if the body raised, that exception goes on and the
+    signal is dropped, since the run is ending anyway."""
+    if not _main_thread():
+        yield
+        return
+    came: list[int] = []
+    held: dict[int, Callable[[int, Any], Any]] = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(sig)
+        if callable(handler):
+            held[sig] = handler
+            signal.signal(sig, lambda signum, frame: came.append(signum))
+    try:
+        yield
+    finally:
+        for sig, handler in held.items():
+            signal.signal(sig, handler)
+    for signum in came[:1]:
+        held[signum](signum, None)
+
+
+# ============================================================================ output folders
+MARKER = ".mjlink-output.json"
+"""The file every output folder carries: ``written_by`` "mjlink", ``kind`` and ``command`` (what
+wrote it), ``mechanism`` and ``files`` (the names mjlink wrote there; the marker itself is not
+listed). It is what allows a later run to replace those files and only those."""
+
+# The command that writes each kind of output folder, for markers and messages.
+COMMANDS = {"simulate": "simulate", "loads": "torque/reactions", "steady": "steady"}
+
+_stages = threading.local()  # per thread: the stop hooks of each open staged_dir, innermost last
+
+
+def on_discard(stop: Callable[[], None]) -> Callable[[], None]:
+    """Have ``stop`` called before the innermost :func:`staged_dir` of this thread publishes or
+    removes its stage.
+
+    A process that writes into the stage (the forked plot worker) registers how to stop and reap
+    it, so that a failed, interrupted or terminated run never removes a stage that is still being
+    written into (the worker would re-create it and leave it behind). Returns the function that
+    unregisters ``stop``, to call once the helper is done. Outside a staged_dir nothing is
+    registered.
+    """
+    stack: list[list[Callable[[], None]]] = getattr(_stages, "hooks", [])
+    if not stack:
+        return lambda: None
+    hooks = stack[-1]
+    hooks.append(stop)
+
+    def cancel() -> None:
+        with contextlib.suppress(ValueError):
+            hooks.remove(stop)
+
+    return cancel
+
+
+def _stop(hooks: list[Callable[[], None]]) -> None:
+    while hooks:
+        with contextlib.suppress(Exception):
+            hooks.pop()()
+
+
+@contextmanager
+def staged_dir(
+    dest: Path | str, *, kind: str = "output", force: bool = False, mechanism: str | None = None
+) -> Iterator[Path]:
+    """Yield a staging folder; on success its files are published at ``dest``, on failure it is
+    removed.
+
+    Args:
+        dest: the output folder (a symbolic link to a folder is followed).
+        kind: what writes it (``"simulate"``, ``"loads"`` for torque and reactions,
+            ``"steady"``; the default ``"output"`` is no command's): recorded in the folder's
+            :data:`MARKER`, and an existing ``dest`` is only published into if its marker has
+            the same kind.
+        force: publish into an existing ``dest`` that mjlink did not write for this ``kind``
+            and ``mechanism``: the files of the new output replace entries of the same name,
+            every other entry is kept.
+        mechanism: the mechanism's name, recorded in the marker and compared like ``kind``.
+
+    * The stage is a hidden ``.NAME.partial-<pid>-<random>`` beside ``dest`` (same file system,
+      so publishing is a rename, never a copy). Stages of runs whose process is gone (killed)
+      and ``.NAME.old-<pid>`` folders of the fallback below are removed when a run stages into
+      the same folder (:func:`remove_stale`).
+    * Publishing writes the marker listing the new files into the stage. A ``dest`` that does
+      not exist is then simply renamed into place. An existing ``dest`` is published into only
+      if its marker says mjlink wrote it with the same ``kind`` and ``mechanism``; then the files
+      that marker lists are mjlink's and are replaced (or removed, if this run did not write
+      them again); every other entry (a user's notes, a folder) is kept, and one with the name
+      of a new file makes the run refuse. Without such a marker (a user's folder, another
+      command's output: ``torque`` writes ``x_loads``, which a ``simulate`` of a mechanism named
+      ``x_loads`` must not replace) the run refuses, unless the folder is empty: a one-line
+      OutputError naming the folder and ``--force``. The check is made when publishing (the
+      folder may change during the run), so a refused run has done its work in vain but has
+      changed nothing.
+    * The kept entries are hard-linked into the stage (a folder as a tree of hard links), then
+      the stage and ``dest`` are exchanged atomically (Linux ``renameat2(RENAME_EXCHANGE)``): at
+      every instant ``dest`` is the complete old output or the complete new one, and every kept
+      file is in it. Elsewhere (or on file systems without the exchange) by two renames, ``dest``
+      -> ``.NAME.old-<pid>`` then stage -> ``dest``, putting the old one back if the second
+      fails. The old folder is then deleted (an entry that appeared in it meanwhile is moved
+      over first).
+    * If the body raises, helpers registered with :func:`on_discard` are stopped, the stage is
+      deleted and ``dest`` is left as it was (absent, or the previous complete output): a failed
+      run never leaves a folder that looks complete. An OSError (disk full, permission, ...)
+      becomes a one-line OutputError; anything else propagates unchanged. For the duration,
+      SIGTERM raises :class:`Terminated` (:func:`interruptible`), so a terminated run cleans up
+      like an interrupted one, and a run that received SIGINT or SIGTERM publishes nothing even
+      if some code swallowed the exception; the clean-up and the publication are not cut short
+      by a second signal (:func:`uninterrupted`). Only SIGKILL or a power loss leaves a stage
+      behind, and the next run removes it.
     * An output path that exists and is not a folder, or a parent that cannot be created or
       written (a path under a regular file, a read-only file system), is an OutputError before
       the body runs.
     """
     dest = Path(dest)
+    if dest.is_symlink():
+        dest = Path(os.path.realpath(dest))
     parent = dest.parent
     if dest.exists() and not dest.is_dir():
         raise OutputError(f"output path {dest} exists and is not a folder")
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-        stage = Path(tempfile.mkdtemp(prefix=f".{dest.name}.partial-", dir=parent))
-        stage.chmod(0o755)  # mkdtemp's 0700 would make the published folder private
-    except OSError as e:
-        raise OutputError(f"cannot write to output folder {parent}: {_why(e)}") from None
-    try:
-        yield stage
-        _publish(stage, dest)
-    except OSError as e:
-        shutil.rmtree(stage, ignore_errors=True)
-        raise OutputError(f"cannot write outputs to {dest}: {_why(e)}") from None
-    except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        raise
+    stack: list[list[Callable[[], None]]] = _stages.__dict__.setdefault("hooks", [])
+    hooks: list[Callable[[], None]] = []
+    stage: Path | None = None
+    with interruptible():
+        stack.append(hooks)
+        try:
+            try:
+                parent.mkdir(parents=True, exist_ok=True)
+                remove_stale(parent)
+                stage = Path(tempfile.mkdtemp(prefix=f".{dest.name}.partial-{os.getpid()}-", dir=parent))
+                stage.chmod(0o755)  # mkdtemp's 0700 would make the published folder private
+            except OSError as e:
+                raise OutputError(f"cannot write to output folder {parent}: {_why(e)}") from None
+            yield stage
+            if _signalled:  # interrupted, though the body swallowed it: publish nothing
+                raise _interruption(_signalled[0])
+            with uninterrupted():
+                _stop(hooks)
+                _publish(stage, dest, kind, mechanism, force)
+        except OSError as e:
+            _discard(stage, hooks)
+            raise OutputError(f"cannot write outputs to {dest}: {_why(e)}") from None
+        except BaseException:
+            _discard(stage, hooks)
+            raise
+        finally:
+            stack[:] = [h for h in stack if h is not hooks]  # by identity: empty lists are all equal
+
+
+def _discard(stage: Path | None, hooks: list[Callable[[], None]]) -> None:
+    """Stop the stage's writers, then delete it."""
+    with uninterrupted():
+        _stop(hooks)
+        if stage is not None:
+            shutil.rmtree(stage, ignore_errors=True)
 
 
 def _why(e: OSError) -> str:
@@ -218,25 +449,183 @@ def _why(e: OSError) -> str:
     return f"{what} ({Path(e.filename).name})" if e.filename else what
 
 
-def _publish(stage: Path, dest: Path) -> None:
-    """Put the complete ``stage`` at ``dest``, replacing an existing ``dest`` whole."""
-    if not dest.exists():
+def read_marker(folder: Path | str) -> dict[str, Any] | None:
+    """The :data:`MARKER` of an output folder, or None if it has none that mjlink wrote (absent,
+    not a regular file, not JSON, or without ``written_by``, ``kind`` and ``files``)."""
+    path = Path(folder) / MARKER
+    try:
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            return None
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not (
+        isinstance(data, dict)
+        and data.get("written_by") == "mjlink"
+        and isinstance(data.get("kind"), str)
+        and isinstance(data.get("files"), list)
+        and all(isinstance(f, str) for f in data["files"])
+    ):
+        return None
+    return data
+
+
+def _command(kind: str) -> str:
+    return f"'mjlink {COMMANDS[kind]}'" if kind in COMMANDS else f"kind '{kind}'"
+
+
+def _shown(names: Sequence[str]) -> str:
+    """File names for a one-line message (at most three, non-printable ones quoted)."""
+    shown = [n if n.isprintable() else repr(n) for n in names[:3]]
+    return ", ".join(shown) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+
+
+def _owned(dest: Path, kind: str, mechanism: str | None, force: bool) -> set[str]:
+    """The entries of the existing folder ``dest`` that mjlink may replace or remove: those its
+    marker lists if it was written for ``kind`` and ``mechanism``; with ``force`` and no such
+    marker, none (entries are then replaced only by new files of the same name)."""
+    marker = read_marker(dest)
+    if marker is not None and marker["kind"] == kind and (mechanism is None or marker.get("mechanism") == mechanism):
+        return set(marker["files"])
+    if force or (marker is None and not os.listdir(dest)):  # an empty folder has nothing to lose
+        return set()
+    if marker is None:
+        why = f"it was not written by mjlink (it has no {MARKER})"
+    else:
+        other = marker.get("mechanism")
+        why = f"it holds the output of {_command(marker['kind'])}{f' for {other}' if other else ''}, not of {_command(kind)}"
+        if mechanism is not None and marker["kind"] == kind:
+            why = f"it holds the output of {_command(kind)} for {other or 'no named mechanism'}, not for {mechanism}"
+    raise OutputError(
+        f"cannot write outputs to {dest}: {why}; move it away, or use --force to write mjlink's files into it "
+        "(other files are kept)"
+    )
+
+
+def _publish(stage: Path, dest: Path, kind: str, mechanism: str | None, force: bool) -> None:
+    """Put the complete ``stage`` at ``dest`` with its marker, keeping every entry of an existing
+    ``dest`` that mjlink did not write (see :func:`staged_dir`)."""
+    new = sorted(e for e in os.listdir(stage) if e != MARKER)
+    write_json(
+        stage / MARKER,
+        {
+            "written_by": "mjlink",
+            "kind": kind,
+            "command": f"mjlink {COMMANDS.get(kind, kind)}",
+            "mechanism": mechanism,
+            "files": new,
+        },
+    )
+    if not os.path.lexists(dest):
         os.replace(stage, dest)
         return
     if not dest.is_dir():
         raise OutputError(f"output path {dest} exists and is not a folder")
+    owned = _owned(dest, kind, mechanism, force)
+    keep = sorted(e for e in os.listdir(dest) if e != MARKER and e not in owned)
+    clash = [e for e in keep if e in new]
+    if clash and not force:
+        them = "it" if len(clash) == 1 else "them"
+        raise OutputError(
+            f"cannot write outputs to {dest}: {_shown(clash)} in it {'was' if len(clash) == 1 else 'were'} not "
+            f"written by mjlink; move {them} away, or use --force to replace {them}"
+        )
+    for name in keep:
+        if name not in new:
+            _keep(dest / name, stage / name, dest)
+    with contextlib.suppress(OSError):
+        os.chmod(stage, stat.S_IMODE(os.stat(dest).st_mode))  # the folder keeps its permissions
     if _exchange(stage, dest):
-        shutil.rmtree(stage, ignore_errors=True)  # now holds the previous output
-        return
-    old = dest.parent / f".{dest.name}.old-{os.getpid()}"
+        old = stage  # now holds the previous output
+    else:
+        old = dest.parent / f".{dest.name}.old-{os.getpid()}"
+        shutil.rmtree(old, ignore_errors=True)
+        os.replace(dest, old)
+        try:
+            os.replace(stage, dest)
+        except OSError:
+            os.replace(old, dest)  # put the previous output back
+            raise
+    for name in os.listdir(old):  # an entry that appeared in dest while publishing goes on
+        if name != MARKER and name not in owned and not os.path.lexists(dest / name):
+            with contextlib.suppress(OSError):
+                os.rename(old / name, dest / name)
     shutil.rmtree(old, ignore_errors=True)
-    os.replace(dest, old)
+
+
+def _keep(src: Path, dst: Path, dest: Path) -> None:
+    """Hard-link the entry ``src`` that mjlink did not write (a folder: as a tree of hard links)
+    at ``dst`` in the stage, so that the published folder has it without it ever being absent."""
     try:
-        os.replace(stage, dest)
+        if src.is_dir() and not src.is_symlink():
+            shutil.copytree(src, dst, symlinks=True, copy_function=_hard_link)
+        else:
+            _hard_link(src, dst)
+    except OSError as e:
+        errs = e.args[0] if isinstance(e, shutil.Error) and e.args and isinstance(e.args[0], list) else None
+        why = str(errs[0][-1]) if errs else _why(e)
+        raise OutputError(
+            f"cannot write outputs to {dest}: cannot keep {_shown([src.name])} in it ({why}); move it away"
+        ) from None
+
+
+def _hard_link(src: str | Path, dst: str | Path) -> str | Path:
+    os.link(src, dst, follow_symlinks=False)
+    return dst
+
+
+_STALE = re.compile(r"\.(?P<name>.+)\.(?:partial-(?P<pid>[0-9]+)-[^.]+|old-(?P<old>[0-9]+))", re.S)
+
+
+def remove_stale(folder: Path | str) -> list[str]:
+    """Remove what killed runs left in ``folder``; returns the names removed.
+
+    A staging folder ``.NAME.partial-<pid>-<random>`` or a fallback's ``.NAME.old-<pid>`` is left
+    only when its process was killed; if that process is gone (or a zombie), the folder is
+    deleted, except that an ``.old`` folder whose ``NAME`` is missing is the previous output
+    cut off in mid-publication and is renamed back. Folders of live processes, and anything
+    else, are left alone; errors are ignored (this is tidying, not the run's work).
+    """
+    removed: list[str] = []
+    try:
+        entries = list(os.scandir(folder))
     except OSError:
-        os.replace(old, dest)  # put the previous output back
-        raise
-    shutil.rmtree(old, ignore_errors=True)
+        return removed
+    for entry in entries:
+        m = _STALE.fullmatch(entry.name)
+        if m is None:
+            continue
+        try:
+            if not entry.is_dir(follow_symlinks=False) or _alive(int(m["pid"] or m["old"])):
+                continue
+            path, dest = Path(entry.path), Path(folder) / m["name"]
+            if m["old"] and not os.path.lexists(dest):
+                os.rename(path, dest)
+            else:
+                shutil.rmtree(path)
+            removed.append(entry.name)
+        except OSError:
+            continue
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` may still be running (True when in doubt)."""
+    if os.name != "posix" or pid <= 0:
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OSError, OverflowError):
+        return True  # EPERM: another user's live process
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            st = f.read()
+    except OSError:
+        return True
+    state = st[st.rfind(b")") + 2 : st.rfind(b")") + 3]
+    return state not in (b"Z", b"X")
 
 
 def _exchange(a: Path, b: Path) -> bool:

@@ -25,11 +25,21 @@ can come from a command-line option, the message names the option.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import dataclasses
 import functools
 import math
+import os
+import pickle
+import platform
+import shlex
+import signal
+import sys
+import threading
 import time
-from collections.abc import Callable, Mapping
+import traceback
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,12 +49,28 @@ import numpy as np
 from . import analysis, compare, output, reference, validation
 from .errors import MjlinkError, SimulationError
 from .model import catalogue, names
-from .model.limits import MAX_SPEED, MIN_SPEED
+from .model.limits import (
+    CSV_BYTES_PER_VALUE,
+    LONG_RUN_SAMPLES,
+    MAX_CSV_BYTES,
+    MAX_DURATION_S,
+    MAX_FPS,
+    MAX_LENGTH_MM,
+    MAX_SPEED,
+    MAX_SYNTH_PRESSURE_DEG,
+    MAX_SYNTH_RATIO,
+    MAX_TRACE_BYTES,
+    MAX_VIDEO_FRAMES,
+    MIN_BAR_MM,
+    MIN_DURATION_S,
+    MIN_SPEED,
+    TRACE_BYTES_PER_VALUE,
+)
 from .model.mechanism import Mechanism, Motor, SteadyCase, parse
 from .reference import synthesis
-from .runs import DYNAMIC, Case, Settings, Trace
+from .runs import DYNAMIC, KINEMATIC, Case, Settings, Trace
 from .sim import builder, simulate
-from .units import DEG, MM, RunKind, from_rpm, to_rpm
+from .units import DEG, MM, RunKind, to_rpm
 
 PAPER_RK4_STEPS = 1000  # the paper integrates the equation of motion by fixed-step RK4 in this many steps
 REFERENCE_ODE_METHOD = "DOP853"  # what reference.forward_dynamics solves the equation of motion with
@@ -59,9 +85,11 @@ PlotJob = Callable[[], object]
 # ============================================================================ options
 @dataclass(frozen=True)
 class Options:
-    """What :func:`run` does.
+    """What :func:`run` does (:func:`estimate` says what it will cost, and refuses the absurd).
 
-    ``speed`` rad/s and ``cycles`` crank periods of the kinematic run (None: the file's);
+    ``speed`` rad/s, signed, counter-clockwise positive about +Z as the file's ``[input]
+    speed`` (a sign opposite to the file's turns the crank the other way), and ``cycles``
+    crank periods of the kinematic run (None: the file's);
     ``duration`` s of the dynamic run (None: the file's); ``dynamics`` the forward-dynamics run
     (when the file has masses and a [dynamics] table); ``loads`` the driving torque and pair
     reactions (when it has masses); ``steady`` the steady-motion and flywheel study (needs a
@@ -89,9 +117,9 @@ class Drive:
 
     ``moment`` constant driving moment on the crank, N*m; ``damping`` viscous damping on it,
     N*m*s; ``omega0`` initial crank speed of the dynamic run, rad/s; ``duration`` s;
-    ``stall_torque`` N*m and ``no_load_speed`` rad/s, together, a linear motor characteristic
-    (signed in the crank's sense); ``target_delta`` the coefficient of speed fluctuation the
-    flywheel is sized for.
+    ``stall_torque`` N*m and ``no_load_speed`` rad/s, together, a linear motor characteristic;
+    ``target_delta`` the coefficient of speed fluctuation the flywheel is sized for. Speeds and
+    moments are signed as in the file: counter-clockwise positive about +Z.
     """
 
     moment: float | None = None
@@ -113,15 +141,148 @@ def _has_mass(mech: Mechanism) -> bool:
     return any(l.mass > 0 for l in mech.links)
 
 
-def check_speed(option: str, w: float | None) -> None:
-    """Raise MjlinkError unless the crank speed ``w`` (rad/s; None: not given) is within the
-    range the simulation is made for; the message names ``option``."""
+def speed_text(w: float) -> str:
+    """A speed as errors show it, in both units the command line takes: '0 rad/s (0 rpm)'."""
+    return f"{w:g} rad/s ({to_rpm(w):.4g} rpm)"
+
+
+def check_speed(option: str, w: float | None, given: str | None = None) -> None:
+    """Raise MjlinkError unless the crank speed ``w`` (rad/s, signed; None: not given) is within
+    the range the simulation is made for; the message names ``option`` and the value as the
+    user wrote it (``given``, e.g. '0 rpm'; default both units)."""
     if w is None:
         return
-    if not (MIN_SPEED <= abs(w) <= MAX_SPEED):
+    if not (math.isfinite(w) and MIN_SPEED <= abs(w) <= MAX_SPEED):
         raise MjlinkError(
             f"{option} must be between {MIN_SPEED:g} and {MAX_SPEED:g} rad/s in magnitude "
-            f"({to_rpm(MIN_SPEED):.3g} to {to_rpm(MAX_SPEED):.3g} rpm), got {w:g} rad/s"
+            f"({to_rpm(MIN_SPEED):.3g} to {to_rpm(MAX_SPEED):.3g} rpm), got {given or speed_text(w)}"
+        )
+
+
+# ---------------------------------------------------------------------------- cost
+@dataclass(frozen=True)
+class RunCost:
+    """One MuJoCo run's size, estimated before it starts (:func:`estimate`).
+
+    ``run`` what it is ('kinematic run' ...); ``samples`` it records (a float: it can be
+    astronomically many) of ``values`` each; ``options`` what changes it, for messages.
+    ``memory`` and ``csv`` are bytes (limits.TRACE_BYTES_PER_VALUE, CSV_BYTES_PER_VALUE).
+    """
+
+    run: str
+    samples: float
+    values: int
+    options: str
+
+    @property
+    def memory(self) -> float:
+        return self.samples * self.values * TRACE_BYTES_PER_VALUE
+
+    @property
+    def csv(self) -> float:
+        return self.samples * self.values * CSV_BYTES_PER_VALUE
+
+    def describe(self) -> str:
+        """'the kinematic run records about 125,664 samples of 118 values: about 890 MB of
+        memory and 341 MB of CSV'."""
+        return (
+            f"the {self.run} records about {self.samples:,.0f} samples of {self.values} values: about "
+            f"{_bytes(self.memory)} of memory and {_bytes(self.csv)} of CSV"
+        )
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What a command will cost: its MuJoCo ``runs`` and the video's ``frames`` (0: no video)."""
+
+    runs: tuple[RunCost, ...]
+    frames: int = 0
+
+    @property
+    def long(self) -> RunCost | None:
+        """The first run long enough to say so before it starts (limits.LONG_RUN_SAMPLES)."""
+        return next((r for r in self.runs if r.samples > LONG_RUN_SAMPLES), None)
+
+
+def _bytes(n: float) -> str:
+    for unit, f in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= f:
+            return f"{n / f:.3g} {unit}"
+    return f"{n:.0f} bytes"
+
+
+def values_per_sample(mech: Mechanism) -> int:
+    """Values a run records per sample: time and crank (4), position, velocity and acceleration
+    of every point (9 each), per link its speeds, joint and loads (7 each), thread and gap (3)."""
+    return 7 + 9 * len(mech.point_names) + 7 * len(mech.links)
+
+
+def estimate(
+    mech: Mechanism, opts: Options = Options(), *, kinematic: bool = True, cycles_option: str | None = "--cycles"
+) -> Estimate:
+    """What :func:`run` with ``opts`` will cost for ``mech`` (``kinematic=False``: without the
+    kinematic run, as :func:`steady` does), estimated before anything starts. ``cycles_option``
+    the option that sets the kinematic run's cycles, for messages (None: only the file's).
+
+    Samples of each run times the values it records give its memory and CSV; the video's frames
+    are ``video_seconds`` x ``fps``. Raises MjlinkError, one line with the estimate and the
+    option to change, beyond limits.MAX_TRACE_BYTES, MAX_CSV_BYTES, MAX_VIDEO_FRAMES or MAX_FPS
+    (mechanisms/README.md, "Limits"), and for a speed or duration outside its bounds.
+    """
+    values = values_per_sample(mech)
+    runs = []
+    if kinematic:
+        w = mech.speed if opts.speed is None else opts.speed
+        check_speed("--speed", w)
+        n = mech.cycles if opts.cycles is None else opts.cycles
+        if not (math.isfinite(n) and n > 0):
+            raise MjlinkError(f"--cycles must be a positive finite number, got {n:g}")
+        samples = n * mech.period / abs(w) / KINEMATIC.timestep + 1
+        hint = f"lower {cycles_option} or raise --speed" if cycles_option else "raise --speed (or lower [input] cycles)"
+        runs.append(RunCost("kinematic run", samples, values, hint))
+    if opts.dynamics and has_masses(mech):
+        d = mech.dynamics.duration if opts.duration is None else opts.duration
+        _check_duration(d)
+        case = simulate.dynamic_case(mech, duration=d)
+        runs.append(RunCost("dynamic run", float(case.samples), values, "lower --duration"))
+    if opts.steady and mech.steady is not None:
+        # Two runs (without and with the flywheel) of 3 periods sampled every step; the mean
+        # speed stays below the no-load speed, so this is a lower bound.
+        periods = 3 * 2 * math.pi / abs(mech.steady.motor.no_load_speed)
+        runs.append(
+            RunCost("steady-motion runs", 2 * (periods / DYNAMIC.timestep + 1), values, "raise --no-load-speed")
+        )
+    for r in runs:
+        if r.memory > MAX_TRACE_BYTES or r.csv > MAX_CSV_BYTES:
+            raise MjlinkError(
+                f"{r.describe()}; at most {_bytes(MAX_TRACE_BYTES)} of memory and {_bytes(MAX_CSV_BYTES)} of CSV "
+                f"(mechanisms/README.md, Limits): {r.options}"
+            )
+    frames = 0
+    if opts.video:
+        if not (math.isfinite(opts.fps) and 0 < opts.fps <= MAX_FPS):
+            raise MjlinkError(f"--fps must be between 1 and {MAX_FPS} frames/s, got {opts.fps:g}")
+        if not (math.isfinite(opts.video_seconds) and opts.video_seconds > 0):
+            raise MjlinkError(f"--video-seconds must be a positive finite number, got {opts.video_seconds:g} s")
+        wanted = opts.video_seconds * opts.fps
+        if wanted > MAX_VIDEO_FRAMES:
+            raise MjlinkError(
+                f"the video would have {wanted:,.0f} frames ({opts.video_seconds:g} s at {opts.fps:g} fps); at most "
+                f"{MAX_VIDEO_FRAMES:,} (mechanisms/README.md, Limits): lower --video-seconds or --fps"
+            )
+        frames = round(wanted)
+        if frames < 1:
+            raise MjlinkError(
+                f"the video would have no frame ({opts.video_seconds:g} s at {opts.fps:g} fps): raise --video-seconds"
+            )
+    return Estimate(tuple(runs), frames)
+
+
+def _check_duration(d: float, option: str = "--duration") -> None:
+    if not (math.isfinite(d) and MIN_DURATION_S <= d <= MAX_DURATION_S):
+        raise MjlinkError(
+            f"{option} must be between {MIN_DURATION_S:g} and {MAX_DURATION_S:g} s (mechanisms/README.md, "
+            f"Limits), got {d:g} s"
         )
 
 
@@ -130,19 +291,28 @@ def with_drive(mech: Mechanism, drive: Drive, *, steady: bool = False) -> Mechan
 
     The motor characteristic becomes the file's [dynamics.motor] (unless ``steady``: then it
     drives only the steady-motion study) and, with ``target_delta``, its [steady] case. Raises
-    MjlinkError for a non-finite value, a negative damping, a non-positive duration, half a
-    motor characteristic or one of mixed signs, or a target delta outside (0, 2).
+    MjlinkError for a non-finite value, a negative damping, a duration or speed outside its
+    limits (mechanisms/README.md, "Limits"), half a motor characteristic or one of mixed signs,
+    or a target delta outside (0, 2). Messages give values in the option's own unit.
     """
     dyn = mech.dynamics
     changes: dict[str, Any] = {}
+    units = {"moment": "N*m", "damping": "N*m*s", "duration": "s"}
     for key in ("moment", "damping", "omega0", "duration"):
         v = getattr(drive, key)
         if v is None:
             continue
-        if not math.isfinite(v) or (key == "damping" and v < 0) or (key == "duration" and v <= 0):
+        if key == "omega0":
+            if not (math.isfinite(v) and abs(v) <= MAX_SPEED):
+                raise MjlinkError(
+                    f"--omega0 must be at most {MAX_SPEED:g} rad/s ({to_rpm(MAX_SPEED):.3g} rpm) in magnitude, "
+                    f"got {speed_text(v)}"
+                )
+        elif key == "duration":
+            _check_duration(v)
+        elif not math.isfinite(v) or (key == "damping" and v < 0):
             raise MjlinkError(
-                f"--{key} must be a finite number{' >= 0' if key == 'damping' else ''}"
-                f"{' > 0' if key == 'duration' else ''}, got {v}"
+                f"--{key} must be a finite number{' >= 0' if key == 'damping' else ''}, got {v:g} {units[key]}"
             )
         changes[key] = v
     ts, w0 = drive.stall_torque, drive.no_load_speed
@@ -152,7 +322,11 @@ def with_drive(mech: Mechanism, drive: Drive, *, steady: bool = False) -> Mechan
             raise MjlinkError("--stall-torque and --no-load-speed go together (a linear motor characteristic)")
     else:
         if not (math.isfinite(ts) and math.isfinite(w0)) or ts == 0 or w0 == 0 or (ts > 0) != (w0 > 0):
-            raise MjlinkError("--stall-torque and --no-load-speed must be finite, non-zero and of the same sign")
+            raise MjlinkError(
+                "--stall-torque and --no-load-speed must be finite, non-zero and of the same sign, got "
+                f"{ts:g} N*m and {speed_text(w0)}"
+            )
+        check_speed("--no-load-speed", w0)
         motor = Motor(ts, w0)
         if not steady:
             changes["motor"] = motor
@@ -162,7 +336,7 @@ def with_drive(mech: Mechanism, drive: Drive, *, steady: bool = False) -> Mechan
         )
     target = drive.target_delta
     if target is not None and not (0 < target < 2):
-        raise MjlinkError(f"--target-delta must be between 0 and 2, got {target}")
+        raise MjlinkError(f"--target-delta must be between 0 and 2, got {target:g}")
     if motor is not None or target is not None:
         base = mech.steady or (SteadyCase(mech.dynamics.motor) if mech.dynamics.motor else None)
         m = motor or (base.motor if base else None)
@@ -418,6 +592,37 @@ class Timings:
 
 
 @dataclass(frozen=True)
+class Provenance:
+    """How an output was made: ``versions`` of mjlink, MuJoCo, Python and NumPy; ``command``
+    the command line (empty when called from Python); ``options`` what the command asked for
+    (units as in :class:`Options`). The numerical settings are recorded with each run."""
+
+    versions: Mapping[str, str]
+    command: tuple[str, ...] = ()
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "versions": dict(self.versions),
+            "command": shlex.join(self.command) if self.command else None,
+            "options": dict(self.options),
+        }
+
+
+def provenance(command: Sequence[str] = (), options: Mapping[str, Any] | None = None) -> Provenance:
+    """The :class:`Provenance` of an output made now by ``command`` with ``options``."""
+    from . import __version__
+
+    versions = {
+        "mjlink": __version__,
+        "mujoco": builder.mujoco_version(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+    }
+    return Provenance(versions, tuple(command), dict(options or {}))
+
+
+@dataclass(frozen=True)
 class SimulateResult:
     """What :func:`run` did for one mechanism, all written under ``out_dir``.
 
@@ -443,6 +648,7 @@ class SimulateResult:
     steady: SteadySummary | None = None
     video: VideoSummary | None = None
     files: tuple[str, ...] = field(default=())
+    provenance: Provenance | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """The contents of ``report.json``."""
@@ -465,6 +671,8 @@ class SimulateResult:
         if self.video is not None:
             d["video"] = self.video.as_dict()
         d["timings"] = self.timings.as_dict()
+        if self.provenance is not None:
+            d["provenance"] = self.provenance.as_dict()
         return d
 
 
@@ -476,13 +684,17 @@ class LoadsResult:
     mechanism: str
     out_dir: Path
     loads: LoadsSummary
+    provenance: Provenance | None = None
 
     @property
     def failures(self) -> tuple[str, ...]:
         return self.loads.failures
 
     def as_dict(self) -> dict[str, Any]:
-        return {"mechanism": self.mechanism, "loads": self.loads.as_dict(), "failures": list(self.failures)}
+        d = {"mechanism": self.mechanism, "loads": self.loads.as_dict(), "failures": list(self.failures)}
+        if self.provenance is not None:
+            d["provenance"] = self.provenance.as_dict()
+        return d
 
 
 @dataclass(frozen=True)
@@ -493,13 +705,17 @@ class SteadyResult:
     mechanism: str
     out_dir: Path
     steady: SteadySummary
+    provenance: Provenance | None = None
 
     @property
     def failures(self) -> tuple[str, ...]:
         return self.steady.failures
 
     def as_dict(self) -> dict[str, Any]:
-        return {"mechanism": self.mechanism, "steady": self.steady.as_dict()}
+        d: dict[str, Any] = {"mechanism": self.mechanism, "steady": self.steady.as_dict()}
+        if self.provenance is not None:
+            d["provenance"] = self.provenance.as_dict()
+        return d
 
 
 @dataclass(frozen=True)
@@ -564,21 +780,31 @@ class _DynamicRun:
     rk4: reference.Motion | None
 
 
-def run(mech: Mechanism, out_root: Path | str, opts: Options = Options()) -> SimulateResult:
+def run(
+    mech: Mechanism,
+    out_root: Path | str,
+    opts: Options = Options(),
+    *,
+    force: bool = False,
+    command: Sequence[str] = (),
+) -> SimulateResult:
     """Run everything ``opts`` asks for ``mech`` and write ``<out_root>/<name>/``.
 
     The kinematic run, its reference and their agreement always; the forward-dynamics run, the
     loads, the steady-motion study, plots and video as ``opts`` says and the file allows. The
     folder holds the traces as CSV, ``report.json`` (:meth:`SimulateResult.as_dict`),
-    ``model.xml`` (the dynamic model) and the figures and video; it replaces an earlier one
-    whole, or is not written at all if anything fails.
+    ``model.xml`` (the dynamic model) and the figures and video, and its marker
+    (:func:`output.staged_dir`, kind ``simulate``): it replaces the files an earlier ``simulate``
+    wrote there and keeps any other file, or is not written at all if anything fails. A folder
+    mjlink did not write for ``simulate`` of this mechanism is refused unless ``force``.
 
     Raises SimulationError if MuJoCo leaves the reference's assembly branch or diverges,
     OutputError if the folder cannot be written, RenderError if the video cannot be made.
     """
+    estimate(mech, opts)  # the absurd is refused before anything starts, whoever calls
     clock = _Clock()
     out_dir = Path(out_root) / mech.name
-    with output.staged_dir(out_dir) as stage:
+    with output.staged_dir(out_dir, kind="simulate", force=force, mechanism=mech.name) as stage:
         kcase = simulate.kinematic_case(mech, speed=opts.speed, cycles=opts.cycles)
         _enough_samples(mech, kcase, "--cycles")
         kin_mj = simulate.run(mech, kcase)
@@ -653,6 +879,7 @@ def run(mech: Mechanism, out_root: Path | str, opts: Options = Options()) -> Sim
             loads=loads_summary,
             steady=steady_summary,
             video=video,
+            provenance=provenance(command, dataclasses.asdict(opts)),
         )
         output.write_json(stage / "report.json", result.as_dict())
         output.write_text(stage / "model.xml", builder.to_xml(mech, DYNAMIC), in_stage=True)
@@ -752,23 +979,147 @@ def run_jobs(jobs: list[PlotJob]) -> None:
         job()
 
 
-def _start(jobs: list[PlotJob]) -> tuple[Any, Any] | None:
-    """Run ``jobs`` in a forked worker process: (pool, future); None where fork is unavailable."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+class _Worker:
+    """A forked process drawing plots into the stage: its ``pid``, the read end ``fd`` of the pipe
+    its result comes through, and ``cancel``, which unregisters its stop hook from the stage."""
 
-    if "fork" not in multiprocessing.get_all_start_methods():
+    def __init__(self, pid: int, fd: int) -> None:
+        self.pid, self.fd = pid, fd
+        self.reaped = False
+        self.cancel: Callable[[], None] = lambda: None
+
+    def stop(self) -> None:
+        """Kill and reap the worker (the run failed or was interrupted); once only, so that a
+        reaped PID, which the system may reuse, is never signalled."""
+        if self.reaped:
+            return
+        self.reaped = True
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(self.pid, signal.SIGKILL)
+        with contextlib.suppress(ChildProcessError):
+            os.waitpid(self.pid, 0)
+        os.close(self.fd)
+
+
+class _WorkerTraceback(Exception):
+    """The plot worker's traceback, as the cause of the error it reported."""
+
+    def __str__(self) -> str:
+        return f"\n{self.args[0]}" if self.args else ""
+
+
+def _start(jobs: list[PlotJob]) -> _Worker | None:
+    """Draw ``jobs`` in a forked worker process while this one goes on (:func:`_finish` waits for
+    it); None where fork is unavailable.
+
+    The worker is part of the run and never outlives it. It ignores SIGINT and SIGTERM: the run
+    decides, and a failing, interrupted or terminated run kills and reaps it before the stage is
+    removed (its stop hook, :func:`output.on_discard`), so it cannot re-create the stage. It dies
+    with this process when that is killed (Linux ``PR_SET_PDEATHSIG``; elsewhere it polls its
+    parent). It reports through a pipe and ends with ``os._exit``, running none of the clean-ups
+    it inherited (the stage's removal among them). Signals are held back across the fork, so that
+    an interruption lands either before it or once the hook is registered.
+    """
+    if not hasattr(os, "fork"):
         return None
-    pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"))
-    return pool, pool.submit(run_jobs, jobs)
-
-
-def _finish(worker: tuple[Any, Any]) -> None:
-    pool, future = worker
+    parent = os.getpid()
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
     try:
-        future.result()  # re-raises the worker's MjlinkError (e.g. an unwritable plot)
+        r, w = os.pipe()
+        try:
+            pid = os.fork()
+        except OSError:
+            os.close(r)
+            os.close(w)
+            return None
+        if pid == 0:
+            code = 1
+            try:
+                os.close(r)
+                code = _worker_main(jobs, w, parent, mask)
+            finally:
+                os._exit(code)
+        os.close(w)
+        worker = _Worker(pid, r)
+        worker.cancel = output.on_discard(worker.stop)
+        return worker
     finally:
-        pool.shutdown()
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
+def _worker_main(jobs: list[PlotJob], w: int, parent: int, mask: set[int | signal.Signals]) -> int:
+    """The forked worker: draw ``jobs``, write nothing (success) or the pickled (error,
+    traceback) to the pipe ``w``; returns the exit status."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    _die_with(parent)
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    payload, code = b"", 0
+    try:
+        run_jobs(jobs)
+    except BaseException as e:
+        code, tb = 1, traceback.format_exc()
+        try:
+            payload = pickle.dumps((e, tb))
+        except Exception:
+            payload = pickle.dumps((MjlinkError(f"plot worker: {type(e).__name__}: {e}"), tb))
+    view = memoryview(payload)
+    while view:
+        view = view[os.write(w, view) :]
+    os.close(w)
+    return code
+
+
+def _die_with(parent: int) -> None:
+    """Have this forked process killed when its parent ``parent`` dies."""
+    armed = False
+    if sys.platform.startswith("linux"):
+        try:
+            prctl = ctypes.CDLL(None, use_errno=True).prctl
+            prctl.argtypes = [ctypes.c_int, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong]
+            prctl.restype = ctypes.c_int
+            armed = prctl(1, signal.SIGKILL, 0, 0, 0) == 0  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if not armed:
+        threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+    if os.getppid() != parent:  # the parent died before the death signal was armed
+        os._exit(1)
+
+
+def _watch_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(0.2)
+    os._exit(1)
+
+
+def _finish(worker: _Worker) -> None:
+    """Wait for the worker, reap it and re-raise the error it reported (e.g. an unwritable plot's
+    OutputError, with the worker's traceback as its cause). Interrupted while waiting, the
+    exception goes on and the stage's stop hook kills the worker."""
+    chunks = []
+    while chunk := os.read(worker.fd, 1 << 16):
+        chunks.append(chunk)
+    with output.uninterrupted():
+        _, status = os.waitpid(worker.pid, 0)
+        worker.reaped = True
+        worker.cancel()
+        os.close(worker.fd)
+    if chunks:
+        try:
+            err, tb = pickle.loads(b"".join(chunks))
+        except Exception as e:
+            raise MjlinkError(f"the plot worker failed and its error could not be read back: {e}") from None
+        raise err from _WorkerTraceback(tb)
+    code = os.waitstatus_to_exitcode(status)
+    if code > 0:
+        raise MjlinkError(f"the plot worker exited with status {code} before finishing the plots")
+    if code < 0:
+        try:
+            how = signal.Signals(-code).name
+        except ValueError:
+            how = f"signal {-code}"
+        raise MjlinkError(f"the plot worker was killed by {how} before finishing the plots")
 
 
 def _on_grid(m: reference.Motion, t: np.ndarray) -> reference.Motion | None:
@@ -845,43 +1196,65 @@ def _steady_study(mech: Mechanism, stage: Path, plots: list[PlotJob] | None) -> 
     )
 
 
-def loads(mech: Mechanism, out_root: Path | str, *, rpm: float | None = None, plots: bool = True) -> LoadsResult:
+def loads(
+    mech: Mechanism,
+    out_root: Path | str,
+    *,
+    speed: float | None = None,
+    plots: bool = True,
+    force: bool = False,
+    command: Sequence[str] = (),
+) -> LoadsResult:
     """Driving torque and pair reactions at constant crank speed, into ``<out_root>/<name>_loads/``.
 
-    ``rpm`` crank speed, rev/min, in the file's sense of rotation (negative reverses it; None:
-    the file's speed). The folder holds ``loads.csv`` (MuJoCo), ``reference_loads.csv``
+    ``speed`` crank speed, rad/s, signed, counter-clockwise positive as the file's ``[input]
+    speed`` (None: the file's speed). The folder holds ``loads.csv`` (MuJoCo), ``reference_loads.csv``
     (kinetostatics), ``report.json`` (:meth:`LoadsResult.as_dict`) and, with ``plots``,
-    ``torque.png`` and ``reactions.png``. Raises MjlinkError if no link has a mass or the
-    speed is zero, not finite or out of range.
+    ``torque.png`` and ``reactions.png``, and its marker (kind ``loads``: torque and reactions
+    share the folder; a folder mjlink did not write for them is refused unless ``force``, see
+    :func:`output.staged_dir`). Raises MjlinkError if no link has a mass, the speed is out of
+    range or the run would cost beyond the limits (:func:`estimate`).
     """
     if not _has_mass(mech):
         raise MjlinkError(f"{mech.name}: no masses in the file: give its links mass, inertia and com")
-    speed = mech.speed
-    if rpm is not None:
-        if not math.isfinite(rpm) or rpm == 0:
-            raise MjlinkError(f"--speed must be a non-zero finite number of rev/min, got {rpm}")
-        speed = math.copysign(1.0, mech.speed) * from_rpm(rpm)
-        check_speed("--speed", speed)
+    check_speed("--speed", speed)
+    estimate(mech, Options(speed=speed, dynamics=False, video=False), cycles_option=None)
+    speed = mech.speed if speed is None else speed
     case = simulate.kinematic_case(mech, speed=speed)
     _enough_samples(mech, case, "[input] cycles")
     kin = simulate.run(mech, case)
     out_dir = Path(out_root) / f"{mech.name}_loads"
-    with output.staged_dir(out_dir) as stage:
+    with output.staged_dir(out_dir, kind="loads", force=force, mechanism=mech.name) as stage:
         jobs: list[PlotJob] = []
-        result = LoadsResult(mech.name, out_dir, _loads_study(mech, kin, stage, jobs if plots else None))
+        result = LoadsResult(
+            mech.name,
+            out_dir,
+            _loads_study(mech, kin, stage, jobs if plots else None),
+            provenance(command, {"speed": speed, "plots": plots}),
+        )
         run_jobs(jobs)
         output.write_json(stage / "report.json", result.as_dict())
     return result
 
 
-def steady(mech: Mechanism, out_root: Path | str, *, drive: Drive = Drive(), plots: bool = True) -> SteadyResult:
+def steady(
+    mech: Mechanism,
+    out_root: Path | str,
+    *,
+    drive: Drive = Drive(),
+    plots: bool = True,
+    force: bool = False,
+    command: Sequence[str] = (),
+) -> SteadyResult:
     """Steady motion under a motor characteristic, speed fluctuation and flywheel, into
     ``<out_root>/<name>_steady/``.
 
     ``drive`` overrides the file's motor, damping and target delta (:func:`with_drive`, the
     motor for this study only). The folder holds ``reference_steady.csv``, ``report.json``
-    (:meth:`SteadyResult.as_dict`) and, with ``plots``, ``steady.png``. Raises MjlinkError if
-    there is no motor (neither in the file nor in ``drive``).
+    (:meth:`SteadyResult.as_dict`) and, with ``plots``, ``steady.png``, and its marker (kind
+    ``steady``; a folder mjlink did not write for it is refused unless ``force``, see
+    :func:`output.staged_dir`). Raises MjlinkError if there is no motor (neither in the file nor
+    in ``drive``).
     """
     mech = with_drive(mech, drive, steady=True)
     if mech.steady is None:
@@ -889,10 +1262,16 @@ def steady(mech: Mechanism, out_root: Path | str, *, drive: Drive = Drive(), plo
             f"{mech.name}: steady motion needs a motor: give [steady] or [dynamics.motor] in the file, "
             "or --stall-torque and --no-load-speed"
         )
+    estimate(mech, Options(dynamics=False, video=False, steady=True), kinematic=False)
     out_dir = Path(out_root) / f"{mech.name}_steady"
-    with output.staged_dir(out_dir) as stage:
+    with output.staged_dir(out_dir, kind="steady", force=force, mechanism=mech.name) as stage:
         jobs: list[PlotJob] = []
-        result = SteadyResult(mech.name, out_dir, _steady_study(mech, stage, jobs if plots else None))
+        result = SteadyResult(
+            mech.name,
+            out_dir,
+            _steady_study(mech, stage, jobs if plots else None),
+            provenance(command, {**dataclasses.asdict(drive), "plots": plots}),
+        )
         run_jobs(jobs)
         output.write_json(stage / "report.json", result.as_dict())
     return result
@@ -901,7 +1280,13 @@ def steady(mech: Mechanism, out_root: Path | str, *, drive: Drive = Drive(), plo
 # ============================================================================ build and synthesis
 def build(mech: Mechanism, *, kinematic: bool = False, path: Path | None = None) -> BuildResult:
     """The MJCF of ``mech``: the dynamic model, or with ``kinematic`` the kinematic run's (a
-    flywheel on the crank); written to ``path`` whole if given."""
+    flywheel on the crank); written to ``path`` whole if given. Raises MjlinkError for a
+    ``path`` that names a folder (or nothing), before anything is built."""
+    if path is not None:
+        if not str(path) or path.is_dir():
+            raise MjlinkError(f"-o {str(path)!r}: is a folder, not a file: give the MJCF file's name, e.g. model.xml")
+        if not path.name:
+            raise MjlinkError(f"-o {str(path)!r}: names no file: give the MJCF file's name, e.g. model.xml")
     settings = simulate.kinematic_case(mech).settings if kinematic else DYNAMIC
     xml = builder.to_xml(mech, settings)
     if path is not None:
@@ -919,9 +1304,22 @@ def synthesize(
 ) -> SynthResult:
     """Metric synthesis of the offset crank-slider for a stroke (mm), guide offset (mm), lambda =
     r / l and allowed pressure angle (deg); each None takes ``crank_slider.toml``'s [synthesis]
-    value. Raises MjlinkError for an unknown ``problem`` or an impossible requirement."""
+    value. Raises MjlinkError for an unknown ``problem``, a value outside its limits
+    (mechanisms/README.md, "Limits"; messages in the option's unit) or an impossible requirement."""
     if problem not in SYNTHESIS_PROBLEMS:
-        raise MjlinkError(f"unknown synthesis problem '{problem}' (valid: {', '.join(SYNTHESIS_PROBLEMS)})")
+        raise MjlinkError(f"unknown synthesis problem {problem!r} (valid: {', '.join(SYNTHESIS_PROBLEMS)})")
+    bounds = (
+        ("--stroke", stroke_mm, MIN_BAR_MM, MAX_LENGTH_MM, " mm", False),
+        ("--offset", offset_mm, 0.0, MAX_LENGTH_MM, " mm", False),
+        ("--lambda", ratio, 0.0, MAX_SYNTH_RATIO, "", True),
+        ("--max-pressure-angle", max_pressure_deg, 0.0, MAX_SYNTH_PRESSURE_DEG, " deg", True),
+    )
+    for option, v, lo, hi, unit, open_interval in bounds:
+        if v is None:
+            continue
+        if not math.isfinite(v) or v < lo or v > hi or (open_interval and v in (lo, hi)):
+            within = f"between {lo:g} and {hi:g}{unit}" + (" (both excluded)" if open_interval else "")
+            raise MjlinkError(f"{option} must be {within}, got {v:g}{unit}")
     base = validation.get("crank_slider").synthesis
     assert base is not None  # crank_slider.toml carries the seed's [synthesis] requirement
     S = stroke_mm * MM if stroke_mm is not None else base.stroke

@@ -173,9 +173,10 @@ class Mobility:
         return self.actual == 1 and not self.free and not self.redundant
 
 
-def mobility(mech: Mechanism) -> Mobility:
+def mobility(mech: Mechanism, kin: reference.Kinematics | None = None) -> Mobility:
     """Count links, lower pairs and gear couplings, and check the count against the rank of the
-    constraint Jacobian (see :class:`Mobility`)."""
+    constraint Jacobian (see :class:`Mobility`); ``kin`` the reference over the cycle if it is
+    solved already."""
     bodies: dict[str, int] = {}
     for l in mech.links:
         for p in l.points:
@@ -185,7 +186,7 @@ def mobility(mech: Mechanism) -> Mobility:
     gears = len(mech.geared)
     count = Mobility(len(mech.links), revolute, prismatic, gears)
     try:
-        actual, free, redundant = _rank_mobility(mech)
+        actual, free, redundant = _rank_mobility(mech, kin)
     except (MechanismFileError, AssemblyError, KeyError, StopIteration, IndexError):
         return count  # a structure the tree or the solver refuses is reported by those checks
     return dataclasses.replace(count, actual=actual, free=free, redundant=redundant)
@@ -194,13 +195,15 @@ def mobility(mech: Mechanism) -> Mobility:
 RANK_TOL = 1e-9  # singular values below this fraction of the largest are zero
 
 
-def _rank_mobility(mech: Mechanism) -> tuple[int, tuple[str, ...], tuple[str, ...]]:
+def _rank_mobility(
+    mech: Mechanism, kin: reference.Kinematics | None = None
+) -> tuple[int, tuple[str, ...], tuple[str, ...]]:
     """(3 n - rank, links free with the input held, redundant pairs) from the constraints
     linearized at three generic input angles (the largest rank: a special position can lose
     some)."""
     with np.errstate(all="ignore"):
-        phi = cycle_angles(mech, 721)
-        kin = reference.solve(mech, phi, check=False)
+        if kin is None:
+            kin = reference.solve(mech, cycle_angles(mech, 721), check=False)
         ok = np.flatnonzero(kin.assembles() & np.all([np.isfinite(v.v).all(axis=1) for v in kin.points.values()], 0))
     if not len(ok):
         raise AssemblyError("no assembled position")
@@ -251,46 +254,45 @@ def _constraint_jacobian(
         d = P[p] - origin[link]
         return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
 
-    def world(q: np.ndarray, link: str | None, p: str) -> np.ndarray:
+    # Every perturbed pose at once: Q is (K, 3 n), each function returns K values per row.
+    def world(Q: np.ndarray, link: str | None, p: str) -> np.ndarray:
         if link is None:
-            return P[p]
+            return np.broadcast_to(P[p], (len(Q), 2))
         k = links.index(link)
-        x, y, t = q[3 * k : 3 * k + 3]
-        c, s = math.cos(t), math.sin(t)
+        x, y, t = Q[:, 3 * k], Q[:, 3 * k + 1], Q[:, 3 * k + 2]
+        c, s = np.cos(t), np.sin(t)
         r = local(link, p)
-        return np.array([x + c * r[0] - s * r[1], y + s * r[0] + c * r[1]])
+        return np.column_stack([x + c * r[0] - s * r[1], y + s * r[0] + c * r[1]])
 
-    def angle(q: np.ndarray, link: str | None) -> float:
-        return 0.0 if link is None else float(q[3 * links.index(link) + 2])
+    def angle(Q: np.ndarray, link: str | None) -> np.ndarray:
+        return np.zeros(len(Q)) if link is None else Q[:, 3 * links.index(link) + 2]
 
     prs = [p for _, p in all_pairs(mech)]
 
-    def constraints(q: np.ndarray) -> np.ndarray:
-        out: list[float] = []
+    def constraints(Q: np.ndarray) -> np.ndarray:
+        out: list[np.ndarray] = []
         for pr in prs:
             if pr.revolute:
-                out += list(world(q, pr.parent, pr.pin) - world(q, pr.child, pr.pin))
+                d = world(Q, pr.parent, pr.pin) - world(Q, pr.child, pr.pin)
+                out += [d[:, 0], d[:, 1]]
             else:
                 g1, g2 = pr.rail
-                u = world(q, pr.parent, g2) - world(q, pr.parent, g1)
-                nrm = np.array([-u[1], u[0]]) / np.linalg.norm(u)
+                u = world(Q, pr.parent, g2) - world(Q, pr.parent, g1)
+                nrm = np.column_stack([-u[:, 1], u[:, 0]]) / np.linalg.norm(u, axis=1, keepdims=True)
                 o = mech.link(pr.child).points[0]
-                out += [
-                    float(nrm @ (world(q, pr.child, o) - world(q, pr.parent, g1))),
-                    angle(q, pr.child) - angle(q, pr.parent),
-                ]
+                off = world(Q, pr.child, o) - world(Q, pr.parent, g1)
+                out += [np.einsum("ij,ij->i", nrm, off), angle(Q, pr.child) - angle(Q, pr.parent)]
         for s in mech.geared:
-            out.append(angle(q, mech.carrier(s).name) - s.ratio * angle(q, mech.input_link.name))
-        return np.array(out)
+            out.append(angle(Q, mech.carrier(s).name) - s.ratio * angle(Q, mech.input_link.name))
+        return np.array(out).T  # (K, rows)
 
     q0 = np.concatenate([[*origin[l], theta[l]] for l in links])
-    h = 1e-6 * max(1e-3, float(np.abs(q0[np.arange(len(q0)) % 3 != 2]).max(initial=0.0)))
-    J = np.empty((len(constraints(q0)), len(q0)))
-    for k in range(len(q0)):
-        step = 1e-6 if k % 3 == 2 else h
-        dq = np.zeros(len(q0))
-        dq[k] = step
-        J[:, k] = (constraints(q0 + dq) - constraints(q0 - dq)) / (2 * step)
+    m = len(q0)
+    h = 1e-6 * max(1e-3, float(np.abs(q0[np.arange(m) % 3 != 2]).max(initial=0.0)))
+    steps = np.where(np.arange(m) % 3 == 2, 1e-6, h)
+    dQ = np.diag(steps)
+    C = constraints(np.vstack([q0 + dQ, q0 - dQ]))
+    J = ((C[:m] - C[m:]) / (2 * steps[:, None])).T
     rows = [(pr.label, 2) for pr in prs] + [(f"gear {mech.carrier(s).name}", 1) for s in mech.geared]
     return J, rows
 
@@ -374,6 +376,24 @@ def plausibility(mech: Mechanism) -> list[str]:
 # --------------------------------------------------------------------------- all checks
 
 
+@dataclass(frozen=True)
+class _Cycle:
+    """The reference over one period at the checks' samples (assembled or not), solved once
+    for every check: ``full`` whether it assembles everywhere, ``ranges`` where it does (deg)."""
+
+    kin: reference.Kinematics
+    full: bool
+    ranges: str
+
+
+def _cycle(mech: Mechanism) -> _Cycle:
+    phi = cycle_angles(mech)
+    with np.errstate(all="ignore"):  # coinciding points divide by zero; reported by the checks
+        kin = reference.solve(mech, phi, check=False)
+        ok = kin.assembles()
+    return _Cycle(kin, bool(ok.all()), reference.angle_ranges(phi, ok))
+
+
 def problems(mech: Mechanism, *, full_turn: bool = True) -> list[MjlinkError]:
     """Every check :func:`validate` makes, as a list of the errors found (in that order).
 
@@ -381,19 +401,15 @@ def problems(mech: Mechanism, *, full_turn: bool = True) -> list[MjlinkError]:
     Floating-point warnings are silenced: every non-finite value is turned into a message.
     """
     with np.errstate(all="ignore"):
-        return _problems(mech, full_turn)
+        return _problems(mech, full_turn, _cycle(mech))
 
 
-def _problems(mech: Mechanism, full_turn: bool) -> list[MjlinkError]:
+def _problems(mech: Mechanism, full_turn: bool, cycle: _Cycle) -> list[MjlinkError]:
     src = mech.path or mech.name
     found: list[MjlinkError] = []
-    phi = cycle_angles(mech)
-    with np.errstate(all="ignore"):  # coinciding points divide by zero; reported below
-        ok, ranges = reference.assembly_ranges(mech, samples=len(phi))
+    kin, ok, ranges = cycle.kin, cycle.full, cycle.ranges
     if not ok:
         if full_turn:
-            with np.errstate(all="ignore"):
-                kin = reference.solve(mech, phi, check=False)
             blocks = [b for b in block_angles(mech, kin) if not b.closes]
             which = "; ".join(f"{b.kind} {b.label} cannot close for input angles {b.fails_deg} deg" for b in blocks)
             found.append(
@@ -403,13 +419,11 @@ def _problems(mech: Mechanism, full_turn: bool) -> list[MjlinkError]:
                     f"otherwise)"
                 )
             )
-        found += _structure(mech)
+        found += _structure(mech, kin)
         return found
-    with np.errstate(all="ignore"):
-        kin = reference.solve(mech, phi, check=False)
     bad = _undefined(mech, kin)
     if bad:
-        return [*found, bad, *_structure(mech)]
+        return [*found, bad, *_structure(mech, kin)]
     try:
         reference.check_rigidity(mech)
     except MechanismFileError as e:
@@ -417,7 +431,7 @@ def _problems(mech: Mechanism, full_turn: bool) -> list[MjlinkError]:
     close = _almost_coincident(mech, kin)
     if close:
         found.append(close)
-    found += _structure(mech)
+    found += _structure(mech, kin)
     found += [AssemblyError(b.message(src)) for b in block_angles(mech, kin) if not b.ok]
     inertia = _inertia_problem(mech, kin)
     if inertia:
@@ -429,14 +443,14 @@ def _problems(mech: Mechanism, full_turn: bool) -> list[MjlinkError]:
     return found
 
 
-def _structure(mech: Mechanism) -> list[MjlinkError]:
+def _structure(mech: Mechanism, kin: reference.Kinematics) -> list[MjlinkError]:
     """Pairs the builder can make into a MuJoCo tree, and one degree of freedom."""
     out: list[MjlinkError] = []
     try:
         topology(mech)
     except MechanismFileError as e:
         out.append(e)
-    m = _mobility_problem(mech, mobility(mech))
+    m = _mobility_problem(mech, mobility(mech, kin))
     if m:
         out.append(m)
     return out
@@ -514,7 +528,7 @@ def _compile_problem(mech: Mechanism) -> MechanismFileError | None:
     from .sim import builder  # the one check that needs MuJoCo; sim/ sets MUJOCO_GL first
 
     try:
-        builder.build(mech)
+        builder.build_spec(mech).compile()
     except ValueError as e:
         msg = " ".join(str(e).split())
         return MechanismFileError(f"{mech.path or mech.name}: MuJoCo cannot compile the model: {msg}")
@@ -671,11 +685,11 @@ def check(mech: Mechanism) -> CheckReport:
         GearInfo(s.point, next(iter(s.carriers(mech.links)), "?"), s.ratio, s.phase or 0.0) for s in mech.geared
     )
 
-    phi = cycle_angles(mech)
+    cycle = _cycle(mech)
+    full, ranges = cycle.full, cycle.ranges
     with np.errstate(all="ignore"):
-        full, ranges = reference.assembly_ranges(mech, samples=len(phi))
-        angles = block_angles(mech, reference.solve(mech, phi, check=False))
-    probs = tuple((type(e).__name__, str(e)) for e in problems(mech, full_turn=True))
+        angles = block_angles(mech, cycle.kin)
+        probs = tuple((type(e).__name__, str(e)) for e in _problems(mech, True, cycle))
 
     notes = []
     acc = mech.input_crank.length * mech.speed**2
@@ -708,7 +722,7 @@ def check(mech: Mechanism) -> CheckReport:
         links,
         tuple(pairs),
         gears,
-        mobility(mech),
+        mobility(mech, cycle.kin),
         full,
         ranges,
         angles,

@@ -95,7 +95,7 @@ def test_errors_are_one_line_and_nonzero(tmp_path):
     r = mjlink("simulate", str(bad), "--out", str(tmp_path), "--no-video")
     assert r.returncode == 1 and "Traceback" not in r.stderr and str(bad) in r.stderr
     assert not (tmp_path / "x").exists()
-    r = mjlink("simulate", "takeup", "--speed", "0", "--out", str(tmp_path))
+    r = mjlink("simulate", "takeup", "--speed", "0rad/s", "--out", str(tmp_path))
     assert r.returncode == 1 and "--speed" in r.stderr
 
 
@@ -147,7 +147,7 @@ def test_warp_knitting_crank_settings(tmp_path):
 
 @pytest.mark.slow
 def test_torque_reactions_and_steady_commands(tmp_path):
-    r = mjlink("torque", "warp_knitting", "--speed", "1000", "--out", str(tmp_path), "--strict")
+    r = mjlink("torque", "warp_knitting", "--speed", "-1000rpm", "--out", str(tmp_path), "--strict")
     assert r.returncode == 0, r.stderr
     assert "driving torque: peak" in r.stdout and "1000.0 rpm" in r.stdout
     out = tmp_path / "warp_knitting_loads"
@@ -176,7 +176,7 @@ def test_simulate_dynamics_flag(tmp_path):
         "--stall-torque",
         "-0.8",
         "--no-load-speed",
-        "-160",
+        "-160rad/s",
         "--strict",
     )
     assert r.returncode == 0, r.stderr

@@ -38,11 +38,18 @@ def mech():
 
 @pytest.fixture
 def previous(tmp_path):
-    """An existing, complete output folder from an earlier run."""
+    """An existing, complete output folder from an earlier run of mjlink (it carries the marker
+    that lets a later run of the same command replace mjlink's own files in it)."""
     old = tmp_path / "crank_rocker"
-    old.mkdir()
-    (old / "report.json").write_text('{"earlier": true}\n')
+    with output.staged_dir(old, kind="simulate", mechanism="crank_rocker") as stage:
+        (stage / "report.json").write_text('{"earlier": true}\n')
+        (stage / "stale.png").write_text("from an older run")
     return old
+
+
+def files(folder):
+    """The folder's entries, mjlink's marker aside."""
+    return sorted(p.name for p in folder.iterdir() if p.name != output.MARKER)
 
 
 # ----------------------------------------------------------------------------- unwritable
@@ -88,7 +95,7 @@ def test_full_disk_mid_run_leaves_nothing_and_keeps_the_previous_output(tmp_path
         pipeline.run(mech, tmp_path, FAST)
     assert calls == ["kinematics.csv", "reference_kinematics.csv"]
     assert leftovers(tmp_path) == []
-    assert sorted(p.name for p in previous.iterdir()) == ["report.json"]
+    assert files(previous) == ["report.json", "stale.png"]
     assert (previous / "report.json").read_text() == '{"earlier": true}\n'
 
 
@@ -114,12 +121,11 @@ def test_interrupt_mid_run_leaves_nothing(tmp_path, previous):
         with output.staged_dir(previous) as stage:
             (stage / "kinematics.csv").write_text("half")
             raise KeyboardInterrupt
-    assert leftovers(tmp_path) == [] and sorted(p.name for p in previous.iterdir()) == ["report.json"]
+    assert leftovers(tmp_path) == [] and files(previous) == ["report.json", "stale.png"]
 
 
 # ----------------------------------------------------------------------------- replacing
 def test_successful_run_replaces_the_previous_output_whole(tmp_path, mech, previous):
-    (previous / "stale.png").write_text("from an older run")
     res = pipeline.run(mech, tmp_path, FAST)
     assert res.out_dir == previous
     names = sorted(p.name for p in previous.iterdir())
@@ -130,9 +136,9 @@ def test_successful_run_replaces_the_previous_output_whole(tmp_path, mech, previ
 
 def test_replacing_without_atomic_exchange(tmp_path, previous, monkeypatch):
     monkeypatch.setattr(output, "_exchange", lambda a, b: False)
-    with output.staged_dir(previous) as stage:
+    with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
         (stage / "new.txt").write_text("new")
-    assert sorted(p.name for p in previous.iterdir()) == ["new.txt"] and leftovers(tmp_path) == []
+    assert files(previous) == ["new.txt"] and leftovers(tmp_path) == []
 
 
 def test_failed_final_rename_puts_the_previous_output_back(tmp_path, previous, monkeypatch):
@@ -146,9 +152,9 @@ def test_failed_final_rename_puts_the_previous_output_back(tmp_path, previous, m
 
     monkeypatch.setattr(output.os, "replace", flaky)
     with pytest.raises(OutputError, match="cannot write outputs to"):
-        with output.staged_dir(previous) as stage:
+        with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
             (stage / "new.txt").write_text("new")
-    assert sorted(p.name for p in previous.iterdir()) == ["report.json"]
+    assert files(previous) == ["report.json", "stale.png"]
     assert leftovers(tmp_path) == []
 
 
@@ -158,9 +164,9 @@ def test_atomic_exchange_is_used_on_linux(tmp_path, previous, monkeypatch):
     used = []
     real = output._exchange
     monkeypatch.setattr(output, "_exchange", lambda a, b: used.append(real(a, b)) or used[-1])
-    with output.staged_dir(previous) as stage:
+    with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
         (stage / "new.txt").write_text("new")
-    assert used == [True] and sorted(p.name for p in previous.iterdir()) == ["new.txt"]
+    assert used == [True] and files(previous) == ["new.txt"]
 
 
 # ----------------------------------------------------------------------------- names

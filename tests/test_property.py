@@ -140,7 +140,7 @@ def mechanism_text(draw):
         # E at distance d from the chain's driving point's centre; lengths chosen so that the
         # dyad closes over the whole turn for a crank of length r (Grashof-like bounds).
         r = crank if extra == "dyad_on_pin" else length(2.0, 60.0)
-        d = length(r + 20.0, 200.0)
+        d = length(r + 20.0, r + 200.0)
         b2 = length(20.0, 200.0)
         lo2, hi2 = abs(b2 - (d - r)) + 5.0, b2 + (d - r) - 5.0
         lo2 = max(lo2, d + r - b2 + 5.0)
@@ -164,7 +164,7 @@ def mechanism_text(draw):
             ("rocker2", '["E", "X"]', c2, length(5.0, 50.0)),
         ]
     elif extra == "slider_on_pin":
-        rod2, e2 = length(crank + 20.0, 250.0), length(-60.0, 60.0)
+        rod2, e2 = length(crank + 20.0, crank + 250.0), length(-60.0, 60.0)
         more_ground += [f"H1 = [{_num(e2)}, 0.0]", f"H2 = [{_num(e2)}, 100.0]"]
         more_construct += [
             "[[construct]]",

@@ -55,3 +55,25 @@ def test_every_reported_quantity_is_checked_or_informational(takeup):
     text = compare.table([a])
     assert "informational" in text and "pass" in text
     assert {c["result"] for c in a.as_dict()["checks"]} <= {"pass", "FAIL", "informational"}
+
+
+def test_report_records_versions_command_and_settings(takeup, tmp_path):
+    import json
+
+    import mujoco
+
+    from mjlink import __version__
+
+    pipeline.run(
+        takeup,
+        tmp_path,
+        pipeline.Options(video=False, plots=False, dynamics=False, loads=False),
+        command=("python", "-m", "mjlink", "simulate", "takeup", "--out", str(tmp_path)),
+    )
+    rep = json.loads((tmp_path / "takeup" / "report.json").read_text())
+    prov = rep["provenance"]
+    assert prov["versions"]["mjlink"] == __version__ and prov["versions"]["mujoco"] == mujoco.__version__
+    assert prov["versions"]["python"].count(".") == 2
+    assert prov["command"].startswith("python -m mjlink simulate takeup --out ")
+    assert prov["options"]["video"] is False and prov["options"]["speed"] is None
+    assert rep["kinematics"]["settings"]["integrator"] == "RK4" and rep["kinematics"]["settings"]["timestep_s"] == 5e-5

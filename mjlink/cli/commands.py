@@ -5,11 +5,16 @@ function that runs it: it checks the values argparse cannot (ranges, combination
 call into :mod:`mjlink.pipeline`, prints the result (:mod:`.text`) and returns the exit status.
 :mod:`mjlink.pipeline` imports MuJoCo, so it is imported inside the commands that need it:
 ``list``, ``check`` and ``--help`` stay quick.
+
+Speeds on the command line (:func:`speed_arg`) are written with their unit, ``955rpm`` or
+``100rad/s``, and signed: counter-clockwise positive about +Z, as a file's ``[input] speed``.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import re
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -18,27 +23,44 @@ from typing import TYPE_CHECKING
 
 from .. import validation
 from ..errors import MjlinkError
-from ..model.limits import MAX_CYCLES
+from ..model.limits import MAX_CYCLES, MAX_FPS
+from ..units import from_rpm
 from . import text
 
 if TYPE_CHECKING:
-    from ..pipeline import Drive
+    from ..model.mechanism import Mechanism
+    from ..pipeline import Drive, Estimate
 
-EXAMPLES = """\
+SPEEDS = """\
+speeds: every speed on the command line is written with its unit, 955rpm or 100rad/s
+  (rev/min and r/min are rpm too; '955 rpm' with a space when quoted), and signed:
+  counter-clockwise positive about +Z, exactly as a mechanism file's [input] speed (rad/s).
+  A bare number is an error. So a file whose crank turns clockwise (crank_slider,
+  warp_knitting: negative [input] speed) keeps its direction with a negative speed,
+  --speed -1000rpm; a speed against the file's own direction is run, with a 'note:' line.
+  This holds for simulate --speed, torque/reactions --speed, --omega0 and --no-load-speed.
+exit status: 0 done (also when a threshold is missed, unless --strict: then 3); 1 an error
+  in a file, a value or a run (one line, 'mjlink: error: ...'); 2 a usage error (unknown
+  option, missing argument, a value of the wrong form: one line too); 130/143 interrupted.
+  --debug (before or after the command) shows the traceback of an error.
+"""
+
+EXAMPLES = f"""\
 examples:
   python -m mjlink list
   python -m mjlink simulate takeup                     # everything into renders/takeup/
   python -m mjlink simulate takeup --no-video --out /tmp/runs
-  python -m mjlink simulate my_linkage.toml --speed 50 --cycles 2
+  python -m mjlink simulate my_linkage.toml --speed 50rad/s --cycles 2
   python -m mjlink simulate warp_knitting --phi01 -90 --phi04 30   # another crank setting
   python -m mjlink build takeup -o takeup.xml          # MJCF for plain mujoco.MjModel.from_xml_path
   python -m mjlink synth crank_slider --stroke 45 --offset 15 --lambda 0.35 --max-pressure-angle 40
   python -m mjlink simulate takeup --dynamics          # + steady motion and flywheel study
-  python -m mjlink simulate crank_slider --dynamics --stall-torque -0.8 --no-load-speed -160 --duration 2
-  python -m mjlink torque warp_knitting --speed 1000    # driving torque at 1000 rpm
-  python -m mjlink reactions takeup --speed 955         # forces in every kinematic pair
+  python -m mjlink simulate crank_slider --dynamics --stall-torque -0.8 --no-load-speed -160rad/s --duration 2
+  python -m mjlink torque warp_knitting --speed -1000rpm   # driving torque at 1000 rpm, clockwise as the file
+  python -m mjlink reactions takeup --speed 955rpm     # forces in every kinematic pair
   python -m mjlink steady takeup --target-delta 0.01    # speed fluctuation and flywheel
-"""
+
+{SPEEDS}"""
 
 MAX_VIDEO_SIZE = (1920, 1080)  # pixels: the offscreen buffer the builder sizes the model for
 
@@ -56,47 +78,140 @@ class Command:
     run: Callable[[argparse.Namespace], int]
 
 
+# ----------------------------------------------------------------------------- speeds and paths
+@dataclass(frozen=True)
+class Speed:
+    """A speed as written on the command line: ``value`` in its ``unit`` ('rpm' or 'rad/s'),
+    signed, counter-clockwise positive about +Z; ``rad_s`` the same in rad/s."""
+
+    value: float
+    unit: str
+
+    @property
+    def rad_s(self) -> float:
+        return self.value if self.unit == "rad/s" else from_rpm(self.value)
+
+    @property
+    def arg(self) -> str:
+        """As an argument: '955rpm', '-100rad/s'."""
+        return f"{self.value:g}{self.unit}"
+
+    def __str__(self) -> str:
+        """As messages show it: '955 rpm'."""
+        return f"{self.value:g} {self.unit}"
+
+
+_UNITS = {"rpm": "rpm", "rev/min": "rpm", "r/min": "rpm", "rad/s": "rad/s"}
+_SPEED = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)\s*(rpm|rev/min|r/min|rad/s)\s*", re.IGNORECASE)
+
+
+def speed_arg(s: str) -> Speed:
+    """argparse type of every speed option: a signed number with its unit (see :data:`SPEEDS`)."""
+    m = _SPEED.fullmatch(s)
+    if m is None:
+        try:
+            bare = float(s)
+        except ValueError:
+            bare = None
+        if bare is not None:
+            raise argparse.ArgumentTypeError(
+                f"write the speed with its unit: {s.strip()}rpm or {s.strip()}rad/s (signed, counter-clockwise "
+                "positive as the file's [input] speed); a bare number is ambiguous"
+            )
+        raise argparse.ArgumentTypeError(
+            f"{text.error_line(repr(s))} is not a speed: write a signed number and its unit, e.g. 955rpm or "
+            "-100rad/s (rpm, rev/min, r/min or rad/s)"
+        )
+    value = float(m[1])
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{s.strip()} is not a finite speed")
+    return Speed(value, _UNITS[m[2].lower()])
+
+
+def path_arg(s: str) -> Path:
+    """argparse type of every path option: not empty, ``~`` and ``~user`` expanded (as the shell
+    does when it is not quoted); an unknown user is a usage error."""
+    if not s.strip():
+        raise argparse.ArgumentTypeError("empty path: give a file or folder name")
+    try:
+        return Path(s).expanduser()
+    except RuntimeError:  # ~user of no such user, or no home folder
+        raise argparse.ArgumentTypeError(
+            f"{text.error_line(s)}: cannot expand {text.error_line(s.split('/')[0])}: no such user or home folder"
+        ) from None
+
+
+def _rad_s(v: Speed | None) -> float | None:
+    return None if v is None else v.rad_s
+
+
+def _notes(mech: Mechanism, args: argparse.Namespace, options: Sequence[tuple[str, str]]) -> None:
+    """Print a 'note:' line for each speed option given against the file's own direction."""
+    for option, attr in options:
+        v: Speed | None = getattr(args, attr, None)
+        if v is not None:
+            note = text.against_file(option, v.arg, v.rad_s, mech.speed)
+            if note:
+                print(note, flush=True)
+
+
+def _long_run(est: Estimate) -> None:
+    """Say on stderr, before it starts, that a run will take a while (and what it will cost)."""
+    r = est.long
+    if r is not None:
+        print(f"mjlink: long run: {r.describe()}; this takes minutes", file=sys.stderr, flush=True)
+
+
 # ----------------------------------------------------------------------------- shared
 def _mechanism(p: argparse.ArgumentParser) -> None:
     p.add_argument("mechanism", help="registered name (see 'list') or path to a .toml file")
 
 
+_SPEED_HELP = "with its unit (955rpm, 100rad/s), signed, counter-clockwise positive"
+
+
 def _drive_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--moment", type=float, metavar="N_M", help="constant driving moment on the crank, N*m")
+    p.add_argument("--moment", type=float, metavar="N_M", help="constant driving moment on the crank, N*m (signed)")
     p.add_argument(
         "--stall-torque",
         type=float,
         metavar="N_M",
-        help="motor characteristic: torque at rest, N*m (with --no-load-speed)",
+        help="motor characteristic: torque at rest, N*m, signed (with --no-load-speed)",
     )
     p.add_argument(
         "--no-load-speed",
-        type=float,
-        metavar="RAD_S",
-        help="motor characteristic: speed at which the torque falls to zero, rad/s",
+        type=speed_arg,
+        metavar="SPEED",
+        help=f"motor characteristic: speed at which the torque falls to zero, {_SPEED_HELP}",
     )
     p.add_argument("--damping", type=float, metavar="N_M_S", help="viscous damping on the crank, N*m*s")
-    p.add_argument("--omega0", type=float, metavar="RAD_S", help="initial crank speed of the dynamic run, rad/s")
+    p.add_argument(
+        "--omega0", type=speed_arg, metavar="SPEED", help=f"initial crank speed of the dynamic run, {_SPEED_HELP}"
+    )
     p.add_argument("--target-delta", type=float, help="target speed fluctuation for the flywheel (steady study)")
 
 
 def _drive(args: argparse.Namespace) -> Drive:
-    """The drive options a command has (the others None); :func:`pipeline.with_drive` checks them."""
+    """The drive options a command has (the others None), speeds in rad/s;
+    :func:`pipeline.with_drive` checks them."""
     from ..pipeline import Drive
 
     return Drive(
-        **{
-            k: getattr(args, k, None)
-            for k in ("moment", "damping", "omega0", "duration", "stall_torque", "no_load_speed", "target_delta")
-        }
+        moment=getattr(args, "moment", None),
+        damping=getattr(args, "damping", None),
+        omega0=_rad_s(getattr(args, "omega0", None)),
+        duration=getattr(args, "duration", None),
+        stall_torque=getattr(args, "stall_torque", None),
+        no_load_speed=_rad_s(getattr(args, "no_load_speed", None)),
+        target_delta=getattr(args, "target_delta", None),
     )
 
 
-def _positive(option: str, v: float | None, allow_none: bool = True) -> None:
+def _positive(option: str, v: float | None, unit: str = "", allow_none: bool = True) -> None:
     if v is None and allow_none:
         return
     if v is None or not (v > 0) or v != v or v == float("inf"):
-        raise MjlinkError(f"{option} must be a positive finite number, got {v}")
+        raise MjlinkError(f"{option} must be a positive finite number, got {v}{unit}")
 
 
 def _size(size: str) -> tuple[int, int]:
@@ -104,7 +219,7 @@ def _size(size: str) -> tuple[int, int]:
     try:
         w, h = (int(x) for x in size.lower().split("x"))
     except ValueError:
-        raise MjlinkError(f"--size must be WIDTHxHEIGHT, e.g. 640x480; got '{size}'") from None
+        raise MjlinkError(f"--size must be WIDTHxHEIGHT, e.g. 640x480; got {text.error_line(repr(size))}") from None
     return w, h
 
 
@@ -126,8 +241,12 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _check(args: argparse.Namespace) -> int:
-    report = validation.check_file(args.mechanism)  # an unreadable file raises: nothing to report
-    print(text.format_report(report))
+    from ..model import catalogue
+    from ..model.mechanism import load
+
+    mech = load(catalogue.path_of(args.mechanism))  # an unreadable file raises: nothing to report
+    report = validation.check(mech)
+    print(text.format_report(report, speed=mech.speed))
     report.raise_if_failed()  # the first problem, as one line, exit 1
     return 0
 
@@ -135,7 +254,7 @@ def _check(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------- build
 def _build_arguments(p: argparse.ArgumentParser) -> None:
     _mechanism(p)
-    p.add_argument("-o", "--output", type=Path, help="MJCF file to write (default: standard output)")
+    p.add_argument("-o", "--output", type=path_arg, help="MJCF file to write (default: standard output)")
     p.add_argument(
         "--kinematic",
         action="store_true",
@@ -146,11 +265,17 @@ def _build_arguments(p: argparse.ArgumentParser) -> None:
 def _build(args: argparse.Namespace) -> int:
     from .. import pipeline
 
-    res = pipeline.build(validation.get(args.mechanism), kinematic=args.kinematic, path=args.output)
+    mech = validation.get(args.mechanism)
+    res = pipeline.build(mech, kinematic=args.kinematic, path=args.output)
     if res.path is None:
         sys.stdout.write(res.xml)
     else:
-        print(f"wrote {res.path}", file=sys.stderr)
+        crank = (
+            f"kinematic model, the crank held at {text.crank_speed(mech.speed)}"
+            if args.kinematic
+            else f"dynamic model, the crank starting at {text.crank_speed(mech.dynamics.omega0)}"
+        )
+        print(f"wrote {res.path} ({crank})", file=sys.stderr)
     return 0
 
 
@@ -158,10 +283,18 @@ def _build(args: argparse.Namespace) -> int:
 def _simulate_arguments(s: argparse.ArgumentParser) -> None:
     _mechanism(s)
     s.add_argument(
-        "--out", type=Path, default=Path("renders"), help="output root (default: renders/); results go to OUT/NAME/"
+        "--out", type=path_arg, default=Path("renders"), help="output root (default: renders/); results go to OUT/NAME/"
     )
     s.add_argument(
-        "--speed", type=float, help="crank speed of the kinematic run, rad/s, CCW positive (default: the file's)"
+        "--force",
+        action="store_true",
+        help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
+    )
+    s.add_argument(
+        "--speed",
+        type=speed_arg,
+        metavar="SPEED",
+        help=f"crank speed of the kinematic run, {_SPEED_HELP} (default: the file's [input] speed)",
     )
     s.add_argument("--cycles", type=float, help="crank periods in the kinematic run (default: the file's)")
     s.add_argument("--duration", type=float, help="duration of the dynamic run, s (default: the file's)")
@@ -169,7 +302,7 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     s.add_argument("--no-video", action="store_true", help="skip the MP4")
     s.add_argument("--video-seconds", type=float, default=3.0, help="length of the video, s (default 3)")
-    s.add_argument("--fps", type=int, default=30, help="video frames per second (default 30)")
+    s.add_argument("--fps", type=float, default=30, help="video frames per second, a whole number (default 30)")
     s.add_argument("--size", default="640x480", help="video size WIDTHxHEIGHT in pixels (default 640x480)")
     s.add_argument(
         "--phi0",
@@ -200,19 +333,19 @@ def _simulate(args: argparse.Namespace) -> int:
     w, h = _size(args.size)
     from .. import pipeline
 
-    pipeline.check_speed("--speed", args.speed)
+    if args.speed is not None:
+        pipeline.check_speed("--speed", args.speed.rad_s, str(args.speed))
     _positive("--cycles", args.cycles)
     if args.cycles is not None and args.cycles > MAX_CYCLES:
         raise MjlinkError(f"--cycles must be at most {MAX_CYCLES:g}, got {args.cycles:g}")
-    _positive("--duration", args.duration)
-    _positive("--video-seconds", args.video_seconds, allow_none=False)
-    _positive("--fps", args.fps, allow_none=False)
+    _positive("--video-seconds", args.video_seconds, " s", allow_none=False)
+    if not (0 < args.fps <= MAX_FPS and args.fps == round(args.fps)):  # no round(inf) below
+        raise MjlinkError(
+            f"--fps must be a whole number of frames/s from 1 to {MAX_FPS} (mechanisms/README.md, Limits), "
+            f"got {args.fps:g}"
+        )
     if w <= 0 or h <= 0 or w % 2 or h % 2 or w > MAX_VIDEO_SIZE[0] or h > MAX_VIDEO_SIZE[1]:
         raise MjlinkError(f"--size must be even and at most {MAX_VIDEO_SIZE[0]}x{MAX_VIDEO_SIZE[1]}, got {args.size}")
-    if not args.no_video:
-        from ..sim.gl import ensure_gl_backend
-
-        ensure_gl_backend()  # no OpenGL: fail now, not after the runs
 
     mech = validation.with_crank_settings(validation.get(args.mechanism), args.phi0, args.phase)
     mech = pipeline.with_drive(mech, _drive(args))
@@ -227,20 +360,27 @@ def _simulate(args: argparse.Namespace) -> int:
         )
     # --duration is already the mechanism's (with_drive), so the run takes the file's.
     opts = pipeline.Options(
-        speed=args.speed,
+        speed=_rad_s(args.speed),
         cycles=args.cycles,
         duration=None,
         dynamics=not args.no_dynamics,
         plots=not args.no_plots,
         video=not args.no_video,
         video_seconds=args.video_seconds,
-        fps=args.fps,
+        fps=round(args.fps),
         width=w,
         height=h,
         steady=args.dynamics,
     )
+    estimate = pipeline.estimate(mech, opts)  # the absurd is refused here, before anything runs
+    if not args.no_video:
+        from ..sim.gl import ensure_gl_backend
+
+        ensure_gl_backend()  # no OpenGL: fail now, not after the runs
+    _notes(mech, args, (("--speed", "speed"), ("--omega0", "omega0"), ("--no-load-speed", "no_load_speed")))
     print(f"mjlink: simulating {mech.name} ({mech.title})", file=sys.stderr)
-    res = pipeline.run(mech, args.out, opts)
+    _long_run(estimate)
+    res = pipeline.run(mech, args.out, opts, force=args.force, command=args.command_line)
     print(text.simulation(res))
     return _verdict(res.failures, args.strict)
 
@@ -250,11 +390,16 @@ def _loads_arguments(q: argparse.ArgumentParser) -> None:
     _mechanism(q)
     q.add_argument(
         "--speed",
-        type=float,
-        metavar="RPM",
-        help="crank speed, rev/min, in the file's sense of rotation (negative reverses it; default: the file's speed)",
+        type=speed_arg,
+        metavar="SPEED",
+        help=f"crank speed, {_SPEED_HELP} as the file's [input] speed (default: the file's)",
     )
-    q.add_argument("--out", type=Path, default=Path("renders"), help="output root; results go to OUT/NAME_loads/")
+    q.add_argument("--out", type=path_arg, default=Path("renders"), help="output root; results go to OUT/NAME_loads/")
+    q.add_argument(
+        "--force",
+        action="store_true",
+        help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
+    )
     q.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     q.add_argument("--strict", action="store_true", help="exit 3 if an agreement threshold is missed")
 
@@ -262,7 +407,16 @@ def _loads_arguments(q: argparse.ArgumentParser) -> None:
 def _loads(args: argparse.Namespace, *, torque: bool) -> int:
     from .. import pipeline
 
-    res = pipeline.loads(validation.get(args.mechanism), args.out, rpm=args.speed, plots=not args.no_plots)
+    mech = validation.get(args.mechanism)
+    speed = _rad_s(args.speed)
+    if args.speed is not None:
+        pipeline.check_speed("--speed", args.speed.rad_s, str(args.speed))
+    estimate = pipeline.estimate(mech, pipeline.Options(speed=speed, dynamics=False, video=False), cycles_option=None)
+    _notes(mech, args, (("--speed", "speed"),))
+    _long_run(estimate)
+    res = pipeline.loads(
+        mech, args.out, speed=speed, plots=not args.no_plots, force=args.force, command=args.command_line
+    )
     print(text.torque(res) if torque else text.reactions(res))
     return _verdict(res.failures, args.strict)
 
@@ -278,14 +432,19 @@ def _reactions(args: argparse.Namespace) -> int:
 def _steady_arguments(q: argparse.ArgumentParser) -> None:
     _mechanism(q)
     q.add_argument("--stall-torque", type=float, metavar="N_M", help="motor torque at rest, N*m (signed)")
-    q.add_argument("--no-load-speed", type=float, metavar="RAD_S", help="motor no-load speed, rad/s (signed)")
+    q.add_argument("--no-load-speed", type=speed_arg, metavar="SPEED", help=f"motor no-load speed, {_SPEED_HELP}")
     q.add_argument("--damping", type=float, metavar="N_M_S", help="viscous damping on the crank, N*m*s")
     q.add_argument(
         "--target-delta",
         type=float,
         help="wanted coefficient of speed fluctuation (default: the file's [steady] target_delta, else 0.02)",
     )
-    q.add_argument("--out", type=Path, default=Path("renders"), help="output root; results go to OUT/NAME_steady/")
+    q.add_argument("--out", type=path_arg, default=Path("renders"), help="output root; results go to OUT/NAME_steady/")
+    q.add_argument(
+        "--force",
+        action="store_true",
+        help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
+    )
     q.add_argument("--no-plots", action="store_true", help="skip the PNG plot")
     q.add_argument("--strict", action="store_true", help="exit 3 if MuJoCo and the reference disagree")
 
@@ -293,7 +452,17 @@ def _steady_arguments(q: argparse.ArgumentParser) -> None:
 def _steady(args: argparse.Namespace) -> int:
     from .. import pipeline
 
-    res = pipeline.steady(validation.get(args.mechanism), args.out, drive=_drive(args), plots=not args.no_plots)
+    mech = validation.get(args.mechanism)
+    drive = _drive(args)
+    driven = pipeline.with_drive(mech, drive, steady=True)
+    if driven.steady is not None:
+        _long_run(
+            pipeline.estimate(driven, pipeline.Options(dynamics=False, video=False, steady=True), kinematic=False)
+        )
+    _notes(mech, args, (("--no-load-speed", "no_load_speed"),))
+    res = pipeline.steady(
+        mech, args.out, drive=drive, plots=not args.no_plots, force=args.force, command=args.command_line
+    )
     print(text.steady(res))
     return _verdict(res.failures, args.strict)
 
@@ -305,7 +474,7 @@ def _synth_arguments(y: argparse.ArgumentParser) -> None:
     y.add_argument("--offset", type=float, help="guide offset e, mm")
     y.add_argument("--lambda", dest="ratio", type=float, help="lambda = r / l")
     y.add_argument("--max-pressure-angle", type=float, help="allowed pressure angle [theta], deg")
-    y.add_argument("--write", type=Path, metavar="FILE", help="save the accepted design as a mechanism file")
+    y.add_argument("--write", type=path_arg, metavar="FILE", help="save the accepted design as a mechanism file")
 
 
 def _synth(args: argparse.Namespace) -> int:
@@ -330,7 +499,13 @@ def _no_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _loads_command(name: str, what: str, run: Callable[[argparse.Namespace], int]) -> Command:
-    return Command(name, what, f"example: python -m mjlink {name} takeup --speed 955", _loads_arguments, run)
+    return Command(
+        name,
+        what,
+        f"example: python -m mjlink {name} takeup --speed 955rpm\n\n{SPEEDS}",
+        _loads_arguments,
+        run,
+    )
 
 
 COMMANDS: tuple[Command, ...] = (
@@ -357,7 +532,8 @@ COMMANDS: tuple[Command, ...] = (
     Command(
         "steady",
         "steady motion under a motor characteristic, speed fluctuation, flywheel",
-        "example: python -m mjlink steady takeup --stall-torque 0.05 --no-load-speed 120 --target-delta 0.02",
+        "example: python -m mjlink steady takeup --stall-torque 0.05 --no-load-speed 120rad/s --target-delta 0.02"
+        f"\n\n{SPEEDS}",
         _steady_arguments,
         _steady,
     ),

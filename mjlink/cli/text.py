@@ -1,7 +1,8 @@
 """What the commands print: each typed result of :mod:`mjlink.pipeline` (or check report) as text.
 
 Units as printed: speeds rad/s and rev/min, torques N*m, forces N, power W, inertia kg*m^2,
-lengths mm, masses g, angles deg; errors relative unless a unit is given.
+lengths mm, masses g, angles deg; errors relative unless a unit is given. Every speed says its
+direction (:func:`crank_speed`): signed speeds are counter-clockwise positive about +Z, as in files.
 """
 
 from __future__ import annotations
@@ -13,11 +14,45 @@ from typing import TYPE_CHECKING
 from .. import compare, validation
 from ..model import names
 from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
-from ..units import G, PairKind, PairRole, to_mm
+from ..units import G, PairKind, PairRole, to_mm, to_rpm
 
 if TYPE_CHECKING:
     from ..model.mechanism import Mechanism
     from ..pipeline import LoadsResult, SimulateResult, SteadyResult, SteadySummary, SynthResult
+
+
+def error_line(message: object, limit: int = 2000) -> str:
+    """An error as one printable line: control characters and newlines (a file's values, a path
+    or the environment can bring them) shown as escapes, clipped to ``limit`` characters. The
+    one place errors are printed (:func:`mjlink.cli.main` and argparse's errors) goes through it."""
+    line = "".join(c if c.isprintable() else ascii(c)[1:-1] for c in str(message))
+    return line if len(line) <= limit else line[: limit - 3] + "..."
+
+
+def direction(w: float) -> str:
+    """The sense of a signed speed (rad/s, counter-clockwise positive about +Z)."""
+    return "counter-clockwise" if w > 0 else "clockwise" if w < 0 else "at rest"
+
+
+def crank_speed(w: float) -> str:
+    """A signed crank speed (rad/s) as printed: '954.9 rpm (100 rad/s), counter-clockwise'."""
+    if w == 0:
+        return "0 rpm (0 rad/s), at rest"
+    return f"{abs(to_rpm(w)):.1f} rpm ({abs(w):.4g} rad/s), {direction(w)}"
+
+
+def against_file(option: str, given: str, w: float, file_speed: float) -> str | None:
+    """The note a command prints when ``option`` (written ``given`` as on the command line, e.g.
+    '100rad/s'; ``w`` rad/s signed) turns the crank against the file's own direction (the sign
+    of its ``[input] speed``, rad/s); None if it does not."""
+    if w == 0 or (w > 0) == (file_speed > 0):
+        return None
+    flipped = given[1:] if given.startswith("-") else "-" + given.lstrip("+")
+    return (
+        f"note: {option} {given} is {direction(w)}, against the file's own direction "
+        f"({direction(file_speed)}: [input] speed = {file_speed:g} rad/s); {option}={flipped} keeps the "
+        "file's direction"
+    )
 
 
 def missed(failures: Sequence[str]) -> str:
@@ -40,7 +75,12 @@ def simulation(res: SimulateResult) -> str:
     tight solution, the loads, steady motion and video summaries, the files and the time taken."""
     from ..pipeline import PAPER_RK4_STEPS
 
-    out = [
+    k = res.kinematics
+    out = [f"kinematic run: {crank_speed(k.speed)}, for {k.duration:.4g} s"]
+    if res.dynamics is not None:
+        d = res.dynamics
+        out.append(f"dynamic run: {d.duration:g} s, final speed {crank_speed(d.omega_final_mujoco)}")
+    out += [
         f"\nAgreement of MuJoCo with the vector-method reference ({res.mechanism}):",
         compare.table(list(res.agreements)),
     ]
@@ -54,7 +94,7 @@ def simulation(res: SimulateResult) -> str:
     if res.loads is not None:
         L = res.loads
         out.append(
-            f"driving torque at {abs(L.speed_rpm):.0f} rpm: peak {L.torque_peak:.4g} N*m, RMS "
+            f"driving torque at {crank_speed(L.speed)}: peak {L.torque_peak:.4g} N*m, RMS "
             f"{L.torque_rms:.4g} N*m, mean power {L.power_mean:.4g} W; MuJoCo vs kinetostatics: torque "
             f"{L.torque_error:.2e}, reactions {L.force_error:.2e} of range"
         )
@@ -70,7 +110,7 @@ def simulation(res: SimulateResult) -> str:
 
 def _loads_heading(res: LoadsResult) -> str:
     L = res.loads
-    return f"{res.mechanism} at {abs(L.speed_rpm):.1f} rpm ({L.speed:.4g} rad/s):"
+    return f"{res.mechanism} at {crank_speed(L.speed)}:"
 
 
 def torque(res: LoadsResult) -> str:
@@ -104,7 +144,7 @@ def reactions(res: LoadsResult) -> str:
 def steady_line(s: SteadySummary) -> str:
     """Steady motion in one line: mean speed, delta without and with the flywheel, MuJoCo's."""
     return (
-        f"steady motion: mean {s.n_mean_rpm:.1f} rpm, delta {s.delta:.4f} (MuJoCo {s.delta_mujoco:.4f}); "
+        f"steady motion: mean {crank_speed(s.omega_mean)}, delta {s.delta:.4f} (MuJoCo {s.delta_mujoco:.4f}); "
         f"flywheel {s.flywheel:.4g} kg*m^2 gives delta {s.delta_with_flywheel:.4f} "
         f"(MuJoCo {s.delta_with_flywheel_mujoco:.4f}, target {s.target_delta:g})"
     )
@@ -142,11 +182,14 @@ def synthesis(res: SynthResult) -> str:
     return "\n".join(out)
 
 
-def format_report(r: validation.CheckReport) -> str:
+def format_report(r: validation.CheckReport, *, speed: float | None = None) -> str:
     """What ``check`` prints: the points, links, pairs, loops, gears, degrees of freedom,
     assembly and dead points of a file, its notes and problems (masses g, angles deg, lengths
-    as the file gives them)."""
-    out = [f"{r.name}: {r.title}", f"file: {r.path}", ""]
+    as the file gives them); with ``speed`` (rad/s, the file's [input] speed) its direction."""
+    out = [f"{r.name}: {r.title}", f"file: {r.path}"]
+    if speed is not None:
+        out.append(f"input crank: {crank_speed(speed)} ([input] speed = {speed:g} rad/s)")
+    out.append("")
     w = max([len(p.name) for p in r.points] + [4])
     wm = max(len(p.made_by) for p in r.points)
     out.append(f"points ({sum(p.ground for p in r.points)} ground, {sum(not p.ground for p in r.points)} moving)")

@@ -349,7 +349,7 @@ class Dyad(Block):
         r.keys(raw, where, ["block", "point", "a", "b", "length_a", "length_b", "sign"])
         sign = raw["sign"]
         if isinstance(sign, bool) or sign not in (1, -1):
-            raise r.fail(f"{where} sign", f"must be +1 or -1 (the assembly branch), got {sign!r}")
+            raise r.fail(f"{where} sign", f"must be +1 or -1 (the assembly branch), got {r.shown(sign)}")
         a, b = r.name(raw["a"], f"{where} a"), r.name(raw["b"], f"{where} b")
         if a == b:
             raise r.fail(f"{where} b", f"must differ from a (both are '{a}'): a dyad joins two different points")

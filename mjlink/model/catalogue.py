@@ -44,7 +44,12 @@ def path_of(name_or_path: str | Path) -> Path:
     if not s.strip():
         raise UnknownMechanismError(f"empty mechanism name (valid: {', '.join(names())}, or a path to a .toml file)")
     if isinstance(name_or_path, Path) or _is_path(s):
-        p = Path(s).expanduser()
+        try:
+            p = Path(s).expanduser()
+        except RuntimeError:  # ~user of no such user
+            raise UnknownMechanismError(
+                f"{s}: cannot expand '{s.split('/')[0]}': no such user or home folder"
+            ) from None
         shown = s if str(p) == s else f"{s} ({p})"
         if p.is_dir():
             raise UnknownMechanismError(f"{shown}: is a folder, not a mechanism file")

@@ -16,6 +16,11 @@ MIN_BAR_MM = 0.1
 # above 1e4 rad/s a turn is shorter than 13 steps. [input] cycles at most MAX_CYCLES.
 MIN_SPEED, MAX_SPEED = 1.0, 1e4
 MAX_CYCLES = 100.0
+# Durations of the dynamic run, s ([dynamics] duration, --duration). It is sampled every
+# 0.25 ms and needs 100 samples to be compared with the reference (compare.MIN_SAMPLES), so a
+# run under 25 ms cannot be judged; at dt = 50 us a 100 s run is 2 million steps (tens of
+# minutes), beyond any study of a machine's run-up (the papers' take-up settles within 1 s).
+MIN_DURATION_S, MAX_DURATION_S = 0.025, 100.0
 MAX_GEAR_RATIO = 64.0
 # Angles in files (phi0, phase, attached angle): beyond a turn or two they only lose precision
 # (phi0 = 1e300 deg leaves no digits for the crank's motion).
@@ -46,3 +51,33 @@ MIN_DIRECTION_M = 1e-6  # points that define a direction (attached, guide) stay 
 # mass 1e-4 mm from its crank's pivot was simulated on the pivot, a 0.1 um position error).
 MIN_DISTINCT_M = 1e-6
 SAMPLES_PER_TURN = 3600  # input-angle samples per crank turn for every check over a cycle
+
+# What one command may cost, estimated before it starts (pipeline.estimate): a run records
+# 7 + 9 per point + 7 per link values per sample (118 for the take-up), and each costs about
+# 60 bytes of memory and 23 bytes of CSV, MuJoCo's trace and the reference's together
+# (measured: the take-up's kinematic run at 1 rad/s, 125 664 samples, peaked at 1.0 GB and wrote
+# 338 MB of CSV; over 100 turns it would need ~90 GB and 34 GB). Refused beyond these, naming
+# the estimate and the option to change.
+TRACE_BYTES_PER_VALUE, CSV_BYTES_PER_VALUE = 60.0, 23.0
+MAX_TRACE_BYTES = 2e9  # memory for the traces of one run, bytes
+MAX_CSV_BYTES = 1e9  # CSV written by one run, bytes
+LONG_RUN_SAMPLES = 100_000  # above this a run says on stderr that it will take a while
+# The video: frames are rendered and encoded one by one (measured 40 ms each at 640x480 with
+# EGL): 10 000 frames are about 7 minutes of rendering, a 5.5-minute video at 30 fps; beyond
+# 240 fps no player shows the difference.
+MAX_VIDEO_FRAMES = 10_000
+MAX_FPS = 240
+# Text a file shows in every listing, plot title and report: one line, a title not an essay
+# (a 1 MB title was written into every figure and report).
+MAX_TITLE_CHARS = 200
+# Points in one file (ground and built): every check over a cycle solves each point at
+# SAMPLES_PER_TURN input angles per turn of the period, so its cost is points x samples; 2000
+# points took `check` 161 s, 200 about 5 s. The product is bounded too, for geared files whose
+# period spans many turns: 200 points over 4 turns (about 20 s).
+MAX_POINTS = 200
+MAX_CHECK_POINT_SAMPLES = MAX_POINTS * SAMPLES_PER_TURN * 4
+# Synthesis of the offset crank-slider (synth): stroke and offset are lengths like any bar's
+# (MIN_BAR_MM .. MAX_LENGTH_MM); lambda = r / l below 1 (a crank longer than its rod cannot
+# turn); the allowed pressure angle within 0 .. 90 deg (at 90 the slider locks).
+MAX_SYNTH_RATIO = 1.0
+MAX_SYNTH_PRESSURE_DEG = 90.0

@@ -13,7 +13,6 @@ are in SI (m, rad, kg, kg*m^2, N, N*m, N*m*s, rad/s, s).
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,7 +24,21 @@ from ..units import DEG, MM, G
 from . import blocks as _blocks
 from . import names as _names
 from .blocks import Attached, Block, Crank, Dyad, Slider
-from .limits import MAX_ANGLE_DEG, MAX_CYCLES, MAX_INERTIA, MAX_LENGTH_MM, MAX_MASS_G, MAX_SPEED, MIN_SPEED
+from .limits import (
+    MAX_ANGLE_DEG,
+    MAX_CHECK_POINT_SAMPLES,
+    MAX_CYCLES,
+    MAX_DURATION_S,
+    MAX_INERTIA,
+    MAX_LENGTH_MM,
+    MAX_MASS_G,
+    MAX_POINTS,
+    MAX_SPEED,
+    MAX_TITLE_CHARS,
+    MIN_DURATION_S,
+    MIN_SPEED,
+    SAMPLES_PER_TURN,
+)
 from .names import RESERVED_LINK_NAMES
 from .reader import Reader
 
@@ -261,7 +274,9 @@ def _read_motor(r: Reader, raw: Any, where: str) -> Motor:
     if where == "[dynamics.motor]":
         r.keys(raw, where, ["stall_torque", "no_load_speed"])
     ts = r.number(raw, "stall_torque", where)
-    w0 = r.number(raw, "no_load_speed", where)
+    w0 = r.number(
+        raw, "no_load_speed", where, lo=MIN_SPEED, hi=MAX_SPEED, unit=" rad/s", why="see mechanisms/README.md, Limits"
+    )
     if ts == 0 or w0 == 0 or (ts > 0) != (w0 > 0):
         raise r.fail(where, "stall_torque and no_load_speed must be non-zero and of the same sign")
     return Motor(ts, w0)
@@ -292,10 +307,7 @@ def _cycle(steps: tuple[Block, ...], start: str, first: str) -> list[str] | None
 def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     """Parse and validate a mechanism file's text. Raises MechanismFileError."""
     r = Reader(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise r.fail("", f"TOML syntax error: {e}") from None
+    data = r.toml(text)
     r.keys(
         data, "", ["mechanism", "ground", "construct", "links", "input"], ["dynamics", "thread", "synthesis", "steady"]
     )
@@ -303,8 +315,8 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     meta = r.table(data["mechanism"], "[mechanism]")
     r.keys(meta, "[mechanism]", ["name", "title"], ["source"])
     name = r.name(meta["name"], "[mechanism] name")
-    title = r.string(meta, "title", "[mechanism]")
-    source = r.string(meta, "source", "[mechanism]", default="")
+    title = r.string(meta, "title", "[mechanism]", max_length=MAX_TITLE_CHARS)
+    source = r.string(meta, "source", "[mechanism]", default="", max_length=MAX_TITLE_CHARS)
 
     ground = {}
     for k, v in r.table(data["ground"], "[ground]").items():
@@ -317,6 +329,12 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         raise r.fail("[[construct]]", "must be an array of tables: write each block under its own [[construct]]")
     if not raw_steps:
         raise r.fail("[[construct]]", "needs at least one block (a crank first)")
+    if len(ground) + len(raw_steps) > MAX_POINTS:
+        raise r.fail(
+            "[[construct]]",
+            f"{len(ground)} ground and {len(raw_steps)} built points: at most {MAX_POINTS} in all "
+            "(every check solves each point over the cycle; see mechanisms/README.md, Limits)",
+        )
     steps = tuple(_blocks.read(r, s, i) for i, s in enumerate(raw_steps))
 
     # Construction order: every block may only use points already defined.
@@ -375,7 +393,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         raise r.fail(
             "[input] speed",
             f"must be between {MIN_SPEED:g} and {MAX_SPEED:g} rad/s in magnitude "
-            f"(see mechanisms/README.md, Limits), got {speed:g}",
+            f"(see mechanisms/README.md, Limits), got {speed:g} rad/s",
         )
     cycles = r.number(inp, "cycles", "[input]", default=1.0, positive=True, hi=MAX_CYCLES)
 
@@ -430,8 +448,25 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     dynamics = Dynamics(
         moment=r.number(dyn_raw, "moment", "[dynamics]", default=0.0),
         damping=r.number(dyn_raw, "damping", "[dynamics]", default=0.0, nonneg=True),
-        omega0=r.number(dyn_raw, "omega0", "[dynamics]", default=0.0),
-        duration=r.number(dyn_raw, "duration", "[dynamics]", default=1.0, positive=True),
+        omega0=r.number(
+            dyn_raw,
+            "omega0",
+            "[dynamics]",
+            default=0.0,
+            hi=MAX_SPEED,
+            unit=" rad/s",
+            why="see mechanisms/README.md, Limits",
+        ),
+        duration=r.number(
+            dyn_raw,
+            "duration",
+            "[dynamics]",
+            default=1.0,
+            positive=True,
+            lo=MIN_DURATION_S,
+            hi=MAX_DURATION_S,
+            unit=" s",
+        ),
         gravity=r.number(dyn_raw, "gravity", "[dynamics]", default=9.81, nonneg=True),
         forces=tuple(forces),
         motor=motor,
@@ -462,7 +497,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
             theta * DEG,
         )
 
-    return Mechanism(
+    mech = Mechanism(
         name,
         title,
         source,
@@ -480,6 +515,16 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         synthesis,
         steady,
     )
+    # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
+    turns = round(mech.period / (2 * math.pi))
+    if len(mech.point_names) * SAMPLES_PER_TURN * turns > MAX_CHECK_POINT_SAMPLES:
+        raise r.fail(
+            "",
+            f"{len(mech.point_names)} points over a period of {turns} crank turns: checking them takes "
+            f"{len(mech.point_names) * turns} point-turns, at most {MAX_CHECK_POINT_SAMPLES // SAMPLES_PER_TURN} "
+            "(use fewer points, or gear ratios with a smaller denominator; see mechanisms/README.md, Limits)",
+        )
+    return mech
 
 
 def load(path: str | Path) -> Mechanism:

@@ -1,12 +1,17 @@
 """Walking a parsed TOML table: every problem becomes one clear line naming the file and key.
 
-Used by the mechanism reader and by every block's own ``read``.
+Used by the mechanism reader and by every block's own ``read``. A file's values are echoed in
+messages only through :func:`shown`: escaped (no raw control characters or newlines), clipped
+and safe for any value TOML can hold (integers of thousands of digits, deep nesting).
 """
 
 from __future__ import annotations
 
 import difflib
 import math
+import reprlib
+import sys
+import tomllib
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -16,12 +21,66 @@ import numpy as np
 from ..errors import MechanismFileError
 from . import names as _names
 
+_INT_DIGITS = sys.get_int_max_str_digits() or 4300  # Python refuses str() of longer integers
+
+
+def digits(v: int) -> str:
+    """How many decimal digits ``v`` has, as text: exact where Python can print ``v``, else
+    'about N' (from its bit length; str() of a longer integer raises ValueError)."""
+    try:
+        return str(len(str(abs(v))))
+    except ValueError:
+        return f"about {math.floor(abs(v).bit_length() * math.log10(2)) + 1}"
+
+
+class _Shown(reprlib.Repr):
+    """repr() of a file's value for a message: strings escaped, everything clipped."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.maxlevel, self.maxlist, self.maxtuple, self.maxdict = 3, 8, 8, 6
+        self.maxstring, self.maxother, self.maxlong = 80, 80, 40
+
+    def repr_int(self, x: int, level: int) -> str:
+        if x.bit_length() > 256:  # repr() of a long enough integer raises ValueError
+            return f"<an integer of {digits(x)} digits>"
+        return super().repr_int(x, level)
+
+
+_shown = _Shown()
+
+
+def shown(v: Any) -> str:
+    """``v`` as a message may echo it: repr-escaped (no raw control characters or newlines),
+    clipped to about 80 characters, three levels deep; never raises."""
+    try:
+        return _shown.repr(v)
+    except Exception:  # a value no repr can show (none from TOML): name its type
+        return f"<{type(v).__name__}>"
+
 
 class Reader:
     """Walks a parsed TOML table, turning every problem into one clear line."""
 
+    shown = staticmethod(shown)  # for blocks, which see the reader but do not import it
+
     def __init__(self, path: Path | str):
         self.path = str(path)
+
+    def toml(self, text: str) -> dict[str, Any]:
+        """The parsed TOML ``text``; every way tomllib can fail is one line naming the file."""
+        try:
+            return tomllib.loads(text)
+        except tomllib.TOMLDecodeError as e:
+            raise self.fail("", f"TOML syntax error: {e}") from None
+        except RecursionError:
+            raise self.fail("", "TOML nested too deeply (arrays or inline tables within each other)") from None
+        except ValueError:  # an integer literal beyond Python's limit for str -> int
+            raise self.fail(
+                "",
+                f"TOML: an integer of more than {_INT_DIGITS} digits (mechanism files hold mm, deg, g: "
+                "write a plain number)",
+            ) from None
 
     def fail(self, where: str, msg: str) -> MechanismFileError:
         return MechanismFileError(f"{self.path}: {where}: {msg}" if where else f"{self.path}: {msg}")
@@ -38,7 +97,7 @@ class Reader:
             if k not in valid:
                 near = difflib.get_close_matches(k, valid, n=1)
                 hint = f" (did you mean '{near[0]}'?)" if near else f" (valid keys: {', '.join(valid)})"
-                raise self.fail(where, f"unknown key '{k}'{hint}")
+                raise self.fail(where, f"unknown key {shown(k)}{hint}")
         for k in required:
             if k not in data:
                 raise self.fail(where, f"missing key '{k}'")
@@ -65,43 +124,55 @@ class Reader:
             return default
         v = data[key]
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(f"{where} {key}", f"must be a number, got {type(v).__name__} {v!r}")
+            raise self.fail(f"{where} {key}", f"must be a number, got {type(v).__name__} {shown(v)}")
         try:
             v = float(v)
         except OverflowError:  # TOML integers may have any number of digits
-            raise self.fail(f"{where} {key}", f"must be finite, got an integer of {len(str(v))} digits") from None
+            raise self.fail(f"{where} {key}", f"must be finite, got an integer of {digits(int(v))} digits") from None
         if not math.isfinite(v):
             raise self.fail(f"{where} {key}", f"must be finite, got {v}")
+        # Values are echoed in the file's own unit, as written: 'got -5 mm', never SI.
         if positive and v <= 0:
-            raise self.fail(f"{where} {key}", f"must be > 0, got {v:g}")
+            raise self.fail(f"{where} {key}", f"must be > 0, got {v:g}{unit}")
         if nonneg and v < 0:
-            raise self.fail(f"{where} {key}", f"must be >= 0, got {v:g}")
+            raise self.fail(f"{where} {key}", f"must be >= 0, got {v:g}{unit}")
         why = f" ({why})" if why else ""
         if hi is not None and abs(v) > hi:
-            raise self.fail(f"{where} {key}", f"must be at most {hi:g}{unit} in magnitude{why}, got {v:g}")
+            raise self.fail(f"{where} {key}", f"must be at most {hi:g}{unit} in magnitude{why}, got {v:g}{unit}")
         if lo is not None and abs(v) < lo:
-            raise self.fail(f"{where} {key}", f"must be at least {lo:g}{unit} in magnitude{why}, got {v:g}")
+            raise self.fail(f"{where} {key}", f"must be at least {lo:g}{unit} in magnitude{why}, got {v:g}{unit}")
         return v * scale
 
-    def string(self, data: dict, key: str, where: str, *, default=None) -> str:
+    def string(self, data: dict, key: str, where: str, *, default=None, max_length: int | None = None) -> str:
+        """A string; with ``max_length``, one line of printable text of at most that many
+        characters (text shown in listings, plot titles and reports)."""
         if key not in data:
             if default is None:
                 raise self.fail(where, f"missing key '{key}'")
             return default
         v = data[key]
         if not isinstance(v, str):
-            raise self.fail(f"{where} {key}", f"must be a string, got {type(v).__name__} {v!r}")
+            raise self.fail(f"{where} {key}", f"must be a string, got {type(v).__name__} {shown(v)}")
+        if max_length is not None:
+            if len(v) > max_length:
+                raise self.fail(
+                    f"{where} {key}",
+                    f"must be at most {max_length} characters (one line; see mechanisms/README.md, Limits), "
+                    f"got {len(v)}: {shown(v)}",
+                )
+            if not v.isprintable():
+                raise self.fail(f"{where} {key}", f"must be one line of printable text, got {shown(v)}")
         return v
 
     def name(self, v: Any, where: str) -> str:
         if not _names.is_valid(v):
-            raise self.fail(where, f"invalid name {v!r}: use a letter then letters, digits or _ (at most 32)")
+            raise self.fail(where, f"invalid name {shown(v)}: use a letter then letters, digits or _ (at most 32)")
         return v
 
     def vector(self, v: Any, where: str, sizes=(2, 3), scale=1.0, hi=None) -> np.ndarray:
         """A list of 2 or 3 finite numbers (z = 0 if absent); ``hi`` bounds each coordinate, mm."""
         if not isinstance(v, list) or len(v) not in sizes:
-            raise self.fail(where, f"must be a list of {' or '.join(map(str, sizes))} numbers, got {v!r}")
+            raise self.fail(where, f"must be a list of {' or '.join(map(str, sizes))} numbers, got {shown(v)}")
         out = []
         for x in v:
             try:
@@ -109,12 +180,12 @@ class Reader:
             except OverflowError:
                 ok = False
             if not ok:
-                raise self.fail(where, f"must hold finite numbers, got {v!r}")
+                raise self.fail(where, f"must hold finite numbers, got {shown(v)}")
             if hi is not None and abs(float(x)) > hi:
                 raise self.fail(
                     where,
                     f"coordinates must be at most {hi:g} mm in magnitude (mjlink models machine "
-                    f"linkages; see mechanisms/README.md), got {v!r}",
+                    f"linkages; see mechanisms/README.md), got {shown(v)}",
                 )
             out.append(float(x) * scale)
         while len(out) < 3:
@@ -124,5 +195,5 @@ class Reader:
     def names(self, v: Any, where: str, *, length: int | None = None, min_length: int = 1) -> tuple[str, ...]:
         if not isinstance(v, list) or (length is not None and len(v) != length) or len(v) < min_length:
             want = f"{length}" if length is not None else f"at least {min_length}"
-            raise self.fail(where, f"must be a list of {want} point names, got {v!r}")
+            raise self.fail(where, f"must be a list of {want} point names, got {shown(v)}")
         return tuple(self.name(x, where) for x in v)

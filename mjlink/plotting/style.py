@@ -64,9 +64,19 @@ def deg(phi: Any) -> np.ndarray:
     return np.degrees(np.asarray(phi, dtype=float))
 
 
+def user_text(text: str) -> str:
+    """Text from a mechanism file (or any user) made safe to draw: every ``$`` escaped, so that
+    matplotlib's mathtext never parses it (a title like 'a $5 part, $x^$' would crash the
+    figure), and control characters shown as escapes. Every style helper that draws user text
+    passes it through here; mathtext that mjlink writes itself (``$\\omega_0$``) stays as is."""
+    shown = "".join(c if c.isprintable() else ascii(c)[1:-1] for c in text)
+    return shown.replace("$", r"\$")
+
+
 def title(mech: Mechanism, what: str) -> str:
-    """A figure title: the mechanism's name, what the figure shows, and the mechanism's title."""
-    return f"{mech.name}: {what}\n{mech.title}"
+    """A figure title: the mechanism's name, what the figure shows (mjlink's own text, which may
+    hold mathtext), and the mechanism's title from its file (drawn literally: :func:`user_text`)."""
+    return f"{mech.name}: {what}\n{user_text(mech.title)}"
 
 
 def angle_ticks(ax: Axes, lo: float, hi: float) -> None:

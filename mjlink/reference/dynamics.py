@@ -17,8 +17,6 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from ..errors import AssemblyError
 from ..model.mechanism import Mechanism
@@ -179,6 +177,8 @@ def forward_dynamics(
     omega0: float | None = None,
 ) -> Motion:
     """phi(t) from (phi0, omega0) (default: the file's), the equation of motion solved tightly (DOP853)."""
+    from scipy.integrate import solve_ivp  # here, not at the top: 0.4 s of import every command would pay
+
     sd = sd or SpectralDynamics(mech)
     y0 = [mech.phi0 if phi0 is None else phi0, mech.dynamics.omega0 if omega0 is None else omega0]
     sol = solve_ivp(
@@ -253,6 +253,9 @@ def steady_motion(
     ``dt/dphi = 1/omega``; the speed at phi0 is chosen so that it returns after one period.
     ``start`` rad/s: a first guess (default: where the motor balances the damping).
     """
+    from scipy.integrate import solve_ivp  # see forward_dynamics
+    from scipy.optimize import brentq
+
     dyn = mech.dynamics
     motor = dyn.motor
     if motor is None:

@@ -1,0 +1,498 @@
+"""Files that are lost or left behind (issue 9), with real processes and real files.
+
+* User files: an output folder carries mjlink's marker; a run replaces only the files mjlink
+  wrote there, keeps the rest, and refuses a folder it did not write (or another command's).
+* Non-regular targets: ``build -o`` and ``synth --write`` refuse a FIFO, a device or a folder,
+  and write through a symbolic link instead of replacing it.
+* Leftovers and orphans: SIGTERM and SIGINT end ``simulate`` with 143 and 130 while its plot
+  worker runs, leaving no staging folder and no process; SIGKILL takes the worker with it; a
+  failed run's worker cannot re-create the staging folder; the next run removes a killed run's
+  staging folder.
+
+The signal tests look at processes through /proc (Linux). They wait for the forked plot worker
+to appear before signalling, and poll with generous deadlines instead of sleeping.
+"""
+
+import functools
+import json
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+
+from mjlink import output, pipeline, validation
+from mjlink.cli import main
+from mjlink.errors import OutputError
+from mjlink.model import catalogue
+from mjlink.model.mechanism import parse
+
+EXAMPLE_PATH = catalogue.MECHANISMS_DIR / "examples" / "crank_rocker.toml"
+EXAMPLE = EXAMPLE_PATH.read_text()
+FAST = pipeline.Options(dynamics=False, plots=False, video=False, loads=False)
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}  # conftest has chosen MUJOCO_GL: no GL probes
+LINUX = sys.platform.startswith("linux")
+
+
+@pytest.fixture(scope="module")
+def mech():
+    return validation.get(EXAMPLE_PATH)
+
+
+def hidden(folder):
+    """Hidden staging or backup folders beside the outputs."""
+    return sorted(p.name for p in Path(folder).iterdir() if p.name.startswith("."))
+
+
+def names(folder):
+    return sorted(p.name for p in Path(folder).iterdir())
+
+
+def dead_pid():
+    """The PID of a process that has ended (and been reaped)."""
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+# ============================================================================ 9: user files
+def test_a_run_replaces_its_own_files_and_keeps_the_users(tmp_path, mech):
+    first = pipeline.run(mech, tmp_path, pipeline.Options(dynamics=False, plots=False, video=False, loads=True))
+    out = first.out_dir
+    marker = output.read_marker(out)
+    assert marker is not None and marker["kind"] == "simulate" and marker["mechanism"] == "crank_rocker"
+    assert marker["files"] == sorted(first.files) and "loads.csv" in marker["files"]
+    (out / "notes.txt").write_text("my notes\n")
+    (out / "mine").mkdir()
+    (out / "mine" / "fit.py").write_text("print(1)\n")
+    os.symlink("notes.txt", out / "notes_link")
+    inode = (out / "notes.txt").stat().st_ino
+
+    second = pipeline.run(mech, tmp_path, FAST)  # no loads this time
+    assert "loads.csv" not in second.files
+    assert names(out) == sorted([*second.files, ".mjlink-output.json", "mine", "notes.txt", "notes_link"])
+    assert (out / "notes.txt").read_text() == "my notes\n" and (out / "notes.txt").stat().st_ino == inode
+    assert (out / "mine" / "fit.py").read_text() == "print(1)\n"
+    assert os.readlink(out / "notes_link") == "notes.txt"
+    assert output.read_marker(out)["files"] == sorted(second.files)  # the user's files are not claimed
+    assert hidden(tmp_path) == []
+
+
+def test_a_folder_mjlink_did_not_write_is_refused_in_one_line(tmp_path, mech):
+    user = tmp_path / "crank_rocker"
+    user.mkdir()
+    (user / "report.json").write_text('{"mine": true}\n')
+    (user / "thesis.tex").write_text("\\begin{document}\n")
+    with pytest.raises(OutputError) as e:
+        pipeline.run(mech, tmp_path, FAST)
+    msg = str(e.value)
+    assert "\n" not in msg and str(user) in msg and "--force" in msg and "not written by mjlink" in msg
+    assert names(user) == ["report.json", "thesis.tex"] and (user / "report.json").read_text() == '{"mine": true}\n'
+    assert hidden(tmp_path) == []
+
+    res = pipeline.run(mech, tmp_path, FAST, force=True)  # mjlink's files go in, the user's others stay
+    assert (user / "thesis.tex").read_text() == "\\begin{document}\n"
+    assert json.loads((user / "report.json").read_text())["mechanism"] == "crank_rocker"
+    assert set(res.files) | {"thesis.tex", ".mjlink-output.json"} == set(names(user))
+    assert "thesis.tex" not in output.read_marker(user)["files"]
+    pipeline.run(mech, tmp_path, FAST)  # now it is mjlink's: no --force needed, thesis.tex still kept
+    assert (user / "thesis.tex").read_text() == "\\begin{document}\n"
+    (tmp_path / "empty" / "crank_rocker").mkdir(parents=True)  # an empty folder has nothing to lose
+    assert output.read_marker(pipeline.run(mech, tmp_path / "empty", FAST).out_dir)["kind"] == "simulate"
+
+
+def test_a_users_file_with_the_name_of_a_new_output_is_not_replaced(tmp_path):
+    dest = tmp_path / "x"
+    with output.staged_dir(dest, kind="simulate", mechanism="x") as stage:
+        (stage / "a.csv").write_text("1\n")
+    (dest / "b.png").write_text("the user's picture")
+    with pytest.raises(OutputError, match=r"b\.png in it was not written by mjlink; .*--force") as e:
+        with output.staged_dir(dest, kind="simulate", mechanism="x") as stage:
+            (stage / "a.csv").write_text("2\n")
+            (stage / "b.png").write_text("mjlink's plot")
+    assert "\n" not in str(e.value)
+    assert (dest / "b.png").read_text() == "the user's picture" and (dest / "a.csv").read_text() == "1\n"
+    assert hidden(tmp_path) == []
+    with output.staged_dir(dest, kind="simulate", mechanism="x", force=True) as stage:
+        (stage / "b.png").write_text("mjlink's plot")
+    assert names(dest) == [".mjlink-output.json", "b.png"]  # a.csv was mjlink's and is not written again
+    assert (dest / "b.png").read_text() == "mjlink's plot"
+
+
+def test_commands_never_write_into_each_others_folders(tmp_path, mech):
+    loads = pipeline.loads(mech, tmp_path, plots=False)
+    folder = loads.out_dir
+    assert folder.name == "crank_rocker_loads" and output.read_marker(folder)["kind"] == "loads"
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    # A mechanism named like the torque command's folder: simulate must not replace it.
+    impostor = validation.validate(
+        parse(EXAMPLE.replace('name = "crank_rocker"', 'name = "crank_rocker_loads"'), tmp_path / "f.toml")
+    )
+    with pytest.raises(OutputError) as e:
+        pipeline.run(impostor, tmp_path, FAST)
+    msg = str(e.value)
+    assert "\n" not in msg and str(folder) in msg and "--force" in msg
+    assert "'mjlink torque/reactions' for crank_rocker" in msg and "'mjlink simulate'" in msg
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    # Nor may the steady study, or the same command for another mechanism.
+    with pytest.raises(OutputError, match="--force"):
+        with output.staged_dir(folder, kind="steady", mechanism="crank_rocker") as stage:
+            (stage / "steady.png").write_text("x")
+    with pytest.raises(OutputError, match="for crank_rocker, not for other"):
+        with output.staged_dir(folder, kind="loads", mechanism="other") as stage:
+            (stage / "loads.csv").write_text("x")
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before and hidden(tmp_path) == []
+    # The same command again replaces its own folder.
+    assert pipeline.loads(mech, tmp_path, plots=False).out_dir == folder
+    assert output.read_marker(folder)["kind"] == "loads"
+
+
+# ============================================================================ 10: non-regular targets
+def test_build_refuses_a_fifo(tmp_path, capsys):
+    fifo = tmp_path / "model.xml"
+    os.mkfifo(fifo)
+    assert main(["build", str(EXAMPLE_PATH), "-o", str(fifo)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is a FIFO (named pipe), not a regular file" in err and str(fifo) in err
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and names(tmp_path) == ["model.xml"]
+
+
+def test_the_writer_refuses_a_folder(tmp_path):
+    (tmp_path / "model.xml").mkdir()
+    with pytest.raises(OutputError, match=r"model\.xml is a folder, not a regular file: refusing to replace it$"):
+        output.write_text(tmp_path / "model.xml", "<mujoco/>")
+    assert names(tmp_path) == ["model.xml"] and names(tmp_path / "model.xml") == []
+
+
+def test_build_refuses_dev_null(capsys):
+    before = os.stat("/dev/null")
+    assert stat.S_ISCHR(before.st_mode)
+    # The writer itself first, with a body that aborts: even if it failed to refuse, /dev/null
+    # would not be replaced (tests run as root here, where that would succeed).
+    with pytest.raises(OutputError, match="is a character device"):
+        with output.atomic_path("/dev/null"):
+            raise AssertionError("/dev/null was not refused")
+    assert main(["build", str(EXAMPLE_PATH), "-o", "/dev/null"]) == 1
+    err = capsys.readouterr().err
+    assert err == "mjlink: error: /dev/null is a character device, not a regular file: refusing to replace it\n"
+    after = os.stat("/dev/null")
+    assert stat.S_ISCHR(after.st_mode) and (after.st_ino, after.st_rdev) == (before.st_ino, before.st_rdev)
+
+
+def test_build_writes_through_a_symlink(tmp_path, capsys):
+    real = tmp_path / "real"
+    real.mkdir()
+    (real / "target.xml").write_text("old")
+    link = tmp_path / "model.xml"
+    os.symlink(real / "target.xml", link)
+    assert main(["build", str(EXAMPLE_PATH), "-o", str(link)]) == 0, capsys.readouterr().err
+    assert os.path.islink(link) and os.readlink(link) == str(real / "target.xml")
+    assert (real / "target.xml").read_text().startswith("<mujoco")
+    assert names(tmp_path) == ["model.xml", "real"] and names(real) == ["target.xml"]  # no temporaries
+
+
+def test_synth_write_refuses_a_fifo_and_writes_through_a_symlink(tmp_path, capsys):
+    fifo = tmp_path / "design.toml"
+    os.mkfifo(fifo)
+    assert main(["synth", "crank_slider", "--write", str(fifo)]) == 1
+    assert "is a FIFO (named pipe)" in capsys.readouterr().err and stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    (tmp_path / "kept").mkdir()
+    link = tmp_path / "designed.toml"
+    os.symlink(tmp_path / "kept" / "designed.toml", link)  # dangling: the target is created
+    assert main(["synth", "crank_slider", "--write", str(link)]) == 0, capsys.readouterr().err
+    assert os.path.islink(link) and "[mechanism]" in (tmp_path / "kept" / "designed.toml").read_text()
+
+
+# ============================================================================ 11: leftovers and orphans
+def _stat(pid):
+    """(parent PID, state, start time) of a process from /proc; None when it is gone."""
+    try:
+        raw = Path(f"/proc/{pid}/stat").read_bytes()
+    except OSError:
+        return None
+    fields = raw[raw.rindex(b")") + 2 :].split()
+    return int(fields[1]), fields[0].decode(), int(fields[19])
+
+
+def _children(pid):
+    """{PID: start time} of the processes whose parent is ``pid``."""
+    kids = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit() and (st := _stat(int(d))) is not None and st[0] == pid:
+            kids[int(d)] = st[2]
+    return kids
+
+
+def _running(pid, start):
+    """Whether process ``pid`` (started at ``start``: not a reused PID) still runs; a zombie
+    (dead, not yet reaped by its new parent) does not."""
+    st = _stat(pid)
+    return st is not None and st[2] == start and st[1] not in ("Z", "X")
+
+
+def _until(cond, timeout):
+    end = time.monotonic() + timeout
+    while not cond():
+        if time.monotonic() > end:
+            return False
+        time.sleep(0.02)
+    return True
+
+
+@contextmanager
+def _sigint_default():
+    """Children inherit an ignored SIGINT (a background job's), and Python then never raises
+    KeyboardInterrupt: give them the default disposition."""
+    old = signal.getsignal(signal.SIGINT)
+    if old is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        if old is signal.SIG_IGN:
+            signal.signal(signal.SIGINT, old)
+
+
+class Simulate:
+    """``python -m mjlink simulate takeup`` (video on) in its own process group, started and
+    watched until its forked plot worker draws while it renders the video."""
+
+    def __init__(self, out, env=ENV):
+        self.out, self.err = out, out.parent / f"{out.name}.stderr"
+        cmd = [sys.executable, "-m", "mjlink", "simulate", "takeup", "--no-dynamics", "--out", str(out)]
+        with _sigint_default(), open(self.err, "w") as err:
+            # stderr to a file, not a pipe: a surviving worker would hold a pipe open.
+            self.p = subprocess.Popen(
+                cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=err, start_new_session=True
+            )
+        self.seen = {}  # every child process seen: PID -> start time
+
+    def stderr(self):
+        return self.err.read_text()
+
+    def wait_for_worker(self, timeout=180):
+        """The forked worker's (PID, start time): a child running the parent's command line, seen
+        twice 0.1 s apart while the run stages (a child between fork and exec, e.g. of a
+        subprocess, runs it too, for an instant)."""
+        end = time.monotonic() + timeout
+        candidates = {}
+        while time.monotonic() < end:
+            if self.p.poll() is not None:
+                pytest.fail(f"simulate ended ({self.p.returncode}) before forking its worker: {self.stderr()}")
+            cmdline = Path(f"/proc/{self.p.pid}/cmdline").read_bytes()
+            kids = _children(self.p.pid)
+            self.seen.update(kids)
+            staging = self.out.is_dir() and any(n.startswith(".takeup.partial-") for n in names(self.out))
+            for pid, start in kids.items():
+                try:
+                    forked = cmdline != b"" and Path(f"/proc/{pid}/cmdline").read_bytes() == cmdline
+                except OSError:
+                    continue
+                if not (forked and staging):
+                    continue
+                if time.monotonic() - candidates.setdefault((pid, start), time.monotonic()) >= 0.1:
+                    return pid, start
+            time.sleep(0.02)
+        self.p.kill()
+        pytest.fail("no plot worker within the deadline")
+
+    def end(self, timeout=120):
+        self.seen.update(_children(self.p.pid))
+        return self.p.wait(timeout)
+
+    def survivors(self, timeout):
+        """Children still running ``timeout`` s after the parent ended (sooner if none)."""
+        _until(lambda: not any(_running(*kid) for kid in self.seen.items()), timeout)
+        return [pid for pid, start in self.seen.items() if _running(pid, start)]
+
+    def kill_all(self):
+        for pid, start in self.seen.items():
+            if _running(pid, start):
+                os.kill(pid, signal.SIGKILL)
+
+
+linux_only = pytest.mark.skipif(not LINUX, reason="processes are inspected through /proc")
+
+
+@linux_only
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("how", "status", "line"),
+    [("SIGTERM", 143, "mjlink: terminated"), ("SIGINT", 130, "mjlink: interrupted")],
+)
+def test_signal_during_the_fork_ends_cleanly(tmp_path, how, status, line):
+    """SIGTERM to the process (``kill PID``), SIGINT to its process group (Ctrl-C in a terminal)
+    while the worker draws and the parent renders: the documented status and line, no staging
+    folder, no process left."""
+    out = tmp_path / "out"
+    run = Simulate(out)
+    try:
+        worker = run.wait_for_worker()
+        run.seen.update(_children(run.p.pid))
+        if how == "SIGTERM":
+            run.p.send_signal(signal.SIGTERM)
+        else:
+            os.killpg(run.p.pid, signal.SIGINT)
+        rc = run.end()
+        err = run.stderr()
+        assert rc == status, err
+        assert err.strip().splitlines()[-1] == line and "Traceback" not in err
+        assert run.survivors(timeout=5) == [], f"worker {worker[0]}, children {run.seen}"
+        assert not _running(*worker)
+        assert names(out) == []  # no .takeup.partial-*, no half output
+    finally:
+        run.p.kill()
+        run.kill_all()
+
+
+@linux_only
+@pytest.mark.slow
+def test_sigkill_takes_the_worker_along_and_the_next_run_removes_the_stage(tmp_path, mech):
+    out = tmp_path / "out"
+    run = Simulate(out)
+    try:
+        worker = run.wait_for_worker()
+        run.p.kill()
+        assert run.end() == -signal.SIGKILL
+        assert _until(lambda: not _running(*worker), timeout=10), "the worker outlived its killed parent"
+        assert run.survivors(timeout=20) == []  # the encoder too, once its input is closed
+    finally:
+        run.p.kill()
+        run.kill_all()
+    (stale,) = hidden(out)  # only a SIGKILL leaves a stage behind ...
+    assert stale.startswith(f".takeup.partial-{run.p.pid}-")
+    dead = dead_pid()
+    (out / f".takeup.partial-{dead}-x").mkdir()
+    (out / f".takeup.partial-{dead}-x" / "kinematics.csv").write_text("half")
+    live = out / f".takeup.partial-{os.getpid()}-y"  # a run still going (this process)
+    live.mkdir()
+    pipeline.run(mech, out, FAST)  # ... and the next run into the same folder removes it
+    assert hidden(out) == [live.name] and names(out) == [live.name, "crank_rocker"]
+
+
+def test_an_interrupted_publication_is_put_back_by_the_next_run(tmp_path, mech):
+    """The fallback publication (no atomic exchange) moves the old output aside as
+    ``.NAME.old-<pid>`` for an instant; if the process dies then, the next run puts it back."""
+    first = pipeline.run(mech, tmp_path, FAST)
+    (first.out_dir / "notes.txt").write_text("mine")
+    os.rename(first.out_dir, tmp_path / f".crank_rocker.old-{dead_pid()}")
+    with output.staged_dir(tmp_path / "other", kind="simulate", mechanism="other") as stage:
+        (stage / "a.csv").write_text("1\n")
+    assert hidden(tmp_path) == [] and (first.out_dir / "notes.txt").read_text() == "mine"
+    assert output.read_marker(first.out_dir)["files"] == sorted(first.files)
+
+
+@linux_only
+@pytest.mark.slow
+def test_a_failed_runs_worker_cannot_recreate_the_stage(tmp_path):
+    """The video fails (an encoder that exits at once) while the worker draws the plots: the run
+    stops the worker before removing its stage, which stays gone."""
+    out = tmp_path / "out"
+    run = Simulate(out, env={**ENV, "IMAGEIO_FFMPEG_EXE": "/bin/false"})
+    try:
+        worker = run.wait_for_worker()
+        rc = run.end()
+        err = run.stderr()
+        assert rc == 1 and "mjlink: error: video encoding failed" in err and "Traceback" not in err, err
+        assert not _running(*worker) and run.survivors(timeout=5) == []
+        # The plots take seconds: a worker left running would re-create the stage meanwhile.
+        assert not _until(lambda: names(out) != [], timeout=1.5), names(out)
+    finally:
+        run.p.kill()
+        run.kill_all()
+
+
+def _slow_plot(stage, pidfile, seconds):
+    """A plot job as the worker runs it: announces itself, draws for a while, then saves like
+    plotting.style.save (which creates its folder if missing)."""
+    (pidfile.parent / "pid.tmp").write_text(str(os.getpid()))
+    os.replace(pidfile.parent / "pid.tmp", pidfile)  # whole: the test reads it as soon as it exists
+    time.sleep(seconds)
+    stage.mkdir(parents=True, exist_ok=True)
+    (stage / "late.png").write_text("drawn after the clean-up")
+
+
+def _failing_plot(stage):
+    raise OutputError(f"{stage / 'positions.png'}: cannot write plot: No space left on device")
+
+
+@linux_only
+def test_a_failing_run_stops_its_worker_before_removing_the_stage(tmp_path):
+    """In-process and deterministic: the run fails while its forked worker is still drawing; the
+    worker is killed and reaped before the stage is removed, so it cannot re-create it."""
+    pidfile = tmp_path / "worker.pid"
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError, match="the video failed"):
+        with output.staged_dir(out / "x", kind="simulate") as stage:
+            worker = pipeline._start([functools.partial(_slow_plot, stage, pidfile, 1.0)])
+            assert worker is not None and _until(pidfile.exists, timeout=30)
+            raise RuntimeError("the video failed")
+    pid = int(pidfile.read_text())
+    assert pid == worker.pid and _stat(pid) is None  # killed and reaped: not even a zombie
+    assert not _until(lambda: names(out) != [], timeout=1.5), names(out)
+
+
+@linux_only
+def test_the_workers_error_and_success_reach_the_run(tmp_path):
+    with output.staged_dir(tmp_path / "ok", kind="simulate") as stage:
+        worker = pipeline._start([functools.partial(_slow_plot, stage, tmp_path / "pid", 0.0)])
+        pipeline._finish(worker)
+    assert (tmp_path / "ok" / "late.png").is_file() and _stat(worker.pid) is None
+    with pytest.raises(OutputError, match=r"positions\.png: cannot write plot: No space left on device$"):
+        with output.staged_dir(tmp_path / "bad", kind="simulate") as stage:
+            pipeline._finish(pipeline._start([functools.partial(_failing_plot, stage)]))
+    assert names(tmp_path) == ["ok", "pid"]
+
+
+def test_terminated_unwinds_a_staged_run(tmp_path):
+    """In-process: SIGTERM during a staged run raises Terminated, the stage is removed and the
+    previous output kept; outside a run SIGTERM's disposition is untouched."""
+    if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        pytest.skip("SIGTERM has a handler here already; staged_dir leaves it alone")
+    dest = tmp_path / "x"
+    with output.staged_dir(dest, kind="simulate") as stage:
+        (stage / "a.csv").write_text("old\n")
+    with pytest.raises(output.Terminated):
+        with output.staged_dir(dest, kind="simulate") as stage:
+            (stage / "a.csv").write_text("half")
+            handler = signal.getsignal(signal.SIGTERM)
+            assert callable(handler) and handler.__module__ == "mjlink.output"  # else SIGTERM would kill pytest
+            os.kill(os.getpid(), signal.SIGTERM)
+            _until(lambda: False, timeout=5)  # the handler raises within a few bytecodes
+    assert hidden(tmp_path) == [] and (dest / "a.csv").read_text() == "old\n"
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_swallowed_or_disguised_interruption_still_ends_the_run(tmp_path):
+    """Code that catches the interruption (a library catching everything) or turns it into an
+    ordinary error (ctypes does, in a callback: 'argument 2: Terminated ...') cannot hide it: the
+    run publishes nothing and ends with the signal's exception."""
+    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        pytest.skip("SIGINT has another handler here; interruptible leaves it alone")
+    if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        pytest.skip("SIGTERM has a handler here already; interruptible leaves it alone")
+    with pytest.raises(KeyboardInterrupt):
+        with output.staged_dir(tmp_path / "x", kind="simulate") as stage:
+            (stage / "a.csv").write_text("1\n")
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                _until(lambda: False, timeout=5)
+            except KeyboardInterrupt:
+                pass
+    assert names(tmp_path) == []
+    with pytest.raises(output.Terminated) as e:
+        with output.interruptible():
+            try:
+                os.kill(os.getpid(), signal.SIGTERM)
+                _until(lambda: False, timeout=5)
+            except output.Terminated as t:
+                raise RuntimeError(f"argument 2: {t!r}") from t
+    assert isinstance(e.value.__cause__, RuntimeError)
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
