@@ -787,6 +787,7 @@ def run(
     *,
     force: bool = False,
     command: Sequence[str] = (),
+    progress: Callable[[str, float], None] | None = None,
 ) -> SimulateResult:
     """Run everything ``opts`` asks for ``mech`` and write ``<out_root>/<name>/``.
 
@@ -807,7 +808,7 @@ def run(
     with output.staged_dir(out_dir, kind="simulate", force=force, mechanism=mech.name) as stage:
         kcase = simulate.kinematic_case(mech, speed=opts.speed, cycles=opts.cycles)
         _enough_samples(mech, kcase, "--cycles")
-        kin_mj = simulate.run(mech, kcase)
+        kin_mj = simulate.run(mech, kcase, progress=_tell(progress, "kinematic run"))
         _same_branch(mech, kin_mj)
         clock.lap("mujoco_kinematics")
         kin_ref = reference.reference_trace(
@@ -821,7 +822,7 @@ def run(
 
         dyn = None
         if opts.dynamics and has_masses(mech):
-            dyn = _forward_dynamics(mech, opts.duration, stage, clock)
+            dyn = _forward_dynamics(mech, opts.duration, stage, clock, progress)
             agreements.append(dyn.agreement)
         jobs: list[PlotJob] = []
         queue = jobs if opts.plots else None
@@ -887,12 +888,23 @@ def run(
     return dataclasses.replace(result, files=files)
 
 
-def _forward_dynamics(mech: Mechanism, duration: float | None, stage: Path, clock: _Clock) -> _DynamicRun:
+def _tell(progress: Callable[[str, float], None] | None, what: str) -> Callable[[float], None] | None:
+    """``progress`` for one run, named ``what``."""
+    return None if progress is None else functools.partial(progress, what)
+
+
+def _forward_dynamics(
+    mech: Mechanism,
+    duration: float | None,
+    stage: Path,
+    clock: _Clock,
+    progress: Callable[[str, float], None] | None = None,
+) -> _DynamicRun:
     """The dynamic run (``duration`` s, None: the file's), the reference's tight solution and,
     over the file's duration, the paper's RK4; their CSVs into ``stage``."""
     dcase = simulate.dynamic_case(mech, duration=duration)
     _enough_samples(mech, dcase, "--duration")
-    dyn_mj = simulate.run(mech, dcase)
+    dyn_mj = simulate.run(mech, dcase, progress=_tell(progress, "dynamic run"))
     _same_branch(mech, dyn_mj)
     clock.lap("mujoco_dynamics")
     sd = reference.SpectralDynamics(mech)

@@ -77,3 +77,10 @@ def test_report_records_versions_command_and_settings(takeup, tmp_path):
     assert prov["command"].startswith("python -m mjlink simulate takeup --out ")
     assert prov["options"]["video"] is False and prov["options"]["speed"] is None
     assert rep["kinematics"]["settings"]["integrator"] == "RK4" and rep["kinematics"]["settings"]["timestep_s"] == 5e-5
+
+
+def test_long_runs_report_progress(takeup, monkeypatch):
+    monkeypatch.setattr(simulate, "PROGRESS_EVERY", 0.0)
+    seen: list[float] = []
+    simulate.run(takeup, simulate.kinematic_case(takeup, cycles=2.0), progress=seen.append)
+    assert len(seen) >= 2 and seen == sorted(seen) and seen[-1] == 1.0 and seen[0] < 1.0

@@ -162,6 +162,11 @@ def _long_run(est: Estimate) -> None:
         print(f"mjlink: long run: {r.describe()}; this takes minutes", file=sys.stderr, flush=True)
 
 
+def _progress(what: str, done: float) -> None:
+    """A long run's progress on stderr, on one line that ends when the run does."""
+    print(f"\r  {what}: {done:6.1%}", end="\n" if done >= 1.0 else "", file=sys.stderr, flush=True)
+
+
 # ----------------------------------------------------------------------------- shared
 def _mechanism(p: argparse.ArgumentParser) -> None:
     p.add_argument("mechanism", help="registered name (see 'list') or path to a .toml file")
@@ -380,7 +385,14 @@ def _simulate(args: argparse.Namespace) -> int:
     _notes(mech, args, (("--speed", "speed"), ("--omega0", "omega0"), ("--no-load-speed", "no_load_speed")))
     print(f"mjlink: simulating {mech.name} ({mech.title})", file=sys.stderr)
     _long_run(estimate)
-    res = pipeline.run(mech, args.out, opts, force=args.force, command=args.command_line)
+    res = pipeline.run(
+        mech,
+        args.out,
+        opts,
+        force=args.force,
+        command=args.command_line,
+        progress=_progress if estimate.long is not None else None,
+    )
     print(text.simulation(res))
     return _verdict(res.failures, args.strict)
 

@@ -17,6 +17,8 @@ step MuJoCo's derived quantities belong to the state before it). Point velocitie
 from __future__ import annotations
 
 import dataclasses
+import time
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -29,6 +31,7 @@ from ..units import RunKind, Source
 from . import builder
 
 FLYWHEEL_RATIO = 1e9
+PROGRESS_EVERY = 0.5  # s between progress reports of a long run
 SPEED_HOLD = 1e-9  # relative speed error the kinematic drive's servo is sized for
 DIVERGED_LOOP = 1e-3  # m: a loop gap this large means the run has failed, not just drifted
 
@@ -218,8 +221,16 @@ class Probe:
         return pos, self._jp @ data.qvel, self._jp @ data.qacc + self._jd @ data.qvel
 
 
-def run(mech: Mechanism, case: Case, built: builder.Built | None = None) -> Trace:
-    """Simulate ``case`` in MuJoCo and sample it. Raises SimulationError if the run diverges."""
+def run(
+    mech: Mechanism,
+    case: Case,
+    built: builder.Built | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> Trace:
+    """Simulate ``case`` in MuJoCo and sample it. Raises SimulationError if the run diverges.
+
+    ``progress``, if given, is called with the fraction done (0..1) about every PROGRESS_EVERY
+    seconds of a long run, and with 1 at its end."""
     built = built or builder.make(mech, case.settings)
     model = built.model
     data = mujoco.MjData(model)
@@ -227,13 +238,20 @@ def run(mech: Mechanism, case: Case, built: builder.Built | None = None) -> Trac
     if probe.forces:
         mujoco.set_mjcb_control(probe.apply_forces)
     try:
-        return _run(mech, case, model, data, probe)
+        return _run(mech, case, model, data, probe, progress)
     finally:
         if probe.forces:
             mujoco.set_mjcb_control(None)
 
 
-def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData, probe: Probe) -> Trace:
+def _run(
+    mech: Mechanism,
+    case: Case,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    probe: Probe,
+    progress: Callable[[float], None] | None,
+) -> Trace:
     data.qvel[:] = builder.consistent_velocity(model, data, probe.input_dof, case.omega0)
     nsteps, samples = case.steps, case.samples
     t = np.empty(samples)
@@ -249,7 +267,11 @@ def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData
     RF: dict[str, np.ndarray] = {}
     RM: dict[str, np.ndarray] = {}
     k = 0
+    shown = time.monotonic()
     for step in range(nsteps + 1):
+        if progress is not None and step % 1000 == 0 and time.monotonic() - shown > PROGRESS_EVERY:
+            progress(step / max(nsteps, 1))
+            shown = time.monotonic()
         if step % case.sample_every == 0:
             mujoco.mj_forward(model, data)
             t[k] = data.time
@@ -282,6 +304,8 @@ def _run(mech: Mechanism, case: Case, model: mujoco.MjModel, data: mujoco.MjData
             k += 1
         if step < nsteps:
             mujoco.mj_step(model, data)
+    if progress is not None:
+        progress(1.0)
     phi = mech.phi0 + q[:k, probe.qadr]
     return Trace(
         Source.MUJOCO,
