@@ -54,6 +54,8 @@ def thresholds() -> dict[str, float]:
         "loop_um": LOOP_UM,
         "thread_um": THREAD_UM,
         "omega_rel": OMEGA_REL,
+        "speed_held_rel": SPEED_REL,
+        "min_samples": MIN_SAMPLES,
     }
 
 

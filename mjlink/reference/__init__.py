@@ -19,7 +19,7 @@ from .dynamics import (
     steady_motion,
     steady_variant,
 )
-from .kinematics import Kinematics, angle_ranges, assembly_ranges, check_rigidity, link_angle, solve
+from .kinematics import Kinematics, angle_ranges, check_rigidity, link_angle, solve
 from .kinetostatics import Reactions, driving_torque, pair_label, reactions
 from .traces import reference_trace
 
@@ -32,7 +32,6 @@ __all__ = [
     "SpectralDynamics",
     "Steady",
     "angle_ranges",
-    "assembly_ranges",
     "check_rigidity",
     "constant_speed",
     "driving_torque",

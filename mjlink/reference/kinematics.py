@@ -125,14 +125,6 @@ def _solve(mech: Mechanism, phi: np.ndarray, check: bool) -> Kinematics:
     return Kinematics(mech, phi, pts, angles, margins)
 
 
-def assembly_ranges(mech: Mechanism, samples: int = 3601) -> tuple[bool, str]:
-    """Whether the input crank turns fully; the input-angle ranges (deg) where it assembles."""
-    phi = mech.phi0 + np.linspace(0.0, mech.period, samples)
-    kin = solve(mech, phi, check=False)
-    ok = kin.assembles()
-    return bool(ok.all()), angle_ranges(phi, ok)
-
-
 def check_rigidity(mech: Mechanism, samples: int = 361, rtol: float = 1e-9) -> None:
     """Every link's points must keep their distances (and a sliding link its guide's angle).
 
