@@ -4,4 +4,7 @@ import sys
 
 from .cli import main
 
-sys.exit(main())
+# Guarded: a Dask LocalCluster starts its workers by spawning Python processes that import the
+# parent's main module again (as ``__mp_main__``); unguarded, each would run the command anew.
+if __name__ == "__main__":
+    sys.exit(main())

@@ -155,6 +155,38 @@ def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
     return write_text(path, "\n".join(lines) + "\n", in_stage=True)
 
 
+def write_records(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray]) -> Path:
+    """Write a CSV of mixed columns (numbers and text) into a staging folder; returns ``path``.
+
+    Args:
+        path: the file, inside a :func:`staged_dir` folder.
+        columns: name (unit in the name) -> N values each; floats at full double precision
+            (NaN as ``nan``), text quoted where it must be (RFC 4180).
+    """
+    import csv
+    import io
+
+    names = list(columns)
+    cols = [np.asarray(c).tolist() if isinstance(c, np.ndarray) else list(c) for c in columns.values()]
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(names)
+    for row in zip(*cols, strict=True):
+        w.writerow([repr(x) if isinstance(x, float) else x for x in row])
+    return write_text(path, buf.getvalue(), in_stage=True)
+
+
+def write_parquet(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray]) -> Path:
+    """Write the same columns as :func:`write_records` as a Parquet table into a staging folder."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table({k: (np.asarray(v) if isinstance(v, np.ndarray) else list(v)) for k, v in columns.items()})
+    with atomic_path(path, suffix=".parquet") as tmp:
+        pq.write_table(table, tmp)
+    return path
+
+
 def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], np.ndarray]:
     """Column names and the (N, k) table of a trace of N samples: time s, crank angle deg,
     speed rad/s and rpm, acceleration rad/s^2, point positions mm, velocities mm/s and
@@ -313,7 +345,7 @@ wrote it), ``mechanism`` and ``files`` (the names mjlink wrote there; the marker
 listed). It is what allows a later run to replace those files and only those."""
 
 # The command that writes each kind of output folder, for markers and messages.
-COMMANDS = {"simulate": "simulate", "loads": "torque/reactions", "steady": "steady"}
+COMMANDS = {"simulate": "simulate", "loads": "torque/reactions", "steady": "steady", "study": "study"}
 
 _stages = threading.local()  # per thread: the stop hooks of each open staged_dir, innermost last
 

@@ -506,6 +506,61 @@ def _synth(args: argparse.Namespace) -> int:
     return 0
 
 
+# ----------------------------------------------------------------------------- study
+def _study_arguments(q: argparse.ArgumentParser) -> None:
+    q.add_argument("file", help="study file (studies/README.md), or the name of a shipped one: " + _shipped())
+    q.add_argument("--out", type=path_arg, default=Path("renders"), help="output root; results go to OUT/NAME-study/")
+    q.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="run on an existing Dask cluster, tcp://HOST:PORT (default: $DASK_SCHEDULER_ADDRESS, else a local "
+        "cluster of one worker process per core)",
+    )
+    q.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="worker processes of the local cluster (default: one per core; 0 runs in this process without Dask)",
+    )
+    q.add_argument(
+        "--force",
+        action="store_true",
+        help="publish into an existing output folder that mjlink did not write for this study (your files are kept)",
+    )
+    q.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    q.add_argument("--strict", action="store_true", help="exit 3 if a variant MuJoCo verified missed a threshold")
+
+
+def _shipped() -> str:
+    from ..study.spec import STUDIES_DIR
+
+    return ", ".join(sorted(p.stem for p in STUDIES_DIR.glob("*.toml")))
+
+
+def _study(args: argparse.Namespace) -> int:
+    from .. import pipeline_study
+    from ..study import spec
+
+    if args.workers is not None and not 0 <= args.workers <= 256:
+        raise MjlinkError(f"--workers must be from 0 to 256, got {args.workers}")
+    if args.workers is not None and args.scheduler:
+        raise MjlinkError("--workers sizes a local cluster: it does not apply with --scheduler")
+    st = spec.load(args.file)
+    res = pipeline_study.run(
+        st,
+        args.out,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        plots=not args.no_plots,
+        force=args.force,
+        command=" ".join(args.command_line),
+    )
+    print(text.study(res))
+    return _verdict(
+        res.failures[:20] + ([f"... {len(res.failures) - 20} more"] if len(res.failures) > 20 else []), args.strict
+    )
+
+
 def _no_arguments(p: argparse.ArgumentParser) -> None:
     pass
 
@@ -548,6 +603,15 @@ COMMANDS: tuple[Command, ...] = (
         f"\n\n{SPEEDS}",
         _steady_arguments,
         _steady,
+    ),
+    Command(
+        "study",
+        "a design study: parameter grid, quasi-random sample or tolerance study, on Dask",
+        "examples:\n  python -m mjlink study takeup_tolerance\n"
+        "  python -m mjlink study crank_slider_grid --workers 0          # in this process\n"
+        "  python -m mjlink study my_study.toml --scheduler tcp://10.0.0.5:8786",
+        _study_arguments,
+        _study,
     ),
     Command(
         "synth",

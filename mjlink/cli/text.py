@@ -19,6 +19,7 @@ from ..units import G, PairKind, PairRole, to_mm, to_rpm
 if TYPE_CHECKING:
     from ..model.mechanism import Mechanism
     from ..pipeline import LoadsResult, SimulateResult, SteadyResult, SteadySummary, SynthResult
+    from ..pipeline_study import StudyResult
 
 
 def error_line(message: object, limit: int = 2000) -> str:
@@ -284,3 +285,41 @@ def format_report(r: validation.CheckReport, *, speed: float | None = None) -> s
     else:
         out.append("result: ok, ready for 'python -m mjlink simulate'")
     return "\n".join(out)
+
+
+def study(res: StudyResult) -> str:
+    """A study's summary: variants, feasibility, each metric's spread, MuJoCo's verdict, files."""
+    s = res.summary
+    lines = [
+        f"study {s['study']} of {s['mechanism']}: {s['variants']} variants ({s['method']}"
+        + (f", seed {s['seed']}" if s["seed"] is not None else "")
+        + f"), {s['angles_per_turn']} crank angles per turn; {s['engine']}",
+        f"feasible: {s['feasible']} of {s['variants']}"
+        + (f"; within the bounds ({', '.join(s['bounds'])}): {s['within_bounds']}" if s["bounds"] else ""),
+    ]
+    infeasible = [r for r in res.outcome.reason if r]
+    if infeasible:
+        lines.append(f"  e.g. {infeasible[0]}")
+    lines.append(f"{'metric':<34} {'unit':>5} {'min':>11} {'p50':>11} {'max':>11} {'std':>11}")
+    for name, m in s["metrics"].items():
+        if not m.get("count"):
+            lines.append(f"{name:<34} {m['unit']:>5} {'(no feasible variant)':>47}")
+            continue
+        lines.append(
+            f"{name:<34} {m['unit']:>5} {m['min']:>11.6g} {m['p50']:>11.6g} {m['max']:>11.6g} {m['std']:>11.4g}"
+        )
+    mj = s["mujoco"]
+    if mj["verified"]:
+        w, t = mj["worst_um"], mj["thresholds_um"]
+        worst = ", ".join(
+            f"{k.replace('_', ' ')} {w[k]:.3g} um (<= {t[k]:g})"
+            for k in ("position_error", "loop_gap", "thread_error")
+            if w.get(k) is not None and math.isfinite(w[k])
+        )
+        lines.append(f"MuJoCo ({mj['verify']}): {mj['passed']} of {mj['verified']} variants agree; worst {worst}")
+    else:
+        lines.append("MuJoCo: no variant verified ([verify] mujoco = 'none')")
+    if s["resumed_chunks"]:
+        lines.append(f"resumed: {s['resumed_chunks']} finished chunks taken from the previous run")
+    lines.append(f"wrote {res.out_dir}/ ({', '.join(p.name for p in res.files)}) in {s['timing_s']['total']:.1f} s")
+    return "\n".join(lines)

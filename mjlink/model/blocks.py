@@ -125,6 +125,9 @@ class Block(ABC):
 
     kind: ClassVar[str]
     types: ClassVar[dict[str, type[Block]]] = {}
+    # The block's numeric keys a design study may vary (``construct.POINT.KEY``): key ->
+    # (SI per file unit, file unit, must be positive). The attribute has the key's name.
+    numbers: ClassVar[dict[str, tuple[float, str, bool]]] = {}
     point: str
 
     def __init_subclass__(cls, **kw: Any) -> None:
@@ -242,6 +245,7 @@ class Crank(Block):
     """
 
     kind: ClassVar[str] = "crank"
+    numbers: ClassVar[dict[str, tuple[float, str, bool]]] = {"length": (MM, "mm", True), "phase": (DEG, "deg", False)}
     point: str
     pivot: str
     length: float
@@ -315,7 +319,7 @@ class Crank(Block):
     def solve(self, pts: dict[str, jet.V], phi: jet.S, phi0: float) -> Solved:
         phase = phi0 if self.phase is None else self.phase
         angle = (phi - phi0) * self.ratio + phase
-        ex = jet.vconst(np.array([self.length, 0.0, 0.0]), len(angle.v))
+        ex = jet.vplanar(self.length, 0.0, len(angle.v))
         return Solved(pts[self.pivot] + jet.rotate(ex, angle))
 
     def describe(self) -> str:
@@ -337,6 +341,7 @@ class Dyad(Block):
     """
 
     kind: ClassVar[str] = "dyad"
+    numbers: ClassVar[dict[str, tuple[float, str, bool]]] = {"length_a": (MM, "mm", True), "length_b": (MM, "mm", True)}
     point: str
     a: str
     b: str
@@ -452,6 +457,11 @@ class Attached(Block):
     """
 
     kind: ClassVar[str] = "attached"
+    numbers: ClassVar[dict[str, tuple[float, str, bool]]] = {
+        "angle": (DEG, "deg", False),
+        "length": (MM, "mm", False),
+        "z": (MM, "mm", False),
+    }
     point: str
     origin: str
     toward: str
@@ -509,6 +519,7 @@ class Slider(Block):
     """
 
     kind: ClassVar[str] = "slider"
+    numbers: ClassVar[dict[str, tuple[float, str, bool]]] = {"length": (MM, "mm", True)}
     point: str
     start: str
     length: float

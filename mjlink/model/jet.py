@@ -21,7 +21,12 @@ class S:
     d: np.ndarray
     dd: np.ndarray
 
-    def __add__(self, o: S | float) -> S:
+    # Numpy must defer to the jet's reflected operators: ``array / jet`` would otherwise build
+    # an object array of jets (one per element), which is slow and huge. Block parameters are
+    # arrays when a design study stacks variants into rows.
+    __array_ufunc__ = None
+
+    def __add__(self, o: S | float | np.ndarray) -> S:
         if isinstance(o, S):
             return S(self.v + o.v, self.d + o.d, self.dd + o.dd)
         return S(self.v + o, self.d, self.dd)
@@ -88,91 +93,157 @@ def arccos(a: S) -> S:
     return a.chain(np.arccos(a.v), -1.0 / r, -a.v / (w * r))
 
 
-@dataclass(frozen=True)
-class V:
-    """Vector jet: point ``v`` (N, 3) with ``d`` = dv/dphi and ``dd`` = d2v/dphi2."""
+def _cx(x, y) -> np.ndarray:
+    """Complex array x + i y without the temporaries of ``x + 1j * y``."""
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    out = np.empty(x.shape, dtype=complex)
+    out.real = x
+    out.imag = y
+    return out
 
-    v: np.ndarray
-    d: np.ndarray
-    dd: np.ndarray
+
+def _re_conj(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Re(a conj(b)) = a.x b.x + a.y b.y, the in-plane dot product of complex points."""
+    return a.real * b.real + a.imag * b.imag
+
+
+class V:
+    """Vector jet: a point (N, 3) with its first and second derivatives in phi.
+
+    The in-plane part is held as complex numbers (x + i y), which makes the rotations the
+    blocks are made of one complex product each; the z part separately (a float where it is
+    the same for every row, as for planar points). ``v``, ``d`` and ``dd`` give the (N, 3)
+    arrays (m, m/rad, m/rad^2).
+    """
+
+    __slots__ = ("_xyz", "c", "cd", "cdd", "z", "zd", "zdd")
+    # Numpy must defer to the jet's reflected operators (see S).
+    __array_ufunc__ = None
+
+    def __init__(self, c: np.ndarray, cd: np.ndarray, cdd: np.ndarray, z=0.0, zd=0.0, zdd=0.0):
+        self.c, self.cd, self.cdd = c, cd, cdd
+        self.z, self.zd, self.zdd = z, zd, zdd
+        self._xyz: dict[str, np.ndarray] = {}
+
+    @classmethod
+    def from_xyz(cls, v: np.ndarray, d: np.ndarray, dd: np.ndarray) -> V:
+        """From (N, 3) value, first and second derivative."""
+        return cls(_cx(v[:, 0], v[:, 1]), _cx(d[:, 0], d[:, 1]), _cx(dd[:, 0], dd[:, 1]), v[:, 2], d[:, 2], dd[:, 2])
+
+    def _stack(self, key: str, c: np.ndarray, z) -> np.ndarray:
+        out = self._xyz.get(key)
+        if out is None:
+            out = np.empty((len(c), 3))
+            out[:, 0] = c.real
+            out[:, 1] = c.imag
+            out[:, 2] = z
+            self._xyz[key] = out
+        return out
+
+    @property
+    def v(self) -> np.ndarray:
+        """(N, 3) m."""
+        return self._stack("v", self.c, self.z)
+
+    @property
+    def d(self) -> np.ndarray:
+        """(N, 3) m/rad."""
+        return self._stack("d", self.cd, self.zd)
+
+    @property
+    def dd(self) -> np.ndarray:
+        """(N, 3) m/rad^2."""
+        return self._stack("dd", self.cdd, self.zdd)
 
     def __add__(self, o: V) -> V:
-        return V(self.v + o.v, self.d + o.d, self.dd + o.dd)
+        return V(self.c + o.c, self.cd + o.cd, self.cdd + o.cdd, self.z + o.z, self.zd + o.zd, self.zdd + o.zdd)
 
     def __sub__(self, o: V) -> V:
-        return V(self.v - o.v, self.d - o.d, self.dd - o.dd)
+        return V(self.c - o.c, self.cd - o.cd, self.cdd - o.cdd, self.z - o.z, self.zd - o.zd, self.zdd - o.zdd)
 
     def scale(self, s: S) -> V:
-        a, b = s.v[:, None], s.d[:, None]
-        return V(self.v * a, self.d * a + self.v * b, self.dd * a + 2.0 * self.d * b + self.v * s.dd[:, None])
-
-    def dot(self, o: V) -> S:
-        return S(
-            np.einsum("ij,ij->i", self.v, o.v),
-            np.einsum("ij,ij->i", self.d, o.v) + np.einsum("ij,ij->i", self.v, o.d),
-            np.einsum("ij,ij->i", self.dd, o.v)
-            + 2.0 * np.einsum("ij,ij->i", self.d, o.d)
-            + np.einsum("ij,ij->i", self.v, o.dd),
+        a, b, e = s.v, s.d, s.dd
+        return V(
+            self.c * a,
+            self.cd * a + self.c * b,
+            self.cdd * a + 2.0 * self.cd * b + self.c * e,
+            self.z * a,
+            self.zd * a + self.z * b,
+            self.zdd * a + 2.0 * self.zd * b + self.z * e,
         )
 
+    def dot(self, o: V) -> S:
+        if o is self:
+            return self._square()
+        v = _re_conj(self.c, o.c) + self.z * o.z
+        d = _re_conj(self.cd, o.c) + _re_conj(self.c, o.cd) + self.zd * o.z + self.z * o.zd
+        dd = (
+            _re_conj(self.cdd, o.c)
+            + 2.0 * _re_conj(self.cd, o.cd)
+            + _re_conj(self.c, o.cdd)
+            + self.zdd * o.z
+            + 2.0 * self.zd * o.zd
+            + self.z * o.zdd
+        )
+        n = len(self.c)
+        return S(*(np.broadcast_to(x, (n,)) if np.ndim(x) == 0 else x for x in (v, d, dd)))
+
+    def _square(self) -> S:
+        v = _re_conj(self.c, self.c) + self.z * self.z
+        d = 2.0 * (_re_conj(self.cd, self.c) + self.zd * self.z)
+        dd = 2.0 * (_re_conj(self.cdd, self.c) + _re_conj(self.cd, self.cd) + self.zdd * self.z + self.zd * self.zd)
+        return S(v, d, dd)
+
     def norm(self) -> S:
-        return sqrt(self.dot(self))
+        return sqrt(self._square())
 
     def planar(self) -> V:
         """The in-plane part (z set to zero)."""
-        m = np.array([1.0, 1.0, 0.0])
-        return V(self.v * m, self.d * m, self.dd * m)
+        return V(self.c, self.cd, self.cdd)
 
-    def with_z(self, z: float) -> V:
-        v = self.v.copy()
-        v[:, 2] = z
-        d, dd = self.d.copy(), self.dd.copy()
-        d[:, 2] = 0.0
-        dd[:, 2] = 0.0
-        return V(v, d, dd)
+    def with_z(self, z) -> V:
+        """The same in-plane motion at the fixed height ``z`` (m; scalar or (N,))."""
+        return V(self.c, self.cd, self.cdd, z)
+
+
+def vplanar(x, y, n: int) -> V:
+    """Constant in-plane vector (x, y, 0); x and y scalars or (n,) arrays (one per row)."""
+    z = np.zeros(n, dtype=complex)
+    return V(np.broadcast_to(_cx(x, y), (n,)), z, z)
 
 
 def vconst(p: np.ndarray, n: int) -> V:
-    v = np.broadcast_to(np.asarray(p, dtype=float), (n, 3)).copy()
-    z = np.zeros((n, 3))
-    return V(v, z, z)
-
-
-def _rot(v: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Rotate the xy part of (N, 3) rows by the angle with cosine c, sine s; z unchanged."""
-    out = np.empty_like(v)
-    out[:, 0] = c * v[:, 0] - s * v[:, 1]
-    out[:, 1] = s * v[:, 0] + c * v[:, 1]
-    out[:, 2] = v[:, 2]
-    return out
-
-
-def _perp(v: np.ndarray) -> np.ndarray:
-    """In-plane rotation by +90 deg; z dropped (the derivative of a rotation has no z part)."""
-    out = np.zeros_like(v)
-    out[:, 0] = -v[:, 1]
-    out[:, 1] = v[:, 0]
-    return out
+    """Constant point: ``p`` (3,) or (n, 3), m."""
+    p = np.asarray(p, dtype=float)
+    z = np.zeros(n, dtype=complex)
+    c = np.broadcast_to(_cx(p[..., 0], p[..., 1]), (n,))
+    return V(c, z, z, p[..., 2] if p.ndim == 2 else float(p[2]))
 
 
 def rotate(p: V, a: S) -> V:
     """R(a) p about Z, with the derivatives of both the vector and the angle."""
-    c, s = np.cos(a.v), np.sin(a.v)
-    rv, rd, rdd = _rot(p.v, c, s), _rot(p.d, c, s), _rot(p.dd, c, s)
-    ad, add = a.d[:, None], a.dd[:, None]
+    e = _cx(np.cos(a.v), np.sin(a.v))
+    rc, rcd, rcdd = p.c * e, p.cd * e, p.cdd * e
+    ad = a.d
+    if not (ad.any() or a.dd.any()):  # a fixed angle (an attached point): a plain rotation
+        return V(rc, rcd, rcdd, p.z, p.zd, p.zdd)
+    j_ad = _cx(0.0, ad)  # i a'
     return V(
-        rv, rd + ad * _perp(rv), rdd + 2.0 * ad * _perp(rd) + add * _perp(rv) - ad**2 * rv * np.array([1.0, 1.0, 0.0])
+        rc,
+        rcd + j_ad * rc,
+        rcdd + 2.0 * j_ad * rcd + (_cx(-(ad * ad), a.dd)) * rc,
+        p.z,
+        p.zd,
+        p.zdd,
     )
 
 
 def angle(p: V) -> S:
     """Direction angle atan2(y, x) of the in-plane part of p, rad in (-pi, pi]."""
-    x, y = p.v[:, 0], p.v[:, 1]
-    xd, yd = p.d[:, 0], p.d[:, 1]
-    xdd, ydd = p.dd[:, 0], p.dd[:, 1]
-    r2 = x * x + y * y
-    num = x * yd - y * xd
-    dnum = x * ydd - y * xdd
-    dr2 = 2.0 * (x * xd + y * yd)
+    c, cd, cdd = p.c, p.cd, p.cdd
+    r2 = _re_conj(c, c)
+    num = c.real * cd.imag - c.imag * cd.real  # x y' - y x'
+    dnum = c.real * cdd.imag - c.imag * cdd.real
+    dr2 = 2.0 * _re_conj(cd, c)
     d = num / r2
-    return S(np.arctan2(y, x), d, (dnum - d * dr2) / r2)
+    return S(np.arctan2(c.imag, c.real), d, (dnum - d * dr2) / r2)

@@ -16,12 +16,18 @@ Lengths in m unless a name says mm; angles rad unless it says deg.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from ..errors import MjlinkError
+from ..model import blocks
+
+if TYPE_CHECKING:
+    from ..model.mechanism import Mechanism
 
 
 @dataclass(frozen=True)
@@ -175,3 +181,38 @@ def design_file(
         "Units: lengths mm, angles deg, masses g, inertias kg*m^2, speeds rad/s."
     )
     return tomlio.dumps(d, header)
+
+
+def redesigned(mech: Mechanism, stroke: float, offset: float, ratio: float) -> Mechanism:
+    """A crank-slider mechanism re-synthesized for stroke and offset (m) and lambda = r / l.
+
+    As :func:`design_file` (``synth --write``), on the objects: the accepted root with the
+    smallest pressure angle sets the crank r and the rod l, the guide moves to y = -e, and
+    points attached along the crank or the rod (their centres of mass) stay at the same
+    fraction of its length. The pressure-angle limit is not applied (a design study shows
+    theta_max as a metric and its limit as a bound). Raises MjlinkError if no root is real
+    and gives the stroke.
+    """
+    root = best(stroke, offset, ratio, math.radians(89.99))
+    if root is None:
+        raise MjlinkError(
+            f"no crank-slider has stroke {stroke * 1e3:g} mm with offset {offset * 1e3:g} mm and lambda {ratio:g}"
+        )
+    r, l = root.r.real, root.l.real
+    crank = mech.input_crank
+    slider = blocks.sliders(mech.steps)[0]
+    ground = dict(mech.ground)
+    for g in slider.guide:
+        if g in ground:
+            ground[g] = np.array([ground[g][0], -offset, ground[g][2]])
+    along = {(crank.pivot, crank.point): r / crank.length, (slider.start, slider.point): l / slider.length}
+    steps = []
+    for s in mech.steps:
+        if s is crank or s is slider:
+            s = dataclasses.replace(cast(Any, s), length=r if s is crank else l)
+        elif s.inputs in along and s.kind == "attached":
+            s = dataclasses.replace(cast(Any, s), length=cast(Any, s).length * along[s.inputs])
+        steps.append(s)
+    assert mech.synthesis is not None
+    new = dataclasses.replace(mech.synthesis, stroke=stroke, offset=offset, ratio=ratio)
+    return dataclasses.replace(mech, ground=ground, steps=tuple(steps), synthesis=new)

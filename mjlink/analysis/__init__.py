@@ -20,11 +20,11 @@ from itertools import pairwise
 
 import numpy as np
 
-from . import reference
-from .model import blocks
-from .model.blocks import Crank, Slider
-from .model.mechanism import Mechanism
-from .runs import Trace
+from .. import reference
+from ..model import blocks
+from ..model.blocks import Crank, Slider
+from ..model.mechanism import Mechanism
+from ..runs import Trace
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

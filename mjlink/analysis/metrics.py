@@ -1,0 +1,538 @@
+"""Design metrics: one number per variant, computed from the reference over a batch of variants.
+
+A metric is one class (:class:`Metric`), registered by its ``kind`` (the name a study file
+uses); it reads its options from the study file, names its columns with their units, and
+computes them for every variant of a :class:`~mjlink.reference.batch.Batch` at once
+(arrays of V variants x A crank angles, never a loop over variants). Each column's unit is in
+its :class:`Column`; every definition is in the class's docstring (and the studies README).
+
+Feasibility comes first (:func:`feasibility`): a variant that cannot be assembled at every
+crank angle of its period, or that passes within the dead-point limits of ``check``
+(transmission angle below 20 deg or above 160 deg, pressure angle above 60 deg), is infeasible
+with the reason and the crank-angle range; its metrics are NaN, never a number.
+
+Units of the columns: mm, um, deg, N, N*m, W or none, as each says; angles of a period are
+sampled uniformly from phi0, the end excluded (a mean over them is the exact cycle mean).
+"""
+
+from __future__ import annotations
+
+import difflib
+import itertools
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..errors import MjlinkError
+from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
+from ..model.mechanism import Mechanism
+from ..model.topology import pairs
+from ..reference import kinetostatics
+from ..reference.batch import Batch
+from ..reference.dynamics import reduced
+from ..reference.kinematics import angle_ranges
+
+
+class MetricError(MjlinkError):
+    """A study file's metric is unknown or badly specified."""
+
+
+@dataclass(frozen=True)
+class Column:
+    """A metric's output column: ``name`` (also its CSV header stem), ``unit``, ``label``."""
+
+    name: str
+    unit: str
+    label: str
+
+
+@dataclass
+class Loads:
+    """What several load metrics share, computed once per batch and speed."""
+
+    torque: dict[float, np.ndarray] = field(default_factory=dict)  # speed -> (V, A) N*m
+    reactions: dict[float, kinetostatics.Reactions] = field(default_factory=dict)
+
+
+class Metric(ABC):
+    """A design metric: options from the study file, columns, values per variant."""
+
+    kind: ClassVar[str]
+    types: ClassVar[dict[str, type[Metric]]] = {}
+    needs_point: ClassVar[bool] = False
+    options: ClassVar[tuple[str, ...]] = ()
+    doc: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        if "kind" in cls.__dict__:  # abstract helpers (shared options) have none
+            Metric.types[cls.kind] = cls
+
+    def __init__(self, mech: Mechanism, raw: dict[str, Any], where: str):
+        self.mech = mech
+        self.where = where
+        allowed = {"kind", *self.options} | ({"point"} if self.needs_point else set())
+        for k in raw:
+            if k not in allowed:
+                near = difflib.get_close_matches(k, sorted(allowed), n=1)
+                hint = f"did you mean '{near[0]}'? " if near else ""
+                raise MetricError(f"{where}: unknown key '{k}' ({hint}valid: {', '.join(sorted(allowed))})")
+        self.point = ""
+        if self.needs_point:
+            p = raw.get("point")
+            if not isinstance(p, str):
+                raise MetricError(f"{where}: needs 'point' (a point of {mech.name})")
+            if p not in mech.point_names:
+                near = difflib.get_close_matches(p, list(mech.point_names), n=1)
+                hint = f"did you mean '{near[0]}'? " if near else ""
+                raise MetricError(f"{where}: unknown point '{p}' ({hint}points: {', '.join(mech.point_names)})")
+            self.point = p
+        self.read(raw)
+
+    def read(self, raw: dict[str, Any]) -> None:  # noqa: B027 (optional hook)
+        """Read the metric's own options (raise MetricError)."""
+
+    @abstractmethod
+    def columns(self) -> list[Column]:
+        """The columns this metric fills."""
+
+    @abstractmethod
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        """Column name -> (V,) values (NaN-free for feasible variants)."""
+
+    def _speed(self, raw: dict[str, Any]) -> float:
+        w = raw.get("speed", self.mech.speed)
+        if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w == 0:
+            raise MetricError(f"{self.where}: speed must be a non-zero number (rad/s), got {w!r}")
+        return float(w)
+
+
+def _axis(raw: dict[str, Any], where: str) -> int | None:
+    a = raw.get("axis")
+    if a is None:
+        return None
+    if a not in ("x", "y", "z"):
+        raise MetricError(f"{where}: axis must be 'x', 'y' or 'z', got {a!r}")
+    return "xyz".index(a)
+
+
+def _peak(x: np.ndarray, d: np.ndarray, dd: np.ndarray, step: float, high: bool) -> np.ndarray:
+    """The largest (or smallest) value of each row of (V, A) samples, refined between samples
+    with the exact derivatives there (d, dd per unit of the sample spacing's variable): at the
+    best sample a Newton step on the derivative gives x - d^2 / (2 dd), the extremum of the
+    local parabola, taken if it lies within one spacing ``step``. Sampling alone would miss
+    a stroke by up to about 1e-4 of it at 1 deg spacing."""
+    j = np.argmax(x, axis=1) if high else np.argmin(x, axis=1)
+    r = np.arange(len(x))
+    xv, dv, ddv = x[r, j], d[r, j], dd[r, j]
+    with np.errstate(all="ignore"):
+        h = -dv / ddv
+        ok = (np.abs(h) <= step) & ((ddv < 0) if high else (ddv > 0))
+        return np.where(ok, xv - dv * dv / (2.0 * ddv), xv)
+
+
+def _coordinate(b: Batch, point: str, ax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(V, A) coordinate ``ax`` of a point with its first and second derivative in phi."""
+    p = b.kin.points[point]
+    return b.per_variant(p.v[:, ax]), b.per_variant(p.d[:, ax]), b.per_variant(p.dd[:, ax])
+
+
+def _step(b: Batch) -> float:
+    return float(b.theta[1] - b.theta[0]) if b.angles > 1 else 0.0
+
+
+def _main_axis(nominal: Batch, point: str) -> int:
+    """The axis along which the nominal design's point moves most."""
+    return int(np.argmax(np.ptp(nominal.kin.points[point].v, axis=0)))
+
+
+# ----------------------------------------------------------------------------- positions
+class Stroke(Metric):
+    """Stroke of a point: max - min of its coordinate along ``axis`` (x, y or z; default the
+    axis along which the nominal design's point moves most) over the period, mm; the extremes
+    are refined between the sampled angles with the exact derivatives (:func:`_peak`)."""
+
+    kind = "stroke"
+    needs_point = True
+    options = ("axis",)
+
+    def read(self, raw: dict[str, Any]) -> None:
+        self.axis = _axis(raw, self.where)
+
+    def _ax(self, nominal: Batch) -> int:
+        return self.axis if self.axis is not None else _main_axis(nominal, self.point)
+
+    def columns(self) -> list[Column]:
+        ax = "" if self.axis is None else "_" + "xyz"[self.axis]
+        return [Column(f"stroke_{self.point}{ax}", "mm", f"stroke of {self.point}{ax.replace('_', ' ')}")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        x, d, dd = _coordinate(b, self.point, self._ax(nominal))
+        hi, lo = _peak(x, d, dd, _step(b), True), _peak(x, d, dd, _step(b), False)
+        return {self.columns()[0].name: (hi - lo) * 1e3}
+
+
+class Extremes(Metric):
+    """Extreme positions of a point: the smallest and largest of its coordinate along ``axis``
+    (default as for ``stroke``) over the period, mm (world frame), refined as for ``stroke``."""
+
+    kind = "extremes"
+    needs_point = True
+    options = ("axis",)
+
+    def read(self, raw: dict[str, Any]) -> None:
+        self.axis = _axis(raw, self.where)
+
+    def columns(self) -> list[Column]:
+        ax = "xyz"[self.axis] if self.axis is not None else "main"
+        return [
+            Column(f"{self.point}_{ax}_min", "mm", f"lowest {ax} of {self.point}"),
+            Column(f"{self.point}_{ax}_max", "mm", f"highest {ax} of {self.point}"),
+        ]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        ax = self.axis if self.axis is not None else _main_axis(nominal, self.point)
+        x, d, dd = _coordinate(b, self.point, ax)
+        lo, hi = self.columns()
+        return {lo.name: _peak(x, d, dd, _step(b), False) * 1e3, hi.name: _peak(x, d, dd, _step(b), True) * 1e3}
+
+
+class PositionError(Metric):
+    """Position error of a point: the largest distance, over the period, between the point and
+    where the nominal design has it at the same crank angle (from phi0), um. What tolerances
+    on the links and pivots cost in the point's path."""
+
+    kind = "position_error"
+    needs_point = True
+
+    def columns(self) -> list[Column]:
+        return [Column(f"position_error_{self.point}", "um", f"position error of {self.point}")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        d = b.per_variant(b.kin.points[self.point].v) - nominal.kin.points[self.point].v[None]
+        return {self.columns()[0].name: np.sqrt((d**2).sum(axis=2)).max(axis=1) * 1e6}
+
+
+# -------------------------------------------------------------------------------- thread
+def _thread(b: Batch, where: str) -> np.ndarray:
+    """(V, A) thread length, m."""
+    lf = b.kin.thread_length()
+    if lf is None:
+        raise MetricError(f"{where}: {b.mechanism.name} has no [thread]")
+    return b.per_variant(lf.v)
+
+
+class ThreadRange(Metric):
+    """Thread length range: max - min of the thread polyline's length lF over the period, mm
+    (extremes refined as for ``stroke``)."""
+
+    kind = "thread_range"
+
+    def columns(self) -> list[Column]:
+        return [Column("thread_range", "mm", "thread length range")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        lf = b.kin.thread_length()
+        if lf is None:
+            raise MetricError(f"{self.where}: {b.mechanism.name} has no [thread]")
+        x, d, dd = b.per_variant(lf.v), b.per_variant(lf.d), b.per_variant(lf.dd)
+        return {"thread_range": (_peak(x, d, dd, _step(b), True) - _peak(x, d, dd, _step(b), False)) * 1e3}
+
+
+class ThreadFeed(Metric):
+    """Thread feed per turn: the thread the lever draws in one input turn, the sum of the
+    increases of lF over the turn (its positive variation), mm. For a length with one rise
+    and one fall per turn this equals the range."""
+
+    kind = "thread_feed"
+
+    def columns(self) -> list[Column]:
+        return [Column("thread_feed", "mm", "thread feed per turn")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        lf = _thread(b, self.where)
+        turns = max(1, round(b.mechanism.period / (2 * math.pi)))
+        closed = np.concatenate([lf, lf[:, :1]], axis=1)
+        rise = np.clip(np.diff(closed, axis=1), 0.0, None).sum(axis=1) / turns
+        return {"thread_feed": rise * 1e3}
+
+
+class FeedDeviation(Metric):
+    """Deviation of the thread feed Pd = lF(phi) - lF(phi0) - dP (seed 003) from a demand table
+    (``angles`` deg from phi0, ``values`` mm; linear, periodic over the period): the largest
+    and the RMS of |Pd - demand| over the period, mm."""
+
+    kind = "feed_deviation"
+    options = ("angles", "values")
+
+    def read(self, raw: dict[str, Any]) -> None:
+        a, v = raw.get("angles"), raw.get("values")
+        if not isinstance(a, list) or not isinstance(v, list) or len(a) != len(v) or len(a) < 2:
+            raise MetricError(f"{self.where}: needs 'angles' (deg) and 'values' (mm), lists of equal length >= 2")
+        try:
+            self.angles = np.radians(np.array(a, dtype=float))
+            self.values = np.array(v, dtype=float) * 1e-3
+        except (TypeError, ValueError):
+            raise MetricError(f"{self.where}: 'angles' and 'values' must be numbers") from None
+        if not (np.all(np.isfinite(self.angles)) and np.all(np.isfinite(self.values))):
+            raise MetricError(f"{self.where}: 'angles' and 'values' must be finite")
+        if not np.all(np.diff(self.angles) > 0):
+            raise MetricError(f"{self.where}: 'angles' must increase strictly")
+
+    def columns(self) -> list[Column]:
+        return [
+            Column("feed_deviation_max", "mm", "largest |Pd - demand|"),
+            Column("feed_deviation_rms", "mm", "RMS of Pd - demand"),
+        ]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        lf = _thread(b, self.where)
+        pd = lf - lf[:, :1] - (b.mechanism.thread_elongation or 0.0)
+        if np.ndim(pd) == 3:  # pragma: no cover - elongation varies per row
+            pd = pd[..., 0]
+        demand = np.interp(b.theta, self.angles, self.values, period=b.mechanism.period)
+        dev = np.abs(pd - demand[None])
+        return {"feed_deviation_max": dev.max(axis=1) * 1e3, "feed_deviation_rms": np.sqrt((dev**2).mean(axis=1)) * 1e3}
+
+
+# ----------------------------------------------------------------------- transmission
+class TransmissionMin(Metric):
+    """Minimum transmission angle over the period and every dyad, folded to 0..90 deg
+    (min(mu, 180 - mu): 90 is best, 0 a dead point), deg."""
+
+    kind = "transmission_min"
+
+    def columns(self) -> list[Column]:
+        return [Column("transmission_min", "deg", "minimum transmission angle")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        worst = np.full(b.variants, np.nan)
+        for dp in _dead_points(b):
+            if dp.quantity == "transmission angle":
+                m = b.per_variant(dp.margin_deg).min(axis=1)
+                worst = np.fmin(worst, m)
+        return {"transmission_min": worst}
+
+
+class PressureMax(Metric):
+    """Maximum pressure angle over the period and every slider (between the rod and the
+    guide's direction of motion, 0..90 deg), deg."""
+
+    kind = "pressure_max"
+
+    def columns(self) -> list[Column]:
+        return [Column("pressure_max", "deg", "maximum pressure angle")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        worst = np.full(b.variants, np.nan)
+        for dp in _dead_points(b):
+            if dp.quantity == "pressure angle":
+                worst = np.fmax(worst, b.per_variant(dp.value_deg).max(axis=1))
+        return {"pressure_max": worst}
+
+
+def _dead_points(b: Batch) -> list[Any]:
+    P = b.kin.positions()
+    return [d for d in (s.dead_point(P) for s in b.mechanism.steps) if d is not None]
+
+
+# -------------------------------------------------------------------------------- loads
+class _AtSpeed(Metric):
+    options = ("speed",)
+
+    def read(self, raw: dict[str, Any]) -> None:
+        self.speed = self._speed(raw)
+
+    def _tag(self) -> str:
+        return "" if self.speed == self.mech.speed else f"_at_{self.speed:g}rad_s".replace("-", "m").replace(".", "p")
+
+    def _torque(self, b: Batch, loads: Loads) -> np.ndarray:
+        """(V, A) driving torque at constant speed, N*m (the reference's inverse dynamics)."""
+        if self.speed not in loads.torque:
+            red = reduced(b.mechanism, b.kin)
+            w = self.speed
+            tau = 0.5 * red.dJ * w**2 + b.mechanism.dynamics.damping * w - red.Q
+            loads.torque[self.speed] = b.per_variant(np.broadcast_to(tau, b.kin.phi.shape))
+        return loads.torque[self.speed]
+
+    def _reactions(self, b: Batch, loads: Loads) -> kinetostatics.Reactions:
+        if self.speed not in loads.reactions:
+            loads.reactions[self.speed] = kinetostatics.reactions(b.mechanism, b.kin.phi, self.speed)
+        return loads.reactions[self.speed]
+
+
+class TorquePeak(_AtSpeed):
+    """Peak driving torque at constant crank speed (``speed`` rad/s, default the file's
+    [input] speed): max |tau| over the period, N*m."""
+
+    kind = "torque_peak"
+
+    def columns(self) -> list[Column]:
+        return [Column("torque_peak" + self._tag(), "N*m", "peak driving torque")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        return {self.columns()[0].name: np.abs(self._torque(b, loads)).max(axis=1)}
+
+
+class TorqueRms(_AtSpeed):
+    """RMS driving torque at constant crank speed over the period, N*m."""
+
+    kind = "torque_rms"
+
+    def columns(self) -> list[Column]:
+        return [Column("torque_rms" + self._tag(), "N*m", "RMS driving torque")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        return {self.columns()[0].name: np.sqrt((self._torque(b, loads) ** 2).mean(axis=1))}
+
+
+class PowerMean(_AtSpeed):
+    """Mean driving power at constant crank speed, the period mean of tau * omega, W."""
+
+    kind = "power_mean"
+
+    def columns(self) -> list[Column]:
+        return [Column("power_mean" + self._tag(), "W", "mean driving power")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        return {self.columns()[0].name: self._torque(b, loads).mean(axis=1) * self.speed}
+
+
+class ReactionPeak(_AtSpeed):
+    """Peak reaction in every kinematic pair at constant crank speed: max over the period of
+    the force's magnitude (for a prismatic pair its normal force), N. One column per pair,
+    ``reaction_peak_<pair>`` (pair label as in ``reactions``)."""
+
+    kind = "reaction_peak"
+
+    def columns(self) -> list[Column]:
+        return [
+            Column(f"reaction_peak_{_slug(pr.label)}" + self._tag(), "N", f"peak reaction {pr.label}")
+            for _, pr in pairs(self.mech)
+        ]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        r = self._reactions(b, loads)
+        out = {}
+        for col, (_, pr) in zip(self.columns(), pairs(self.mech), strict=True):
+            f = r.forces[pr.label]
+            out[col.name] = b.per_variant(np.sqrt((f**2).sum(axis=1))).max(axis=1)
+        return out
+
+
+class SpeedFluctuation(Metric):
+    """Coefficient of speed fluctuation delta = (omega_max - omega_min) / omega_mean of the
+    periodic steady motion under the file's drive (its ``[steady]`` motor, else its
+    ``[dynamics.motor]``, with its damping), dimensionless (see
+    :func:`mjlink.reference.batch.steady_delta`)."""
+
+    kind = "speed_fluctuation"
+
+    def read(self, raw: dict[str, Any]) -> None:
+        if self.mech.steady is None and self.mech.dynamics.motor is None:
+            raise MetricError(
+                f"{self.where}: {self.mech.name} has no drive characteristic ([steady] or [dynamics.motor])"
+            )
+
+    def columns(self) -> list[Column]:
+        return [Column("delta", "", "coefficient of speed fluctuation")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        from ..reference.batch import steady_delta
+
+        return {"delta": steady_delta(b)}
+
+
+def _slug(label: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in label).strip("_")
+
+
+# --------------------------------------------------------------------------- the study side
+def read(mech: Mechanism, raw: Any, i: int) -> Metric:
+    """The ``i``-th ``[[metric]]`` table of a study file, or a one-line MetricError."""
+    where = f"[[metric]] #{i + 1}"
+    if not isinstance(raw, dict):
+        raise MetricError(f"{where}: must be a table")
+    kind = raw.get("kind")
+    if not isinstance(kind, str):
+        raise MetricError(f"{where}: needs 'kind' (one of {', '.join(Metric.types)})")
+    if kind not in Metric.types:
+        near = difflib.get_close_matches(kind, list(Metric.types), n=1)
+        hint = f"did you mean '{near[0]}'? " if near else ""
+        raise MetricError(f"{where}: unknown metric '{kind}' ({hint}valid: {', '.join(Metric.types)})")
+    return Metric.types[kind](mech, raw, f"{where} ({kind})")
+
+
+@dataclass(frozen=True)
+class Feasibility:
+    """Per variant: ``feasible`` (V,) bool and ``reason`` ('' where feasible)."""
+
+    feasible: np.ndarray
+    reason: tuple[str, ...]
+
+
+def feasibility(b: Batch) -> Feasibility:
+    """Which variants assemble over the whole period and keep clear of dead points.
+
+    A variant is infeasible where its values make no mechanism (``b.invalid``), where a block
+    cannot close at some crank angle (reason names the block and the angle ranges, deg from
+    the variant's phi0), or where a dyad's transmission angle leaves 20..160 deg or a slider's
+    pressure angle exceeds 60 deg (the limits within which ``check`` accepts a mechanism).
+    """
+    V = b.variants
+    reason = list(b.invalid)
+    theta = b.theta
+    steps = {s.point: s for s in b.mechanism.steps}
+    for point, margin in b.kin.margins.items():
+        bad = b.per_variant(~(margin >= 0.0))
+        for i in np.flatnonzero(bad.any(axis=1)):
+            if not reason[i]:
+                reason[i] = f"{steps[point].named()} cannot close at {angle_ranges(theta, bad[i])} deg from phi0"
+    P = b.kin.positions()
+    for s in b.mechanism.steps:
+        dp = s.dead_point(P)
+        if dp is None:
+            continue
+        near = b.per_variant(~(dp.margin_deg >= dp.required_margin_deg))
+        value = b.per_variant(dp.value_deg)
+        for i in np.flatnonzero(near.any(axis=1)):
+            if not reason[i]:
+                j = int(np.argmax(np.where(near[i], 90.0 - b.per_variant(dp.margin_deg)[i], -np.inf)))
+                limit = (
+                    f"{MIN_TRANSMISSION_DEG:g}..{180 - MIN_TRANSMISSION_DEG:g} deg"
+                    if dp.quantity == "transmission angle"
+                    else f"{MAX_PRESSURE_DEG:g} deg"
+                )
+                reason[i] = (
+                    f"{s.named()} passes a dead point: {dp.quantity} {value[i, j]:.1f} deg (limit {limit}) "
+                    f"at {angle_ranges(theta, near[i])} deg from phi0"
+                )
+    feasible = np.array([not r for r in reason], dtype=bool)
+    assert len(feasible) == V
+    return Feasibility(feasible, tuple(reason))
+
+
+def compute(metrics: Sequence[Metric], b: Batch, nominal: Batch) -> dict[str, np.ndarray]:
+    """Every metric's columns for every variant of ``b`` ((V,) each); ``nominal`` is the
+    nominal design's batch (one variant) at the same angles."""
+    loads = Loads()
+    out: dict[str, np.ndarray] = {}
+    with np.errstate(all="ignore"):
+        for m in metrics:
+            out.update(m.compute(b, nominal, loads))
+    return out
+
+
+def columns(metrics: Sequence[Metric]) -> list[Column]:
+    """Every metric's columns, in order; a name used twice is a MetricError."""
+    cols = list(itertools.chain.from_iterable(m.columns() for m in metrics))
+    seen: set[str] = set()
+    for c in cols:
+        if c.name in seen:
+            raise MetricError(f"[[metric]]: column '{c.name}' is computed twice (two identical metrics)")
+        seen.add(c.name)
+    return cols

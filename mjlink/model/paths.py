@@ -1,0 +1,283 @@
+"""Parameter paths: every number of a mechanism file, addressed as a design study varies it.
+
+A path names one value of the file, in the file's own units (mm, deg, g, ...)::
+
+    ground.P4.x                  a ground point's coordinate (x, y or z), mm
+    construct.P3.length_a        a block's number (its key in [[construct]] point = "P3"):
+                                 crank length / phase, dyad length_a / length_b, attached
+                                 angle / length / z, slider length; mm or deg
+    links.lever.mass             a link's mass, g (inertia: kg*m^2)
+    input.phi0                   the input's initial angle (the crank setting phi01), deg
+    input.speed                  the input's constant speed, rad/s (signed, CCW positive)
+    dynamics.damping             dynamics numbers: moment N*m, damping N*m*s, omega0 rad/s,
+                                 gravity m/s^2
+    dynamics.force.P5.scale      a factor on the force (constant or table) at point P5, -
+    dynamics.motor.stall_torque  the motor characteristic (N*m, no_load_speed rad/s)
+    steady.stall_torque          the steady-motion motor (N*m, no_load_speed rad/s, target_delta -)
+    thread.elongation            the thread elongation dP, mm
+    synthesis.lambda             a crank-slider's synthesis input (stroke, offset mm, lambda -):
+                                 varying one re-runs the metric synthesis (r, l and the guide
+                                 follow, as ``synth --write`` does)
+
+A geared crank's phase is the crank setting phi04 (``construct.P8.phase`` in warp_knitting).
+
+:func:`apply` replaces values by scalars (one variant, a :class:`~.mechanism.Mechanism` like any
+other) or by arrays of shape (N,) (one value per row: the study engine stacks variants x crank
+angles into rows, and the blocks, the reference and the metrics compute on such arrays
+elementwise, so a row's result does not depend on the other rows).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, cast
+
+import numpy as np
+
+from ..errors import MjlinkError
+from ..units import DEG, MM, G
+from .mechanism import Force, Mechanism
+
+_AXES = ("x", "y", "z")
+# section -> key -> (SI per file unit, file unit, must be positive)
+_DYNAMICS = {
+    "moment": (1.0, "N*m", False),
+    "damping": (1.0, "N*m*s", False),
+    "omega0": (1.0, "rad/s", False),
+    "gravity": (1.0, "m/s^2", False),
+}
+_MOTOR = {"stall_torque": (1.0, "N*m", False), "no_load_speed": (1.0, "rad/s", False)}
+_SYNTHESIS = {"stroke": (MM, "mm", True), "offset": (MM, "mm", False), "lambda": (1.0, "", True)}
+
+
+class PathError(MjlinkError):
+    """A parameter path that names no number of the mechanism (or a value it cannot take)."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """One number of a mechanism file that a study varies.
+
+    ``path`` as written (see the module docstring); ``unit`` the file's unit ('' for none);
+    ``scale`` SI per file unit; ``nominal`` the file's value (file units; 0 where the file
+    leaves it out and 0 means "none", e.g. a force scale's 1); ``positive`` whether only
+    values > 0 make a mechanism.
+    """
+
+    path: str
+    unit: str
+    scale: float
+    nominal: float
+    positive: bool
+
+    @property
+    def section(self) -> str:
+        return self.path.split(".", 1)[0]
+
+    def label(self) -> str:
+        """'construct.P3.length_a, mm'."""
+        return f"{self.path}, {self.unit}" if self.unit else self.path
+
+
+def catalogue(mech: Mechanism) -> dict[str, Param]:
+    """Every path of ``mech`` a study may vary, with its unit and nominal value."""
+    out: dict[str, Param] = {}
+
+    def add(path: str, scale: float, unit: str, positive: bool, si_value: float | None) -> None:
+        nominal = math.nan if si_value is None else float(si_value) / scale
+        out[path] = Param(path, unit, scale, nominal, positive)
+
+    for name, p in mech.ground.items():
+        for i, ax in enumerate(_AXES):
+            add(f"ground.{name}.{ax}", MM, "mm", False, p[i])
+    for s in mech.steps:
+        for key, (scale, unit, positive) in s.numbers.items():
+            value = getattr(s, key, None)
+            if key == "phase" and value is None:
+                continue  # the input crank: its angle is input.phi0
+            if value is None:  # an attached point without its own z keeps its origin's
+                value = 0.0
+            add(f"construct.{s.point}.{key}", scale, unit, positive, value)
+    for l in mech.links:
+        add(f"links.{l.name}.mass", G, "g", False, l.mass)
+        add(f"links.{l.name}.inertia", 1.0, "kg*m^2", False, l.inertia)
+    add("input.phi0", DEG, "deg", False, mech.phi0)
+    add("input.speed", 1.0, "rad/s", False, mech.speed)
+    dyn = mech.dynamics
+    for key, (scale, unit, positive) in _DYNAMICS.items():
+        add(f"dynamics.{key}", scale, unit, positive, getattr(dyn, key))
+    for f in dyn.forces:
+        add(f"dynamics.force.{f.point}.scale", 1.0, "", False, 1.0)
+    if dyn.motor is not None:
+        for key, (scale, unit, positive) in _MOTOR.items():
+            add(f"dynamics.motor.{key}", scale, unit, positive, getattr(dyn.motor, key))
+    if mech.steady is not None:
+        for key, (scale, unit, positive) in _MOTOR.items():
+            add(f"steady.{key}", scale, unit, positive, getattr(mech.steady.motor, key))
+        add("steady.target_delta", 1.0, "", True, mech.steady.target_delta)
+    if mech.thread:
+        add("thread.elongation", MM, "mm", False, mech.thread_elongation or 0.0)
+    if mech.synthesis is not None:
+        sy = mech.synthesis
+        add("synthesis.stroke", MM, "mm", True, sy.stroke)
+        add("synthesis.offset", MM, "mm", False, sy.offset)
+        add("synthesis.lambda", 1.0, "", True, sy.ratio)
+    return out
+
+
+def resolve(mech: Mechanism, path: str) -> Param:
+    """The parameter a path names, or a one-line PathError naming the nearest valid path."""
+    known = catalogue(mech)
+    if path in known:
+        return known[path]
+    near = difflib.get_close_matches(path, list(known), n=1, cutoff=0.5)
+    if not near:  # a wrong point or link name: suggest by the last part
+        tail = path.rsplit(".", 1)[-1]
+        near = [k for k in known if k.endswith("." + tail)][:1]
+    hint = f"did you mean '{near[0]}'?" if near else f"valid paths start with: {', '.join(_sections(known))}"
+    raise PathError(f"{mech.name}: unknown parameter path '{path}' ({hint})")
+
+
+def _sections(known: Mapping[str, Param]) -> list[str]:
+    return sorted({k.split(".", 1)[0] + "." for k in known})
+
+
+def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
+    """``mech`` with the given parameters replaced.
+
+    Args:
+      mech: the nominal mechanism.
+      values: parameter -> value in the file's units: a float (one variant) or an array of
+        shape (N,) (one value per row, see the module docstring).
+
+    Returns:
+      A mechanism whose affected numbers are SI floats or (N,) arrays. It is not validated:
+      a study judges each variant by its metrics (assembly, dead points), and
+      :func:`invalid` names values no mechanism can have.
+    """
+    ground = dict(mech.ground)
+    steps = {s.point: s for s in mech.steps}
+    links = {l.name: l for l in mech.links}
+    top: dict[str, Any] = {}
+    dyn: dict[str, Any] = {}
+    motor: dict[str, Any] = {}
+    steady: dict[str, Any] = {}
+    scales: dict[str, Any] = {}
+    synthesis: dict[str, Any] = {}
+    for p, raw in values.items():
+        v = np.asarray(raw, dtype=float) * p.scale if np.ndim(raw) else float(raw) * p.scale
+        parts = p.path.split(".")
+        sec = parts[0]
+        if sec == "ground":
+            base = ground[parts[1]]
+            n = np.shape(v)[0] if np.ndim(v) else 0
+            if n or np.ndim(base) == 2:
+                rows = np.array(np.broadcast_to(base, (max(n, len(base) if np.ndim(base) == 2 else 1), 3)))
+                rows[:, _AXES.index(parts[2])] = v
+                ground[parts[1]] = rows
+            else:
+                new = np.array(base, dtype=float)
+                new[_AXES.index(parts[2])] = v
+                ground[parts[1]] = new
+        elif sec == "construct":
+            field_value: dict[str, Any] = {parts[2]: v}
+            steps[parts[1]] = dataclasses.replace(cast(Any, steps[parts[1]]), **field_value)
+        elif sec == "links":
+            link_value: dict[str, Any] = {parts[2]: v}
+            links[parts[1]] = dataclasses.replace(links[parts[1]], **link_value)
+        elif sec == "input":
+            top[parts[1]] = v
+        elif sec == "dynamics" and parts[1] == "force":
+            scales[parts[2]] = v
+        elif sec == "dynamics" and parts[1] == "motor":
+            motor[parts[2]] = v
+        elif sec == "dynamics":
+            dyn[parts[1]] = v
+        elif sec == "steady":
+            steady[parts[1]] = v
+        elif sec == "thread":
+            top["thread_elongation"] = v
+        elif sec == "synthesis":
+            synthesis[parts[1]] = v
+        else:  # catalogue() lists no other section
+            raise PathError(f"{mech.name}: parameter path '{p.path}' cannot be varied")
+    d = mech.dynamics
+    if scales:
+        d = dataclasses.replace(d, forces=tuple(_scaled(f, scales.get(f.point)) for f in d.forces))
+    if motor:
+        assert d.motor is not None
+        d = dataclasses.replace(d, motor=dataclasses.replace(d.motor, **motor))
+    if dyn:
+        d = dataclasses.replace(d, **dyn)
+    st = mech.steady
+    if steady:
+        assert st is not None
+        m = {k: v for k, v in steady.items() if k in _MOTOR}
+        st = dataclasses.replace(st, motor=dataclasses.replace(st.motor, **m) if m else st.motor)
+        if "target_delta" in steady:
+            st = dataclasses.replace(st, target_delta=steady["target_delta"])
+    out = dataclasses.replace(
+        mech,
+        ground=ground,
+        steps=tuple(steps[s.point] for s in mech.steps),
+        links=tuple(links[l.name] for l in mech.links),
+        dynamics=d,
+        steady=st,
+        **top,
+    )
+    if synthesis:
+        out = _synthesized(out, synthesis)
+    return out
+
+
+def _scaled(f: Force, scale: Any) -> Force:
+    if scale is None:
+        return f
+    if np.ndim(scale):
+        raise PathError(f"dynamics.force.{f.point}.scale: a force scale is varied per variant, not per row")
+    if f.angles is None:
+        return dataclasses.replace(f, value=tuple(float(x) * scale for x in f.value))
+    assert f.values is not None
+    return dataclasses.replace(f, values=tuple(tuple(float(x) * scale for x in row) for row in f.values))
+
+
+def _synthesized(mech: Mechanism, changed: Mapping[str, Any]) -> Mechanism:
+    """The crank-slider re-synthesized for new synthesis inputs (one variant: floats); no
+    admissible design raises PathError (the study records the variant as infeasible)."""
+    from ..reference import synthesis as synth
+
+    sy = mech.synthesis
+    assert sy is not None
+    if any(np.ndim(v) for v in changed.values()):
+        raise PathError("synthesis inputs are varied per variant, not per row")
+    try:
+        return synth.redesigned(
+            mech, changed.get("stroke", sy.stroke), changed.get("offset", sy.offset), changed.get("lambda", sy.ratio)
+        )
+    except MjlinkError as e:
+        raise PathError(str(e)) from None
+
+
+def invalid(params: list[Param], values: np.ndarray) -> list[str]:
+    """Why each variant's values make no mechanism ('' where they do).
+
+    Args:
+      params: the varied parameters (P of them).
+      values: (V, P) in the file's units.
+    Returns:
+      V strings.
+    """
+    out = [""] * len(values)
+    for j, p in enumerate(params):
+        col = values[:, j]
+        bad = ~np.isfinite(col) | ((col <= 0) if p.positive else False)
+        for i in np.flatnonzero(bad):
+            if not out[i]:
+                out[i] = f"{p.path} = {col[i]:g} {p.unit}".rstrip() + (
+                    " is not finite" if not math.isfinite(col[i]) else " must be positive"
+                )
+    return out

@@ -1,0 +1,127 @@
+"""Design studies: many variants of one mechanism, evaluated by the reference and checked in MuJoCo.
+
+The Python API (the ``study`` command is a thin layer over it)::
+
+    import numpy as np
+    from mjlink import study
+
+    mech = study.mechanism("takeup")                          # a registered name or a file
+    v = study.override(mech, {"construct.P3.length_a": 22.01})  # one variant, a Mechanism
+    res = study.evaluate(mech, {"construct.P3.length_a": np.linspace(21.9, 22.1, 201)},
+                         metrics=[{"kind": "thread_range"}, {"kind": "torque_peak"}])
+    res.columns["thread_range"]                               # (201,) mm, NaN where infeasible
+    checks = study.verify([v, mech])                          # MuJoCo, one batched rollout
+    out = study.run("takeup_tolerance", client=my_dask_client)  # a whole study file, written
+
+Parameter paths and their units: :mod:`mjlink.model.paths`; metrics:
+:mod:`mjlink.analysis.metrics`; the study file: ``studies/README.md``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..analysis import metrics as _metrics
+from ..model import paths as _paths
+from ..model.mechanism import Mechanism
+from ..reference import batch as _batch
+from .spec import Study, StudyFileError, Varied, load, parse
+from .tasks import Evaluated, Verified, reference_chunk
+
+if TYPE_CHECKING:
+    from ..pipeline_study import StudyResult
+    from ..sim.batch import Verification
+
+__all__ = [
+    "Evaluated",
+    "Study",
+    "StudyFileError",
+    "Verified",
+    "evaluate",
+    "load",
+    "mechanism",
+    "override",
+    "parse",
+    "run",
+    "verify",
+]
+
+
+def mechanism(name_or_path: str | Path) -> Mechanism:
+    """A validated mechanism: a registered name (``takeup``) or a file's path."""
+    from ..validation import get
+
+    return get(name_or_path)
+
+
+def override(mech: Mechanism, values: Mapping[str, float]) -> Mechanism:
+    """One variant of ``mech``: parameter path -> value in the file's units (mm, deg, g ...).
+
+    Raises a one-line error for an unknown path (naming the nearest valid one)."""
+    params = [_paths.resolve(mech, p) for p in values]
+    return _batch.variant(mech, params, [float(v) for v in values.values()])
+
+
+def evaluate(
+    mech: Mechanism,
+    values: Mapping[str, Sequence[float] | np.ndarray],
+    metrics: Sequence[Mapping[str, Any]],
+    *,
+    per_turn: int = 360,
+) -> Evaluated:
+    """The reference's metrics for a batch of variants, all at once (no loop over variants).
+
+    Args:
+      mech: the nominal mechanism.
+      values: parameter path -> (V,) values, file units (every path the same length).
+      metrics: metric tables as in a study file, e.g. ``{"kind": "stroke", "point": "P5"}``.
+      per_turn: crank angles per input turn (even).
+    Returns:
+      :class:`Evaluated`: ``columns`` metric column -> (V,), ``feasible`` (V,), ``reason``.
+    """
+    params = [_paths.resolve(mech, p) for p in values]
+    table = np.column_stack([np.asarray(v, dtype=float).ravel() for v in values.values()])
+    mets = tuple(_metrics.read(mech, dict(m), i) for i, m in enumerate(metrics))
+    _metrics.columns(mets)
+    st = Study(
+        "api",
+        "",
+        None,
+        mech,
+        "grid",
+        tuple(Varied(p) for p in params),
+        len(table),
+        0,
+        "sobol",
+        mets,
+        (),
+        per_turn,
+        "none",
+        0,
+        "",
+        "",
+    )
+    return reference_chunk(st, table)
+
+
+def verify(mechs: Sequence[Mechanism], *, threads: int | None = None) -> list[Verification]:
+    """MuJoCo's check of variants of one mechanism (same topology), stepped together in one
+    ``mujoco.rollout`` over one period at constant speed and compared with the reference with
+    the thresholds of ``simulate``. ``threads`` default: one per core."""
+    import os
+
+    from ..sim import batch as _sim
+
+    return _sim.verify(list(mechs), threads=threads or os.cpu_count() or 1)
+
+
+def run(study: Study | str | Path, out_root: Path | str = Path("renders"), **kw: Any) -> StudyResult:
+    """Run a study and write its outputs (see :func:`mjlink.pipeline_study.run` for the options:
+    ``client``, ``scheduler``, ``workers``, ``plots``, ``force``, ``progress``)."""
+    from ..pipeline_study import run as _run
+
+    return _run(study, out_root, **kw)

@@ -1,0 +1,412 @@
+"""The study engine: variants in chunks, on Dask or in this process, resumable.
+
+A study's variants are cut into chunks of a size that depends only on the number of variants
+(not on the workers), so a chunk's result is the same whatever runs it, and an interrupted
+study, run again, finds its finished chunks in the cache and skips them. Chunks run:
+
+* on a Dask cluster: an existing one (``scheduler='tcp://HOST:PORT'``, or the
+  ``DASK_SCHEDULER_ADDRESS`` environment variable, Dask's own convention), whose workers must
+  have mjlink installed; or, by default, a ``distributed.LocalCluster`` started here with one
+  single-threaded worker process per core and closed at the end;
+* or in this process (``workers=0``): one chunk after the other; MuJoCo's rollout then uses a
+  thread per core itself.
+
+The reference is elementwise over variants, so its results are identical bit for bit whatever
+the engine and the chunking; MuJoCo's are within the thresholds (a rollout does not depend on
+its batch either, but the engine does not promise more than the thresholds).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import shutil
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import MjlinkError
+from ..output import atomic_path
+from .spec import Study
+from .tasks import Evaluated, Verified, mujoco_chunk, reference_chunk
+
+REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
+MUJOCO_CHUNK = (4, 128)  # variants per MuJoCo task (one rollout of that many models)
+CACHE_VERSION = 1
+CONNECT_TIMEOUT_S = 10.0  # to an existing scheduler, before a one-line error
+
+
+class EngineError(MjlinkError):
+    """The Dask cluster cannot be reached or a task failed."""
+
+
+def chunks(n: int, bounds: tuple[int, int], parts: int = 16) -> list[tuple[int, int]]:
+    """[start, stop) ranges cutting n items into about ``parts`` chunks within ``bounds``."""
+    lo, hi = bounds
+    size = int(min(hi, max(lo, -(-n // parts))))
+    return [(i, min(i + size, n)) for i in range(0, n, size)]
+
+
+@dataclass
+class Timing:
+    """Wall seconds of each stage; ``cpu`` this process's CPU seconds."""
+
+    start: float = field(default_factory=time.perf_counter)
+    stages: dict[str, float] = field(default_factory=dict)
+
+    @contextmanager
+    def stage(self, name: str) -> Iterator[None]:
+        t = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.stages[name] = self.stages.get(name, 0.0) + time.perf_counter() - t
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """Everything a study computed, per variant (V of them, in the study's order).
+
+    ``values`` (V, P) parameter values, file units; ``columns`` metric -> (V,) in its unit
+    (NaN where infeasible); ``feasible`` (V,) bool; ``reason`` why not; ``verified`` (V,) int8:
+    -1 not run in MuJoCo, 0 missed a threshold (or could not run), 1 agreed; ``mujoco`` the
+    MuJoCo figures of the verified variants (position error, loop gap, thread error: um),
+    NaN elsewhere; ``mujoco_reason`` what missed. ``engine`` how it ran; ``resumed`` chunks
+    taken from the cache.
+    """
+
+    study: Study
+    values: np.ndarray
+    columns: dict[str, np.ndarray]
+    feasible: np.ndarray
+    reason: tuple[str, ...]
+    verified: np.ndarray
+    mujoco: dict[str, np.ndarray]
+    mujoco_reason: tuple[str, ...]
+    engine: str
+    chunks: int
+    resumed: int
+    timing: dict[str, float]
+
+
+# -------------------------------------------------------------------------------- cache
+class Cache:
+    """Finished chunks of one study on disk, valid while the study's digest is unchanged.
+
+    Files are plain ``.npz`` (no pickles: a cache file is data, never code), each written
+    atomically, so an interrupted run leaves only complete chunks.
+    """
+
+    def __init__(self, folder: Path | None, study: Study):
+        self.folder = folder
+        if folder is None:
+            return
+        manifest = folder / "cache.json"
+        want = {"study": study.name, "digest": study.digest, "version": CACHE_VERSION}
+        try:
+            have = json.loads(manifest.read_text())
+        except (OSError, ValueError):
+            have = None
+        if have != want:
+            if folder.exists() and have is not None:
+                shutil.rmtree(folder, ignore_errors=True)  # ours (manifest), for another study text
+            folder.mkdir(parents=True, exist_ok=True)
+            with atomic_path(manifest) as tmp:
+                tmp.write_text(json.dumps(want))
+
+    def _file(self, kind: str, start: int, stop: int) -> Path | None:
+        return None if self.folder is None else self.folder / f"{kind}-{start:08d}-{stop:08d}.npz"
+
+    def load(self, kind: str, start: int, stop: int) -> dict[str, np.ndarray] | None:
+        f = self._file(kind, start, stop)
+        if f is None or not f.is_file():
+            return None
+        try:
+            with np.load(f, allow_pickle=False) as z:
+                return {k: z[k] for k in z.files}
+        except (OSError, ValueError):
+            return None
+
+    def save(self, kind: str, start: int, stop: int, arrays: dict[str, Any]) -> None:
+        f = self._file(kind, start, stop)
+        if f is None:
+            return
+        with atomic_path(f, suffix=".npz") as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+    def remove(self) -> None:
+        if self.folder is not None:
+            shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _pack_ref(e: Evaluated) -> dict[str, np.ndarray]:
+    out = {f"col:{k}": v for k, v in e.columns.items()}
+    out["feasible"] = e.feasible
+    out["reason"] = np.array(e.reason, dtype=str)
+    return out
+
+
+def _unpack_ref(z: dict[str, np.ndarray]) -> Evaluated:
+    cols = {k[4:]: z[k] for k in z if k.startswith("col:")}
+    return Evaluated(cols, z["feasible"].astype(bool), tuple(str(r) for r in z["reason"]))
+
+
+def _pack_mj(v: Verified) -> dict[str, np.ndarray]:
+    return {
+        "passed": v.passed,
+        "position_error": v.position_error,
+        "loop_gap": v.loop_gap,
+        "thread_error": v.thread_error,
+        "reason": np.array(v.reason, dtype=str),
+    }
+
+
+def _unpack_mj(z: dict[str, np.ndarray]) -> Verified:
+    return Verified(
+        z["passed"].astype(bool),
+        z["position_error"],
+        z["loop_gap"],
+        z["thread_error"],
+        tuple(str(r) for r in z["reason"]),
+    )
+
+
+# ------------------------------------------------------------------------------ clients
+@contextmanager
+def client_for(scheduler: str | None = None, workers: int | None = None) -> Iterator[tuple[Any, str]]:
+    """A Dask client and a description of it (None and 'in process' for ``workers=0``).
+
+    ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) connects to an existing cluster; otherwise a
+    LocalCluster of ``workers`` single-threaded processes (default: one per core) is started
+    and closed on exit.
+    """
+    address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS")
+    if workers == 0 and not scheduler:
+        yield None, "in process"
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as e:  # pragma: no cover - a dependency
+        raise EngineError(f"Dask distributed is not installed ({e}): pip install 'dask[distributed]'") from None
+    if address:
+        try:
+            client = Client(address, timeout=f"{CONNECT_TIMEOUT_S}s")
+        except (OSError, TimeoutError) as e:
+            raise EngineError(f"cannot reach the Dask scheduler at {address}: {e}") from None
+        try:
+            n = len(client.scheduler_info()["workers"])
+            yield client, f"Dask cluster at {address} ({n} workers)"
+        finally:
+            client.close()
+        return
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(
+        n_workers=n,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    client = Client(cluster)
+    try:
+        client.run(_warm)  # imports on every worker now, not inside the first timed task
+        yield client, f"Dask LocalCluster ({n} worker processes x 1 thread)"
+    finally:
+        client.close()
+        cluster.close()
+
+
+def _warm() -> None:
+    import mjlink.sim.batch
+    import mjlink.study.tasks  # noqa: F401
+
+
+# --------------------------------------------------------------------------------- running
+Progress = Callable[[str, int, int], None]  # (stage, done, total) in variants
+
+
+def run(
+    study: Study,
+    *,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    cache_dir: Path | None = None,
+    progress: Progress | None = None,
+) -> Outcome:
+    """Evaluate every variant of ``study`` with the reference, then verify the chosen ones in
+    MuJoCo (the study's ``[verify]``).
+
+    Args:
+      study: the study.
+      client: a ``distributed.Client`` to run on (overrides ``scheduler``/``workers``).
+      scheduler: address of an existing Dask scheduler.
+      workers: worker processes of the local cluster (default one per core); 0 runs in this
+        process without Dask.
+      cache_dir: where finished chunks are kept (None: no cache); the caller removes it
+        (:meth:`Cache.remove`) once the study's outputs are safely written.
+      progress: called with (stage, variants done, variants in the stage) as chunks finish.
+    Returns:
+      The :class:`Outcome`.
+    """
+    timing = Timing()
+    cache = Cache(cache_dir, study)
+    with timing.stage("sampling"):
+        values = study.values()
+    if client is not None:
+        out = _run(study, values, client, "the given Dask client", cache, progress, timing)
+    else:
+        t = time.perf_counter()
+        with client_for(scheduler, workers) as (c, what):
+            timing.stages["cluster start"] = time.perf_counter() - t
+            out = _run(study, values, c, what, cache, progress, timing)
+    return out
+
+
+def _run(
+    study: Study,
+    values: np.ndarray,
+    client: Any,
+    what: str,
+    cache: Cache,
+    progress: Progress | None,
+    timing: Timing,
+) -> Outcome:
+    V = len(values)
+    ref_chunks = chunks(V, REFERENCE_CHUNK)
+    resumed = 0
+    results: dict[tuple[int, int], Evaluated] = {}
+    todo = []
+    for a, b in ref_chunks:
+        z = cache.load("ref", a, b)
+        if z is not None:
+            results[(a, b)] = _unpack_ref(z)
+            resumed += 1
+        else:
+            todo.append((a, b))
+    done = sum(b - a for a, b in results)
+    if progress:
+        progress("reference", done, V)
+
+    def ref_done(key: tuple[int, int], e: Evaluated) -> None:
+        nonlocal done
+        results[key] = e
+        cache.save("ref", *key, _pack_ref(e))
+        done += key[1] - key[0]
+        if progress:
+            progress("reference", done, V)
+
+    with timing.stage("reference"):
+        _map(client, reference_chunk, study, values, todo, ref_done, {})
+    cols = {c.name: np.concatenate([results[k].columns[c.name] for k in ref_chunks]) for c in study.columns}
+    feasible = np.concatenate([results[k].feasible for k in ref_chunks])
+    reason = tuple(r for k in ref_chunks for r in results[k].reason)
+
+    chosen = select(study, cols, feasible)
+    verified = np.full(V, -1, dtype=np.int8)
+    mj = {k: np.full(V, np.nan) for k in ("position_error", "loop_gap", "thread_error")}
+    mj_reason = [""] * V
+    n_mj = 0
+    if len(chosen):
+        mj_chunks = chunks(len(chosen), MUJOCO_CHUNK, parts=8)
+        got: dict[tuple[int, int], Verified] = {}
+        todo = []
+        for a, b in mj_chunks:
+            z = cache.load("mujoco", a, b)
+            if z is not None:
+                got[(a, b)] = _unpack_mj(z)
+                resumed += 1
+            else:
+                todo.append((a, b))
+        n_mj = sum(b - a for a, b in got)
+        if progress:
+            progress("mujoco", n_mj, len(chosen))
+
+        def mj_done(key: tuple[int, int], v: Verified) -> None:
+            nonlocal n_mj
+            got[key] = v
+            cache.save("mujoco", *key, _pack_mj(v))
+            n_mj += key[1] - key[0]
+            if progress:
+                progress("mujoco", n_mj, len(chosen))
+
+        threads = 1 if client is not None else (os.cpu_count() or 1)
+        with timing.stage("mujoco"):
+            _map(client, mujoco_chunk, study, values[chosen], todo, mj_done, {"threads": threads})
+        for a, b in mj_chunks:
+            v, idx = got[(a, b)], chosen[a:b]
+            verified[idx] = v.passed.astype(np.int8)
+            mj["position_error"][idx] = v.position_error
+            mj["loop_gap"][idx] = v.loop_gap
+            mj["thread_error"][idx] = v.thread_error
+            for i, r in zip(idx, v.reason, strict=True):
+                mj_reason[i] = r
+    timing.stages["total"] = time.perf_counter() - timing.start
+    return Outcome(
+        study,
+        values,
+        cols,
+        feasible,
+        reason,
+        verified,
+        mj,
+        tuple(mj_reason),
+        what,
+        len(ref_chunks),
+        resumed,
+        dict(timing.stages),
+    )
+
+
+def _map(
+    client: Any,
+    fn: Callable[..., Any],
+    study: Study,
+    values: np.ndarray,
+    todo: list[tuple[int, int]],
+    done: Callable[[tuple[int, int], Any], None],
+    kwargs: dict[str, Any],
+) -> None:
+    """Run ``fn(study, values[a:b], **kwargs)`` for every chunk, calling ``done`` as each ends."""
+    if not todo:
+        return
+    if client is None:
+        for a, b in todo:
+            done((a, b), fn(study, values[a:b], **kwargs))
+        return
+    from distributed import as_completed
+
+    shared = client.scatter(study, broadcast=True)
+    futures = {client.submit(fn, shared, values[a:b], pure=False, **kwargs): (a, b) for a, b in todo}
+    try:
+        for fut in as_completed(futures):
+            try:
+                res = fut.result()
+            except MjlinkError:
+                raise
+            except Exception as e:
+                raise EngineError(f"a study task failed on the cluster: {type(e).__name__}: {e}") from None
+            done(futures[fut], res)
+    finally:
+        for fut in futures:
+            fut.cancel()
+
+
+def select(study: Study, columns: dict[str, np.ndarray], feasible: np.ndarray) -> np.ndarray:
+    """Indices of the variants MuJoCo verifies: all feasible ones, none, or the ``count``
+    feasible ones with the lowest ('best') or highest ('worst') value of column ``by``, in
+    the study's order."""
+    idx = np.flatnonzero(feasible)
+    if study.verify == "none":
+        return idx[:0]
+    if study.verify == "all":
+        return idx
+    x = columns[study.by][idx]
+    order = np.argsort(x if study.verify == "best" else -x, kind="stable")
+    return np.sort(idx[order[: study.count]])

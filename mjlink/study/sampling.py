@@ -1,0 +1,54 @@
+"""The variants of a study: a full grid, a quasi-random design, or a tolerance sample.
+
+* grid: every combination of the parameters' values, the first parameter slowest (so a
+  two-parameter grid reshapes to (n_first, n_second)).
+* random: a scrambled Sobol sequence or a Latin hypercube (``scipy.stats.qmc``) over the
+  parameters' ranges, seeded.
+* tolerance: nominal plus a deviation per parameter, drawn independently: uniform over
+  +-tolerance, or normal with sigma = tolerance / 3 (the band then holds 99.73 % of parts,
+  the usual reading of a drawing's tolerance). Seeded (numpy's PCG64).
+
+Values are in the file's units; the same study file gives the same variants on any machine.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .spec import Study
+
+
+def sample(study: Study) -> np.ndarray:
+    """(V, P) parameter values of every variant, file units."""
+    P = len(study.varied)
+    if study.method == "grid":
+        return np.array(list(itertools.product(*(v.values for v in study.varied))), dtype=float).reshape(-1, P)
+    if study.method == "random":
+        from scipy.stats import qmc
+
+        engine: qmc.QMCEngine
+        if study.sequence == "sobol":
+            engine = qmc.Sobol(P, scramble=True, seed=study.seed)
+        else:
+            engine = qmc.LatinHypercube(P, seed=study.seed)
+        with np.errstate(all="ignore"):
+            import warnings
+
+            with warnings.catch_warnings():  # Sobol warns for sample counts that are no power of 2
+                warnings.simplefilter("ignore", UserWarning)
+                u = engine.random(study.samples)
+        lo = np.array([v.low for v in study.varied])
+        hi = np.array([v.high for v in study.varied])
+        return np.asarray(qmc.scale(u, lo, hi), dtype=float)
+    rng = np.random.Generator(np.random.PCG64(study.seed))
+    nominal = np.array([v.param.nominal for v in study.varied])
+    tol = np.array([v.tolerance for v in study.varied])
+    uniform = np.array([v.distribution == "uniform" for v in study.varied])
+    u = rng.uniform(-1.0, 1.0, size=(study.samples, P))
+    z = rng.standard_normal(size=(study.samples, P))
+    dev = np.where(uniform, u * tol, z * tol / 3.0)
+    return nominal + dev

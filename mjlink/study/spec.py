@@ -1,0 +1,385 @@
+"""Study files: which mechanism, which numbers vary and how, which metrics, what MuJoCo checks.
+
+The format is documented in ``studies/README.md``. A study file is read once into a
+:class:`Study`; every problem is a one-line :class:`StudyFileError` naming the file and key
+(an unknown key or parameter path names the nearest valid one).
+
+Values in a study file are in the mechanism file's units (mm, deg, g, ...), as each
+parameter path's unit says (:mod:`mjlink.model.paths`).
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import validation
+from ..analysis import metrics as _metrics
+from ..errors import MjlinkError
+from ..model import names as _names
+from ..model import paths
+from ..model.mechanism import Mechanism
+
+METHODS = ("grid", "random", "tolerance")
+SEQUENCES = ("sobol", "lhs")
+DISTRIBUTIONS = ("uniform", "normal")
+VERIFY = ("all", "none", "best", "worst")
+MAX_VARIANTS = 10_000_000
+MAX_PER_TURN = 3600
+STUDIES_DIR = Path(__file__).resolve().parent.parent.parent / "studies"
+
+
+class StudyFileError(MjlinkError):
+    """A study file is unreadable or asks for something that cannot be done."""
+
+
+@dataclass(frozen=True)
+class Varied:
+    """One varied parameter and how it varies (file units).
+
+    grid: ``values``; random: ``low``/``high``; tolerance: ``tolerance`` (the +- band) and
+    ``distribution`` ('uniform' over the band, or 'normal' with sigma = tolerance / 3).
+    """
+
+    param: paths.Param
+    values: tuple[float, ...] = ()
+    low: float = math.nan
+    high: float = math.nan
+    tolerance: float = math.nan
+    distribution: str = "uniform"
+
+
+@dataclass(frozen=True)
+class Bound:
+    """An admissible range of a metric column (None: open), in the column's unit."""
+
+    column: str
+    low: float | None
+    high: float | None
+
+    def holds(self, x: np.ndarray) -> np.ndarray:
+        ok = np.isfinite(x)
+        if self.low is not None:
+            ok &= x >= self.low
+        if self.high is not None:
+            ok &= x <= self.high
+        return ok
+
+    def text(self) -> str:
+        if self.low is not None and self.high is not None:
+            return f"{self.low:g} <= {self.column} <= {self.high:g}"
+        return f"{self.column} >= {self.low:g}" if self.low is not None else f"{self.column} <= {self.high:g}"
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study. ``per_turn`` crank angles per input turn; ``verify`` one of
+    'all', 'none', 'best', 'worst' (``count`` variants by metric column ``by``)."""
+
+    name: str
+    title: str
+    path: Path | None
+    mechanism: Mechanism
+    method: str
+    varied: tuple[Varied, ...]
+    samples: int
+    seed: int
+    sequence: str
+    metrics: tuple[_metrics.Metric, ...]
+    bounds: tuple[Bound, ...]
+    per_turn: int
+    verify: str
+    count: int
+    by: str
+    digest: str  # of the study's and the mechanism's text: what a resumed run must match
+
+    @property
+    def params(self) -> list[paths.Param]:
+        return [v.param for v in self.varied]
+
+    @property
+    def columns(self) -> list[_metrics.Column]:
+        return _metrics.columns(self.metrics)
+
+    @property
+    def grid_shape(self) -> tuple[int, ...] | None:
+        """The grid's shape (one axis per parameter, in file order) for a grid study."""
+        return tuple(len(v.values) for v in self.varied) if self.method == "grid" else None
+
+    def values(self) -> np.ndarray:
+        """(V, P) every variant's parameter values, file units, in a fixed order (the seed
+        fixes random and tolerance samples)."""
+        from .sampling import sample
+
+        return sample(self)
+
+
+def _fail(src: object, where: str, what: str) -> StudyFileError:
+    return StudyFileError(f"{src}: {where}: {what}" if where else f"{src}: {what}")
+
+
+def _keys(src: object, raw: dict, where: str, required: list[str], optional: list[str]) -> None:
+    allowed = required + optional
+    for k in raw:
+        if k not in allowed:
+            near = difflib.get_close_matches(k, allowed, n=1)
+            hint = f"did you mean '{near[0]}'? " if near else ""
+            raise _fail(src, where, f"unknown key '{k}' ({hint}valid: {', '.join(allowed)})")
+    for k in required:
+        if k not in raw:
+            raise _fail(src, where, f"missing key '{k}'")
+
+
+def _number(src: object, raw: dict, key: str, where: str, *, default: float | None = None) -> float:
+    v = raw.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise _fail(src, f"{where} {key}", f"must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _integer(src: object, raw: dict, key: str, where: str, lo: int, hi: int, default: int | None = None) -> int:
+    v = raw.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise _fail(src, f"{where} {key}", f"must be an integer from {lo} to {hi}, got {v!r}")
+    return int(v)
+
+
+def find(name_or_path: str | Path) -> Path:
+    """A study file by path, or by name among the shipped ``studies/*.toml``."""
+    p = Path(name_or_path).expanduser()
+    if p.is_file():
+        return p
+    shipped = STUDIES_DIR / f"{name_or_path}.toml"
+    if shipped.is_file() and not str(name_or_path).endswith(".toml"):
+        return shipped
+    if p.is_dir():
+        raise StudyFileError(f"{p}: is a folder, not a study file")
+    known = sorted(q.stem for q in STUDIES_DIR.glob("*.toml"))
+    near = difflib.get_close_matches(str(name_or_path), known, n=1)
+    hint = f"did you mean '{near[0]}'? " if near else ""
+    raise StudyFileError(f"{name_or_path}: no such study file ({hint}shipped: {', '.join(known)})")
+
+
+def load(name_or_path: str | Path) -> Study:
+    """Read and validate a study file (a path, or the name of a shipped one)."""
+    p = find(name_or_path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise StudyFileError(f"{p}: cannot read: {e}") from None
+    return parse(text, p)
+
+
+def parse(text: str, path: Path | str = "<string>") -> Study:
+    """Parse and validate a study file's text; the mechanism path is relative to the file."""
+    src = path
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise StudyFileError(f"{src}: not valid TOML: {e}") from None
+    _keys(src, data, "", ["study", "parameter"], ["sampling", "metric", "bound", "verify"])
+    st = data["study"]
+    if not isinstance(st, dict):
+        raise _fail(src, "[study]", "must be a table")
+    _keys(src, st, "[study]", ["mechanism"], ["name", "title", "angles"])
+    default = Path(path).stem if path != "<string>" else "study"
+    name = st.get("name", default)
+    if not isinstance(name, str) or not _names.is_valid(name):
+        raise _fail(src, "[study] name", f"must be a name of letters, digits and _ (got {name!r})")
+    title = st.get("title", "")
+    if not isinstance(title, str):
+        raise _fail(src, "[study] title", "must be a string")
+    mref = st["mechanism"]
+    if not isinstance(mref, str) or not mref:
+        raise _fail(src, "[study] mechanism", "must be a mechanism name or a path to its file")
+    base = Path(path).parent if path != "<string>" else Path.cwd()
+    target = base / mref if (mref.endswith(".toml") or "/" in mref) and not Path(mref).is_absolute() else mref
+    try:
+        mech = validation.get(target)
+        mtext = Path(mech.path).read_bytes() if mech.path else b""
+    except MjlinkError as e:
+        raise _fail(src, "[study] mechanism", str(e)) from None
+    per_turn = _integer(src, st, "angles", "[study]", 8, MAX_PER_TURN, default=360)
+    if per_turn % 2:
+        raise _fail(src, "[study] angles", f"must be even (the steady-motion metric steps over pairs), got {per_turn}")
+
+    sampling = data.get("sampling", {"method": "grid"})
+    if not isinstance(sampling, dict):
+        raise _fail(src, "[sampling]", "must be a table")
+    _keys(src, sampling, "[sampling]", ["method"], ["samples", "seed", "sequence"])
+    method = sampling["method"]
+    if method not in METHODS:
+        raise _fail(src, "[sampling] method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "grid" and ("samples" in sampling or "sequence" in sampling):
+        raise _fail(src, "[sampling]", "a grid takes its variants from the parameters' values: no 'samples'/'sequence'")
+    samples = _integer(src, sampling, "samples", "[sampling]", 1, MAX_VARIANTS, default=1) if method != "grid" else 0
+    if method != "grid" and "samples" not in sampling:
+        raise _fail(src, "[sampling]", f"missing key 'samples' (how many variants the {method} study draws)")
+    seed = _integer(src, sampling, "seed", "[sampling]", 0, 2**63 - 1, default=0)
+    sequence = sampling.get("sequence", "sobol")
+    if sequence not in SEQUENCES:
+        raise _fail(src, "[sampling] sequence", f"must be one of {', '.join(SEQUENCES)}, got {sequence!r}")
+
+    raw_params = data["parameter"]
+    if not isinstance(raw_params, list) or not raw_params:
+        raise _fail(src, "[[parameter]]", "needs at least one [[parameter]] table")
+    varied: list[Varied] = []
+    for i, rp in enumerate(raw_params):
+        where = f"[[parameter]] #{i + 1}"
+        if not isinstance(rp, dict):
+            raise _fail(src, where, "must be a table")
+        varied.append(_varied(src, mech, rp, where, method))
+    seen = set()
+    for v in varied:
+        if v.param.path in seen:
+            raise _fail(src, "[[parameter]]", f"'{v.param.path}' is varied twice")
+        seen.add(v.param.path)
+    if method == "grid":
+        samples = int(np.prod([len(v.values) for v in varied]))
+        if samples > MAX_VARIANTS:
+            raise _fail(src, "[[parameter]]", f"the grid has {samples} variants, at most {MAX_VARIANTS}")
+
+    raw_metrics = data.get("metric", [])
+    if not isinstance(raw_metrics, list) or not raw_metrics:
+        raise _fail(src, "[[metric]]", "needs at least one [[metric]] table (what to compute for each variant)")
+    try:
+        mets = tuple(_metrics.read(mech, m, i) for i, m in enumerate(raw_metrics))
+        cols = _metrics.columns(mets)
+    except MjlinkError as e:
+        raise StudyFileError(f"{src}: {e}") from None
+    names = [c.name for c in cols]
+
+    bounds = []
+    raw_bounds = data.get("bound", [])
+    if not isinstance(raw_bounds, list):
+        raise _fail(src, "[[bound]]", "must be an array of tables")
+    for i, rb in enumerate(raw_bounds):
+        where = f"[[bound]] #{i + 1}"
+        if not isinstance(rb, dict):
+            raise _fail(src, where, "must be a table")
+        _keys(src, rb, where, ["metric"], ["min", "max"])
+        col = _column(src, rb["metric"], names, f"{where} metric")
+        lo = _number(src, rb, "min", where) if "min" in rb else None
+        hi = _number(src, rb, "max", where) if "max" in rb else None
+        if lo is None and hi is None:
+            raise _fail(src, where, "needs 'min' or 'max'")
+        bounds.append(Bound(col, lo, hi))
+
+    ver = data.get("verify", {"mujoco": "none"})
+    if not isinstance(ver, dict):
+        raise _fail(src, "[verify]", "must be a table")
+    _keys(src, ver, "[verify]", ["mujoco"], ["count", "by"])
+    mode = ver["mujoco"]
+    if mode not in VERIFY:
+        raise _fail(src, "[verify] mujoco", f"must be one of {', '.join(VERIFY)}, got {mode!r}")
+    count, by = 0, ""
+    if mode in ("best", "worst"):
+        count = _integer(src, ver, "count", "[verify]", 1, MAX_VARIANTS)
+        if "by" not in ver:
+            raise _fail(src, "[verify]", f"'{mode}' needs 'by' (the metric column that ranks the variants)")
+        by = _column(src, ver["by"], names, "[verify] by")
+    elif "count" in ver or "by" in ver:
+        raise _fail(src, "[verify]", f"'count' and 'by' apply to 'best' and 'worst', not '{mode}'")
+
+    digest = hashlib.sha256(text.encode() + b"\0" + mtext).hexdigest()[:16]
+    return Study(
+        name,
+        title,
+        Path(path) if path != "<string>" else None,
+        mech,
+        method,
+        tuple(varied),
+        samples,
+        seed,
+        sequence,
+        mets,
+        tuple(bounds),
+        per_turn,
+        mode,
+        count,
+        by,
+        digest,
+    )
+
+
+def _column(src: object, name: Any, names: list[str], where: str) -> str:
+    if isinstance(name, str) and name in names:
+        return name
+    near = difflib.get_close_matches(str(name), names, n=1)
+    hint = f"did you mean '{near[0]}'? " if near else ""
+    raise _fail(src, where, f"'{name}' is no metric column of this study ({hint}columns: {', '.join(names)})")
+
+
+def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str) -> Varied:
+    opts = {
+        "grid": ["values", "range", "count", "step"],
+        "random": ["range"],
+        "tolerance": ["tolerance", "distribution"],
+    }[method]
+    _keys(src, rp, where, ["path"], opts)
+    path = rp["path"]
+    if not isinstance(path, str):
+        raise _fail(src, f"{where} path", "must be a parameter path such as 'construct.P3.length_a'")
+    try:
+        p = paths.resolve(mech, path)
+    except MjlinkError as e:
+        raise _fail(src, f"{where} path", str(e).split(": ", 1)[-1]) from None
+    where = f"{where} ({path})"
+    if method == "grid":
+        if ("values" in rp) == ("range" in rp):
+            raise _fail(src, where, "give either 'values' (a list) or 'range' = [low, high] with 'count' or 'step'")
+        if "values" in rp:
+            vals = rp["values"]
+            if not isinstance(vals, list) or not vals:
+                raise _fail(src, f"{where} values", "must be a non-empty list of numbers")
+            out = tuple(_number(src, {"v": x}, "v", f"{where} values") for x in vals)
+        else:
+            lo, hi = _range(src, rp, where)
+            if ("count" in rp) == ("step" in rp):
+                raise _fail(src, where, "a 'range' needs either 'count' (values, ends included) or 'step'")
+            if "count" in rp:
+                n = _integer(src, rp, "count", where, 1, MAX_VARIANTS)
+            else:
+                step = _number(src, rp, "step", where)
+                if step <= 0:
+                    raise _fail(src, f"{where} step", f"must be positive, got {step:g}")
+                n = math.floor((hi - lo) / step * (1 + 1e-12)) + 1
+                if n > MAX_VARIANTS:
+                    raise _fail(src, f"{where} step", f"gives {n} values, at most {MAX_VARIANTS}")
+                hi = lo + (n - 1) * step
+            out = tuple(np.linspace(lo, hi, n).tolist()) if n > 1 else (lo,)
+        return Varied(p, values=out)
+    if method == "random":
+        if "range" not in rp:
+            raise _fail(src, where, "needs 'range' = [low, high] (the bounds the samples fill)")
+        lo, hi = _range(src, rp, where)
+        return Varied(p, low=lo, high=hi)
+    if "tolerance" not in rp:
+        raise _fail(src, where, "needs 'tolerance' (the +- band, in the parameter's unit)")
+    tol = _number(src, rp, "tolerance", where)
+    if tol < 0:
+        raise _fail(src, f"{where} tolerance", f"must be >= 0, got {tol:g}")
+    dist = rp.get("distribution", "uniform")
+    if dist not in DISTRIBUTIONS:
+        raise _fail(src, f"{where} distribution", f"must be one of {', '.join(DISTRIBUTIONS)}, got {dist!r}")
+    if not math.isfinite(p.nominal):
+        raise _fail(src, where, "has no nominal value in the mechanism file to put a tolerance on")
+    return Varied(p, tolerance=tol, distribution=dist)
+
+
+def _range(src: object, rp: dict, where: str) -> tuple[float, float]:
+    r = rp["range"]
+    if not isinstance(r, list) or len(r) != 2:
+        raise _fail(src, f"{where} range", "must be [low, high]")
+    lo = _number(src, {"v": r[0]}, "v", f"{where} range")
+    hi = _number(src, {"v": r[1]}, "v", f"{where} range")
+    if not lo < hi:
+        raise _fail(src, f"{where} range", f"low must be below high, got [{lo:g}, {hi:g}]")
+    return lo, hi

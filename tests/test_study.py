@@ -1,0 +1,266 @@
+"""Design studies: study files, parameter paths, the batched reference and its metrics, the engine."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjlink import analysis, reference, validation
+from mjlink.errors import MjlinkError
+from mjlink.model import paths
+from mjlink.reference import batch, dynamics, kinetostatics
+from mjlink.study import engine, spec, tasks
+
+ROOT = Path(__file__).resolve().parent.parent
+TAKEUP_PARAMS = [
+    "construct.P2.length",
+    "construct.P3.length_a",
+    "construct.P3.length_b",
+    "construct.P5.length",
+    "ground.P1.x",
+    "ground.P4.y",
+]
+
+BASE = """
+[study]
+mechanism = "takeup"
+angles = 72
+
+[sampling]
+method = "tolerance"
+samples = 40
+seed = 7
+
+[[parameter]]
+path = "construct.P3.length_a"
+tolerance = 0.05
+
+[[parameter]]
+path = "ground.P4.x"
+tolerance = 0.05
+distribution = "normal"
+
+[[metric]]
+kind = "thread_range"
+"""
+
+
+def study_text(extra: str = "", base: str = BASE) -> str:
+    return base + extra
+
+
+# --------------------------------------------------------------------------- study files
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (BASE.replace("construct.P3.length_a", "construct.P3.lenght_a"), "did you mean 'construct.P3.length_a'"),
+        (BASE.replace("ground.P4.x", "ground.P9.x"), "unknown parameter path 'ground.P9.x'"),
+        (BASE.replace('kind = "thread_range"', 'kind = "thread_rang"'), "did you mean 'thread_range'"),
+        (
+            BASE.replace("tolerance = 0.05\n\n[[parameter]]", "tolerence = 0.05\n\n[[parameter]]"),
+            "did you mean 'tolerance'",
+        ),
+        (BASE.replace('method = "tolerance"', 'method = "sweep"'), "method: must be one of grid, random, tolerance"),
+        (BASE + '\n[verify]\nmujoco = "best"\ncount = 2\nby = "thread_rnage"\n', "did you mean 'thread_range'"),
+        (BASE + '\n[verify]\nmujoco = "best"\ncount = 2\n', "'best' needs 'by'"),
+        (BASE.replace("angles = 72", "angles = 73"), "must be even"),
+        (BASE + '\n[[metric]]\nkind = "stroke"\npoint = "P55"\n', "did you mean 'P5'"),
+        (BASE.replace('mechanism = "takeup"', 'mechanism = "takeupp"'), "did you mean 'takeup'"),
+        (BASE.replace("samples = 40\n", ""), "missing key 'samples'"),
+        (BASE + '\n[[bound]]\nmetric = "thread_range"\n', "needs 'min' or 'max'"),
+    ],
+)
+def test_study_file_errors_are_one_line_and_name_the_nearest(text: str, message: str) -> None:
+    with pytest.raises(MjlinkError) as e:
+        spec.parse(text, "s.toml")
+    assert message in str(e.value)
+    assert "\n" not in str(e.value)
+    assert str(e.value).startswith("s.toml: ")
+
+
+def test_every_documented_kind_of_path_resolves() -> None:
+    wk = validation.get("warp_knitting")
+    for p in ("ground.P7.x", "construct.P8.phase", "construct.P9.length", "links.plunger.mass", "input.phi0"):
+        assert paths.resolve(wk, p).path == p
+    assert paths.resolve(wk, "construct.P8.phase").unit == "deg"
+    assert paths.resolve(wk, "links.plunger.mass").nominal == pytest.approx(900.0)
+    cs = validation.get("crank_slider")
+    assert paths.resolve(cs, "synthesis.lambda").nominal == pytest.approx(0.35)
+    with pytest.raises(paths.PathError, match="input crank"):
+        raise paths.PathError("input crank") if "construct.B.phase" not in paths.catalogue(cs) else AssertionError
+
+
+def test_sampling_is_seeded_and_within_its_law() -> None:
+    st = spec.parse(BASE.replace("samples = 40", "samples = 4000"), "s.toml")
+    v = st.values()
+    assert np.array_equal(v, spec.parse(BASE.replace("samples = 40", "samples = 4000"), "s.toml").values())
+    nominal = [p.nominal for p in st.params]
+    dev = v - nominal
+    assert np.abs(dev[:, 0]).max() <= 0.05 and np.abs(dev[:, 0]).max() > 0.049  # uniform over +-tol
+    assert dev[:, 1].std() == pytest.approx(0.05 / 3, rel=0.05)  # normal, sigma = tol / 3
+    grid = spec.parse(
+        BASE.replace('method = "tolerance"', 'method = "grid"')
+        .replace("samples = 40\nseed = 7\n", "")
+        .replace('tolerance = 0.05\ndistribution = "normal"', "values = [9.6, 9.7]")
+        .replace("tolerance = 0.05", "range = [21.0, 23.0]\nstep = 0.5"),
+        "g.toml",
+    )
+    assert grid.grid_shape == (5, 2)
+    assert grid.values()[:3].tolist() == [[21.0, 9.6], [21.0, 9.7], [21.5, 9.6]]  # first parameter slowest
+
+
+# --------------------------------------------------------------------------- reference
+def _takeup_values(n: int, seed: int = 3) -> tuple[list[paths.Param], np.ndarray]:
+    mech = validation.get("takeup")
+    params = [paths.resolve(mech, p) for p in TAKEUP_PARAMS]
+    rng = np.random.default_rng(seed)
+    return params, np.array([p.nominal for p in params]) + rng.uniform(-0.1, 0.1, (n, len(params)))
+
+
+def test_batch_equals_the_single_variant_reference_bit_for_bit() -> None:
+    mech = validation.get("takeup")
+    params, values = _takeup_values(7)
+    b = batch.solve_batch(mech, params, values, 72)
+    for i in (0, 4, 6):
+        v = batch.variant(mech, params, values[i])
+        k = reference.solve(v, v.phi0 + b.theta)
+        for p in ("P3", "P5"):
+            for part in ("v", "d", "dd"):
+                assert np.array_equal(getattr(k.points[p], part), b.per_variant(getattr(b.kin.points[p], part))[i])
+
+
+def test_chunking_does_not_change_a_bit() -> None:
+    st = spec.parse(
+        study_text('\n[[metric]]\nkind = "torque_peak"\n[[metric]]\nkind = "speed_fluctuation"\n'), "s.toml"
+    )
+    v = st.values()
+    whole = tasks.reference_chunk(st, v)
+    parts = [tasks.reference_chunk(st, v[a:b]) for a, b in ((0, 1), (1, 17), (17, 40))]
+    for k, col in whole.columns.items():
+        assert np.array_equal(col, np.concatenate([p.columns[k] for p in parts]), equal_nan=True)
+
+
+def test_metrics_agree_with_an_independent_computation() -> None:
+    """Random rows of a batch against the single-design tools of mjlink (other code paths:
+    trace-based analysis, scalar kinetostatics, DOP853 steady motion, check's block angles)."""
+    mech = validation.get("takeup")
+    params, values = _takeup_values(12, seed=11)
+    mets = [
+        {"kind": "stroke", "point": "P5", "axis": "y"},
+        {"kind": "position_error", "point": "P5"},
+        {"kind": "thread_range"},
+        {"kind": "transmission_min"},
+        {"kind": "torque_peak"},
+        {"kind": "power_mean"},
+        {"kind": "reaction_peak"},
+        {"kind": "speed_fluctuation"},
+    ]
+    from mjlink import study
+
+    res = study.evaluate(mech, {p.path: values[:, j] for j, p in enumerate(params)}, mets, per_turn=360)
+    assert res.feasible.all()
+    nominal = reference.solve(mech, analysis.one_period(mech, 360))
+    for i in (2, 9):
+        v = batch.variant(mech, params, values[i])
+        fine = analysis.one_period(v, 20000)
+        k = reference.solve(v, fine)
+        y = k.points["P5"].v[:, 1]
+        # Extremes refined from 1 deg samples: within 1e-5 mm (10 nm) of a 0.018 deg sampling.
+        assert res.columns["stroke_P5_y"][i] == pytest.approx((y.max() - y.min()) * 1e3, abs=1e-5)
+        lf = k.thread_length()
+        assert lf is not None
+        assert res.columns["thread_range"][i] == pytest.approx(np.ptp(lf.v) * 1e3, abs=1e-5)
+        k360 = reference.solve(v, analysis.one_period(v, 360))
+        err = np.linalg.norm(k360.points["P5"].v - nominal.points["P5"].v, axis=1).max() * 1e6
+        assert res.columns["position_error_P5"][i] == pytest.approx(err, rel=1e-9)
+        angles = validation.block_angles(v, k360)
+        assert res.columns["transmission_min"][i] == pytest.approx(min(a.margin_deg for a in angles), rel=1e-9)
+        cyc = analysis.torque_cycle(v, v.speed, per_turn=360)
+        assert res.columns["torque_peak"][i] == pytest.approx(cyc.peak, rel=1e-9)
+        assert res.columns["power_mean"][i] == pytest.approx(cyc.power, rel=1e-6)
+        r = kinetostatics.reactions(v, analysis.one_period(v, 360), v.speed)
+        for lab, f in r.forces.items():
+            col = "reaction_peak_" + "".join(c if c.isalnum() else "_" for c in lab).strip("_")
+            assert res.columns[col][i] == pytest.approx(np.linalg.norm(f, axis=1).max(), rel=1e-9)
+        steady = dynamics.steady_motion(dynamics.steady_variant(v))
+        assert res.columns["delta"][i] == pytest.approx(steady.delta, rel=1e-4)
+
+
+def test_infeasible_variants_have_a_reason_and_no_numbers() -> None:
+    mech = validation.get("takeup")
+    res = tasks.reference_chunk(
+        dataclasses.replace(
+            spec.parse(study_text('\n[[metric]]\nkind = "torque_peak"\n'), "s.toml"),
+        ),
+        np.array([[22.0, 9.66], [8.0, 9.66], [-1.0, 9.66], [22.0, 9.66]]),
+    )
+    assert res.feasible.tolist() == [True, False, False, True]
+    assert "dyad P2-P3-P4 cannot close at" in res.reason[1] and "deg from phi0" in res.reason[1]
+    assert "construct.P3.length_a = -1 mm must be positive" in res.reason[2]
+    assert all(np.isnan(c[1:3]).all() and np.isfinite(c[[0, 3]]).all() for c in res.columns.values())
+    assert mech.name == "takeup"
+
+
+def test_crank_slider_grid_edge_is_the_synthesis_bound() -> None:
+    """The grid's admissible edge at e = 15 mm is the lambda_max = 0.37 that synth finds."""
+    st = spec.load(ROOT / "studies" / "crank_slider_grid.toml")
+    lam = np.array([0.36, 0.37, 0.38])
+    res = tasks.reference_chunk(st, np.column_stack([lam, np.full(3, 15.0)]))
+    theta = res.columns["pressure_max"]
+    assert theta[1] <= 40.0 < theta[2]
+    assert np.allclose(res.columns["stroke_C_x"], 45.0, atol=1e-4)
+    assert reference.synthesis.largest_ratio(0.045, 0.015, math.radians(40.0)) == pytest.approx(0.37)
+
+
+# ------------------------------------------------------------------------------ engine
+def test_interrupted_study_resumes_from_its_finished_chunks(tmp_path: Path) -> None:
+    st = spec.parse(study_text(base=BASE.replace("samples = 40", "samples = 200")), "s.toml")
+    calls = []
+
+    def stop_after_two(stage: str, done: int, total: int) -> None:
+        calls.append(done)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        engine.run(st, workers=0, cache_dir=tmp_path / "c", progress=stop_after_two)
+    again = engine.run(st, workers=0, cache_dir=tmp_path / "c")
+    fresh = engine.run(st, workers=0)
+    assert again.resumed == 2 and fresh.resumed == 0
+    assert np.array_equal(again.columns["thread_range"], fresh.columns["thread_range"])
+    changed = spec.parse(
+        study_text(base=BASE.replace("samples = 40", "samples = 200").replace("seed = 7", "seed = 8")), "s.toml"
+    )
+    assert engine.run(changed, workers=0, cache_dir=tmp_path / "c").resumed == 0  # another study: cache not used
+
+
+@pytest.mark.slow
+def test_a_real_two_worker_dask_cluster_gives_the_same_bits() -> None:
+    """A LocalCluster of 2 worker processes, started here (no mocks), against in-process."""
+    from distributed import Client, LocalCluster
+
+    st = spec.parse(
+        study_text('\n[[metric]]\nkind = "torque_peak"\n', BASE.replace("samples = 40", "samples = 300")), "s.toml"
+    )
+    local = engine.run(st, workers=0)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with Client(cluster) as client:
+            assert len(client.scheduler_info()["workers"]) == 2
+            remote = engine.run(st, client=client)
+            by_address = engine.run(st, scheduler=cluster.scheduler_address)
+    assert remote.chunks == local.chunks > 2
+    for k in local.columns:
+        assert np.array_equal(local.columns[k], remote.columns[k], equal_nan=True)
+        assert np.array_equal(local.columns[k], by_address.columns[k], equal_nan=True)
+    assert "2 workers" in by_address.engine
+
+
+def test_an_unreachable_scheduler_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(engine, "CONNECT_TIMEOUT_S", 1.0)
+    st = spec.parse(BASE, "s.toml")
+    with pytest.raises(engine.EngineError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"):
+        engine.run(st, scheduler="tcp://127.0.0.1:9")
