@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -264,3 +268,48 @@ def test_an_unreachable_scheduler_is_one_line(monkeypatch: pytest.MonkeyPatch) -
     st = spec.parse(BASE, "s.toml")
     with pytest.raises(engine.EngineError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"):
         engine.run(st, scheduler="tcp://127.0.0.1:9")
+
+
+# ------------------------------------------------------------------------------- command
+def _mjlink(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run(
+        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=600
+    )
+
+
+def test_study_command_writes_table_summary_and_is_one_line_on_errors(tmp_path: Path) -> None:
+    f = tmp_path / "tol.toml"
+    f.write_text(study_text('\n[[metric]]\nkind = "stroke"\npoint = "P5"\naxis = "y"\n'))
+    r = _mjlink("study", str(f), "--workers", "0", "--no-plots", "--out", str(tmp_path / "out"))
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "out" / "tol-study"
+    assert "feasible: 40 of 40" in r.stdout and "stroke_P5_y" in r.stdout
+    import csv
+
+    with open(out / "results.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 40
+    assert set(rows[0]) >= {
+        "variant",
+        "construct.P3.length_a_mm",
+        "ground.P4.x_mm",
+        "thread_range_mm",
+        "stroke_P5_y_mm",
+    }
+    import pyarrow.parquet as pq
+
+    t = pq.read_table(out / "results.parquet")
+    assert t.num_rows == 40
+    assert np.array_equal(t.column("thread_range_mm").to_numpy(), [float(r["thread_range_mm"]) for r in rows])
+    summ = json.loads((out / "summary.json").read_text())
+    assert summ["variants"] == 40 and summ["metrics"]["thread_range"]["unit"] == "mm"
+    assert not (tmp_path / "out" / ".tol-study.chunks").exists()
+    # Errors: one line, exit 1.
+    bad = tmp_path / "bad.toml"
+    bad.write_text(BASE.replace("ground.P4.x", "ground.P44.x"))
+    r = _mjlink("study", str(bad), "--workers", "0")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1
+    assert "unknown parameter path 'ground.P44.x' (did you mean 'ground.P4.x'?)" in r.stderr
+    r = _mjlink("study", "takeup_tolerence")
+    assert r.returncode == 1 and "did you mean 'takeup_tolerance'" in r.stderr
