@@ -44,6 +44,12 @@ def loop_equality(point: str, parent: str | None, child: str) -> str:
     return f"loop_{point}_{parent or GROUND}_{child}"
 
 
+def loop_anchor(point: str, link: str | None) -> str:
+    """The site marking a loop pin on one of its two bodies (None: the ground), in the models
+    of batched verification, whose framepos sensors give the loop's gap."""
+    return f"anchor_{point}_{link or GROUND}"
+
+
 def gear_equality(link: str) -> str:
     """The joint equality that ties a geared crank's ``link`` to the input crank."""
     return f"gear_{link}"

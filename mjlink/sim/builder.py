@@ -94,7 +94,10 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
     return _spec(mech, settings)[0]
 
 
-def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements]:
+def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[mujoco.MjSpec, _Elements]:
+    """The spec and its elements. ``batch``: the lean instrumentation of batched verification
+    (:mod:`mjlink.sim.batch`): position sensors only, plus a site on each side of every loop
+    pin with its position sensor, since rollout returns traces through sensors alone."""
     kin = reference.solve(mech, [mech.phi0])
     pos = {k: v.v[0] for k, v in kin.points.items()}
     topo = topology(mech)
@@ -303,6 +306,15 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
         eq.solref = list(settings.solref)
         eq.solimp = list(settings.solimp)
         loops.append((pr, eq))
+        if batch:
+            for link in (pr.child, pr.parent):
+                anchor = bodies[link].add_site(name=names.loop_anchor(pr.pin, link), pos=pos[pr.pin] - origin[link])
+                spec.add_sensor(
+                    name=anchor.name,
+                    type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
+                    objtype=mujoco.mjtObj.mjOBJ_SITE,
+                    objname=anchor.name,
+                )
     assert input_joint is not None  # topology puts the input crank's pivot in the tree
     gears = []
     for s in mech.geared:
@@ -349,7 +361,7 @@ def _spec(mech: Mechanism, settings: Settings) -> tuple[mujoco.MjSpec, _Elements
         if motor is not None:
             bias[2] = -motor.stall_torque / motor.no_load_speed
     act.biasprm = bias
-    _add_sensors(spec, mech, input_joint)
+    _add_sensors(spec, mech, input_joint, velocities=not batch)
     return spec, _Elements(
         input_joint,
         act,
@@ -379,13 +391,16 @@ def _quat_z(a: float) -> list[float]:
     return [float(np.cos(a / 2)), 0.0, 0.0, float(np.sin(a / 2))]
 
 
-def _add_sensors(spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJoint) -> None:
+def _add_sensors(
+    spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJoint, *, velocities: bool = True
+) -> None:
     """Position and velocity of every moving point, the thread's length and the crank's angle
     and speed: what a user of the MJCF alone reads (SI units, world frame)."""
     site, sens = mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtSensor
     for p in mech.moving_points:
         spec.add_sensor(name=names.sensor(p, "pos"), type=sens.mjSENS_FRAMEPOS, objtype=site, objname=p)
-        spec.add_sensor(name=names.sensor(p, "vel"), type=sens.mjSENS_FRAMELINVEL, objtype=site, objname=p)
+        if velocities:
+            spec.add_sensor(name=names.sensor(p, "vel"), type=sens.mjSENS_FRAMELINVEL, objtype=site, objname=p)
     if mech.thread:
         spec.add_sensor(
             name=names.sensor(names.THREAD, "length"),
@@ -454,6 +469,39 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
         el.front.id,
         el.oblique.id,
     )
+
+
+@dataclass(frozen=True)
+class BatchModel:
+    """A variant's model for batched verification (see :func:`_spec`'s ``batch``) and its
+    initial state: ``state`` (nstate,) the full physics state at phi0 with joint speeds
+    consistent with ``omega`` rad/s on the crank; ``sensors`` each sensor's name -> its slice of
+    ``sensordata``; ``loops`` each loop pin's two anchor sensors."""
+
+    model: mujoco.MjModel
+    state: np.ndarray
+    sensors: dict[str, slice]
+    loops: tuple[tuple[str, str], ...]
+
+
+def make_batch(mech: Mechanism, settings: Settings) -> BatchModel:
+    """The model of ``mech`` for :mod:`mjlink.sim.batch`: compiled once (no keyframe)."""
+    spec, el = _spec(mech, settings, batch=True)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    omega = settings.imposed_speed if settings.imposed_speed is not None else mech.dynamics.omega0
+    data.qvel[:] = consistent_velocity(model, data, int(model.jnt_dofadr[el.input_joint.id]), omega)
+    spec_state = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, spec_state))
+    mujoco.mj_getState(model, data, state, spec_state)
+    sensors = {
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i): slice(
+            int(model.sensor_adr[i]), int(model.sensor_adr[i] + model.sensor_dim[i])
+        )
+        for i in range(model.nsensor)
+    }
+    loops = tuple((names.loop_anchor(pr.pin, pr.child), names.loop_anchor(pr.pin, pr.parent)) for pr, _ in el.loops)
+    return BatchModel(model, state, sensors, loops)
 
 
 def build(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjModel:

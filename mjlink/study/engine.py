@@ -279,6 +279,9 @@ def _run(
     timing: Timing,
 ) -> Outcome:
     V = len(values)
+    # The study goes to every worker once (not with each task); its future lives as long as
+    # the run, so no task finds it released.
+    shared = client.scatter(study, broadcast=True, hash=False) if client is not None else study
     ref_chunks = chunks(V, REFERENCE_CHUNK)
     resumed = 0
     results: dict[tuple[int, int], Evaluated] = {}
@@ -303,7 +306,7 @@ def _run(
             progress("reference", done, V)
 
     with timing.stage("reference"):
-        _map(client, reference_chunk, study, values, todo, ref_done, {})
+        _map(client, reference_chunk, shared, values, todo, ref_done, {})
     cols = {c.name: np.concatenate([results[k].columns[c.name] for k in ref_chunks]) for c in study.columns}
     feasible = np.concatenate([results[k].feasible for k in ref_chunks])
     reason = tuple(r for k in ref_chunks for r in results[k].reason)
@@ -338,7 +341,7 @@ def _run(
 
         threads = 1 if client is not None else (os.cpu_count() or 1)
         with timing.stage("mujoco"):
-            _map(client, mujoco_chunk, study, values[chosen], todo, mj_done, {"threads": threads})
+            _map(client, mujoco_chunk, shared, values[chosen], todo, mj_done, {"threads": threads})
         for a, b in mj_chunks:
             v, idx = got[(a, b)], chosen[a:b]
             verified[idx] = v.passed.astype(np.int8)
@@ -367,13 +370,14 @@ def _run(
 def _map(
     client: Any,
     fn: Callable[..., Any],
-    study: Study,
+    study: Any,
     values: np.ndarray,
     todo: list[tuple[int, int]],
     done: Callable[[tuple[int, int], Any], None],
     kwargs: dict[str, Any],
 ) -> None:
-    """Run ``fn(study, values[a:b], **kwargs)`` for every chunk, calling ``done`` as each ends."""
+    """Run ``fn(study, values[a:b], **kwargs)`` for every chunk, calling ``done`` as each ends
+    (``study`` the Study, or its scattered future on a cluster)."""
     if not todo:
         return
     if client is None:
@@ -382,8 +386,7 @@ def _map(
         return
     from distributed import as_completed
 
-    shared = client.scatter(study, broadcast=True)
-    futures = {client.submit(fn, shared, values[a:b], pure=False, **kwargs): (a, b) for a, b in todo}
+    futures = {client.submit(fn, study, values[a:b], pure=False, **kwargs): (a, b) for a, b in todo}
     try:
         for fut in as_completed(futures):
             try:
