@@ -94,7 +94,7 @@ def summary(o: engine.Outcome, command: str | None = None) -> dict[str, Any]:
     for b in st.bounds:
         within &= b.holds(o.columns[b.column])
     verified = o.verified >= 0
-    worst = {k: float(np.nanmax(v)) if verified.any() else None for k, v in o.mujoco.items()}
+    worst = {k: float(np.max(v[np.isfinite(v)])) if np.isfinite(v).any() else None for k, v in o.mujoco.items()}
     thresholds = compare.thresholds()
     return {
         "study": st.name,
@@ -217,7 +217,7 @@ def _plots(o: engine.Outcome, stage: Path) -> list[Path]:
 
     st = o.study
     title = f"{st.name}: {st.title or st.mechanism.title}"
-    params = [sp.Column(p.path, p.label(), p.unit, o.values[:, j]) for j, p in enumerate(st.params)]
+    params = [sp.Column(p.path, p.path, p.unit, o.values[:, j]) for j, p in enumerate(st.params)]
     mets = [sp.Column(c.name, c.label, c.unit, o.columns[c.name]) for c in st.columns]
     nominal = {p.path: p.nominal for p in st.params}
     out: list[Path | None] = [sp.scatter_matrix(title, params, mets, o.feasible, o.verified, stage, nominal=nominal)]

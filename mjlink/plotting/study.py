@@ -1,0 +1,714 @@
+"""PNG figures of design studies: many variants of one mechanism, their parameters and metrics.
+
+:func:`scatter_matrix` (metrics against parameters, any sampling), :func:`histograms` (the
+spread of each metric, for tolerance studies) and :func:`feasible_region` (metrics over a grid
+of two parameters, with the region that assembles and the one within the design limits).
+
+Drawing only, from plain :class:`Column` data (no dependency on the study engine). Values are
+in each column's own unit (the file's: mm, deg, um, N, N*m, W ...) and are NaN where a variant
+is infeasible (it cannot assemble over the whole cycle or does not pass a dead point) or the
+metric was not computed. Every function returns the written path, or None when there is
+nothing to draw. Text from users (titles, labels, units) is drawn literally
+(:func:`.style.user_text`); the shared look and the atomic writer are :mod:`.style`'s.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.axis import Axis
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch, PathPatch
+from matplotlib.path import Path as MplPath
+from matplotlib.ticker import MaxNLocator, ScalarFormatter
+from scipy import ndimage
+
+from .style import save, user_text
+
+MAX_PANELS = 6  # parameters and metrics each, in the scatter matrix: more become unreadable
+INFEASIBLE = "cannot assemble / dead point"
+FEASIBLE_COLOR = "tab:blue"
+INFEASIBLE_COLOR = "0.45"
+FAILED_COLOR = "tab:red"
+PASSED_COLOR = "tab:green"
+NOMINAL_COLOR = "0.15"
+NOMINAL_STYLE: dict[str, object] = dict(color=NOMINAL_COLOR, lw=0.9, ls=(0, (5, 3)), alpha=0.85)
+HATCH_FACE = "0.82"
+HATCH_LINES = "0.45"
+NO_VALUE_FACE = "0.94"
+LIMIT_STYLE: dict[str, object] = dict(colors="k", linewidths=2.4)
+# Inadmissible side of a limit: washed out, so the admissible colours stand out.
+VEIL = (1.0, 1.0, 1.0, 0.62)
+ADMISSIBLE_FACE = "#8fd18f"
+TEXT_BOX: dict[str, object] = dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8)
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column of a study's table, as the figures draw it.
+
+    ``name``: a parameter path ('construct.P3.length_a') or a metric column ('stroke_P5'), the
+    key of ``nominal`` and ``limits``; ``label``: for axes ('stroke of P5'); ``unit``: 'mm',
+    'deg', 'um', 'N*m', '' for none ...; ``values``: (V,) float in that unit, NaN where the
+    variant is infeasible or the value was not computed ((ny, nx) accepted for grids)."""
+
+    name: str
+    label: str
+    unit: str
+    values: np.ndarray
+
+
+# ----------------------------------------------------------------------------- text
+def _unit(unit: str) -> str:
+    """A unit as printed: 'N*m' -> 'N·m', 'um' -> 'µm', 'm^2' -> 'm²' (escaped: user text)."""
+    shown = unit.replace("*", "·").replace("^2", "²").replace("^3", "³")
+    shown = "µm" if shown == "um" else shown.replace("um/", "µm/")
+    return user_text(shown)
+
+
+def _with_unit(col: Column) -> str:
+    """'label [unit]' (raw text), unless the label already names its unit at its end, as
+    'construct.P3.length_a, mm' does."""
+    label, unit = col.label or col.name, col.unit.strip()
+    if not unit or any(label.rstrip().endswith(e) for e in (f", {unit}", f"[{unit}]", f"({unit})", f" {unit}")):
+        return label
+    return f"{label} [{unit}]"
+
+
+def _wrap(text: str, width: int, max_lines: int = 3) -> str:
+    """``text`` (raw, from a user) broken into lines of about ``width`` characters, drawn
+    literally. Long parameter paths break after their dots or underscores, not mid-name; more
+    than ``max_lines`` lines end in an ellipsis."""
+    width = max(8, width)
+    words: list[str] = []
+    for word in text.split():
+        while len(word) > width:
+            cut = max(word.rfind(c, 0, width) for c in "._/,-") + 1
+            cut = cut if cut > width // 3 else width
+            words.append(word[:cut])
+            word = word[cut:]
+        words.append(word)
+    lines: list[str] = []
+    for word in words:
+        # A fragment of a broken path joins the next without a space.
+        glue = "" if lines and lines[-1][-1:] in "._/" and not lines[-1].endswith(" ") else " "
+        if lines and len(lines[-1]) + len(glue) + len(word) <= width:
+            lines[-1] += (glue if lines[-1] else "") + word
+        else:
+            lines.append(word)
+    if len(lines) > max_lines:
+        lines = [*lines[: max_lines - 1], lines[max_lines - 1][: width - 1] + "…"]
+    return "\n".join(user_text(line) for line in lines)
+
+
+def _chars(width_in: float, fontsize: float) -> int:
+    """How many characters of DejaVu Sans at ``fontsize`` (pt) fit in ``width_in`` inches."""
+    return int(width_in * 72.0 / (0.6 * fontsize))
+
+
+def _fmt(v: float, spread: float) -> str:
+    """``v`` with enough decimals that values ``spread`` apart differ in their 3rd digit."""
+    if not math.isfinite(v):
+        return "–"
+    if spread > 0 and 1e-4 <= max(abs(v), spread) < 1e7:
+        return f"{v:.{int(min(9, max(0, 2 - math.floor(math.log10(spread)))))}f}"
+    return f"{v:.4g}"
+
+
+def _ordinal(p: float) -> str:
+    """'median', '1st percentile', '2.5th percentile', '99th percentile'."""
+    if p == 50:
+        return "median"
+    if p != int(p):
+        return f"{p:g}th percentile"
+    n = int(p)
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix} percentile"
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n:,} {what}" + ("" if n == 1 else "s")
+
+
+# ----------------------------------------------------------------------------- axes
+def _span(values: np.ndarray) -> tuple[float, float]:
+    """The finite range of ``values``, widened when it is one value (or none) so an axis
+    can show it: a constant metric sits in the middle of its axis."""
+    v = values[np.isfinite(values)]
+    if v.size == 0:
+        return 0.0, 1.0
+    lo, hi = float(v.min()), float(v.max())
+    if hi > lo:
+        return lo, hi
+    d = 0.05 * abs(lo) if lo != 0 else 1.0
+    return lo - d, hi + d
+
+
+def _tidy(axis: Axis, nbins: int = 4) -> None:
+    """Few ticks, printed in full: tolerance studies vary a value in its 4th digit, and an
+    offset ('+2.2e1') on every small panel is hard to read."""
+    axis.set_major_locator(MaxNLocator(nbins=nbins, min_n_ticks=2))
+    fmt = ScalarFormatter(useOffset=False)
+    fmt.set_powerlimits((-4, 6))
+    axis.set_major_formatter(fmt)
+
+
+def _as_1d(col: Column, n: int) -> np.ndarray:
+    v = np.asarray(col.values, dtype=float).ravel()
+    if v.size != n:
+        raise ValueError(f"column {col.name!r} has {v.size} values, expected {n}")
+    return v
+
+
+def _grid(n: int, ncols: int) -> tuple[int, int]:
+    cols = min(ncols, n)
+    return math.ceil(n / cols), cols
+
+
+def _hide_unused(axs: np.ndarray, n: int) -> None:
+    for ax in axs.flat[n:]:
+        ax.set_visible(False)
+
+
+# ----------------------------------------------------------------------------- scatter matrix
+def scatter_matrix(
+    title: str,
+    params: Sequence[Column],
+    metrics: Sequence[Column],
+    feasible: np.ndarray,
+    verified: np.ndarray | None,
+    out_dir: Path | str,
+    name: str = "scatter.png",
+    nominal: Mapping[str, float] | None = None,
+) -> Path | None:
+    """``name``: every metric (rows) against every parameter (columns), one point per variant.
+
+    Args:
+      title: the study's title (drawn literally).
+      params, metrics: columns of V values each; only the first :data:`MAX_PANELS` of each are
+        drawn (the figure says so).
+      feasible: (V,) bool; infeasible variants have no metric: their parameter values are
+        marked by grey crosses along the bottom of each panel.
+      verified: (V,) int8, -1 not checked in MuJoCo, 0 failed the agreement check (ringed red),
+        1 passed (ringed green); None: none checked.
+      nominal: column name -> nominal value (the column's unit): a thin dashed line across
+        the panels of that parameter (vertical) or metric (horizontal); NaN values skipped.
+    Returns the path, or None without parameters, metrics or variants.
+
+    Each panel gives r, the linear correlation of the feasible values, so the parameters that
+    drive a metric show at a glance. Points are rasterised: 10,000 variants draw in a second.
+    """
+    if not params or not metrics:
+        return None
+    feas = np.asarray(feasible, dtype=bool).ravel()
+    V = feas.size
+    if V == 0:
+        return None
+    ver = np.full(V, -1, dtype=np.int8) if verified is None else np.asarray(verified).ravel()
+    if ver.size != V:
+        raise ValueError(f"verified has {ver.size} values, expected {V}")
+    nominal = nominal or {}
+    ps, ms = list(params[:MAX_PANELS]), list(metrics[:MAX_PANELS])
+    X = [_as_1d(c, V) for c in ps]
+    # Infeasible variants have no metric, whatever the column holds.
+    Y = [np.where(feas, _as_1d(c, V), np.nan) for c in ms]
+    P, M = len(ps), len(ms)
+
+    panel_w, panel_h = 2.3, 1.9
+    fig_w = max(8.0, 1.4 + panel_w * P)
+    fig, axs = plt.subplots(
+        M,
+        P,
+        figsize=(fig_w, 2.1 + panel_h * M),
+        sharex="col",
+        sharey="row",
+        squeeze=False,
+        layout="constrained",
+    )
+    n_feas, n_inf = int(feas.sum()), int((~feas).sum())
+    failed, passed = ver == 0, ver == 1
+    # Thousands of points: small and translucent, so density shows; a few: plain dots.
+    ms_pt = 4.0 if V <= 200 else 2.6 if V <= 2000 else 1.8
+    alpha = float(np.clip(25.0 / math.sqrt(V), 0.2, 0.9))
+    # Fixed jitter: the crosses of many infeasible variants spread into a band, as a rug.
+    rug_y = 0.015 + 0.05 * np.random.default_rng(0).random(V)
+
+    for j, (pc, x) in enumerate(zip(ps, X)):
+        x_lo, x_hi = _span(x)
+        pad = 0.04 * (x_hi - x_lo)
+        axs[0, j].set_xlim(x_lo - pad, x_hi + pad)
+    for i, (mc, y) in enumerate(zip(ms, Y)):
+        y_lo, y_hi = _span(y)
+        # Room below the lowest point for the infeasible variants' crosses.
+        axs[i, 0].set_ylim(y_lo - 0.17 * (y_hi - y_lo), y_hi + 0.06 * (y_hi - y_lo))
+        no_value = not np.isfinite(y).any()
+        for j, (pc, x) in enumerate(zip(ps, X)):
+            ax = axs[i, j]
+            ok = np.isfinite(x) & np.isfinite(y)
+            ax.plot(x[ok], y[ok], "o", ms=ms_pt, mew=0, alpha=alpha, color=FEASIBLE_COLOR, rasterized=True, zorder=2)
+            bad = ~feas & np.isfinite(x)
+            if bad.any():
+                ax.plot(
+                    x[bad],
+                    rug_y[bad],
+                    "x",
+                    ms=3.5,
+                    mew=0.7,
+                    alpha=min(0.9, 2 * alpha),
+                    color=INFEASIBLE_COLOR,
+                    transform=ax.get_xaxis_transform(),
+                    rasterized=True,
+                    zorder=2,
+                )
+            for sel, color, size in ((passed, PASSED_COLOR, 5.0), (failed, FAILED_COLOR, 7.0)):
+                on = sel & ok
+                if on.any():
+                    ax.plot(x[on], y[on], "o", mfc="none", mec=color, ms=size, mew=1.0, zorder=4)
+                # A checked variant without a metric value rings its cross at the bottom.
+                off = sel & bad
+                if off.any():
+                    ax.plot(
+                        x[off],
+                        rug_y[off],
+                        "o",
+                        mfc="none",
+                        mec=color,
+                        ms=size,
+                        mew=1.0,
+                        transform=ax.get_xaxis_transform(),
+                        zorder=4,
+                    )
+            if math.isfinite(nominal.get(pc.name, math.nan)):
+                ax.axvline(nominal[pc.name], zorder=3, **NOMINAL_STYLE)  # type: ignore[arg-type]
+            if math.isfinite(nominal.get(mc.name, math.nan)):
+                ax.axhline(nominal[mc.name], zorder=3, **NOMINAL_STYLE)  # type: ignore[arg-type]
+            note = _panel_note(x[ok], y[ok], int((feas & np.isfinite(x) & ~np.isfinite(y)).sum()), n_feas, no_value)
+            if note:
+                ax.text(
+                    0.03, 0.97, note, transform=ax.transAxes, ha="left", va="top", fontsize=7, bbox=TEXT_BOX, zorder=5
+                )
+            ax.grid(True, alpha=0.3, lw=0.5)
+            ax.tick_params(labelsize=7)
+            _tidy(ax.xaxis)
+            _tidy(ax.yaxis)
+            if i == M - 1:
+                ax.set_xlabel(_wrap(_with_unit(pc), _chars(panel_w - 0.15, 8)), fontsize=8)
+            if j == 0:
+                ax.set_ylabel(_wrap(_with_unit(mc), _chars(panel_h - 0.2, 8)), fontsize=8)
+    for ax in axs.flat:
+        ax.label_outer()
+
+    handles = [
+        Line2D([], [], ls="none", marker="o", ms=4, mew=0, color=FEASIBLE_COLOR, label=f"feasible ({n_feas:,})"),
+        Line2D(
+            [],
+            [],
+            ls="none",
+            marker="x",
+            ms=5,
+            mew=1,
+            color=INFEASIBLE_COLOR,
+            label=f"{INFEASIBLE} ({n_inf:,}): parameter value at the bottom",
+        ),
+    ]
+    if passed.any():
+        handles.append(
+            Line2D([], [], ls="none", marker="o", mfc="none", mec=PASSED_COLOR, ms=6, label=f"MuJoCo check passed ({int(passed.sum()):,})")
+        )
+    if failed.any():
+        handles.append(
+            Line2D([], [], ls="none", marker="o", mfc="none", mec=FAILED_COLOR, ms=7, label=f"MuJoCo check failed ({int(failed.sum()):,})")
+        )
+    if any(math.isfinite(nominal.get(c.name, math.nan)) for c in (*ps, *ms)):
+        handles.append(Line2D([], [], label="nominal", **NOMINAL_STYLE))  # type: ignore[arg-type]
+    fig.legend(handles=handles, loc="outside upper center", ncol=min(len(handles), 3 if P <= 3 else 5), fontsize=8, frameon=False)
+
+    what = f"metrics (rows) against parameters (columns) of {_count(V, 'variant')}; r: linear correlation"
+    shown = []
+    if len(params) > P:
+        shown.append(f"the first {P} of {len(params)} parameters")
+    if len(metrics) > M:
+        shown.append(f"the first {M} of {len(metrics)} metrics")
+    if shown:
+        what += "\nshowing " + " and ".join(shown) + " (the rest are in the table)"
+    fig.suptitle(_wrap(title, _chars(fig_w - 0.4, 10), 2) + "\n" + what, fontsize=10)
+    return save(fig, out_dir, name)
+
+
+def _panel_note(x: np.ndarray, y: np.ndarray, missing: int, n_feas: int, no_value: bool) -> str:
+    """The note in a scatter panel's corner: the correlation, or why there is nothing."""
+    if n_feas == 0:
+        return "no variant assembles"
+    if no_value:
+        return "no value"
+    lines = []
+    if x.size >= 3 and np.ptp(x) > 0 and np.ptp(y) > 0:
+        lines.append(f"r = {float(np.corrcoef(x, y)[0, 1]):+.2f}")
+    if missing:
+        lines.append(f"{missing:,} without value")
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- histograms
+def histograms(
+    title: str,
+    metrics: Sequence[Column],
+    feasible: np.ndarray,
+    out_dir: Path | str,
+    name: str = "histograms.png",
+    percentiles: Sequence[float] = (1, 50, 99),
+    nominal: Mapping[str, float] | None = None,
+) -> Path | None:
+    """``name``: the distribution of each metric over the feasible variants, one panel each.
+
+    Args:
+      title: the study's title (drawn literally).
+      metrics: columns of V values each.
+      feasible: (V,) bool; only feasible variants with a value are counted.
+      percentiles: in %, drawn as vertical lines and listed with their values (the median's
+        solid, the others dashed); mean and sample standard deviation listed with them.
+      nominal: metric name -> nominal value (the column's unit): a red dash-dotted line.
+    Returns the path, or None when no metric has a value for a feasible variant (every
+    variant infeasible, or no metrics).
+    """
+    feas = np.asarray(feasible, dtype=bool).ravel()
+    V = feas.size
+    nominal = nominal or {}
+    vals = [np.where(feas, _as_1d(c, V), np.nan) for c in metrics]
+    if not any(np.isfinite(v).any() for v in vals):
+        return None
+    pcts = sorted(float(p) for p in percentiles)
+    n = len(metrics)
+    rows, cols = _grid(n, 3 if n <= 9 else 4)
+    panel_w, panel_h = 3.7, 2.7
+    fig_w = max(7.0, panel_w * cols + 0.5)
+    fig, axs = plt.subplots(
+        rows, cols, figsize=(fig_w, 1.0 + panel_h * rows), squeeze=False, layout="constrained"
+    )
+    _hide_unused(axs, n)
+    n_feas = int(feas.sum())
+    for k, (col, v) in enumerate(zip(metrics, vals)):
+        ax = axs.flat[k]
+        _histogram(ax, col, v[np.isfinite(v)], n_feas, pcts, nominal.get(col.name, math.nan), panel_h)
+        ax.set_xlabel(_wrap(_with_unit(col), _chars(panel_w - 0.3, 8.5)), fontsize=8.5)
+        if k % cols == 0:
+            ax.set_ylabel("variants", fontsize=8.5)
+    what = (
+        f"spread of the metrics over the {n_feas:,} of {_count(V, 'variant')} that assemble"
+        f" ({V - n_feas:,} {INFEASIBLE})"
+    )
+    fig.suptitle(_wrap(title, _chars(fig_w - 0.4, 10), 2) + "\n" + what, fontsize=10)
+    return save(fig, out_dir, name)
+
+
+def _histogram(
+    ax: Axes, col: Column, v: np.ndarray, n_feas: int, pcts: list[float], nom: float, panel_h: float
+) -> None:
+    """One histogram panel: the bars, the percentile and nominal lines and their legend."""
+    ax.tick_params(labelsize=7.5)
+    ax.grid(True, axis="y", alpha=0.3, lw=0.5)
+    unit = _unit(col.unit)
+    if v.size == 0:
+        ax.text(0.5, 0.5, "no value for any feasible variant", transform=ax.transAxes, ha="center", va="center", fontsize=8)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        return
+    lo, hi = _span(v)
+    spread = float(np.ptp(v))
+    bins: int | np.ndarray = (
+        np.histogram_bin_edges(v, bins="auto") if spread > 0 else np.linspace(lo + 0.45 * (hi - lo), hi - 0.45 * (hi - lo), 2)
+    )
+    if isinstance(bins, np.ndarray) and bins.size > 81:
+        bins = 80  # 'auto' on 10,000 smooth values asks for hundreds of one-variant bars
+    counts, _, _ = ax.hist(v, bins=bins, color=FEASIBLE_COLOR, alpha=0.75, edgecolor="white", lw=0.3)
+    q = np.percentile(v, pcts)
+    scale = float(q[-1] - q[0]) if q[-1] > q[0] else spread
+    sep = " " if unit else ""
+    handles = []
+    for p, val in zip(pcts, q):
+        median = p == 50
+        line = dict(color="k" if median else "tab:orange", lw=1.3 if median else 1.1, ls="-" if median else (0, (4, 2)))
+        ax.axvline(float(val), **line)  # type: ignore[arg-type]
+        handles.append(Line2D([], [], label=f"{_ordinal(p)} {_fmt(float(val), scale)}{sep}{unit}", **line))  # type: ignore[arg-type]
+    if math.isfinite(nom):
+        style = dict(color=FAILED_COLOR, lw=1.2, ls="-.")
+        ax.axvline(nom, **style)  # type: ignore[arg-type]
+        handles.append(Line2D([], [], label=f"nominal {_fmt(nom, scale)}{sep}{unit}", **style))  # type: ignore[arg-type]
+        lo, hi = min(lo, nom), max(hi, nom)
+    std = f"{_fmt(float(np.std(v, ddof=1)), scale)}{sep}{unit}" if v.size > 1 else "–"
+    head = f"mean {_fmt(float(np.mean(v)), scale)}{sep}{unit}, σ {std}\n{_count(v.size, 'variant')}"
+    if v.size < n_feas:
+        head += f" ({n_feas - v.size:,} without value)"
+    if spread == 0:
+        head += ", all equal"
+    pad = 0.06 * (hi - lo)
+    ax.set_xlim(lo - pad, hi + pad)
+    _tidy(ax.xaxis, 5)
+    ax.yaxis.set_major_locator(MaxNLocator(nbins=4, integer=True))
+    # Headroom above the bars for the legend: its lines take about 0.15 in each of the axes'
+    # ~2 in, so the bars stay below it whatever the shape of the distribution.
+    lines = len(handles) + head.count("\n") + 1
+    frac = min(0.7, (0.15 * lines + 0.12) / (panel_h - 0.75))
+    ax.set_ylim(0, max(1.0, float(counts.max())) / (1.0 - frac))
+    ax.legend(
+        handles=handles,
+        title=head,
+        title_fontsize=7,
+        fontsize=7,
+        loc="upper right",
+        alignment="left",
+        handlelength=1.8,
+        borderaxespad=0.3,
+        framealpha=0.85,
+    )
+
+
+# ----------------------------------------------------------------------------- feasible region
+def feasible_region(
+    title: str,
+    x: Column,
+    y: Column,
+    grid_x: np.ndarray,
+    grid_y: np.ndarray,
+    feasible: np.ndarray,
+    metrics: Sequence[Column],
+    limits: Mapping[str, tuple[float | None, float | None]] | None,
+    out_dir: Path | str,
+    name: str = "region.png",
+    nominal: Mapping[str, float] | None = None,
+) -> Path | None:
+    """``name``: metrics over a grid of two parameters, one panel each, and where the design
+    assembles and meets its limits.
+
+    Args:
+      title: the study's title (drawn literally).
+      x, y: the two parameters (only their names, labels and units are used).
+      grid_x: (nx,) values of ``x``; grid_y: (ny,) values of ``y`` (their units; any order).
+      feasible: (ny, nx) bool (or (ny*nx,), row-major): infeasible cells are hatched grey.
+      metrics: columns of (ny, nx) values (or (ny*nx,)), drawn as filled contours with a
+        colour bar in their unit; cells without a value are pale grey.
+      limits: metric name -> (low, high) admissible bounds (None: open; the metric's unit).
+        The bound is drawn as a thick contour, the inadmissible side washed out, and a first
+        panel shows the admissible region: the variants that assemble and meet every limit.
+        Limits of metrics not drawn are ignored.
+      nominal: column name -> nominal value: the nominal design (x, y) as a star.
+    Returns the path, or None for an empty grid.
+
+    Cells are the nearest-grid-point areas around each variant: the hatched region is the
+    variants that failed, not an interpolation between them.
+    """
+    gx, gy = np.asarray(grid_x, dtype=float).ravel(), np.asarray(grid_y, dtype=float).ravel()
+    nx, ny = gx.size, gy.size
+    if nx == 0 or ny == 0:
+        return None
+    # Grids are drawn ascending whatever order the study listed them in.
+    ox, oy = np.argsort(gx, kind="stable"), np.argsort(gy, kind="stable")
+    gx, gy = gx[ox], gy[oy]
+
+    def cells(values: np.ndarray, what: str) -> np.ndarray:
+        a = np.asarray(values)
+        if a.size != nx * ny:
+            raise ValueError(f"{what} has {a.size} values, expected {ny} x {nx} = {nx * ny}")
+        return a.reshape(ny, nx)[np.ix_(oy, ox)]
+
+    feas = cells(feasible, "feasible").astype(bool)
+    Z = [np.where(feas, cells(np.asarray(m.values, dtype=float), f"column {m.name!r}"), np.nan) for m in metrics]
+    limits = {k: v for k, v in (limits or {}).items() if v[0] is not None or v[1] is not None}
+    limited = [(m, z, limits[m.name]) for m, z in zip(metrics, Z) if m.name in limits]
+    nominal = nominal or {}
+    xe, ye = _edges(gx), _edges(gy)
+
+    panels = len(metrics) + (1 if limited or not metrics else 0)
+    rows, cols = _grid(panels, 3)
+    panel_w, panel_h = 3.9, 3.1
+    fig_w = max(7.5, panel_w * cols + 0.4)
+    fig, axs = plt.subplots(
+        rows,
+        cols,
+        figsize=(fig_w, 1.3 + panel_h * rows),
+        sharex=True,
+        sharey=True,
+        squeeze=False,
+        layout="constrained",
+    )
+    _hide_unused(axs, panels)
+    used = list(axs.flat[:panels])
+    k = 0
+    if limited or not metrics:
+        ok = feas.copy()
+        conds = []
+        for m, z, (lo, hi) in limited:
+            with np.errstate(invalid="ignore"):
+                ok &= np.isfinite(z) & (z >= (-np.inf if lo is None else lo)) & (z <= (np.inf if hi is None else hi))
+            conds.append(_condition(m, lo, hi))
+        ax = used[0]
+        _cells(ax, ok, xe, ye, fc=ADMISSIBLE_FACE)
+        head = "admissible: assembles" + (" and " + ", ".join(conds) if conds else "")
+        ax.set_title(
+            _wrap(head, _chars(panel_w - 0.2, 9)) + f"\n{int(ok.sum()):,} of {_count(nx * ny, 'variant')}", fontsize=9
+        )
+        if nx * ny <= 2500:
+            # The grid's points, so its resolution (and a staircase edge's cause) shows.
+            gxx, gyy = np.meshgrid(gx, gy)
+            ax.plot(gxx.ravel(), gyy.ravel(), ".", ms=1.5, color="0.35", zorder=3)
+        k = 1
+    for m, z in zip(metrics, Z):
+        ax = used[k]
+        k += 1
+        _metric_panel(fig, ax, m, z, gx, gy, xe, ye, limits.get(m.name))
+        ax.set_title(_wrap(m.label or m.name, _chars(panel_w - 0.9, 9), 2), fontsize=9)
+    for ax in used:
+        _cells(ax, ~feas, xe, ye, fc=HATCH_FACE, hatch="////", hatchcolor=HATCH_LINES, zorder=2.5)
+        if math.isfinite(nominal.get(x.name, math.nan)) and math.isfinite(nominal.get(y.name, math.nan)):
+            ax.plot(nominal[x.name], nominal[y.name], "*", ms=11, mfc="white", mec="k", mew=1.0, zorder=6)
+        ax.set_xlim(xe[0], xe[-1])
+        ax.set_ylim(ye[0], ye[-1])
+        ax.tick_params(labelsize=7.5)
+        _tidy(ax.xaxis)
+        _tidy(ax.yaxis)
+    for i, ax in enumerate(axs.flat):
+        r, c = divmod(i, cols)
+        # The last panel of a column shows the x axis (a short last row leaves it one row up).
+        if i < panels and i + cols >= panels:
+            ax.set_xlabel(_wrap(_with_unit(x), _chars(panel_w - 0.5, 8.5)), fontsize=8.5)
+            ax.xaxis.set_tick_params(labelbottom=True)
+        elif i < panels:
+            ax.xaxis.set_tick_params(labelbottom=False)
+        if c == 0:
+            ax.set_ylabel(_wrap(_with_unit(y), _chars(panel_h - 0.5, 8.5)), fontsize=8.5)
+        else:
+            ax.yaxis.set_tick_params(labelleft=False)
+
+    handles: list[Patch | Line2D] = [
+        Patch(fc=HATCH_FACE, hatch="////", ec=HATCH_LINES, lw=0, label=f"{INFEASIBLE} ({int((~feas).sum()):,})")
+    ]
+    if any((feas & ~np.isfinite(z)).any() for z in Z):
+        handles.append(Patch(fc=NO_VALUE_FACE, ec="0.7", lw=0.5, label="no value computed"))
+    if limited or not metrics:
+        handles.append(Patch(fc=ADMISSIBLE_FACE, label="admissible"))
+    if limited:
+        handles.append(Line2D([], [], color="k", lw=2.4, label="limit"))
+        handles.append(Patch(fc=VEIL, ec="0.6", lw=0.5, label="beyond the limit (washed out)"))
+    if math.isfinite(nominal.get(x.name, math.nan)) and math.isfinite(nominal.get(y.name, math.nan)):
+        handles.append(Line2D([], [], ls="none", marker="*", ms=10, mfc="white", mec="k", label="nominal"))
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8, frameon=False)
+    what = f"over a {nx} × {ny} grid of {x.name} and {y.name}"
+    fig.suptitle(_wrap(title, _chars(fig_w - 0.4, 10), 2) + "\n" + _wrap(what, _chars(fig_w - 0.4, 10), 2), fontsize=10)
+    return save(fig, out_dir, name)
+
+
+def _condition(m: Column, lo: float | None, hi: float | None) -> str:
+    """'stroke of P5 ≤ 40 mm', '10 ≤ transmission ≤ 170 deg' (raw text)."""
+    unit = m.unit.replace("*", "·")
+    unit = "µm" if unit == "um" else unit
+    u = f" {unit}" if unit else ""
+    label = m.label or m.name
+    if lo is not None and hi is not None:
+        return f"{lo:g} ≤ {label} ≤ {hi:g}{u}"
+    return f"{label} ≥ {lo:g}{u}" if lo is not None else f"{label} ≤ {hi:g}{u}"
+
+
+def _edges(g: np.ndarray) -> np.ndarray:
+    """(n+1,) cell edges around the grid values ``g`` (n,): halfway between neighbours, half a
+    step beyond the ends (one value: a cell of 10 % of it, or 1)."""
+    if g.size == 1:
+        d = 0.05 * abs(float(g[0])) or 0.5
+        return np.array([g[0] - d, g[0] + d])
+    mid = 0.5 * (g[1:] + g[:-1])
+    return np.concatenate([[2 * g[0] - mid[0]], mid, [2 * g[-1] - mid[-1]]])
+
+
+def _cells(ax: Axes, mask: np.ndarray, xe: np.ndarray, ye: np.ndarray, **patch: object) -> None:
+    """The cells of ``mask`` (ny, nx) as one patch: runs of cells along a row as one rectangle
+    each, all in one path, so the fill and its hatching have no seams between cells."""
+    verts: list[list[tuple[float, float]]] = []
+    for j in range(mask.shape[0]):
+        row = np.concatenate([[False], mask[j], [False]])
+        starts = np.flatnonzero(row[1:] & ~row[:-1])
+        ends = np.flatnonzero(~row[1:] & row[:-1])
+        for a, b in zip(starts, ends):
+            x0, x1, y0, y1 = xe[a], xe[b], ye[j], ye[j + 1]
+            verts.append([(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)])
+    if not verts:
+        return
+    codes = [MplPath.MOVETO, MplPath.LINETO, MplPath.LINETO, MplPath.LINETO, MplPath.CLOSEPOLY]
+    path = MplPath(np.concatenate(verts), codes * len(verts))
+    ax.add_patch(PathPatch(path, lw=0, **patch))  # type: ignore[arg-type]
+
+
+def _metric_panel(
+    fig: Figure,
+    ax: Axes,
+    m: Column,
+    z: np.ndarray,
+    gx: np.ndarray,
+    gy: np.ndarray,
+    xe: np.ndarray,
+    ye: np.ndarray,
+    limit: tuple[float | None, float | None] | None,
+) -> None:
+    """One metric's panel: filled contours, its limit and colour bar (the infeasible cells are
+    hatched over it afterwards)."""
+    have = np.isfinite(z)
+    unit = _unit(m.unit)
+    _cells(ax, ~have, xe, ye, fc=NO_VALUE_FACE, zorder=0.5)
+    if not have.any():
+        ax.text(0.5, 0.5, "no value", transform=ax.transAxes, ha="center", va="center", fontsize=9, bbox=TEXT_BOX, zorder=7)
+        return
+    lo, hi = float(z[have].min()), float(z[have].max())
+    if hi > lo:
+        levels = MaxNLocator(nbins=10).tick_values(lo, hi)
+    else:
+        d = 0.05 * abs(lo) or 1.0
+        levels = np.array([lo - d, lo + d])
+    # Each cell takes its nearest variant's value where there is none: the colours reach the
+    # cell edges, where the hatched (or pale) cells on top begin, rather than stopping one
+    # half-cell short. The filled values are always covered.
+    idx = ndimage.distance_transform_edt(~have, return_distances=False, return_indices=True)
+    zf = z[tuple(idx)]
+    small = gx.size < 2 or gy.size < 2
+    if small:
+        # Contours need two values each way: a row or column of cells instead.
+        cs = ax.pcolormesh(xe, ye, zf, cmap="viridis", vmin=levels[0], vmax=levels[-1], zorder=1)
+    else:
+        # Contours between grid points; the outer half-cells repeat the edge values.
+        xs, ys = np.concatenate([[xe[0]], gx, [xe[-1]]]), np.concatenate([[ye[0]], gy, [ye[-1]]])
+        zp = np.pad(zf, 1, mode="edge")
+        cs = ax.contourf(xs, ys, zp, levels=levels, cmap="viridis", extend="neither", zorder=1)
+        if limit is not None:
+            _limit(ax, xs, ys, zp, limit, unit)
+    cb = fig.colorbar(cs, ax=ax, pad=0.02, fraction=0.08, aspect=25)
+    cb.set_label(f"[{unit}]" if unit else "(no unit)", fontsize=8)
+    cb.ax.tick_params(labelsize=7)
+    _tidy(cb.ax.yaxis, 6)
+    if hi == lo:
+        cb.set_ticks([lo])
+        ax.text(
+            0.5, 0.92, f"constant: {_fmt(lo, 0)} {unit}", transform=ax.transAxes, ha="center", va="top", fontsize=8, bbox=TEXT_BOX, zorder=7
+        )
+
+
+def _limit(
+    ax: Axes, xs: np.ndarray, ys: np.ndarray, z: np.ndarray, limit: tuple[float | None, float | None], unit: str
+) -> None:
+    """A metric's admissible bounds on its panel: each bound's contour thick and labelled, the
+    side beyond it washed out."""
+    zmin, zmax = float(z.min()), float(z.max())
+    eps = 1e-9 * max(1.0, abs(zmin), abs(zmax))
+    for bound, beyond in ((limit[0], (zmin - eps, limit[0])), (limit[1], (limit[1], zmax + eps))):
+        if bound is None:
+            continue
+        a, b = beyond
+        if b > a:
+            # Beyond the bound somewhere (everywhere if the bound is outside the range).
+            ax.contourf(xs, ys, z, levels=[max(a, zmin - eps), min(b, zmax + eps)], colors=[VEIL], zorder=1.5)
+        if zmin < bound < zmax:
+            cl = ax.contour(xs, ys, z, levels=[bound], zorder=2, **LIMIT_STYLE)  # type: ignore[arg-type]
+            ax.clabel(cl, fmt=f"{bound:g} {unit}".strip(), fontsize=8, inline=True, inline_spacing=3)
