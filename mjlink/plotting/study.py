@@ -18,6 +18,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -33,21 +34,22 @@ from scipy import ndimage
 from .style import save, user_text
 
 MAX_PANELS = 6  # parameters and metrics each, in the scatter matrix: more become unreadable
+MAX_RINGED = 100  # variants that passed the MuJoCo check ringed (or 5 % of them, if more)
 INFEASIBLE = "cannot assemble / dead point"
 FEASIBLE_COLOR = "tab:blue"
 INFEASIBLE_COLOR = "0.45"
 FAILED_COLOR = "tab:red"
 PASSED_COLOR = "tab:green"
 NOMINAL_COLOR = "0.15"
-NOMINAL_STYLE: dict[str, object] = dict(color=NOMINAL_COLOR, lw=0.9, ls=(0, (5, 3)), alpha=0.85)
+NOMINAL_STYLE: dict[str, Any] = dict(color=NOMINAL_COLOR, lw=0.9, ls=(0, (5, 3)), alpha=0.85)
 HATCH_FACE = "0.82"
 HATCH_LINES = "0.45"
 NO_VALUE_FACE = "0.94"
-LIMIT_STYLE: dict[str, object] = dict(colors="k", linewidths=2.4)
+LIMIT_STYLE: dict[str, Any] = dict(colors="k", linewidths=2.4)
 # Inadmissible side of a limit: washed out, so the admissible colours stand out.
 VEIL = (1.0, 1.0, 1.0, 0.62)
 ADMISSIBLE_FACE = "#8fd18f"
-TEXT_BOX: dict[str, object] = dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8)
+TEXT_BOX: dict[str, Any] = dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8)
 
 
 @dataclass(frozen=True)
@@ -66,60 +68,79 @@ class Column:
 
 
 # ----------------------------------------------------------------------------- text
+def _shown_unit(unit: str) -> str:
+    """A unit as printed (raw text): 'N*m' -> 'N·m', 'um' -> 'µm', 'm^2' -> 'm²'."""
+    shown = unit.strip().replace("*", "·").replace("^2", "²").replace("^3", "³")
+    return "µm" if shown == "um" else shown.replace("um/", "µm/")
+
+
 def _unit(unit: str) -> str:
-    """A unit as printed: 'N*m' -> 'N·m', 'um' -> 'µm', 'm^2' -> 'm²' (escaped: user text)."""
-    shown = unit.replace("*", "·").replace("^2", "²").replace("^3", "³")
-    shown = "µm" if shown == "um" else shown.replace("um/", "µm/")
-    return user_text(shown)
+    """A unit as drawn: :func:`_shown_unit`, escaped (the unit comes with user data)."""
+    return user_text(_shown_unit(unit))
 
 
-def _with_unit(col: Column) -> str:
+def _times(scale: int) -> str:
+    """'×10⁻⁶' for ``scale`` -6: the factor of an axis's tick numbers ('' for 0)."""
+    return f"×10{str(scale).translate(str.maketrans('-0123456789', '⁻⁰¹²³⁴⁵⁶⁷⁸⁹'))}" if scale else ""
+
+
+def _with_unit(col: Column, scale: int = 0) -> str:
     """'label [unit]' (raw text), unless the label already names its unit at its end, as
-    'construct.P3.length_a, mm' does."""
-    label, unit = col.label or col.name, col.unit.strip()
-    if not unit or any(label.rstrip().endswith(e) for e in (f", {unit}", f"[{unit}]", f"({unit})", f" {unit}")):
-        return label
-    return f"{label} [{unit}]"
+    'construct.P3.length_a, mm' does; with the ticks' factor ('label [×10⁻⁶ m]') if ``scale``."""
+    label, unit = (col.label or col.name).rstrip(), col.unit.strip()
+    if not unit or any(label.endswith(e) for e in (f", {unit}", f"[{unit}]", f"({unit})", f" {unit}")):
+        return f"{label} [{_times(scale)}]" if scale else label
+    return f"{label} [{(_times(scale) + ' ') if scale else ''}{_shown_unit(unit)}]"
 
 
 def _wrap(text: str, width: int, max_lines: int = 3) -> str:
     """``text`` (raw, from a user) broken into lines of about ``width`` characters, drawn
-    literally. Long parameter paths break after their dots or underscores, not mid-name; more
-    than ``max_lines`` lines end in an ellipsis."""
+    literally. Long parameter paths break after a dot (else an underscore, a slash...), not
+    mid-name; more than ``max_lines`` lines end in an ellipsis."""
     width = max(8, width)
-    words: list[str] = []
+    # (piece, whether a space separates it from the previous piece)
+    pieces: list[tuple[str, bool]] = []
     for word in text.split():
+        spaced = True
         while len(word) > width:
-            cut = max(word.rfind(c, 0, width) for c in "._/,-") + 1
+            cut = 0
+            for breakers in (".", "_/-,"):
+                cut = max(word.rfind(c, 0, width) for c in breakers) + 1
+                if cut > width // 3:
+                    break
             cut = cut if cut > width // 3 else width
-            words.append(word[:cut])
-            word = word[cut:]
-        words.append(word)
+            pieces.append((word[:cut], spaced))
+            word, spaced = word[cut:], False
+        pieces.append((word, spaced))
     lines: list[str] = []
-    for word in words:
-        # A fragment of a broken path joins the next without a space.
-        glue = "" if lines and lines[-1][-1:] in "._/" and not lines[-1].endswith(" ") else " "
-        if lines and len(lines[-1]) + len(glue) + len(word) <= width:
-            lines[-1] += (glue if lines[-1] else "") + word
+    for piece, spaced in pieces:
+        sep = " " if spaced else ""
+        if lines and len(lines[-1]) + len(sep) + len(piece) <= width:
+            lines[-1] += sep + piece
         else:
-            lines.append(word)
+            lines.append(piece)
     if len(lines) > max_lines:
         lines = [*lines[: max_lines - 1], lines[max_lines - 1][: width - 1] + "…"]
     return "\n".join(user_text(line) for line in lines)
 
 
 def _chars(width_in: float, fontsize: float) -> int:
-    """How many characters of DejaVu Sans at ``fontsize`` (pt) fit in ``width_in`` inches."""
+    """About how many characters of the default sans-serif font at ``fontsize`` (pt) fit in
+    ``width_in`` inches."""
     return int(width_in * 72.0 / (0.6 * fontsize))
 
 
 def _fmt(v: float, spread: float) -> str:
-    """``v`` with enough decimals that values ``spread`` apart differ in their 3rd digit."""
+    """``v`` with enough digits that values ``spread`` apart differ in their 3rd significant
+    digit: fixed point for everyday magnitudes, else exponent notation."""
     if not math.isfinite(v):
         return "–"
-    if spread > 0 and 1e-4 <= max(abs(v), spread) < 1e7:
+    if spread <= 0:
+        return f"{v:.4g}"
+    if 1e-4 <= max(abs(v), spread) < 1e7:
         return f"{v:.{int(min(9, max(0, 2 - math.floor(math.log10(spread)))))}f}"
-    return f"{v:.4g}"
+    digits = math.floor(math.log10(max(abs(v), spread))) - math.floor(math.log10(spread)) + 3
+    return f"{v:.{int(min(12, max(3, digits)))}g}"
 
 
 def _ordinal(p: float) -> str:
@@ -151,13 +172,55 @@ def _span(values: np.ndarray) -> tuple[float, float]:
     return lo - d, hi + d
 
 
-def _tidy(axis: Axis, nbins: int = 4) -> None:
+class _InsetLocator(MaxNLocator):
+    """Ticks as :class:`MaxNLocator`'s, less those in the outer ``inset`` of the axis (a
+    fraction): panels packed side by side would have their edge labels run into each other."""
+
+    def __init__(self, inset: float, **kw: Any) -> None:
+        super().__init__(**kw)
+        self.inset = inset
+
+    def __call__(self) -> Any:
+        lo, hi = sorted(self.axis.get_view_interval()) if self.axis is not None else (0.0, 1.0)
+        ticks = np.asarray(self.tick_values(lo, hi), dtype=float)
+        m = self.inset * (hi - lo)
+        inner = ticks[(ticks >= lo + m) & (ticks <= hi - m)]
+        return inner if inner.size >= 2 else ticks
+
+
+def _scale(lo: float, hi: float) -> int:
+    """The power of ten (a multiple of 3) to divide tick numbers between ``lo`` and ``hi`` by:
+    0 for everyday magnitudes (1e-3 to 1e5)."""
+    m = max(abs(lo), abs(hi))
+    if not math.isfinite(m) or m == 0 or 1e-3 <= m < 1e5:
+        return 0
+    return 3 * math.floor(math.log10(m) / 3)
+
+
+def _tidy(axis: Axis, nbins: int = 4, inset: float = 0.0) -> int:
     """Few ticks, printed in full: tolerance studies vary a value in its 4th digit, and an
-    offset ('+2.2e1') on every small panel is hard to read."""
-    axis.set_major_locator(MaxNLocator(nbins=nbins, min_n_ticks=2))
+    offset ('+2.2e1') on every small panel is hard to read. Very large or small numbers are
+    divided by a power of ten, returned for the axis label to name (:func:`_with_unit`):
+    matplotlib would print it at the axis's end, where it collides with the neighbouring
+    panel. Call once the axis's limits are set. ``inset``: see :class:`_InsetLocator`."""
+    axis.set_major_locator(_InsetLocator(inset, nbins=nbins, min_n_ticks=2))
+    scale = _scale(*axis.get_view_interval())
     fmt = ScalarFormatter(useOffset=False)
-    fmt.set_powerlimits((-4, 6))
+    # Equal limits fix the exponent (0: never scientific).
+    fmt.set_powerlimits((scale, scale) if scale else (-99, 99))
     axis.set_major_formatter(fmt)
+    axis.get_offset_text().set_visible(False)
+    return scale
+
+
+def _write(fig: Figure, out_dir: Path | str, name: str) -> Path:
+    """:func:`.style.save`, with matplotlib's offset and exponent texts at the axes' ends
+    hidden: :func:`_tidy` puts the scale in the axis label instead (showing a panel's tick
+    labels turns them on again, so this is done last)."""
+    for ax in fig.axes:
+        ax.xaxis.get_offset_text().set_visible(False)
+        ax.yaxis.get_offset_text().set_visible(False)
+    return save(fig, out_dir, name)
 
 
 def _as_1d(col: Column, n: int) -> np.ndarray:
@@ -197,13 +260,15 @@ def scatter_matrix(
       feasible: (V,) bool; infeasible variants have no metric: their parameter values are
         marked by grey crosses along the bottom of each panel.
       verified: (V,) int8, -1 not checked in MuJoCo, 0 failed the agreement check (ringed red),
-        1 passed (ringed green); None: none checked.
+        1 passed (ringed green while they are at most :data:`MAX_RINGED` or 5 % of the
+        variants, else only counted in the legend); None: none checked.
       nominal: column name -> nominal value (the column's unit): a thin dashed line across
         the panels of that parameter (vertical) or metric (horizontal); NaN values skipped.
     Returns the path, or None without parameters, metrics or variants.
 
     Each panel gives r, the linear correlation of the feasible values, so the parameters that
-    drive a metric show at a glance. Points are rasterised: 10,000 variants draw in a second.
+    drive a metric show at a glance. Points are rasterised: 10,000 variants in 6 x 6 panels
+    draw in under two seconds.
     """
     if not params or not metrics:
         return None
@@ -221,33 +286,39 @@ def scatter_matrix(
     Y = [np.where(feas, _as_1d(c, V), np.nan) for c in ms]
     P, M = len(ps), len(ms)
 
-    panel_w, panel_h = 2.3, 1.9
-    fig_w = max(8.0, 1.4 + panel_w * P)
-    fig, axs = plt.subplots(
-        M,
-        P,
-        figsize=(fig_w, 2.1 + panel_h * M),
-        sharex="col",
-        sharey="row",
-        squeeze=False,
-        layout="constrained",
-    )
     n_feas, n_inf = int(feas.sum()), int((~feas).sum())
     failed, passed = ver == 0, ver == 1
+    # Rings on a few checked variants show where the checks were; on most of them they would
+    # bury the points. Failures are always ringed: they are what the reader looks for.
+    ring_passed = int(passed.sum()) <= max(MAX_RINGED, 0.05 * V)
     # Thousands of points: small and translucent, so density shows; a few: plain dots.
     ms_pt = 4.0 if V <= 200 else 2.6 if V <= 2000 else 1.8
     alpha = float(np.clip(25.0 / math.sqrt(V), 0.2, 0.9))
     # Fixed jitter: the crosses of many infeasible variants spread into a band, as a rug.
     rug_y = 0.015 + 0.05 * np.random.default_rng(0).random(V)
 
+    # The layout is computed here rather than by matplotlib's layout engine, which measures
+    # every tick of 36 panels twice and would double the drawing time. Sizes in inches.
+    fig = plt.figure()
+    gs = fig.add_gridspec(M, P)
+    axs = np.empty((M, P), dtype=object)
+    for i in range(M):
+        for j in range(P):
+            axs[i, j] = fig.add_subplot(gs[i, j], sharex=axs[0, j] if i else None, sharey=axs[i, 0] if j else None)
+    # The nominal design is in range: it is what the variants are read against.
     for j, (pc, x) in enumerate(zip(ps, X)):
-        x_lo, x_hi = _span(x)
+        x_lo, x_hi = _span(np.append(x, nominal.get(pc.name, math.nan)))
         pad = 0.04 * (x_hi - x_lo)
         axs[0, j].set_xlim(x_lo - pad, x_hi + pad)
     for i, (mc, y) in enumerate(zip(ms, Y)):
-        y_lo, y_hi = _span(y)
-        # Room below the lowest point for the infeasible variants' crosses.
-        axs[i, 0].set_ylim(y_lo - 0.17 * (y_hi - y_lo), y_hi + 0.06 * (y_hi - y_lo))
+        y_lo, y_hi = _span(np.append(y, nominal.get(mc.name, math.nan)) if np.isfinite(y).any() else y)
+        # Room below the lowest point for the infeasible variants' crosses, if any.
+        below = 0.17 if n_inf else 0.06
+        axs[i, 0].set_ylim(y_lo - below * (y_hi - y_lo), y_hi + 0.06 * (y_hi - y_lo))
+        if not np.isfinite(y).any():
+            axs[i, 0].set_yticks([])
+    x_scale, y_scale = [0] * P, [0] * M
+    for i, (mc, y) in enumerate(zip(ms, Y)):
         no_value = not np.isfinite(y).any()
         for j, (pc, x) in enumerate(zip(ps, X)):
             ax = axs[i, j]
@@ -267,43 +338,28 @@ def scatter_matrix(
                     rasterized=True,
                     zorder=2,
                 )
-            for sel, color, size in ((passed, PASSED_COLOR, 5.0), (failed, FAILED_COLOR, 7.0)):
-                on = sel & ok
-                if on.any():
-                    ax.plot(x[on], y[on], "o", mfc="none", mec=color, ms=size, mew=1.0, zorder=4)
-                # A checked variant without a metric value rings its cross at the bottom.
-                off = sel & bad
-                if off.any():
-                    ax.plot(
-                        x[off],
-                        rug_y[off],
-                        "o",
-                        mfc="none",
-                        mec=color,
-                        ms=size,
-                        mew=1.0,
-                        transform=ax.get_xaxis_transform(),
-                        zorder=4,
-                    )
+            for sel, color, size in ((passed & ring_passed, PASSED_COLOR, 5.0), (failed, FAILED_COLOR, 7.0)):
+                for on, tr in ((sel & ok, ax.transData), (sel & bad, ax.get_xaxis_transform())):
+                    # A checked variant without a metric value rings its cross at the bottom.
+                    if on.any():
+                        yy = y[on] if tr is ax.transData else rug_y[on]
+                        ax.plot(x[on], yy, "o", mfc="none", mec=color, ms=size, mew=1.0, transform=tr, zorder=4)
             if math.isfinite(nominal.get(pc.name, math.nan)):
-                ax.axvline(nominal[pc.name], zorder=3, **NOMINAL_STYLE)  # type: ignore[arg-type]
+                ax.axvline(nominal[pc.name], zorder=3, **NOMINAL_STYLE)
             if math.isfinite(nominal.get(mc.name, math.nan)):
-                ax.axhline(nominal[mc.name], zorder=3, **NOMINAL_STYLE)  # type: ignore[arg-type]
-            note = _panel_note(x[ok], y[ok], int((feas & np.isfinite(x) & ~np.isfinite(y)).sum()), n_feas, no_value)
+                ax.axhline(nominal[mc.name], zorder=3, **NOMINAL_STYLE)
+            missing = int((feas & np.isfinite(x) & ~np.isfinite(y)).sum())
+            note = _panel_note(x[ok], y[ok], missing, n_feas, no_value)
             if note:
                 ax.text(
                     0.03, 0.97, note, transform=ax.transAxes, ha="left", va="top", fontsize=7, bbox=TEXT_BOX, zorder=5
                 )
             ax.grid(True, alpha=0.3, lw=0.5)
-            ax.tick_params(labelsize=7)
-            _tidy(ax.xaxis)
-            _tidy(ax.yaxis)
-            if i == M - 1:
-                ax.set_xlabel(_wrap(_with_unit(pc), _chars(panel_w - 0.15, 8)), fontsize=8)
-            if j == 0:
-                ax.set_ylabel(_wrap(_with_unit(mc), _chars(panel_h - 0.2, 8)), fontsize=8)
-    for ax in axs.flat:
-        ax.label_outer()
+            ax.tick_params(labelsize=7, labelbottom=i == M - 1, labelleft=j == 0)
+            if i == 0:
+                x_scale[j] = _tidy(ax.xaxis, inset=0.07)
+            if j == 0 and np.isfinite(y).any():
+                y_scale[i] = _tidy(ax.yaxis, inset=0.03)
 
     handles = [
         Line2D([], [], ls="none", marker="o", ms=4, mew=0, color=FEASIBLE_COLOR, label=f"feasible ({n_feas:,})"),
@@ -315,21 +371,31 @@ def scatter_matrix(
             ms=5,
             mew=1,
             color=INFEASIBLE_COLOR,
-            label=f"{INFEASIBLE} ({n_inf:,}): parameter value at the bottom",
+            label=f"{INFEASIBLE} ({n_inf:,}): its parameter values at the bottom" if n_inf else f"{INFEASIBLE}: none",
         ),
     ]
-    if passed.any():
-        handles.append(
-            Line2D([], [], ls="none", marker="o", mfc="none", mec=PASSED_COLOR, ms=6, label=f"MuJoCo check passed ({int(passed.sum()):,})")
-        )
-    if failed.any():
-        handles.append(
-            Line2D([], [], ls="none", marker="o", mfc="none", mec=FAILED_COLOR, ms=7, label=f"MuJoCo check failed ({int(failed.sum()):,})")
-        )
+    for sel, color, size, what in ((passed, PASSED_COLOR, 6, "passed"), (failed, FAILED_COLOR, 7, "failed")):
+        if sel.any():
+            label = f"MuJoCo check {what} ({int(sel.sum()):,})"
+            if sel is passed and not ring_passed:
+                label += ", not ringed: too many"
+                color = "none"
+            handles.append(Line2D([], [], ls="none", marker="o", mfc="none", mec=color, ms=size, label=label))
     if any(math.isfinite(nominal.get(c.name, math.nan)) for c in (*ps, *ms)):
-        handles.append(Line2D([], [], label="nominal", **NOMINAL_STYLE))  # type: ignore[arg-type]
-    fig.legend(handles=handles, loc="outside upper center", ncol=min(len(handles), 3 if P <= 3 else 5), fontsize=8, frameon=False)
+        handles.append(Line2D([], [], label="nominal", **NOMINAL_STYLE))
 
+    # Margins from what they hold: wrapped axis labels (0.14 in a line at 8 pt), the widest
+    # y tick label (0.06 in a character at 7 pt), title lines, legend rows.
+    panel_w, panel_h, gap = 2.3, 1.9, 0.12
+    ylabels = [_wrap(_with_unit(mc, e), _chars(panel_h - 0.15, 8)) for mc, e in zip(ms, y_scale)]
+    ticks = max(_tick_chars(axs[i, 0].yaxis) for i in range(M))
+    left = 0.15 + 0.14 * max(lab.count("\n") + 1 for lab in ylabels) + 0.1 + 0.06 * ticks + 0.1
+    right = 0.3  # the last x tick label may reach half its width past the panel
+    fig_w = max(8.0, left + P * panel_w + (P - 1) * gap + right)
+    panel_w = (fig_w - left - right - (P - 1) * gap) / P
+    xlabels = [_wrap(_with_unit(pc, e), _chars(panel_w - 0.1, 8)) for pc, e in zip(ps, x_scale)]
+    ncol, rows = _legend_shape([str(h.get_label()) for h in handles], fig_w - 0.4, 8)
+    bottom = 0.12 + 0.22 * rows + 0.1 + 0.14 * max(lab.count("\n") + 1 for lab in xlabels) + 0.08 + 0.25
     what = f"metrics (rows) against parameters (columns) of {_count(V, 'variant')}; r: linear correlation"
     shown = []
     if len(params) > P:
@@ -337,9 +403,49 @@ def scatter_matrix(
     if len(metrics) > M:
         shown.append(f"the first {M} of {len(metrics)} metrics")
     if shown:
-        what += "\nshowing " + " and ".join(shown) + " (the rest are in the table)"
-    fig.suptitle(_wrap(title, _chars(fig_w - 0.4, 10), 2) + "\n" + what, fontsize=10)
-    return save(fig, out_dir, name)
+        what += "\nshowing " + " and ".join(shown) + " (the others are in the table)"
+    head = _wrap(title, _chars(fig_w - 0.4, 10), 2) + "\n" + what
+    top = 0.15 + 0.19 * (head.count("\n") + 1) + 0.15
+    fig_h = top + M * panel_h + (M - 1) * gap + bottom
+    fig.set_size_inches(fig_w, fig_h)
+    gs.update(
+        left=left / fig_w,
+        right=1 - right / fig_w,
+        bottom=bottom / fig_h,
+        top=1 - top / fig_h,
+        wspace=gap / panel_w,
+        hspace=gap / panel_h,
+    )
+    for i in range(M):
+        axs[i, 0].set_ylabel(ylabels[i], fontsize=8)
+    for j in range(P):
+        axs[M - 1, j].set_xlabel(xlabels[j], fontsize=8)
+    fig.legend(
+        handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.12 / fig_h), ncol=ncol, fontsize=8, frameon=False
+    )
+    fig.suptitle(head, fontsize=10, y=1 - 0.12 / fig_h, va="top")
+    return _write(fig, out_dir, name)
+
+
+def _tick_chars(axis: Axis) -> int:
+    """The most characters of a tick label of ``axis`` as it will be drawn."""
+    locs = [
+        v for v in axis.get_major_locator()() if min(axis.get_view_interval()) <= v <= max(axis.get_view_interval())
+    ]
+    labels = axis.get_major_formatter().format_ticks(locs)
+    return max((len(s) for s in labels), default=1)
+
+
+def _legend_shape(labels: list[str], width_in: float, fontsize: float) -> tuple[int, int]:
+    """(columns, rows) of a figure legend of ``labels`` that fits in ``width_in`` inches."""
+    widths = [0.5 + len(s) * 0.6 * fontsize / 72.0 for s in labels]
+    for ncol in range(len(labels), 0, -1):
+        rows = math.ceil(len(labels) / ncol)
+        # Legend columns are as wide as their widest entry.
+        cols = [max(widths[c * rows : (c + 1) * rows], default=0.0) for c in range(ncol)]
+        if sum(cols) <= width_in or ncol == 1:
+            return ncol, rows
+    return 1, len(labels)
 
 
 def _panel_note(x: np.ndarray, y: np.ndarray, missing: int, n_feas: int, no_value: bool) -> str:
@@ -350,7 +456,8 @@ def _panel_note(x: np.ndarray, y: np.ndarray, missing: int, n_feas: int, no_valu
         return "no value"
     lines = []
     if x.size >= 3 and np.ptp(x) > 0 and np.ptp(y) > 0:
-        lines.append(f"r = {float(np.corrcoef(x, y)[0, 1]):+.2f}")
+        r = float(np.corrcoef(x, y)[0, 1])
+        lines.append(f"r = {r:+.2f}" if abs(r) >= 0.005 else "r = 0.00")
     if missing:
         lines.append(f"{missing:,} without value")
     return "\n".join(lines)
@@ -389,74 +496,79 @@ def histograms(
     rows, cols = _grid(n, 3 if n <= 9 else 4)
     panel_w, panel_h = 3.7, 2.7
     fig_w = max(7.0, panel_w * cols + 0.5)
-    fig, axs = plt.subplots(
-        rows, cols, figsize=(fig_w, 1.0 + panel_h * rows), squeeze=False, layout="constrained"
-    )
+    fig, axs = plt.subplots(rows, cols, figsize=(fig_w, 1.0 + panel_h * rows), squeeze=False, layout="constrained")
     _hide_unused(axs, n)
     n_feas = int(feas.sum())
     for k, (col, v) in enumerate(zip(metrics, vals)):
         ax = axs.flat[k]
-        _histogram(ax, col, v[np.isfinite(v)], n_feas, pcts, nominal.get(col.name, math.nan), panel_h)
-        ax.set_xlabel(_wrap(_with_unit(col), _chars(panel_w - 0.3, 8.5)), fontsize=8.5)
+        scale = _histogram(ax, col, v[np.isfinite(v)], n_feas, pcts, nominal.get(col.name, math.nan), panel_h)
+        ax.set_xlabel(_wrap(_with_unit(col, scale), _chars(panel_w - 0.3, 8.5)), fontsize=8.5)
         if k % cols == 0:
             ax.set_ylabel("variants", fontsize=8.5)
     what = (
-        f"spread of the metrics over the {n_feas:,} of {_count(V, 'variant')} that assemble"
-        f" ({V - n_feas:,} {INFEASIBLE})"
+        f"spread of the metrics over the {n_feas:,} of {_count(V, 'variant')} that assemble ({V - n_feas:,} {INFEASIBLE})"
+        if n_feas < V
+        else f"spread of the metrics over all {_count(V, 'variant')} (every one assembles)"
+        if V > 1
+        else "the metrics of the one variant"
     )
     fig.suptitle(_wrap(title, _chars(fig_w - 0.4, 10), 2) + "\n" + what, fontsize=10)
-    return save(fig, out_dir, name)
+    return _write(fig, out_dir, name)
 
 
-def _histogram(
-    ax: Axes, col: Column, v: np.ndarray, n_feas: int, pcts: list[float], nom: float, panel_h: float
-) -> None:
-    """One histogram panel: the bars, the percentile and nominal lines and their legend."""
+def _histogram(ax: Axes, col: Column, v: np.ndarray, n_feas: int, pcts: list[float], nom: float, panel_h: float) -> int:
+    """One histogram panel: the bars, the percentile and nominal lines and their legend.
+    Returns the power of ten its tick numbers are divided by (:func:`_tidy`)."""
     ax.tick_params(labelsize=7.5)
     ax.grid(True, axis="y", alpha=0.3, lw=0.5)
     unit = _unit(col.unit)
     if v.size == 0:
-        ax.text(0.5, 0.5, "no value for any feasible variant", transform=ax.transAxes, ha="center", va="center", fontsize=8)
+        ax.text(
+            0.5, 0.5, "no value for any feasible variant", transform=ax.transAxes, ha="center", va="center", fontsize=8
+        )
         ax.set_xticks([])
         ax.set_yticks([])
-        return
+        return 0
     lo, hi = _span(v)
+    if math.isfinite(nom):
+        lo, hi = min(lo, nom), max(hi, nom)
+    pad = 0.06 * (hi - lo)
     spread = float(np.ptp(v))
-    bins: int | np.ndarray = (
-        np.histogram_bin_edges(v, bins="auto") if spread > 0 else np.linspace(lo + 0.45 * (hi - lo), hi - 0.45 * (hi - lo), 2)
-    )
-    if isinstance(bins, np.ndarray) and bins.size > 81:
-        bins = 80  # 'auto' on 10,000 smooth values asks for hundreds of one-variant bars
-    counts, _, _ = ax.hist(v, bins=bins, color=FEASIBLE_COLOR, alpha=0.75, edgecolor="white", lw=0.3)
+    if spread > 0:
+        bins = np.linspace(float(v.min()), float(v.max()), _bin_count(v) + 1)
+    else:
+        # One value: one bar, 4 % of the axis wide, so it shows beside a distant nominal.
+        bins = float(v[0]) + 0.02 * (hi - lo + 2 * pad) * np.array([-1.0, 1.0])
+    counts, _, _ = ax.hist(v, bins=bins.tolist(), color=FEASIBLE_COLOR, alpha=0.75, edgecolor="white", lw=0.3)
     q = np.percentile(v, pcts)
     scale = float(q[-1] - q[0]) if q[-1] > q[0] else spread
     sep = " " if unit else ""
     handles = []
     for p, val in zip(pcts, q):
         median = p == 50
-        line = dict(color="k" if median else "tab:orange", lw=1.3 if median else 1.1, ls="-" if median else (0, (4, 2)))
-        ax.axvline(float(val), **line)  # type: ignore[arg-type]
-        handles.append(Line2D([], [], label=f"{_ordinal(p)} {_fmt(float(val), scale)}{sep}{unit}", **line))  # type: ignore[arg-type]
+        line: dict[str, Any] = dict(
+            color="k" if median else "tab:orange", lw=1.3 if median else 1.1, ls="-" if median else (0, (4, 2))
+        )
+        ax.axvline(float(val), **line)
+        handles.append(Line2D([], [], label=f"{_ordinal(p)} {_fmt(float(val), scale)}{sep}{unit}", **line))
     if math.isfinite(nom):
-        style = dict(color=FAILED_COLOR, lw=1.2, ls="-.")
-        ax.axvline(nom, **style)  # type: ignore[arg-type]
-        handles.append(Line2D([], [], label=f"nominal {_fmt(nom, scale)}{sep}{unit}", **style))  # type: ignore[arg-type]
-        lo, hi = min(lo, nom), max(hi, nom)
+        style: dict[str, Any] = dict(color=FAILED_COLOR, lw=1.2, ls="-.")
+        ax.axvline(nom, **style)
+        handles.append(Line2D([], [], label=f"nominal {_fmt(nom, scale)}{sep}{unit}", **style))
     std = f"{_fmt(float(np.std(v, ddof=1)), scale)}{sep}{unit}" if v.size > 1 else "–"
     head = f"mean {_fmt(float(np.mean(v)), scale)}{sep}{unit}, σ {std}\n{_count(v.size, 'variant')}"
     if v.size < n_feas:
         head += f" ({n_feas - v.size:,} without value)"
     if spread == 0:
         head += ", all equal"
-    pad = 0.06 * (hi - lo)
     ax.set_xlim(lo - pad, hi + pad)
-    _tidy(ax.xaxis, 5)
+    scale = _tidy(ax.xaxis, 5)
     ax.yaxis.set_major_locator(MaxNLocator(nbins=4, integer=True))
     # Headroom above the bars for the legend: its lines take about 0.15 in each of the axes'
     # ~2 in, so the bars stay below it whatever the shape of the distribution.
     lines = len(handles) + head.count("\n") + 1
     frac = min(0.7, (0.15 * lines + 0.12) / (panel_h - 0.75))
-    ax.set_ylim(0, max(1.0, float(counts.max())) / (1.0 - frac))
+    ax.set_ylim(0, max(1.0, float(np.max(counts))) / (1.0 - frac))
     ax.legend(
         handles=handles,
         title=head,
@@ -468,6 +580,17 @@ def _histogram(
         borderaxespad=0.3,
         framealpha=0.85,
     )
+    return scale
+
+
+def _bin_count(v: np.ndarray) -> int:
+    """Bars for the histogram of ``v`` (n,): Freedman-Diaconis (or Sturges where the
+    quartiles coincide), 10 to 80, so a few outliers far out cannot ask for millions of bins."""
+    q1, q3 = np.percentile(v, [25, 75])
+    span = float(np.ptp(v))
+    width = 2.0 * float(q3 - q1) / v.size ** (1 / 3)
+    n = span / width if width > 0 else math.log2(v.size) + 1
+    return int(np.clip(math.ceil(n), 10, 80))
 
 
 # ----------------------------------------------------------------------------- feasible region
@@ -554,10 +677,10 @@ def feasible_region(
         ax.set_title(
             _wrap(head, _chars(panel_w - 0.2, 9)) + f"\n{int(ok.sum()):,} of {_count(nx * ny, 'variant')}", fontsize=9
         )
-        if nx * ny <= 2500:
+        if nx * ny <= 900:
             # The grid's points, so its resolution (and a staircase edge's cause) shows.
             gxx, gyy = np.meshgrid(gx, gy)
-            ax.plot(gxx.ravel(), gyy.ravel(), ".", ms=1.5, color="0.35", zorder=3)
+            ax.plot(gxx.ravel(), gyy.ravel(), ".", ms=1.2, color="0.5", zorder=3)
         k = 1
     for m, z in zip(metrics, Z):
         ax = used[k]
@@ -571,44 +694,45 @@ def feasible_region(
         ax.set_xlim(xe[0], xe[-1])
         ax.set_ylim(ye[0], ye[-1])
         ax.tick_params(labelsize=7.5)
-        _tidy(ax.xaxis)
-        _tidy(ax.yaxis)
+        # Shared axes: every panel's scale is the same.
+        x_scale, y_scale = _tidy(ax.xaxis), _tidy(ax.yaxis)
     for i, ax in enumerate(axs.flat):
-        r, c = divmod(i, cols)
+        c = i % cols
         # The last panel of a column shows the x axis (a short last row leaves it one row up).
         if i < panels and i + cols >= panels:
-            ax.set_xlabel(_wrap(_with_unit(x), _chars(panel_w - 0.5, 8.5)), fontsize=8.5)
+            ax.set_xlabel(_wrap(_with_unit(x, x_scale), _chars(panel_w - 0.5, 8.5)), fontsize=8.5)
             ax.xaxis.set_tick_params(labelbottom=True)
         elif i < panels:
             ax.xaxis.set_tick_params(labelbottom=False)
         if c == 0:
-            ax.set_ylabel(_wrap(_with_unit(y), _chars(panel_h - 0.5, 8.5)), fontsize=8.5)
+            ax.set_ylabel(_wrap(_with_unit(y, y_scale), _chars(panel_h - 0.5, 8.5)), fontsize=8.5)
         else:
             ax.yaxis.set_tick_params(labelleft=False)
 
-    handles: list[Patch | Line2D] = [
-        Patch(fc=HATCH_FACE, hatch="////", ec=HATCH_LINES, lw=0, label=f"{INFEASIBLE} ({int((~feas).sum()):,})")
-    ]
+    handles: list[Patch | Line2D] = []
+    if not feas.all():
+        label = f"{INFEASIBLE} ({int((~feas).sum()):,})"
+        handles.append(Patch(fc=HATCH_FACE, hatch="////", ec=HATCH_LINES, lw=0, label=label))
     if any((feas & ~np.isfinite(z)).any() for z in Z):
         handles.append(Patch(fc=NO_VALUE_FACE, ec="0.7", lw=0.5, label="no value computed"))
     if limited or not metrics:
         handles.append(Patch(fc=ADMISSIBLE_FACE, label="admissible"))
     if limited:
+        handles.append(Patch(fc="white", ec="0.6", lw=0.5, label="assembles, beyond a limit"))
         handles.append(Line2D([], [], color="k", lw=2.4, label="limit"))
         handles.append(Patch(fc=VEIL, ec="0.6", lw=0.5, label="beyond the limit (washed out)"))
     if math.isfinite(nominal.get(x.name, math.nan)) and math.isfinite(nominal.get(y.name, math.nan)):
         handles.append(Line2D([], [], ls="none", marker="*", ms=10, mfc="white", mec="k", label="nominal"))
-    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8, frameon=False)
+    if handles:  # a grid that all assembles, without limits or nominal, needs no key
+        fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=8, frameon=False)
     what = f"over a {nx} × {ny} grid of {x.name} and {y.name}"
     fig.suptitle(_wrap(title, _chars(fig_w - 0.4, 10), 2) + "\n" + _wrap(what, _chars(fig_w - 0.4, 10), 2), fontsize=10)
-    return save(fig, out_dir, name)
+    return _write(fig, out_dir, name)
 
 
 def _condition(m: Column, lo: float | None, hi: float | None) -> str:
     """'stroke of P5 ≤ 40 mm', '10 ≤ transmission ≤ 170 deg' (raw text)."""
-    unit = m.unit.replace("*", "·")
-    unit = "µm" if unit == "um" else unit
-    u = f" {unit}" if unit else ""
+    u = f" {_shown_unit(m.unit)}" if m.unit.strip() else ""
     label = m.label or m.name
     if lo is not None and hi is not None:
         return f"{lo:g} ≤ {label} ≤ {hi:g}{u}"
@@ -640,7 +764,7 @@ def _cells(ax: Axes, mask: np.ndarray, xe: np.ndarray, ye: np.ndarray, **patch: 
         return
     codes = [MplPath.MOVETO, MplPath.LINETO, MplPath.LINETO, MplPath.LINETO, MplPath.CLOSEPOLY]
     path = MplPath(np.concatenate(verts), codes * len(verts))
-    ax.add_patch(PathPatch(path, lw=0, **patch))  # type: ignore[arg-type]
+    ax.add_patch(PathPatch(path, lw=0, **patch))
 
 
 def _metric_panel(
@@ -658,16 +782,22 @@ def _metric_panel(
     hatched over it afterwards)."""
     have = np.isfinite(z)
     unit = _unit(m.unit)
-    _cells(ax, ~have, xe, ye, fc=NO_VALUE_FACE, zorder=0.5)
+    _cells(ax, ~have, xe, ye, fc=NO_VALUE_FACE, zorder=2.4)
     if not have.any():
-        ax.text(0.5, 0.5, "no value", transform=ax.transAxes, ha="center", va="center", fontsize=9, bbox=TEXT_BOX, zorder=7)
+        ax.text(
+            0.5, 0.5, "no value", transform=ax.transAxes, ha="center", va="center", fontsize=9, bbox=TEXT_BOX, zorder=7
+        )
         return
     lo, hi = float(z[have].min()), float(z[have].max())
-    if hi > lo:
+    # A metric the design holds fixed (a synthesized stroke) varies by the solver's rounding
+    # only: contours of that noise would look like structure. Within 1 ppm it is one colour.
+    constant = hi - lo <= 1e-6 * max(abs(lo), abs(hi))
+    mid = 0.5 * (lo + hi)
+    if not constant:
         levels = MaxNLocator(nbins=10).tick_values(lo, hi)
     else:
-        d = 0.05 * abs(lo) or 1.0
-        levels = np.array([lo - d, lo + d])
+        d = 0.05 * abs(mid) or 1.0
+        levels = np.array([mid - d, mid + d])
     # Each cell takes its nearest variant's value where there is none: the colours reach the
     # cell edges, where the hatched (or pale) cells on top begin, rather than stopping one
     # half-cell short. The filled values are always covered.
@@ -677,6 +807,14 @@ def _metric_panel(
     if small:
         # Contours need two values each way: a row or column of cells instead.
         cs = ax.pcolormesh(xe, ye, zf, cmap="viridis", vmin=levels[0], vmax=levels[-1], zorder=1)
+        if limit is not None:
+            # No contour to draw: the cells beyond a bound are washed out.
+            beyond = np.zeros(zf.shape, dtype=bool)
+            if limit[0] is not None:
+                beyond |= zf < limit[0]
+            if limit[1] is not None:
+                beyond |= zf > limit[1]
+            _cells(ax, beyond, xe, ye, fc=VEIL, zorder=1.5)
     else:
         # Contours between grid points; the outer half-cells repeat the edge values.
         xs, ys = np.concatenate([[xe[0]], gx, [xe[-1]]]), np.concatenate([[ye[0]], gy, [ye[-1]]])
@@ -685,13 +823,22 @@ def _metric_panel(
         if limit is not None:
             _limit(ax, xs, ys, zp, limit, unit)
     cb = fig.colorbar(cs, ax=ax, pad=0.02, fraction=0.08, aspect=25)
-    cb.set_label(f"[{unit}]" if unit else "(no unit)", fontsize=8)
     cb.ax.tick_params(labelsize=7)
-    _tidy(cb.ax.yaxis, 6)
-    if hi == lo:
-        cb.set_ticks([lo])
+    times = _times(_tidy(cb.ax.yaxis, 6))
+    cb.set_label(f"[{' '.join(t for t in (times, unit) if t)}]" if times or unit else "(no unit)", fontsize=8)
+    if constant:
+        cb.set_ticks([mid])
+        spread = f" ± {0.5 * (hi - lo):.1g}" if hi > lo else ""
         ax.text(
-            0.5, 0.92, f"constant: {_fmt(lo, 0)} {unit}", transform=ax.transAxes, ha="center", va="top", fontsize=8, bbox=TEXT_BOX, zorder=7
+            0.5,
+            0.92,
+            f"constant: {_fmt(mid, 0)}{spread} {unit}".rstrip(),
+            transform=ax.transAxes,
+            ha="center",
+            va="top",
+            fontsize=8,
+            bbox=TEXT_BOX,
+            zorder=7,
         )
 
 
@@ -702,13 +849,16 @@ def _limit(
     side beyond it washed out."""
     zmin, zmax = float(z.min()), float(z.max())
     eps = 1e-9 * max(1.0, abs(zmin), abs(zmax))
-    for bound, beyond in ((limit[0], (zmin - eps, limit[0])), (limit[1], (limit[1], zmax + eps))):
-        if bound is None:
-            continue
-        a, b = beyond
-        if b > a:
-            # Beyond the bound somewhere (everywhere if the bound is outside the range).
-            ax.contourf(xs, ys, z, levels=[max(a, zmin - eps), min(b, zmax + eps)], colors=[VEIL], zorder=1.5)
-        if zmin < bound < zmax:
-            cl = ax.contour(xs, ys, z, levels=[bound], zorder=2, **LIMIT_STYLE)  # type: ignore[arg-type]
+    lo, hi = limit
+    # The value ranges beyond each bound that occur (all of it if the bound is outside the range).
+    beyond = []
+    if lo is not None and zmin < lo:
+        beyond.append((zmin - eps, min(lo, zmax + eps)))
+    if hi is not None and zmax > hi:
+        beyond.append((max(hi, zmin - eps), zmax + eps))
+    for a, b in beyond:
+        ax.contourf(xs, ys, z, levels=[a, b], colors=[VEIL], zorder=1.5)
+    for bound in (lo, hi):
+        if bound is not None and zmin < bound < zmax:
+            cl = ax.contour(xs, ys, z, levels=[bound], zorder=2, **LIMIT_STYLE)
             ax.clabel(cl, fmt=f"{bound:g} {unit}".strip(), fontsize=8, inline=True, inline_spacing=3)

@@ -22,6 +22,7 @@ to 1: soft loop closure is the main error source, and these keep it below 0.1 um
 from __future__ import annotations
 
 import colorsys
+import time
 from dataclasses import dataclass
 
 import mujoco
@@ -95,9 +96,11 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
 
 
 def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[mujoco.MjSpec, _Elements]:
-    """The spec and its elements. ``batch``: the lean instrumentation of batched verification
-    (:mod:`mjlink.sim.batch`): position sensors only, plus a site on each side of every loop
-    pin with its position sensor, since rollout returns traces through sensors alone."""
+    """The spec and its elements. ``batch``: the model of batched verification
+    (:mod:`mjlink.sim.batch`, see :func:`make_batch`): framed by its initial pose rather than a
+    sweep over the cycle (it is never drawn), and with a site on each side of every loop pin
+    whose position sensors, after the standard ones, give the loop's gap: rollout returns
+    traces through sensors alone."""
     kin = reference.solve(mech, [mech.phi0])
     pos = {k: v.v[0] for k, v in kin.points.items()}
     topo = topology(mech)
@@ -116,7 +119,7 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
     opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_REFSAFE) | int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
 
     # Frame everything the mechanism sweeps over a cycle, not just its initial pose.
-    sweep = reference.solve(mech, mech.phi0 + np.linspace(0.0, mech.period, 73), check=False)
+    sweep = kin if batch else reference.solve(mech, mech.phi0 + np.linspace(0.0, mech.period, 73), check=False)
     pts = np.concatenate([v.v for v in sweep.points.values()])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     size = float(np.max(hi[:2] - lo[:2]))
@@ -306,15 +309,6 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         eq.solref = list(settings.solref)
         eq.solimp = list(settings.solimp)
         loops.append((pr, eq))
-        if batch:
-            for link in (pr.child, pr.parent):
-                anchor = bodies[link].add_site(name=names.loop_anchor(pr.pin, link), pos=pos[pr.pin] - origin[link])
-                spec.add_sensor(
-                    name=anchor.name,
-                    type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
-                    objtype=mujoco.mjtObj.mjOBJ_SITE,
-                    objname=anchor.name,
-                )
     assert input_joint is not None  # topology puts the input crank's pivot in the tree
     gears = []
     for s in mech.geared:
@@ -361,7 +355,18 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         if motor is not None:
             bias[2] = -motor.stall_torque / motor.no_load_speed
     act.biasprm = bias
-    _add_sensors(spec, mech, input_joint, velocities=not batch)
+    _add_sensors(spec, mech, input_joint)
+    if batch:  # after the standard sensors, so that those keep make's layout of sensordata
+        for pr, _ in loops:
+            for link in (pr.child, pr.parent):
+                anchor = names.loop_anchor(pr.pin, link)
+                bodies[link].add_site(name=anchor, pos=(pos[pr.pin] - origin[link]).tolist())
+                spec.add_sensor(
+                    name=names.sensor(anchor, "pos"),
+                    type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
+                    objtype=mujoco.mjtObj.mjOBJ_SITE,
+                    objname=anchor,
+                )
     return spec, _Elements(
         input_joint,
         act,
@@ -391,16 +396,13 @@ def _quat_z(a: float) -> list[float]:
     return [float(np.cos(a / 2)), 0.0, 0.0, float(np.sin(a / 2))]
 
 
-def _add_sensors(
-    spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJoint, *, velocities: bool = True
-) -> None:
+def _add_sensors(spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJoint) -> None:
     """Position and velocity of every moving point, the thread's length and the crank's angle
     and speed: what a user of the MJCF alone reads (SI units, world frame)."""
     site, sens = mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtSensor
     for p in mech.moving_points:
         spec.add_sensor(name=names.sensor(p, "pos"), type=sens.mjSENS_FRAMEPOS, objtype=site, objname=p)
-        if velocities:
-            spec.add_sensor(name=names.sensor(p, "vel"), type=sens.mjSENS_FRAMELINVEL, objtype=site, objname=p)
+        spec.add_sensor(name=names.sensor(p, "vel"), type=sens.mjSENS_FRAMELINVEL, objtype=site, objname=p)
     if mech.thread:
         spec.add_sensor(
             name=names.sensor(names.THREAD, "length"),
@@ -471,37 +473,50 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
     )
 
 
-@dataclass(frozen=True)
-class BatchModel:
-    """A variant's model for batched verification (see :func:`_spec`'s ``batch``) and its
-    initial state: ``state`` (nstate,) the full physics state at phi0 with joint speeds
-    consistent with ``omega`` rad/s on the crank; ``sensors`` each sensor's name -> its slice of
-    ``sensordata``; ``loops`` each loop pin's two anchor sensors."""
+def make_batch(mech: Mechanism, settings: Settings = KINEMATIC, times: dict[str, float] | None = None) -> Built:
+    """:func:`make`'s model of ``mech`` for batched verification (:mod:`mjlink.sim.batch`), built
+    for speed: the same bodies, joints, equalities, drive, sensors and keyframe ``initial``,
+    plus a site on each side of every loop pin with its position sensor
+    (``names.loop_anchor``), so that rollout's sensors give the loops' gaps. Physics and
+    initial state are make's (tested against it); only what is drawn differs: no skybox (its
+    texture is 90 % of the compile time), sizes framed by the initial pose.
 
-    model: mujoco.MjModel
-    state: np.ndarray
-    sensors: dict[str, slice]
-    loops: tuple[tuple[str, str], ...]
-
-
-def make_batch(mech: Mechanism, settings: Settings) -> BatchModel:
-    """The model of ``mech`` for :mod:`mjlink.sim.batch`: compiled once (no keyframe)."""
+    ``times``, if given, accumulates the seconds spent building the spec (``spec``), compiling
+    (``compile``) and finding the keyframe's joint speeds (``keyframe``).
+    """
+    t0 = time.perf_counter()
     spec, el = _spec(mech, settings, batch=True)
+    spec.delete(spec.texture("sky"))
+    key = spec.add_key(name=names.INITIAL)  # qpos defaults to qpos0, as make's
+    t1 = time.perf_counter()
     model = spec.compile()
-    data = mujoco.MjData(model)
+    t2 = time.perf_counter()
     omega = settings.imposed_speed if settings.imposed_speed is not None else mech.dynamics.omega0
-    data.qvel[:] = consistent_velocity(model, data, int(model.jnt_dofadr[el.input_joint.id]), omega)
-    spec_state = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(model, spec_state))
-    mujoco.mj_getState(model, data, state, spec_state)
-    sensors = {
-        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i): slice(
-            int(model.sensor_adr[i]), int(model.sensor_adr[i] + model.sensor_dim[i])
-        )
-        for i in range(model.nsensor)
-    }
-    loops = tuple((names.loop_anchor(pr.pin, pr.child), names.loop_anchor(pr.pin, pr.parent)) for pr, _ in el.loops)
-    return BatchModel(model, state, sensors, loops)
+    dof = int(model.jnt_dofadr[el.input_joint.id])
+    qvel = consistent_velocity(model, mujoco.MjData(model), dof, omega)
+    # make compiles a second time to carry the joint speeds in the keyframe; the keyframe is
+    # plain data in the compiled model, so writing it there gives the same model at half the cost.
+    model.key_qvel[0] = qvel
+    key.qpos, key.qvel = model.qpos0.tolist(), qvel.tolist()
+    if times is not None:
+        for k, dt in (("spec", t1 - t0), ("compile", t2 - t1), ("keyframe", time.perf_counter() - t2)):
+            times[k] = times.get(k, 0.0) + dt
+    return Built(
+        spec,
+        model,
+        el.input_joint.id,
+        dof,
+        int(model.jnt_qposadr[el.input_joint.id]),
+        el.drive.id,
+        {k: v.id for k, v in el.sites.items()},
+        {k: v.id for k, v in el.bodies.items()},
+        tuple((p, j.id) for p, j in el.tree),
+        tuple((p, e.id) for p, e in el.loops),
+        tuple(e.id for e in el.gears),
+        -1 if el.thread is None else el.thread.id,
+        el.front.id,
+        el.oblique.id,
+    )
 
 
 def build(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjModel:

@@ -1,0 +1,227 @@
+"""Speed of a design study's MuJoCo verification. Run: ``python bench/bench_study.py [--quick]``.
+
+Sections (each a function returning table rows, so that more can be added):
+
+* :func:`bench_rollout`: MuJoCo steps per second of the take-up's kinematic model (RK4,
+  50 us, the kinematic run's flywheel and servo) through ``mujoco.rollout`` with 1 and 2
+  threads, against a plain C loop ``mj_step(m, d, nstep=N)`` on the same models, side by side
+  in one run: wall and CPU seconds, and the ratios that matter (rollout per thread against
+  the C loop; 2 threads against 1).
+* :func:`bench_verify`: :func:`mjlink.sim.batch.verify` of take-up tolerance variants (every
+  block's ``length``, ``length_a``, ``length_b`` and the x, y of the ground pivots P1 and P4
+  deviating uniformly within +-0.02 mm), building and compiling included, with its time split.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import multiprocessing
+import os
+import resource
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+import mujoco  # noqa: E402
+
+from mjlink import validation  # noqa: E402
+from mjlink.model.mechanism import Mechanism  # noqa: E402
+from mjlink.sim import batch, builder, simulate  # noqa: E402
+
+TOLERANCE = 0.02e-3  # m, +- on every varied length and pivot coordinate
+LENGTHS = ("length", "length_a", "length_b")
+PIVOTS = ("P1", "P4")
+
+Row = tuple[str, str, str, str]  # what, wall, CPU, note
+
+
+def tolerance_variants(mech: Mechanism, n: int, tol: float = TOLERANCE, seed: int = 0) -> list[Mechanism]:
+    """``n`` variants of ``mech`` with every nonzero block length and the x, y of the ground
+    pivots ``PIVOTS`` moved by independent uniform deviations within +-``tol`` (m)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        steps = []
+        for b in mech.steps:
+            change = {
+                f.name: getattr(b, f.name) + rng.uniform(-tol, tol)
+                for f in dataclasses.fields(b)
+                if f.name in LENGTHS and getattr(b, f.name)
+            }
+            steps.append(dataclasses.replace(b, **change))
+        ground = {
+            k: v + np.array([*rng.uniform(-tol, tol, 2), 0.0]) if k in PIVOTS else v for k, v in mech.ground.items()
+        }
+        out.append(dataclasses.replace(mech, steps=tuple(steps), ground=ground))
+    return out
+
+
+def _timed(f: Callable[[], object]) -> tuple[float, float]:
+    """Wall and CPU (all threads of the process) seconds of ``f()``."""
+    w, c = time.perf_counter(), time.process_time()
+    f()
+    return time.perf_counter() - w, time.process_time() - c
+
+
+def _in_processes(parts: list[Callable[[], object]]) -> tuple[float, float]:
+    """Wall and CPU seconds of running ``parts`` at once, each in its own forked process
+    (started together at a barrier; the wall time is the slowest part's)."""
+    ctx = multiprocessing.get_context("fork")  # the children inherit the compiled models
+    barrier, queue = ctx.Barrier(len(parts)), ctx.SimpleQueue()
+
+    def child(f: Callable[[], object]) -> None:
+        barrier.wait()
+        queue.put(_timed(f))
+
+    procs = [ctx.Process(target=child, args=(f,)) for f in parts]
+    for p in procs:
+        p.start()
+    got = [queue.get() for _ in procs]
+    for p in procs:
+        p.join()
+    return max(w for w, _ in got), sum(c for _, c in got)
+
+
+def bench_rollout(variants: int = 200, repeat: int = 3) -> list[Row]:
+    """MuJoCo steps per second: rollout with 1 and 2 threads vs a plain C loop.
+
+    The plain C loop ``mj_step(m, d, nstep=N)`` runs each model from its keyframe; run in two
+    processes at once (half the models each) it shows what two cores of this machine give
+    with no thread pool at all, the ceiling for rollout's 2 threads.
+
+    Args:
+      variants: take-up variants in the batch, each run for one crank turn.
+      repeat: runs of each, interleaved; the fastest counts.
+    Returns:
+      Table rows.
+    """
+    mech = validation.get("takeup")
+    mechs = tolerance_variants(mech, variants, seed=1)
+    built, states, steps = [], [], 0
+    for m in mechs:
+        case = simulate.kinematic_case(m, cycles=1.0)
+        b = builder.make_batch(m, case.settings)
+        d = mujoco.MjData(b.model)
+        mujoco.mj_resetDataKeyframe(b.model, d, 0)
+        s = np.empty(mujoco.mj_stateSize(b.model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+        mujoco.mj_getState(b.model, d, s, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        built.append(b)
+        states.append(s)
+        steps = case.steps + 1
+    models, x0 = [b.model for b in built], np.array(states)
+    total = len(models) * steps
+    datas = [mujoco.MjData(m) for m in models]
+
+    def c_loop(part: slice = slice(None)) -> Callable[[], None]:
+        def run() -> None:
+            for m, d in zip(models[part], datas[part], strict=True):
+                mujoco.mj_resetDataKeyframe(m, d, 0)
+                mujoco.mj_step(m, d, nstep=steps)
+
+        return run
+
+    def roll(threads: int) -> Callable[[], tuple[float, float]]:
+        return lambda: _timed(lambda: batch.rollout(models, x0, steps, threads=threads))
+
+    half = len(models) // 2
+    loop, procs, one, two = (
+        "C loop mj_step(nstep)",
+        "C loop, 2 processes (ceiling)",
+        "rollout, 1 thread",
+        "rollout, 2 threads",
+    )
+    runs: dict[str, Callable[[], tuple[float, float]]] = {
+        loop: lambda: _timed(c_loop()),
+        procs: lambda: _in_processes([c_loop(slice(0, half)), c_loop(slice(half, None))]),
+        one: roll(1),
+        two: roll(2),
+    }
+    best: dict[str, tuple[float, float]] = {}
+    for _ in range(repeat):  # interleaved, so that a busy spell of a shared machine hits all alike
+        for k, f in runs.items():
+            w, c = f()
+            if k not in best or w < best[k][0]:
+                best[k] = (w, c)
+    rate = {k: total / w for k, (w, _) in best.items()}
+    c1, c2, r1, r2 = rate[loop], rate[procs], rate[one], rate[two]
+    # Steps per CPU second show what each thread did even when another process holds a core.
+    per_cpu = total / best[two][1]
+    notes = {
+        loop: f"{c1:,.0f} steps/s",
+        procs: f"{c2:,.0f} steps/s = {c2 / c1:.2f} x 1 process",
+        one: f"{r1:,.0f} steps/s = {r1 / c1:.2f} x C loop",
+        two: f"{r2:,.0f} steps/s = {r2 / r1:.2f} x 1 thread, {r2 / c2:.2f} x 2 processes; per thread "
+        f"{r2 / 2 / c1:.2f} x C loop (wall), {per_cpu / c1:.2f} x (CPU)",
+    }
+    head = f"{len(models)} take-up models x {steps} steps"
+    return [(f"{k} ({head})", f"{w:.2f}", f"{c:.2f}", notes[k]) for k, (w, c) in best.items()]
+
+
+def bench_verify(variants: int = 1000, threads: int = 2) -> list[Row]:
+    """``batch.verify`` of take-up tolerance variants, building and compiling included.
+
+    Args:
+      variants: the number of variants.
+      threads: rollout's threads.
+    Returns:
+      Table rows: the total, then each stage.
+    """
+    mech = validation.get("takeup")
+    mechs = tolerance_variants(mech, variants)
+    w, c = time.perf_counter(), time.process_time()
+    res, t = batch.verify_timed(mechs, threads=threads)
+    w, c = time.perf_counter() - w, time.process_time() - c
+    passed = sum(r.passed for r in res)
+    worst = max(r.position_error for r in res) * 1e6
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # Linux: KiB
+    rows: list[Row] = [
+        (
+            f"verify {variants} take-up variants (+-{TOLERANCE * 1e3:g} mm), {threads} threads",
+            f"{w:.2f}",
+            f"{c:.2f}",
+            f"{passed} passed, worst position error {worst:.4f} um; peak memory {peak:,.0f} MiB",
+        )
+    ]
+    what = {
+        "settings": "kinematic case (flywheel from the reference)",
+        "spec": "MjSpec build",
+        "compile": "compile",
+        "keyframe": "keyframe: consistent velocity, initial state",
+        "forces": "open-loop external forces",
+        "rollout": f"rollout ({t.steps / t.rollout:,.0f} steps/s)" if t.rollout > 0 else "rollout",
+        "compare": "reference and comparison",
+    }
+    for k, label in what.items():
+        s = getattr(t, k)
+        rows.append((f"  {label}", f"{s:.2f}", "", f"{1e3 * s / variants:.2f} ms per variant, {100 * s / w:.0f} %"))
+    return rows
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run every section and print one table."""
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--quick", action="store_true", help="a small run (40 variants) to check that it works")
+    p.add_argument("--variants", type=int, help="variants to verify (default 1000, --quick 40)")
+    p.add_argument("--threads", type=int, default=2, help="rollout's threads for the verification (default 2)")
+    a = p.parse_args(argv)
+    n = a.variants or (40 if a.quick else 1000)
+    # The machine may be shared: a busy core halves a 2-thread rate without any fault of its own.
+    load = os.getloadavg()[0]
+    rows = bench_rollout(20 if a.quick else 200, repeat=1 if a.quick else 3)
+    rows += bench_verify(n, a.threads)
+    width = max(len(r[0]) for r in rows)
+    print(f"load average before the runs: {load:.2f} on {os.cpu_count()} cores")
+    print(f"{'':<{width}}  {'wall s':>8}  {'CPU s':>8}  note")
+    for what, wall, cpu, note in rows:
+        print(f"{what:<{width}}  {wall:>8}  {cpu:>8}  {note}")
+
+
+if __name__ == "__main__":
+    main()
