@@ -1,6 +1,14 @@
-"""Speed of a design study's MuJoCo verification. Run: ``python bench/bench_study.py [--quick]``.
+"""Speed of design studies. Run: ``python bench/bench_study.py [--quick]``.
 
-Sections (each a function returning table rows, so that more can be added):
+Sections (each a function returning table rows), side by side in one run:
+
+* :func:`bench_reference`: the reference's variant-angles per second, vectorized across
+  variants (the study's chunks) against one variant at a time; and 10,000 take-up variants x
+  360 crank angles with every metric on 2 cores (a Dask LocalCluster of 2 worker processes)
+  and in one process.
+* :func:`bench_study`: the shipped 1000-variant take-up tolerance study, MuJoCo verification of
+  every variant included, in this process and on a Dask LocalCluster of 2 workers (the
+  cluster's start counted): Dask's overhead.
 
 * :func:`bench_rollout`: MuJoCo steps per second of the take-up's kinematic model (RK4,
   50 us, the kinematic run's flywheel and servo) through ``mujoco.rollout`` with 1 and 2
@@ -34,6 +42,7 @@ import mujoco  # noqa: E402
 from mjlink import validation  # noqa: E402
 from mjlink.model.mechanism import Mechanism  # noqa: E402
 from mjlink.sim import batch, builder, simulate  # noqa: E402
+from mjlink.study import engine, spec, tasks  # noqa: E402
 
 TOLERANCE = 0.02e-3  # m, +- on every varied length and pivot coordinate
 LENGTHS = ("length", "length_a", "length_b")
@@ -204,6 +213,134 @@ def bench_verify(variants: int = 1000, threads: int = 2) -> list[Row]:
     return rows
 
 
+# Every metric a take-up variant has (the shaking metrics included when the mechanism has them).
+ALL_METRICS = """
+[[metric]]
+kind = "stroke"
+point = "P5"
+[[metric]]
+kind = "extremes"
+point = "P5"
+[[metric]]
+kind = "position_error"
+point = "P5"
+[[metric]]
+kind = "thread_range"
+[[metric]]
+kind = "thread_feed"
+[[metric]]
+kind = "feed_deviation"
+angles = [0.0, 90.0, 180.0, 270.0]
+values = [0.0, 40.0, 80.0, 20.0]
+[[metric]]
+kind = "transmission_min"
+[[metric]]
+kind = "torque_peak"
+[[metric]]
+kind = "torque_rms"
+[[metric]]
+kind = "power_mean"
+[[metric]]
+kind = "reaction_peak"
+[[metric]]
+kind = "speed_fluctuation"
+"""
+
+
+def takeup_study(samples: int, verify: str = "none", metrics: str | None = None) -> spec.Study:
+    """The shipped take-up tolerance study with ``samples`` variants, ``metrics`` (default all)."""
+    text = (ROOT / "studies" / "takeup_tolerance.toml").read_text()
+    head = text.partition("[[metric]]")[0]
+    head = head.replace("samples = 1000", f"samples = {samples}")
+    from mjlink.analysis.metrics import Metric
+
+    extra = "".join(
+        f'\n[[metric]]\nkind = "{k}"\n' for k in ("shaking_force_peak", "shaking_moment_peak") if k in Metric.types
+    )
+    body = (metrics if metrics is not None else ALL_METRICS) + extra
+    return spec.parse(head + body + f'\n[verify]\nmujoco = "{verify}"\n', ROOT / "studies" / "bench.toml")
+
+
+def bench_reference(variants: int = 10_000, single: int = 100) -> list[Row]:
+    """Reference throughput: vectorized across variants against one variant at a time, and
+    the 10,000-variant run with every metric on 2 cores and in one process."""
+    st = takeup_study(variants)
+    values = st.values()
+    a = st.per_turn
+    tasks.reference_chunk(st, values[:8])  # imports and caches out of the timing
+    w1, c1 = _timed(lambda: [tasks.reference_chunk(st, values[i : i + 1]) for i in range(single)])
+    n = min(variants, 1024)
+    wv, cv = _timed(lambda: [tasks.reference_chunk(st, values[i : i + 256]) for i in range(0, n, 256)])
+    rows: list[Row] = [
+        (
+            f"reference, one variant at a time ({single} variants x {a} angles, all metrics)",
+            f"{w1:.2f}",
+            f"{c1:.2f}",
+            f"{single * a / c1:,.0f} variant-angles per CPU s",
+        ),
+        (
+            f"reference, 256 variants per batch ({n} variants x {a} angles)",
+            f"{wv:.2f}",
+            f"{cv:.2f}",
+            f"{n * a / cv:,.0f} variant-angles per CPU s = {(n * a / cv) / (single * a / c1):.1f} x one at a time",
+        ),
+    ]
+    box: dict[str, object] = {}
+    wi, ci = _timed(lambda: box.setdefault("in", engine.run(st, workers=0)))
+    wd, _ = _timed(lambda: box.setdefault("dask", engine.run(st, workers=2)))
+    o_in, o_d = box["in"], box["dask"]
+    assert isinstance(o_in, engine.Outcome) and isinstance(o_d, engine.Outcome)
+    same = all(np.array_equal(o_in.columns[k], o_d.columns[k], equal_nan=True) for k in o_in.columns)
+    ref = o_d.timing["reference"]
+    rows += [
+        (
+            f"{variants} variants x {a} angles, {len(st.columns)} metric columns, in process",
+            f"{wi:.2f}",
+            f"{ci:.2f}",
+            f"{variants * a / wi:,.0f} variant-angles/s",
+        ),
+        (
+            f"{variants} variants x {a} angles, {len(st.columns)} metric columns, Dask 2 workers",
+            f"{wd:.2f}",
+            "",
+            f"reference stage {ref:.2f} s after the cluster's start ({o_d.timing['cluster start']:.2f} s); "
+            f"{'bit-identical' if same else 'DIFFERENT'} to in process",
+        ),
+    ]
+    return rows
+
+
+def bench_study(samples: int = 1000) -> list[Row]:
+    """The shipped tolerance study (MuJoCo verifies every variant): in process vs Dask."""
+    st = spec.load(ROOT / "studies" / "takeup_tolerance.toml")
+    if samples != st.samples:
+        st = dataclasses.replace(st, samples=samples)
+    box: dict[str, engine.Outcome] = {}
+    wi, ci = _timed(lambda: box.setdefault("in", engine.run(st, workers=0)))
+    wd, _ = _timed(lambda: box.setdefault("dask", engine.run(st, workers=2)))
+    o_in, o_d = box["in"], box["dask"]
+    same = all(np.array_equal(o_in.columns[k], o_d.columns[k], equal_nan=True) for k in o_in.columns)
+    mj = max(abs(np.nanmax(o_in.mujoco[k]) - np.nanmax(o_d.mujoco[k])) for k in ("position_error", "loop_gap"))
+
+    def note(o: engine.Outcome) -> str:
+        t = o.timing
+        return (
+            f"{int((o.verified == 1).sum())}/{len(o.values)} agree; reference {t['reference']:.1f} s, "
+            f"MuJoCo {t['mujoco']:.1f} s"
+        )
+
+    return [
+        (f"tolerance study, {samples} variants, MuJoCo on all, in process", f"{wi:.2f}", f"{ci:.2f}", note(o_in)),
+        (
+            f"tolerance study, {samples} variants, MuJoCo on all, Dask 2 workers",
+            f"{wd:.2f}",
+            "",
+            note(o_d) + f"; {wd / wi:.2f} x in process (cluster start {o_d.timing['cluster start']:.1f} s); "
+            f"reference {'bit-identical' if same else 'DIFFERENT'}, MuJoCo worst within {mj * 1e3:.1g} nm",
+        ),
+    ]
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run every section and print one table."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -214,8 +351,10 @@ def main(argv: list[str] | None = None) -> None:
     n = a.variants or (40 if a.quick else 1000)
     # The machine may be shared: a busy core halves a 2-thread rate without any fault of its own.
     load = os.getloadavg()[0]
-    rows = bench_rollout(20 if a.quick else 200, repeat=1 if a.quick else 3)
+    rows = bench_reference(500 if a.quick else 10_000, single=20 if a.quick else 100)
+    rows += bench_rollout(20 if a.quick else 200, repeat=1 if a.quick else 3)
     rows += bench_verify(n, a.threads)
+    rows += bench_study(40 if a.quick else 1000)
     width = max(len(r[0]) for r in rows)
     print(f"load average before the runs: {load:.2f} on {os.cpu_count()} cores")
     print(f"{'':<{width}}  {'wall s':>8}  {'CPU s':>8}  note")
