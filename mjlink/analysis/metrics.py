@@ -145,9 +145,13 @@ def _step(b: Batch) -> float:
     return float(b.theta[1] - b.theta[0]) if b.angles > 1 else 0.0
 
 
-def _main_axis(nominal: Batch, point: str) -> int:
-    """The axis along which the nominal design's point moves most."""
-    return int(np.argmax(np.ptp(nominal.kin.points[point].v, axis=0)))
+def _main_axis(mech: Mechanism, point: str) -> int:
+    """The axis along which the nominal design's point moves most (over one period)."""
+    from ..reference.batch import angle_grid
+    from ..reference.kinematics import solve
+
+    kin = solve(mech, mech.phi0 + angle_grid(mech, 72), check=False)
+    return int(np.argmax(np.ptp(kin.points[point].v, axis=0)))
 
 
 # ----------------------------------------------------------------------------- positions
@@ -162,13 +166,14 @@ class Stroke(Metric):
 
     def read(self, raw: dict[str, Any]) -> None:
         self.axis = _axis(raw, self.where)
+        self.ax = self.axis if self.axis is not None else _main_axis(self.mech, self.point)
 
     def _ax(self, nominal: Batch) -> int:
-        return self.axis if self.axis is not None else _main_axis(nominal, self.point)
+        return self.ax
 
     def columns(self) -> list[Column]:
         ax = "" if self.axis is None else "_" + "xyz"[self.axis]
-        return [Column(f"stroke_{self.point}{ax}", "mm", f"stroke of {self.point}{ax.replace('_', ' ')}")]
+        return [Column(f"stroke_{self.point}{ax}", "mm", f"stroke of {self.point} along {'xyz'[self.ax]}")]
 
     def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
         x, d, dd = _coordinate(b, self.point, self._ax(nominal))
@@ -185,18 +190,18 @@ class Extremes(Metric):
     options = ("axis",)
 
     def read(self, raw: dict[str, Any]) -> None:
-        self.axis = _axis(raw, self.where)
+        axis = _axis(raw, self.where)
+        self.axis = axis if axis is not None else _main_axis(self.mech, self.point)
 
     def columns(self) -> list[Column]:
-        ax = "xyz"[self.axis] if self.axis is not None else "main"
+        ax = "xyz"[self.axis]
         return [
             Column(f"{self.point}_{ax}_min", "mm", f"lowest {ax} of {self.point}"),
             Column(f"{self.point}_{ax}_max", "mm", f"highest {ax} of {self.point}"),
         ]
 
     def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
-        ax = self.axis if self.axis is not None else _main_axis(nominal, self.point)
-        x, d, dd = _coordinate(b, self.point, ax)
+        x, d, dd = _coordinate(b, self.point, self.axis)
         lo, hi = self.columns()
         return {lo.name: _peak(x, d, dd, _step(b), False) * 1e3, hi.name: _peak(x, d, dd, _step(b), True) * 1e3}
 
