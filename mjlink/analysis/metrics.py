@@ -366,7 +366,7 @@ class _AtSpeed(Metric):
 
     def _reactions(self, b: Batch, loads: Loads) -> kinetostatics.Reactions:
         if self.speed not in loads.reactions:
-            loads.reactions[self.speed] = kinetostatics.reactions(b.mechanism, b.kin.phi, self.speed)
+            loads.reactions[self.speed] = kinetostatics.reactions(b.mechanism, b.kin.phi, self.speed, kin=b.kin)
         return loads.reactions[self.speed]
 
 

@@ -44,16 +44,17 @@ def reduced(mech: Mechanism, kin: Kinematics, *, tables: bool = True) -> Reduced
     dyn = mech.dynamics
     n = len(kin.phi)
     J, dJ, Q = np.zeros(n), np.zeros(n), np.zeros(n)
-    grav = np.array([0.0, -dyn.gravity, 0.0])
     for l in mech.links:
         th = kin.angles[l.name]
         J += l.inertia * th.d**2
         dJ += 2.0 * l.inertia * th.d * th.dd
-        if l.com is not None and l.mass > 0:
+        # Masses and gravity may be one per row (a design study's variants): no truth tests
+        # on them, and gravity (along -Y) enters through the y component alone.
+        if l.com is not None and np.any(np.asarray(l.mass) > 0):
             s = kin.points[l.com]
             J += l.mass * np.einsum("ij,ij->i", s.d, s.d)
             dJ += 2.0 * l.mass * np.einsum("ij,ij->i", s.d, s.dd)
-            Q += l.mass * s.d @ grav
+            Q += l.mass * s.d[:, 1] * -dyn.gravity
     for f in dyn.forces:
         if f.angles is None or tables:
             Q += np.einsum("ij,ij->i", kin.points[f.point].d, f.at(kin.phi, mech.period))

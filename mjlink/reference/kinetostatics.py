@@ -13,7 +13,7 @@ from ..errors import MechanismFileError
 from ..model.mechanism import Mechanism
 from ..model.topology import Pair, pairs
 from .dynamics import reduced
-from .kinematics import solve
+from .kinematics import Kinematics, solve
 
 
 def driving_torque(mech: Mechanism, phi, omega, eps=0.0) -> np.ndarray:
@@ -52,19 +52,20 @@ def pair_label(pr: Pair) -> str:
     return pr.label
 
 
-def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
+def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = None) -> Reactions:
     """Kinetostatic analysis: Newton-Euler for every moving link, one linear solve per angle.
 
     Unknowns: two force components per revolute pair, the normal force and moment of each
     prismatic pair, the driving torque and one torque per gear coupling (the input crank
     takes ``-ratio`` times it: ideal gears transmit power without loss). With W = 1 these are
-    exactly 3 per moving link. Units N, N*m; rad, rad/s, rad/s^2 in.
+    exactly 3 per moving link. Units N, N*m; rad, rad/s, rad/s^2 in. ``kin``: the kinematics
+    at ``phi`` if the caller has them (a design study's batch), not solved again.
     """
     phi = np.atleast_1d(np.asarray(phi, dtype=float))
     n = len(phi)
     w = np.broadcast_to(np.asarray(omega, dtype=float), (n,))
     e = np.broadcast_to(np.asarray(eps, dtype=float), (n,))
-    kin = solve(mech, phi)
+    kin = kin if kin is not None else solve(mech, phi)
     P = {k: v.v for k, v in kin.points.items()}
     prs = [p for _, p in pairs(mech)]
     links = [l.name for l in mech.links]
@@ -118,18 +119,21 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0) -> Reactions:
         gear_cols[gl.name] = col
         col += 1
 
-    grav = np.array([0.0, -mech.dynamics.gravity])
+    grav = np.zeros((n, 2))
+    grav[:, 1] = -np.asarray(mech.dynamics.gravity)  # along -Y; one value per row in a study
     for l in mech.links:
         r0 = row[l.name]
         th = kin.angles[l.name]
         alpha = th.dd * w**2 + th.d * e
         rhs_f = np.zeros((n, 2))
         rhs_m = l.inertia * alpha
-        if l.com is not None and l.mass > 0:
+        if l.com is not None and np.any(np.asarray(l.mass) > 0):
             s = kin.points[l.com]
             a = (s.dd * w[:, None] ** 2 + s.d * e[:, None])[:, :2]
             d = (s.v - origin[l.name])[:, :2]
-            f_net = l.mass * (a - grav)  # inertial force minus gravity: what the pairs must supply
+            # Inertial force minus gravity, what the pairs must supply; the mass may be one per
+            # row (a design study's variants), hence the explicit broadcast.
+            f_net = np.asarray(l.mass)[..., None] * (a - grav)
             rhs_f += f_net
             rhs_m = rhs_m + d[:, 0] * f_net[:, 1] - d[:, 1] * f_net[:, 0]
         b[:, r0 : r0 + 2] = rhs_f
