@@ -334,3 +334,16 @@ def test_varied_masses_give_each_variant_its_own_loads() -> None:
         )
         for k, col in one.columns.items():
             assert res.columns[k][i] == pytest.approx(col[0], rel=1e-12)
+
+
+def test_a_force_table_scale_varies_per_variant() -> None:
+    from mjlink import study
+
+    mech = validation.get("takeup_eyelets")
+    scales = np.array([0.5, 2.0])
+    res = study.evaluate(mech, {"dynamics.force.P5.scale": scales}, [{"kind": "torque_peak"}], per_turn=72)
+    for i, s in enumerate(scales):
+        v = study.override(mech, {"dynamics.force.P5.scale": s})
+        one = study.evaluate(v, {"input.phi0": [math.degrees(v.phi0)]}, [{"kind": "torque_peak"}], per_turn=72)
+        assert res.columns["torque_peak"][i] == pytest.approx(one.columns["torque_peak"][0], rel=1e-12)
+    assert res.columns["torque_peak"][0] != res.columns["torque_peak"][1]

@@ -87,6 +87,9 @@ class Force:
     value: tuple[float, float, float] = (0.0, 0.0, 0.0)
     angles: tuple[float, ...] | None = None
     values: tuple[tuple[float, float, float], ...] | None = None
+    # A factor on a table, one per row (N,) where a design study varies it per variant (a
+    # single variant's factor is applied to ``values`` directly).
+    scale: Any = 1.0
 
     def at(self, phi, period: float) -> np.ndarray:
         """The force (N) at input angles phi (rad): (N, 3)."""
@@ -94,7 +97,8 @@ class Force:
         if self.angles is None:
             return np.broadcast_to(np.asarray(self.value), (len(phi), 3))
         vals = np.asarray(self.values)
-        return np.column_stack([np.interp(phi, self.angles, vals[:, i], period=period) for i in range(3)])
+        table = np.column_stack([np.interp(phi, self.angles, vals[:, i], period=period) for i in range(3)])
+        return table if np.ndim(self.scale) == 0 and self.scale == 1.0 else table * np.asarray(self.scale)[..., None]
 
     def at_scalar(self, phi: float, period: float) -> tuple[float, float, float]:
         """The force (N) at one input angle (rad), without numpy's per-call overhead: the

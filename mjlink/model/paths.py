@@ -237,8 +237,10 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
 def _scaled(f: Force, scale: Any) -> Force:
     if scale is None:
         return f
-    if np.ndim(scale):
-        raise PathError(f"dynamics.force.{f.point}.scale: a force scale is varied per variant, not per row")
+    if np.ndim(scale):  # one factor per row: Force.at applies it
+        if f.angles is None:  # Force.at broadcasts an (N, 3) value
+            return dataclasses.replace(f, value=np.asarray(f.value)[None, :] * np.asarray(scale)[:, None])
+        return dataclasses.replace(f, scale=scale)
     if f.angles is None:
         return dataclasses.replace(f, value=tuple(float(x) * scale for x in f.value))
     assert f.values is not None
