@@ -347,3 +347,37 @@ def test_a_force_table_scale_varies_per_variant() -> None:
         one = study.evaluate(v, {"input.phi0": [math.degrees(v.phi0)]}, [{"kind": "torque_peak"}], per_turn=72)
         assert res.columns["torque_peak"][i] == pytest.approx(one.columns["torque_peak"][0], rel=1e-12)
     assert res.columns["torque_peak"][0] != res.columns["torque_peak"][1]
+
+
+@pytest.mark.parametrize("name", ["takeup", "crank_slider", "warp_knitting", "takeup_eyelets"])
+def test_shaking_from_the_links_equals_the_ground_pairs_reactions(name: str) -> None:
+    """Two independent routes to the frame's loads: the links' inertia and gravity summed
+    (batch.frame_loads) and the kinetostatic solution's ground reactions plus the drive's."""
+    mech = validation.get(name)
+    phi = analysis.one_period(mech, 90)
+    kin = reference.solve(mech, phi)
+    fl = batch.frame_loads(mech, kin, mech.speed)
+    r = kinetostatics.reactions(mech, phi, mech.speed)
+    from mjlink.model.topology import pairs
+
+    pivot = kin.points[mech.input_crank.pivot].v[:, :2]
+    force = np.zeros((len(phi), 2))
+    # The drive's motor and the crank bearing's viscous friction both act between crank and frame.
+    moment = -r.torque + mech.dynamics.damping * mech.speed
+    for _, pr in pairs(mech):
+        if pr.parent is not None:
+            continue
+        f = -r.forces[pr.label][:, :2]  # on the frame
+        force += f
+        if pr.revolute:
+            d = kin.points[pr.pin].v[:, :2] - pivot
+        else:
+            d = kin.points[mech.link(pr.child).points[0]].v[:, :2] - pivot
+            moment = moment - r.moments[pr.label]
+        moment = moment + d[:, 0] * f[:, 1] - d[:, 1] * f[:, 0]
+    ratio = {mech.carrier(g).name: g.ratio for g in mech.geared}
+    for lab, tq in r.gear.items():  # ideal gears: +T on the geared crank, -ratio T on the input
+        moment = moment - tq * (1.0 - ratio[lab])
+    scale_f = np.abs(fl.force).max()
+    assert np.abs(force - fl.force).max() <= 1e-9 * scale_f
+    assert np.abs(moment - fl.moment).max() <= 1e-9 * np.abs(fl.moment).max()

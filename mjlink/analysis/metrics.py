@@ -56,6 +56,7 @@ class Loads:
 
     torque: dict[float, np.ndarray] = field(default_factory=dict)  # speed -> (V, A) N*m
     reactions: dict[float, kinetostatics.Reactions] = field(default_factory=dict)
+    frame: dict[tuple[str, float], Any] = field(default_factory=dict)  # shaking loads by speed
 
 
 class Metric(ABC):
@@ -427,6 +428,45 @@ class ReactionPeak(_AtSpeed):
             f = r.forces[pr.label]
             out[col.name] = b.per_variant(np.sqrt((f**2).sum(axis=1))).max(axis=1)
         return out
+
+
+class _Shaking(_AtSpeed):
+    def _loads(self, b: Batch, loads: Loads) -> Any:
+        from ..reference.batch import frame_loads
+
+        key = ("frame", self.speed)
+        if key not in loads.frame:
+            loads.frame[key] = frame_loads(b.mechanism, b.kin, self.speed)
+        return loads.frame[key]
+
+
+class ShakingForcePeak(_Shaking):
+    """Peak frame shaking force at constant crank speed: max over the period of |F|, F the
+    resultant the mechanism's inertia, gravity and the file's point forces put on the frame
+    through its ground pairs (:func:`mjlink.reference.batch.frame_loads`), N."""
+
+    kind = "shaking_force_peak"
+
+    def columns(self) -> list[Column]:
+        return [Column("shaking_force_peak" + self._tag(), "N", "peak frame shaking force")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        f = self._loads(b, loads).force
+        return {self.columns()[0].name: b.per_variant(np.sqrt((f * f).sum(axis=1))).max(axis=1)}
+
+
+class ShakingMomentPeak(_Shaking):
+    """Peak frame shaking moment at constant crank speed: max over the period of |M|, M about
+    the input crank's pivot, the drive's reaction included (see ``frame_loads``), N*m."""
+
+    kind = "shaking_moment_peak"
+
+    def columns(self) -> list[Column]:
+        return [Column("shaking_moment_peak" + self._tag(), "N*m", "peak frame shaking moment")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        m = self._loads(b, loads).moment
+        return {self.columns()[0].name: np.abs(b.per_variant(m)).max(axis=1)}
 
 
 class SpeedFluctuation(Metric):

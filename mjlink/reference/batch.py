@@ -246,3 +246,49 @@ def _refined(x: np.ndarray, d: np.ndarray, dd: np.ndarray, high: bool) -> np.nda
     h = -dv / ddv
     ok = (np.abs(h) <= 1.0) & ((ddv < 0) if high else (ddv > 0))
     return np.where(ok, xv - dv * dv / (2.0 * ddv), xv)
+
+
+@dataclass(frozen=True)
+class FrameLoads:
+    """What the mechanism puts on the frame at constant crank speed (the shaking loads).
+
+    ``force`` (N, 2) N: F = sum_i m_i (g - a_Si) + the file's point forces, the resultant of
+    every ground pair's reaction on the frame; ``moment`` (N,) N*m about the input crank's
+    pivot, counter-clockwise positive: M = sum_i [r_Si x m_i (g - a_Si) - J_Si alpha_i] +
+    sum_k r_k x F_k, which includes the drive's reaction on the frame its motor is mounted on
+    (the moment balance of the whole moving system, so gears and guides need no special case).
+    """
+
+    force: np.ndarray
+    moment: np.ndarray
+
+
+def frame_loads(mech: Mechanism, kin: Kinematics, omega: float) -> FrameLoads:
+    """Shaking force and moment over the rows of ``kin`` at constant speed ``omega`` (rad/s).
+
+    Masses, inertias and gravity may be one per row (a study's variants). The links' sum here
+    is checked against the ground pairs' reactions of the kinetostatic solution (tests).
+    """
+    n = len(kin.phi)
+    w2 = omega * omega
+    g = -np.asarray(mech.dynamics.gravity)  # along Y
+    pivot = kin.points[mech.input_crank.pivot].v[:, :2]
+    force = np.zeros((n, 2))
+    moment = np.zeros(n)
+    for l in mech.links:
+        alpha = kin.angles[l.name].dd * w2
+        moment -= np.asarray(l.inertia) * alpha
+        if l.com is None or not np.any(np.asarray(l.mass) > 0):
+            continue
+        s = kin.points[l.com]
+        f = -np.asarray(l.mass)[..., None] * (s.dd[:, :2] * w2)
+        f[:, 1] += np.asarray(l.mass) * g
+        r = s.v[:, :2] - pivot
+        force += f
+        moment += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
+    for fo in mech.dynamics.forces:
+        F = fo.at(kin.phi, mech.period)[:, :2]
+        r = kin.points[fo.point].v[:, :2] - pivot
+        force += F
+        moment += r[:, 0] * F[:, 1] - r[:, 1] * F[:, 0]
+    return FrameLoads(force, moment)
