@@ -310,15 +310,22 @@ def bench_reference(variants: int = 10_000, single: int = 100) -> list[Row]:
     return rows
 
 
-def bench_study(samples: int = 1000) -> list[Row]:
-    """The shipped tolerance study (MuJoCo verifies every variant): in process vs Dask."""
+def bench_study(samples: int = 1000, repeat: int = 2) -> list[Row]:
+    """The shipped tolerance study (MuJoCo verifies every variant): in process vs Dask,
+    interleaved ``repeat`` times (the fastest of each counts: a shared machine's busy spell
+    then hits both alike rather than whichever ran second)."""
     st = spec.load(ROOT / "studies" / "takeup_tolerance.toml")
     if samples != st.samples:
         st = dataclasses.replace(st, samples=samples)
-    box: dict[str, engine.Outcome] = {}
-    wi, ci = _timed(lambda: box.setdefault("in", engine.run(st, workers=0)))
-    wd, _ = _timed(lambda: box.setdefault("dask", engine.run(st, workers=2)))
-    o_in, o_d = box["in"], box["dask"]
+    best: dict[str, tuple[float, float, engine.Outcome]] = {}
+    for _ in range(repeat):
+        for key, workers in (("in", 0), ("dask", 2)):
+            box: list[engine.Outcome] = []
+            w, c = _timed(lambda workers=workers, box=box: box.append(engine.run(st, workers=workers)))
+            if key not in best or w < best[key][0]:
+                best[key] = (w, c, box[0])
+    wi, ci, o_in = best["in"]
+    wd, _, o_d = best["dask"]
     same = all(np.array_equal(o_in.columns[k], o_d.columns[k], equal_nan=True) for k in o_in.columns)
     mj = max(abs(np.nanmax(o_in.mujoco[k]) - np.nanmax(o_d.mujoco[k])) for k in ("position_error", "loop_gap"))
 
@@ -354,7 +361,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = bench_reference(500 if a.quick else 10_000, single=20 if a.quick else 100)
     rows += bench_rollout(20 if a.quick else 200, repeat=1 if a.quick else 3)
     rows += bench_verify(n, a.threads)
-    rows += bench_study(40 if a.quick else 1000)
+    rows += bench_study(40 if a.quick else 1000, repeat=1 if a.quick else 2)
     width = max(len(r[0]) for r in rows)
     print(f"load average before the runs: {load:.2f} on {os.cpu_count()} cores")
     print(f"{'':<{width}}  {'wall s':>8}  {'CPU s':>8}  note")
