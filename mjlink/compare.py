@@ -26,7 +26,9 @@ import numpy as np
 
 from . import reference
 from .model.mechanism import Mechanism
+from .model.topology import pairs
 from .reference import reference_trace
+from .reference.batch import FrameLoads, frame_loads
 from .runs import Trace
 from .units import RunKind
 
@@ -39,6 +41,7 @@ THREAD_UM = 0.1
 OMEGA_REL = 5e-4
 TORQUE_REL = 1e-3  # of the driving torque's range (max - min)
 FORCE_REL = 1e-3  # of each pair's largest force
+SHAKING_REL = 1e-3  # the frame's shaking force and moment, of the reference's range
 SPEED_REL = 1e-6  # the kinematic run's crank speed, max |omega - omega0| / |omega0|: the motion is imposed
 MIN_SAMPLES = 100  # a run with fewer samples is too short to judge: it never passes
 STEADY_DELTA_REL = 1e-3  # MuJoCo's coefficient of speed fluctuation vs the reference's, relative
@@ -284,9 +287,17 @@ class Loads:
     torque_rel: float
     pairs: dict
     force_rel: float
+    shaking_force_rel: float = 0.0
+    shaking_moment_rel: float | None = 0.0  # None: not compared (a geared mechanism)
 
     def failures(self) -> list[str]:
         out = []
+        if not self.shaking_force_rel <= SHAKING_REL:
+            out.append(f"loads: shaking force error {self.shaking_force_rel:.3g} of its range exceeds {SHAKING_REL:g}")
+        if self.shaking_moment_rel is not None and not self.shaking_moment_rel <= SHAKING_REL:
+            out.append(
+                f"loads: shaking moment error {self.shaking_moment_rel:.3g} of its range exceeds {SHAKING_REL:g}"
+            )
         if not self.torque_rel <= TORQUE_REL:
             out.append(f"loads: driving torque error {self.torque_rel:.3g} of its range exceeds {TORQUE_REL:g}")
         for lab, p in self.pairs.items():
@@ -321,12 +332,50 @@ def loads(mech: Mechanism, mj: Trace) -> Loads:
                 float(np.abs(m_mj - m_ref).max() / mpk) if mpk > 1e-12 else float(np.abs(m_mj).max())
             )
         pairs[lab] = entry
+    ref = frame_reference(mech, mj)
+    got = frame_mujoco(mech, mj)
+    f_range = float(np.ptp(ref.force, axis=0).max())
+    m_range = float(np.ptp(ref.moment))
     return Loads(
         float(mj.omega[0]),
         float(np.abs(mj.torque - tau).max() / np.ptp(tau)) if np.ptp(tau) > 0 else 0.0,
         pairs,
         max((p["error_rel"] for p in pairs.values()), default=0.0),
+        float(np.linalg.norm(got.force - ref.force, axis=1).max() / f_range) if f_range > 0 else 0.0,
+        None if mech.geared else float(np.abs(got.moment - ref.moment).max() / m_range) if m_range > 0 else 0.0,
     )
+
+
+def frame_reference(mech: Mechanism, mj: Trace) -> FrameLoads:
+    """The reference's shaking force and moment at MuJoCo's own crank states (the links' sum,
+    :func:`mjlink.reference.batch.frame_loads`)."""
+    kin = reference.solve(mech, mj.phi)
+    return frame_loads(mech, kin, mj.omega, mj.eps)
+
+
+def frame_mujoco(mech: Mechanism, mj: Trace) -> FrameLoads:
+    """MuJoCo's shaking force (N, (n, 2)) and moment (N*m about the input crank's pivot) from
+    a run's recorded pair forces: minus the ground pairs' forces on their links (with their
+    moments, for a slide), minus the drive's torque, plus the crank bearing's friction. A run
+    records no gear equality's torque, whose unbalanced share the frame carries, so for a
+    mechanism with geared cranks the moment is not compared (:class:`Loads`)."""
+    assert mj.torque is not None
+    P = mj.points
+    pivot = P[mech.input_crank.pivot][:, :2]
+    force = np.zeros((len(mj.phi), 2))
+    moment = -mj.torque + mech.dynamics.damping * mj.omega
+    for _, pr in pairs(mech):
+        if pr.parent is not None:
+            continue
+        f = -mj.reactions[pr.label][:, :2]
+        force += f
+        if pr.revolute:
+            d = P[pr.pin][:, :2] - pivot
+        else:
+            d = P[mech.link(pr.child).points[0]][:, :2] - pivot
+            moment = moment - mj.moments[pr.label]
+        moment = moment + d[:, 0] * f[:, 1] - d[:, 1] * f[:, 0]
+    return FrameLoads(force, moment)
 
 
 # ------------------------------------------------------------------------ branch-switch watchdog

@@ -473,6 +473,8 @@ class LoadsSummary:
     torque_threshold: float
     force_threshold: float
     failures: tuple[str, ...] = ()
+    shaking_force_error: float = 0.0
+    shaking_moment_error: float | None = 0.0
 
     @property
     def speed_rpm(self) -> float:
@@ -490,7 +492,15 @@ class LoadsSummary:
             "torque_error_rel": self.torque_error,
             "force_error_rel": self.force_error,
             "pairs": self.pairs,
-            "thresholds": {"torque_rel": self.torque_threshold, "force_rel": self.force_threshold},
+            # The frame's shaking force and moment, relative to the reference's range (the
+            # moment of a geared mechanism is not compared: None).
+            "shaking_force_error_rel": self.shaking_force_error,
+            "shaking_moment_error_rel": self.shaking_moment_error,
+            "thresholds": {
+                "torque_rel": self.torque_threshold,
+                "force_rel": self.force_threshold,
+                "shaking_rel": compare.SHAKING_REL,
+            },
         }
 
 
@@ -1157,6 +1167,8 @@ def _loads_study(mech: Mechanism, kin_mj: Trace, stage: Path, plots: list[PlotJo
 
         plots.append(functools.partial(loads_plots.torque_plot, mech, kin_mj, rx, stage))
         plots.append(functools.partial(loads_plots.reactions_plot, mech, kin_mj, rx, stage))
+        frames = compare.frame_reference(mech, kin_mj), compare.frame_mujoco(mech, kin_mj)
+        plots.append(functools.partial(loads_plots.shaking_plot, mech, kin_mj, *frames, stage))
     # Statistics over exactly one period from the reference: the run's samples span a period
     # and its end, and counting that end twice biases means of large periodic torques.
     cycle = analysis.torque_cycle(mech, cmp.speed)
@@ -1171,6 +1183,8 @@ def _loads_study(mech: Mechanism, kin_mj: Trace, stage: Path, plots: list[PlotJo
         compare.TORQUE_REL,
         compare.FORCE_REL,
         tuple(cmp.failures()),
+        cmp.shaking_force_rel,
+        cmp.shaking_moment_rel,
     )
 
 

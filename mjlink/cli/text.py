@@ -99,6 +99,10 @@ def simulation(res: SimulateResult) -> str:
             f"{L.torque_rms:.4g} N*m, mean power {L.power_mean:.4g} W; MuJoCo vs kinetostatics: torque "
             f"{L.torque_error:.2e}, reactions {L.force_error:.2e} of range"
         )
+        moment = "not compared (geared)" if L.shaking_moment_error is None else f"{L.shaking_moment_error:.2e} of range"
+        out.append(
+            f"frame shaking (shaking.png): MuJoCo vs reference force {L.shaking_force_error:.2e}, moment {moment}"
+        )
     if res.steady is not None:
         out.append(steady_line(res.steady))
     if res.video is not None:

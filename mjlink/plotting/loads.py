@@ -14,6 +14,7 @@ import numpy as np
 
 from .. import analysis, reference
 from ..model.mechanism import Mechanism
+from ..reference.batch import FrameLoads
 from ..runs import SteadyRun, Trace
 from ..units import to_rpm
 from .style import MJ_LABEL, MJ_STYLE, REF_LABEL, REF_STYLE, crank_x, finish_x, save, title
@@ -87,3 +88,32 @@ def steady_plot(
     ax.legend(loc="best", fontsize=8)
     ax.set_title(title(mech, "steady motion under the motor characteristic"), fontsize=10)
     return save(fig, out_dir, "steady.png")
+
+
+def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoads, out_dir) -> Path:
+    """``shaking.png``: the frame's shaking force as a hodograph (Fy against Fx, N, equal axes,
+    the start marked) and the shaking moment about the input crank's pivot (N*m) against crank
+    angle; the reference as a line, MuJoCo as markers (they coincide where they agree)."""
+    (x,), label = crank_x(mech, kin_mj)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.8), layout="constrained", width_ratios=(1, 1.4))
+    every = max(1, len(x) // 60)
+    a1.plot(ref.force[:, 0], ref.force[:, 1], label=REF_LABEL, **REF_STYLE)
+    a1.plot(got.force[::every, 0], got.force[::every, 1], "o", ms=3.5, mfc="none", color="tab:blue", label=MJ_LABEL)
+    a1.plot(*ref.force[0], "s", color="tab:red", ms=6, label="start (phi01)")
+    a1.plot(0, 0, "+", color="0.4", ms=10)
+    a1.set_aspect("equal", adjustable="datalim")
+    a1.set_xlabel("$F_x$ on the frame [N]")
+    a1.set_ylabel("$F_y$ on the frame [N]")
+    a1.legend(loc="best", fontsize=8)
+    a1.grid(alpha=0.3)
+    a1.set_title("shaking force hodograph", fontsize=9)
+    a2.plot(x, ref.moment, label=REF_LABEL, **REF_STYLE)
+    if got.moment is not None and not mech.geared:
+        a2.plot(x[::every], got.moment[::every], "o", ms=3.5, mfc="none", color="tab:blue", label=MJ_LABEL)
+    a2.axhline(0, color="0.6", lw=0.8)
+    a2.set_ylabel("shaking moment about the crank pivot [N·m]")
+    a2.legend(loc="best", fontsize=8)
+    finish_x(a2, [x], label)
+    w = float(np.mean(kin_mj.omega))
+    fig.suptitle(title(mech, f"loads on the frame at {to_rpm(abs(w)):.0f} rpm (inertia, gravity, forces)"), fontsize=10)
+    return save(fig, out_dir, "shaking.png")

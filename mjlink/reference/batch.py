@@ -263,25 +263,30 @@ class FrameLoads:
     moment: np.ndarray
 
 
-def frame_loads(mech: Mechanism, kin: Kinematics, omega: float) -> FrameLoads:
-    """Shaking force and moment over the rows of ``kin`` at constant speed ``omega`` (rad/s).
+def frame_loads(mech: Mechanism, kin: Kinematics, omega, eps=0.0) -> FrameLoads:
+    """Shaking force and moment over the rows of ``kin`` for the crank motion ``omega``
+    (rad/s) and ``eps`` (rad/s^2), scalars or one per row.
 
     Masses, inertias and gravity may be one per row (a study's variants). The links' sum here
-    is checked against the ground pairs' reactions of the kinetostatic solution (tests).
+    is checked against the ground pairs' reactions of the kinetostatic solution (tests) and
+    against MuJoCo's (``simulate``, :func:`mjlink.compare.loads`).
     """
     n = len(kin.phi)
-    w2 = omega * omega
+    w = np.broadcast_to(np.asarray(omega, dtype=float), (n,))
+    e = np.broadcast_to(np.asarray(eps, dtype=float), (n,))
+    w2 = w * w
     g = -np.asarray(mech.dynamics.gravity)  # along Y
     pivot = kin.points[mech.input_crank.pivot].v[:, :2]
     force = np.zeros((n, 2))
     moment = np.zeros(n)
     for l in mech.links:
-        alpha = kin.angles[l.name].dd * w2
+        th = kin.angles[l.name]
+        alpha = th.dd * w2 + th.d * e
         moment -= np.asarray(l.inertia) * alpha
         if l.com is None or not np.any(np.asarray(l.mass) > 0):
             continue
         s = kin.points[l.com]
-        f = -np.asarray(l.mass)[..., None] * (s.dd[:, :2] * w2)
+        f = -np.asarray(l.mass)[..., None] * (s.dd[:, :2] * w2[:, None] + s.d[:, :2] * e[:, None])
         f[:, 1] += np.asarray(l.mass) * g
         r = s.v[:, :2] - pivot
         force += f
