@@ -45,6 +45,7 @@ from .reader import Reader
 __all__ = [
     "Attached",
     "Block",
+    "Counterweight",
     "Crank",
     "Dyad",
     "Dynamics",
@@ -174,6 +175,20 @@ class Synthesis:
 
 
 @dataclass(frozen=True)
+class Counterweight:
+    """A point mass rigidly on the input crank: ``mass`` kg at ``radius`` m from the crank's
+    pivot, at ``angle`` rad from the crank's direction pivot -> crank pin (pi: opposite the pin).
+    Numbers may be one per row in a design study."""
+
+    mass: Any
+    radius: Any
+    angle: Any
+
+
+COUNTERWEIGHT = "counterweight"  # its point's name in the reference's kinematics
+
+
+@dataclass(frozen=True)
 class Mechanism:
     """A validated mechanism, SI units. Build with :func:`load`."""
 
@@ -193,6 +208,7 @@ class Mechanism:
     has_dynamics: bool = False  # a [dynamics] table was given
     synthesis: Synthesis | None = None
     steady: SteadyCase | None = None
+    counterweight: Counterweight | None = None
 
     @property
     def input_crank(self) -> Crank:
@@ -273,6 +289,19 @@ def _read_link(r: Reader, name: str, raw: Any) -> Link:
     return Link(name, points, mass, inertia, com, guide)
 
 
+def _read_counterweight(r: Reader, raw: Any) -> Counterweight:
+    where = "[counterweight]"
+    raw = r.table(raw, where)
+    r.keys(raw, where, ["mass", "radius"], ["angle"])
+    return Counterweight(
+        r.number(raw, "mass", where, nonneg=True, scale=G, hi=MAX_MASS_G, unit=" g", why="a machine part"),
+        r.number(raw, "radius", where, nonneg=True, scale=MM, hi=MAX_LENGTH_MM, unit=" mm"),
+        r.number(raw, "angle", where, scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle")
+        if "angle" in raw
+        else math.pi,  # opposite the crank pin, where a counterweight balances it
+    )
+
+
 def _read_motor(r: Reader, raw: Any, where: str) -> Motor:
     raw = r.table(raw, where)
     if where == "[dynamics.motor]":
@@ -313,7 +342,10 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     r = Reader(path)
     data = r.toml(text)
     r.keys(
-        data, "", ["mechanism", "ground", "construct", "links", "input"], ["dynamics", "thread", "synthesis", "steady"]
+        data,
+        "",
+        ["mechanism", "ground", "construct", "links", "input"],
+        ["dynamics", "thread", "synthesis", "steady", "counterweight"],
     )
 
     meta = r.table(data["mechanism"], "[mechanism]")
@@ -518,6 +550,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         "dynamics" in data,
         synthesis,
         steady,
+        _read_counterweight(r, data["counterweight"]) if "counterweight" in data else None,
     )
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))

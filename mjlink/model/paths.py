@@ -15,6 +15,9 @@ A path names one value of the file, in the file's own units (mm, deg, g, ...)::
     dynamics.motor.stall_torque  the motor characteristic (N*m, no_load_speed rad/s)
     steady.stall_torque          the steady-motion motor (N*m, no_load_speed rad/s, target_delta -)
     thread.elongation            the thread elongation dP, mm
+    counterweight.mass           a point mass on the input crank (g; radius mm from its pivot,
+                                 angle deg from the crank's direction; a study may add one to
+                                 a file without it: nominal 0 g at 0 mm, 180 deg)
     synthesis.lambda             a crank-slider's synthesis input (stroke, offset mm, lambda -):
                                  varying one re-runs the metric synthesis (r, l and the guide
                                  follow, as ``synth --write`` does)
@@ -40,7 +43,7 @@ import numpy as np
 
 from ..errors import MjlinkError
 from ..units import DEG, MM, G
-from .mechanism import Force, Mechanism
+from .mechanism import Counterweight, Force, Mechanism
 
 _AXES = ("x", "y", "z")
 # section -> key -> (SI per file unit, file unit, must be positive)
@@ -121,6 +124,10 @@ def catalogue(mech: Mechanism) -> dict[str, Param]:
         add("steady.target_delta", 1.0, "", True, mech.steady.target_delta)
     if mech.thread:
         add("thread.elongation", MM, "mm", False, mech.thread_elongation or 0.0)
+    cw = mech.counterweight or Counterweight(0.0, 0.0, math.pi)  # a study may add one
+    add("counterweight.mass", G, "g", False, cw.mass)
+    add("counterweight.radius", MM, "mm", False, cw.radius)
+    add("counterweight.angle", DEG, "deg", False, cw.angle)
     if mech.synthesis is not None:
         sy = mech.synthesis
         add("synthesis.stroke", MM, "mm", True, sy.stroke)
@@ -168,6 +175,7 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
     steady: dict[str, Any] = {}
     scales: dict[str, Any] = {}
     synthesis: dict[str, Any] = {}
+    counterweight: dict[str, Any] = {}
     for p, raw in values.items():
         v = np.asarray(raw, dtype=float) * p.scale if np.ndim(raw) else float(raw) * p.scale
         parts = p.path.split(".")
@@ -203,6 +211,8 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
             top["thread_elongation"] = v
         elif sec == "synthesis":
             synthesis[parts[1]] = v
+        elif sec == "counterweight":
+            counterweight[parts[1]] = v
         else:  # catalogue() lists no other section
             raise PathError(f"{mech.name}: parameter path '{p.path}' cannot be varied")
     d = mech.dynamics
@@ -220,6 +230,9 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
         st = dataclasses.replace(st, motor=dataclasses.replace(st.motor, **m) if m else st.motor)
         if "target_delta" in steady:
             st = dataclasses.replace(st, target_delta=steady["target_delta"])
+    if counterweight:
+        base = mech.counterweight or Counterweight(0.0, 0.0, math.pi)
+        top["counterweight"] = dataclasses.replace(base, **counterweight)
     out = dataclasses.replace(
         mech,
         ground=ground,

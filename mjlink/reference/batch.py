@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import paths
-from ..model.mechanism import Mechanism
+from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from .kinematics import Kinematics, solve
 
 
@@ -289,6 +289,14 @@ def frame_loads(mech: Mechanism, kin: Kinematics, omega, eps=0.0) -> FrameLoads:
         f = -np.asarray(l.mass)[..., None] * (s.dd[:, :2] * w2[:, None] + s.d[:, :2] * e[:, None])
         f[:, 1] += np.asarray(l.mass) * g
         r = s.v[:, :2] - pivot
+        force += f
+        moment += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
+    cw = mech.counterweight
+    if cw is not None:
+        c = kin.points[COUNTERWEIGHT]
+        f = -np.asarray(cw.mass)[..., None] * (c.dd[:, :2] * w2[:, None] + c.d[:, :2] * e[:, None])
+        f[:, 1] += np.asarray(cw.mass) * g
+        r = c.v[:, :2] - pivot
         force += f
         moment += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
     for fo in mech.dynamics.forces:

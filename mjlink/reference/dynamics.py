@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import AssemblyError
-from ..model.mechanism import Mechanism
+from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from .kinematics import Kinematics, solve
 
 
@@ -55,6 +55,12 @@ def reduced(mech: Mechanism, kin: Kinematics, *, tables: bool = True) -> Reduced
             J += l.mass * np.einsum("ij,ij->i", s.d, s.d)
             dJ += 2.0 * l.mass * np.einsum("ij,ij->i", s.d, s.dd)
             Q += l.mass * s.d[:, 1] * -dyn.gravity
+    cw = mech.counterweight
+    if cw is not None:  # a point mass on the input crank
+        c = kin.points[COUNTERWEIGHT]
+        J += cw.mass * np.einsum("ij,ij->i", c.d, c.d)
+        dJ += 2.0 * cw.mass * np.einsum("ij,ij->i", c.d, c.dd)
+        Q += cw.mass * c.d[:, 1] * -dyn.gravity
     for f in dyn.forces:
         if f.angles is None or tables:
             Q += np.einsum("ij,ij->i", kin.points[f.point].d, f.at(kin.phi, mech.period))

@@ -18,7 +18,8 @@ import numpy as np
 
 from ..errors import AssemblyError, MechanismFileError
 from ..model import jet
-from ..model.mechanism import Link, Mechanism
+from ..model.blocks import Attached
+from ..model.mechanism import COUNTERWEIGHT, Link, Mechanism
 
 
 def link_angle(points: dict[str, jet.V], link: Link) -> jet.S:
@@ -121,6 +122,11 @@ def _solve(mech: Mechanism, phi: np.ndarray, check: bool) -> Kinematics:
             bad = ~(solved.margin >= 0.0)
             if check and bad.any():
                 raise AssemblyError(s.cannot_close(mech.name, angle_ranges(phi, bad)))
+    cw = mech.counterweight
+    if cw is not None:  # a point mass on the input crank, placed as an attached point
+        crank = mech.input_crank
+        block = Attached(COUNTERWEIGHT, crank.pivot, crank.point, cw.angle, cw.radius)
+        pts[COUNTERWEIGHT] = block.solve(pts, inp, mech.phi0).point
     angles = {l.name: link_angle(pts, l) for l in mech.links}
     return Kinematics(mech, phi, pts, angles, margins)
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MechanismFileError
-from ..model.mechanism import Mechanism
+from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from ..model.topology import Pair, pairs
 from .dynamics import reduced
 from .kinematics import Kinematics, solve
@@ -138,6 +138,16 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
             rhs_m = rhs_m + d[:, 0] * f_net[:, 1] - d[:, 1] * f_net[:, 0]
         b[:, r0 : r0 + 2] = rhs_f
         b[:, r0 + 2] = rhs_m
+    cw = mech.counterweight
+    if cw is not None:  # a point mass on the input crank: its inertia and weight load the crank
+        c = kin.points[COUNTERWEIGHT]
+        a = (c.dd * w[:, None] ** 2 + c.d * e[:, None])[:, :2]
+        f_net = np.asarray(cw.mass)[..., None] * (a - grav)
+        link = mech.input_link.name
+        d = (c.v - origin[link])[:, :2]
+        r0 = row[link]
+        b[:, r0 : r0 + 2] += f_net
+        b[:, r0 + 2] += d[:, 0] * f_net[:, 1] - d[:, 1] * f_net[:, 0]
     for f in mech.dynamics.forces:
         owner = mech.link_of(f.point)
         if owner is None:

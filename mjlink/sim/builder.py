@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import reference
 from ..model import names
-from ..model.mechanism import Mechanism
+from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from ..model.topology import Pair, topology
 from ..runs import KINEMATIC, Settings
 from ..units import Integrator
@@ -231,7 +231,20 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
             j.armature = settings.flywheel
         # Inertia: mass at the centre of mass, J about Z; the X and Y moments only need to be
         # valid (planar motion never excites them).
-        if l.mass > 0 and l.com is not None:  # parse requires a com with a mass
+        cw = mech.counterweight if l is mech.input_link else None
+        if cw is not None and cw.mass > 0:
+            # The counterweight folded in exactly: combined mass, centre of mass and moment
+            # of inertia about it (parallel axes), the counterweight a point mass.
+            m1 = l.mass if l.com is not None else 0.0
+            s1 = pos[l.com] if l.com is not None else pos[l.points[0]]
+            c = kin.points[COUNTERWEIGHT].v[0]
+            total = m1 + cw.mass
+            com = (m1 * s1 + cw.mass * c) / total
+            jz = l.inertia + m1 * float(np.sum((s1 - com)[:2] ** 2)) + cw.mass * float(np.sum((c - com)[:2] ** 2))
+            body.mass = total
+            body.ipos = (com - o).tolist()
+            body.inertia = [max(jz, 1e-12)] * 3
+        elif l.mass > 0 and l.com is not None:  # parse requires a com with a mass
             body.mass = l.mass
             body.ipos = (pos[l.com] - o).tolist()
             jz = max(l.inertia, 1e-12)
