@@ -538,7 +538,7 @@ def _shipped() -> str:
 
 
 def _study(args: argparse.Namespace) -> int:
-    from .. import pipeline_study
+    from ..pipeline import study as pipeline_study
     from ..study import spec
 
     if args.workers is not None and not 0 <= args.workers <= 256:

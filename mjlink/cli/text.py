@@ -19,7 +19,7 @@ from ..units import G, PairKind, PairRole, to_mm, to_rpm
 if TYPE_CHECKING:
     from ..model.mechanism import Mechanism
     from ..pipeline import LoadsResult, SimulateResult, SteadyResult, SteadySummary, SynthResult
-    from ..pipeline_study import StudyResult
+    from ..pipeline.study import StudyResult
 
 
 def error_line(message: object, limit: int = 2000) -> str:

@@ -33,7 +33,7 @@ from .spec import Study, StudyFileError, Varied, load, parse
 from .tasks import Evaluated, Verified, reference_chunk
 
 if TYPE_CHECKING:
-    from ..pipeline_study import StudyResult
+    from ..pipeline.study import StudyResult
     from ..sim.batch import Verification
 
 __all__ = [
@@ -120,8 +120,8 @@ def verify(mechs: Sequence[Mechanism], *, threads: int | None = None) -> list[Ve
 
 
 def run(study: Study | str | Path, out_root: Path | str = Path("renders"), **kw: Any) -> StudyResult:
-    """Run a study and write its outputs (see :func:`mjlink.pipeline_study.run` for the options:
+    """Run a study and write its outputs (see :func:`mjlink.pipeline.study.run` for the options:
     ``client``, ``scheduler``, ``workers``, ``plots``, ``force``, ``progress``)."""
-    from ..pipeline_study import run as _run
+    from ..pipeline.study import run as _run
 
     return _run(study, out_root, **kw)

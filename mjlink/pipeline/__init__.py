@@ -15,6 +15,7 @@ function           command              result, output
 :func:`steady`     ``steady``           :class:`SteadyResult`, folder ``OUT/NAME_steady/``
 :func:`build`      ``build``            :class:`BuildResult`, the MJCF (and a file)
 :func:`synthesize` ``synth``            :class:`SynthResult`; :func:`write_design` its file
+:func:`.study.run` ``study``            :class:`.study.StudyResult`, ``OUT/NAME-study/``
 =================  ===================  ==========================================
 
 Every output folder is all or nothing (:func:`output.staged_dir`), every single file too
@@ -46,10 +47,10 @@ from typing import Any
 
 import numpy as np
 
-from . import analysis, compare, output, reference, validation
-from .errors import MjlinkError, SimulationError
-from .model import catalogue, names
-from .model.limits import (
+from .. import analysis, compare, output, reference, validation
+from ..errors import MjlinkError, SimulationError
+from ..model import catalogue, names
+from ..model.limits import (
     CSV_BYTES_PER_VALUE,
     LONG_RUN_SAMPLES,
     MAX_CSV_BYTES,
@@ -66,11 +67,11 @@ from .model.limits import (
     MIN_SPEED,
     TRACE_BYTES_PER_VALUE,
 )
-from .model.mechanism import Mechanism, Motor, SteadyCase, parse
-from .reference import synthesis
-from .runs import DYNAMIC, KINEMATIC, Case, Settings, Trace
-from .sim import builder, simulate
-from .units import DEG, MM, RunKind, to_rpm
+from ..model.mechanism import Mechanism, Motor, SteadyCase, parse
+from ..reference import synthesis
+from ..runs import DYNAMIC, KINEMATIC, Case, Settings, Trace
+from ..sim import builder, simulate
+from ..units import DEG, MM, RunKind, to_rpm
 
 PAPER_RK4_STEPS = 1000  # the paper integrates the equation of motion by fixed-step RK4 in this many steps
 REFERENCE_ODE_METHOD = "DOP853"  # what reference.forward_dynamics solves the equation of motion with
@@ -621,7 +622,7 @@ class Provenance:
 
 def provenance(command: Sequence[str] = (), options: Mapping[str, Any] | None = None) -> Provenance:
     """The :class:`Provenance` of an output made now by ``command`` with ``options``."""
-    from . import __version__
+    from .. import __version__
 
     versions = {
         "mjlink": __version__,
@@ -848,7 +849,7 @@ def run(
         failures += steady_summary.failures if steady_summary else ()
 
         if opts.plots:
-            from .plotting import figures
+            from ..plotting import figures
 
             jobs.append(
                 functools.partial(
@@ -954,7 +955,7 @@ def _video(
     mech: Mechanism, kin_mj: Trace, settings: Settings, stage: Path, opts: Options, *, progress: bool
 ) -> VideoSummary:
     """The kinematic run as ``NAME.mp4`` in ``stage``."""
-    from .sim import render
+    from ..sim import render
 
     file = f"{mech.name}.mp4"
     info = render.render_video(
@@ -1163,7 +1164,7 @@ def _loads_study(mech: Mechanism, kin_mj: Trace, stage: Path, plots: list[PlotJo
     output.write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
     output.write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
     if plots is not None:
-        from .plotting import loads as loads_plots
+        from ..plotting import loads as loads_plots
 
         plots.append(functools.partial(loads_plots.torque_plot, mech, kin_mj, rx, stage))
         plots.append(functools.partial(loads_plots.reactions_plot, mech, kin_mj, rx, stage))
@@ -1199,7 +1200,7 @@ def _steady_study(mech: Mechanism, stage: Path, plots: list[PlotJob] | None) -> 
     runs = (simulate.steady_run(mv, plain), simulate.steady_run(mv, fly))
     output.write_steady_csv(stage / "reference_steady.csv", plain, fly)
     if plots is not None:
-        from .plotting import loads as loads_plots
+        from ..plotting import loads as loads_plots
 
         plots.append(functools.partial(loads_plots.steady_plot, mech, plain, fly, runs, stage))
     motor = mv.dynamics.motor

@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__, compare, output
-from .study import engine
-from .study.spec import Study, load
+from .. import __version__, compare, output
+from ..study import engine
+from ..study.spec import Study, load
 
 PERCENTILES = (1, 5, 50, 95, 99)
 
@@ -213,7 +213,7 @@ def run(
 
 
 def _plots(o: engine.Outcome, stage: Path) -> list[Path]:
-    from .plotting import study as sp
+    from ..plotting import study as sp
 
     st = o.study
     title = f"{st.name}: {st.title or st.mechanism.title}"
