@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from .. import compare, validation
 from ..model import names
@@ -19,6 +19,7 @@ from ..units import G, PairKind, PairRole, to_mm, to_rpm
 if TYPE_CHECKING:
     from ..model.mechanism import Mechanism
     from ..pipeline import LoadsResult, SimulateResult, SteadyResult, SteadySummary, SynthResult
+    from ..pipeline.optimize import OptimizeResult
     from ..pipeline.study import StudyResult
 
 
@@ -291,8 +292,54 @@ def format_report(r: validation.CheckReport, *, speed: float | None = None) -> s
     return "\n".join(out)
 
 
-def study(res: StudyResult) -> str:
+def optimization(res: OptimizeResult) -> str:
+    """An optimization's summary: the winner, its metrics, the front, MuJoCo's verdict, files."""
+    s = res.summary
+    o = s["optimizer"]
+    w = s["winner"]
+    rb = s["robust"]
+    lines = [
+        f"study {s['study']} of {s['mechanism']}: {o['objective']}"
+        + (f" (robust: mean + {rb['k']:g} std over {rb['samples']} tolerance samples)" if rb else "")
+        + (f", subject to {', '.join(s['bounds'])}" if s["bounds"] else ""),
+        f"differential evolution: {s['evaluations']} evaluations in {len(s['runs'])} run(s) of "
+        f"{o['population']} per generation, seed {o['seed']}; {s['engine']}",
+    ]
+    if w["objective"] is not None:
+        lines.append(f"winner: objective {w['objective']:.6g}")
+    elif s["front"]:
+        lines.append(f"Pareto front: {len(s['front'])} designs; winner: the knee")
+    for p in s["parameters"]:
+        lines.append(
+            f"  {p['path']:<32} {p['winner']:>12.6g} {p['unit']:<7} (file: {p['nominal']:.6g}, range {p['low']:g}..{p['high']:g})"
+        )
+    lines.append(f"{'metric':<34} {'unit':>6} {'winner':>12} {'nominal dims':>13}")
+    for name, m in w["metrics"].items():
+        lines.append(f"{name:<34} {m['unit']:>6} {m['value']:>12.6g} {m['nominal_dimensions']:>13.6g}")
+    fly = s["flywheel"]
+    if fly:
+        lines.append(
+            f"flywheel for delta {fly['target_delta']:g}: {fly['inertia_kg_m2']:.4g} kg*m^2 on links.{fly['link']} "
+            f"(delta {fly['delta_without']:.4g} without it, {fly['omega_mean_rad_s']:.4g} rad/s mean)"
+        )
+    designs = [w["mujoco"]] + [f["mujoco"] for f in (s["front"] or [])]
+    agree = sum(d["passed"] for d in designs)
+    worst = max(d["position_error_um"] for d in designs)
+    lines.append(
+        f"MuJoCo: {agree} of {len(designs)} designs agree (winner{' and front' if s['front'] else ''}); worst position error {worst:.3g} um"
+    )
+    lines.append(
+        f"wrote {res.out_dir}/ (winner.toml, {', '.join(p.name for p in res.files if p.name != 'winner.toml')[:200]}) in {s['timing_s']['total']:.1f} s"
+    )
+    lines.append(f"next: python -m mjlink simulate {res.winner_file}")
+    return "\n".join(lines)
+
+
+def study(res: StudyResult | OptimizeResult) -> str:
     """A study's summary: variants, feasibility, each metric's spread, MuJoCo's verdict, files."""
+    if not hasattr(res, "outcome"):  # an [optimize] study
+        return optimization(res)
+    res = cast("StudyResult", res)
     s = res.summary
     lines = [
         f"study {s['study']} of {s['mechanism']}: {s['variants']} variants ({s['method']}"

@@ -37,6 +37,7 @@ import difflib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
@@ -296,3 +297,71 @@ def invalid(params: list[Param], values: np.ndarray) -> list[str]:
                     " is not finite" if not math.isfinite(col[i]) else " must be positive"
                 )
     return out
+
+
+def file_text(mech: Mechanism, values: Mapping[Param, float], header: str, name: str | None = None) -> str:
+    """A mechanism file (TOML text) for ``mech`` with the given parameters replaced.
+
+    The file ``mech`` was read from gives the structure; every number that the change moves
+    is written in the file's units, including those a re-synthesis moves (a crank-slider's r,
+    l, guide and centres of mass when ``synthesis.*`` changes). Comments of the original file
+    do not survive (the standard library reads TOML but does not round-trip it); ``header``
+    becomes the new file's leading comment.
+
+    Args:
+      mech: the mechanism as read from its file (``mech.path`` set).
+      values: parameter -> value, file units (scalars).
+      header: lines for the leading comment (say what produced the file).
+      name: the new file's ``[mechanism] name`` (default: unchanged).
+    Returns:
+      The text; reading it gives ``apply(mech, values)`` (to the last digit of each number).
+    """
+    import tomllib
+
+    from . import tomlio
+
+    if mech.path is None:
+        raise PathError(f"{mech.name}: has no file to derive a new one from")
+    raw = tomllib.loads(Path(mech.path).read_text(encoding="utf-8"))
+    new = apply(mech, values)
+    before, after = catalogue(mech), catalogue(new)
+    for path, p in after.items():
+        old = before.get(path)
+        if old is None or old.nominal == p.nominal or (math.isnan(old.nominal) and math.isnan(p.nominal)):
+            continue
+        _set(raw, path, p.nominal)
+    for p, v in values.items():  # a force's scale multiplies its numbers (the catalogue keeps 1)
+        parts = p.path.split(".")
+        if parts[:2] == ["dynamics", "force"]:
+            for f in raw["dynamics"]["force"]:
+                if f["point"] == parts[2]:
+                    if "value" in f:
+                        f["value"] = [float(x) * v for x in f["value"]]
+                    else:
+                        f["values"] = [[float(x) * v for x in row] for row in f["values"]]
+    if name is not None:
+        raw["mechanism"]["name"] = name
+    return tomlio.dumps(raw, header)
+
+
+def _set(raw: dict, path: str, v: float) -> None:
+    """Write one catalogue path's value (file units) into a mechanism file's parsed TOML."""
+    parts = path.split(".")
+    sec = parts[0]
+    if sec == "ground":
+        xyz = raw["ground"][parts[1]]
+        i = _AXES.index(parts[2])
+        if i == 2 and len(xyz) == 2:
+            xyz.append(0.0)
+        xyz[i] = v
+    elif sec == "construct":
+        step = next(s for s in raw["construct"] if s["point"] == parts[1])
+        step[parts[2]] = v
+    elif sec == "links":
+        raw["links"][parts[1]][parts[2]] = v
+    elif sec in ("input", "steady", "thread", "synthesis", "counterweight"):
+        raw.setdefault(sec, {})[parts[1]] = v
+    elif sec == "dynamics" and parts[1] == "motor":
+        raw["dynamics"]["motor"][parts[2]] = v
+    elif sec == "dynamics" and parts[1] != "force":
+        raw["dynamics"][parts[1]] = v

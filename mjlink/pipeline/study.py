@@ -191,6 +191,20 @@ def run(
       The :class:`StudyResult`.
     """
     st = study if isinstance(study, Study) else load(study)
+    if st.optimize is not None:
+        from . import optimize
+
+        return optimize.run(  # type: ignore[return-value]
+            st,
+            out_root,
+            scheduler=scheduler,
+            workers=workers,
+            client=client,
+            plots=plots,
+            force=force,
+            progress=progress,
+            command=command,
+        )
     out_root = Path(out_root)
     dest = out_root / f"{st.name}-study"
     cache_dir = out_root / f".{st.name}-study.chunks"

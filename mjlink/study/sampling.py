@@ -25,6 +25,8 @@ if TYPE_CHECKING:
 def sample(study: Study) -> np.ndarray:
     """(V, P) parameter values of every variant, file units."""
     P = len(study.varied)
+    if study.method == "optimize":
+        raise ValueError(f"{study.name}: an optimization draws its candidates itself (mjlink.study.optimize)")
     if study.method == "grid":
         return np.array(list(itertools.product(*(v.values for v in study.varied))), dtype=float).reshape(-1, P)
     if study.method == "random":

@@ -27,10 +27,12 @@ from ..model import names as _names
 from ..model import paths
 from ..model.mechanism import Mechanism
 
-METHODS = ("grid", "random", "tolerance")
+METHODS = ("grid", "random", "tolerance")  # sampling; an [optimize] table makes the method "optimize"
 SEQUENCES = ("sobol", "lhs")
 DISTRIBUTIONS = ("uniform", "normal")
 VERIFY = ("all", "none", "best", "worst")
+SENSES = ("min", "max")
+INITS = ("sobol", "lhs")
 MAX_VARIANTS = 10_000_000
 MAX_PER_TURN = 3600
 STUDIES_DIR = Path(__file__).resolve().parent.parent.parent / "studies"
@@ -79,6 +81,51 @@ class Bound:
 
 
 @dataclass(frozen=True)
+class Optimize:
+    """An optimization's ``[optimize]`` table (see :mod:`mjlink.study.optimize`).
+
+    ``objective`` column -> weight of a weighted sum (one column: that metric); ``sense``
+    'min' or 'max'; ``pareto`` two columns (both minimized) for a Pareto front of ``points``
+    designs instead; ``population`` candidates per generation; ``generations`` the most
+    generations per run; ``tol``/``atol`` scipy's convergence test (relative, and absolute in
+    the objective's unit); ``flywheel_delta`` size a flywheel for the winner (the inertia on
+    the input crank that brings the steady-motion delta down to it; 0: none).
+    """
+
+    objective: tuple[tuple[str, float], ...]
+    sense: str
+    pareto: tuple[str, str] | None
+    points: int
+    population: int
+    generations: int
+    seed: int
+    tol: float
+    atol: float
+    init: str
+    flywheel_delta: float
+
+    @property
+    def label(self) -> str:
+        """The objective as a formula: 'feed_deviation_max + 0.5 * feed_deviation_rms'."""
+        if self.pareto:
+            return f"minimize {self.pareto[0]} and {self.pareto[1]}"
+        text = " + ".join(c if w == 1 else f"{w:g} * {c}" for c, w in self.objective)
+        return f"{'maximize' if self.sense == 'max' else 'minimize'} {text}"
+
+
+@dataclass(frozen=True)
+class Robust:
+    """A robust optimization's ``[robust]`` table: each candidate is judged over ``samples``
+    tolerance deviations (the [[parameter]] tolerances; the same deviations for every
+    candidate), by the mean plus ``k`` standard deviations of each objective column; bounds
+    must hold for every sample."""
+
+    samples: int
+    k: float
+    seed: int
+
+
+@dataclass(frozen=True)
 class Study:
     """A validated study. ``per_turn`` crank angles per input turn; ``verify`` one of
     'all', 'none', 'best', 'worst' (``count`` variants by metric column ``by``)."""
@@ -99,6 +146,9 @@ class Study:
     count: int
     by: str
     digest: str  # of the study's and the mechanism's text: what a resumed run must match
+    optimize: Optimize | None = None
+    robust: Robust | None = None
+    fixed: tuple[tuple[str, float], ...] = ()  # [set]: path -> value (file units), applied first
 
     @property
     def params(self) -> list[paths.Param]:
@@ -184,7 +234,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise StudyFileError(f"{src}: not valid TOML: {e}") from None
-    _keys(src, data, "", ["study", "parameter"], ["sampling", "metric", "bound", "verify"])
+    _keys(src, data, "", ["study", "parameter"], ["sampling", "metric", "bound", "verify", "optimize", "robust", "set"])
     st = data["study"]
     if not isinstance(st, dict):
         raise _fail(src, "[study]", "must be a table")
@@ -206,10 +256,21 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         mtext = Path(mech.path).read_bytes() if mech.path else b""
     except MjlinkError as e:
         raise _fail(src, "[study] mechanism", str(e)) from None
+    fixed = _fixed(src, mech, data.get("set", {}))
+    if fixed:
+        try:
+            mech = paths.apply(mech, {paths.resolve(mech, k): v for k, v in fixed})
+        except MjlinkError as e:
+            raise _fail(src, "[set]", str(e)) from None
     per_turn = _integer(src, st, "angles", "[study]", 8, MAX_PER_TURN, default=360)
     if per_turn % 2:
         raise _fail(src, "[study] angles", f"must be even (the steady-motion metric steps over pairs), got {per_turn}")
 
+    optimizing = "optimize" in data
+    if optimizing and "sampling" in data:
+        raise _fail(src, "[sampling]", "an [optimize] study draws its own candidates: no [sampling]")
+    if "robust" in data and not optimizing:
+        raise _fail(src, "[robust]", "applies to an optimization: add an [optimize] table")
     sampling = data.get("sampling", {"method": "grid"})
     if not isinstance(sampling, dict):
         raise _fail(src, "[sampling]", "must be a table")
@@ -217,10 +278,12 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
     method = sampling["method"]
     if method not in METHODS:
         raise _fail(src, "[sampling] method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+    if optimizing:
+        method = "optimize"
     if method == "grid" and ("samples" in sampling or "sequence" in sampling):
         raise _fail(src, "[sampling]", "a grid takes its variants from the parameters' values: no 'samples'/'sequence'")
     samples = _integer(src, sampling, "samples", "[sampling]", 1, MAX_VARIANTS, default=1) if method != "grid" else 0
-    if method != "grid" and "samples" not in sampling:
+    if method not in ("grid", "optimize") and "samples" not in sampling:
         raise _fail(src, "[sampling]", f"missing key 'samples' (how many variants the {method} study draws)")
     seed = _integer(src, sampling, "seed", "[sampling]", 0, 2**63 - 1, default=0)
     sequence = sampling.get("sequence", "sobol")
@@ -235,7 +298,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         where = f"[[parameter]] #{i + 1}"
         if not isinstance(rp, dict):
             raise _fail(src, where, "must be a table")
-        varied.append(_varied(src, mech, rp, where, method))
+        varied.append(_varied(src, mech, rp, where, method, "robust" in data))
     seen = set()
     for v in varied:
         if v.param.path in seen:
@@ -272,6 +335,15 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
             raise _fail(src, where, "needs 'min' or 'max'")
         bounds.append(Bound(col, lo, hi))
 
+    optimize = robust = None
+    if optimizing:
+        if "verify" in data:
+            raise _fail(src, "[verify]", "an optimization verifies its winner (and Pareto set) in MuJoCo: no [verify]")
+        optimize = _optimize(src, data["optimize"], names, len(varied))
+        if "robust" in data:
+            robust = _robust(src, data["robust"], optimize.seed)
+            if not any(v.tolerance > 0 for v in varied):
+                raise _fail(src, "[robust]", "needs a 'tolerance' on at least one [[parameter]]")
     ver = data.get("verify", {"mujoco": "none"})
     if not isinstance(ver, dict):
         raise _fail(src, "[verify]", "must be a table")
@@ -306,6 +378,9 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         count,
         by,
         digest,
+        optimize,
+        robust,
+        fixed,
     )
 
 
@@ -317,11 +392,12 @@ def _column(src: object, name: Any, names: list[str], where: str) -> str:
     raise _fail(src, where, f"'{name}' is no metric column of this study ({hint}columns: {', '.join(names)})")
 
 
-def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str) -> Varied:
+def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, robust: bool = False) -> Varied:
     opts = {
         "grid": ["values", "range", "count", "step"],
         "random": ["range"],
         "tolerance": ["tolerance", "distribution"],
+        "optimize": ["range", "tolerance", "distribution"] if robust else ["range"],
     }[method]
     _keys(src, rp, where, ["path"], opts)
     path = rp["path"]
@@ -356,22 +432,135 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str) -> 
                 hi = lo + (n - 1) * step
             out = tuple(np.linspace(lo, hi, n).tolist()) if n > 1 else (lo,)
         return Varied(p, values=out)
-    if method == "random":
+    if method in ("random", "optimize"):
         if "range" not in rp:
-            raise _fail(src, where, "needs 'range' = [low, high] (the bounds the samples fill)")
+            what = "the bounds the samples fill" if method == "random" else "the bounds of the search"
+            raise _fail(src, where, f"needs 'range' = [low, high] ({what})")
         lo, hi = _range(src, rp, where)
-        return Varied(p, low=lo, high=hi)
+        if method == "random" or "tolerance" not in rp:
+            return Varied(p, low=lo, high=hi, tolerance=0.0 if method == "optimize" else math.nan)
+        tol, dist = _tolerance(src, rp, where)
+        return Varied(p, low=lo, high=hi, tolerance=tol, distribution=dist)
     if "tolerance" not in rp:
         raise _fail(src, where, "needs 'tolerance' (the +- band, in the parameter's unit)")
+    tol, dist = _tolerance(src, rp, where)
+    if not math.isfinite(p.nominal):
+        raise _fail(src, where, "has no nominal value in the mechanism file to put a tolerance on")
+    return Varied(p, tolerance=tol, distribution=dist)
+
+
+def _tolerance(src: object, rp: dict, where: str) -> tuple[float, str]:
     tol = _number(src, rp, "tolerance", where)
     if tol < 0:
         raise _fail(src, f"{where} tolerance", f"must be >= 0, got {tol:g}")
     dist = rp.get("distribution", "uniform")
     if dist not in DISTRIBUTIONS:
         raise _fail(src, f"{where} distribution", f"must be one of {', '.join(DISTRIBUTIONS)}, got {dist!r}")
-    if not math.isfinite(p.nominal):
-        raise _fail(src, where, "has no nominal value in the mechanism file to put a tolerance on")
-    return Varied(p, tolerance=tol, distribution=dist)
+    return tol, dist
+
+
+def _fixed(src: object, mech: Mechanism, raw: Any) -> tuple[tuple[str, float], ...]:
+    """The ``[set]`` table: parameter path -> value (file units), applied before anything varies."""
+    if not isinstance(raw, dict):
+        raise _fail(src, "[set]", "must be a table of parameter path = value")
+    out = []
+    for k in raw:
+        try:
+            paths.resolve(mech, k)
+        except MjlinkError as e:
+            raise _fail(src, "[set]", str(e).split(": ", 1)[-1]) from None
+        out.append((k, _number(src, raw, k, "[set]")))
+    return tuple(out)
+
+
+def _optimize(src: object, raw: Any, names: list[str], n_params: int) -> Optimize:
+    where = "[optimize]"
+    if not isinstance(raw, dict):
+        raise _fail(src, where, "must be a table")
+    _keys(
+        src,
+        raw,
+        where,
+        [],
+        [
+            "objective",
+            "sense",
+            "pareto",
+            "points",
+            "population",
+            "generations",
+            "seed",
+            "tol",
+            "atol",
+            "init",
+            "flywheel_delta",
+        ],
+    )
+    if ("objective" in raw) == ("pareto" in raw):
+        raise _fail(
+            src,
+            where,
+            "give either 'objective' (a metric column, or a table column = weight) or 'pareto' = [two columns]",
+        )
+    objective: tuple[tuple[str, float], ...] = ()
+    pareto = None
+    if "objective" in raw:
+        obj = raw["objective"]
+        if isinstance(obj, str):
+            objective = ((_column(src, obj, names, f"{where} objective"), 1.0),)
+        elif isinstance(obj, dict) and obj:
+            objective = tuple(
+                (_column(src, c, names, f"{where} objective"), _number(src, obj, c, f"{where} objective")) for c in obj
+            )
+        else:
+            raise _fail(src, f"{where} objective", "must be a metric column or a table of column = weight")
+    else:
+        par = raw["pareto"]
+        if not isinstance(par, list) or len(par) != 2:
+            raise _fail(src, f"{where} pareto", "must be a list of two metric columns (both minimized)")
+        c1, c2 = (_column(src, c, names, f"{where} pareto") for c in par)
+        if c1 == c2:
+            raise _fail(src, f"{where} pareto", f"names '{c1}' twice")
+        pareto = (c1, c2)
+    sense = raw.get("sense", "min")
+    if sense not in SENSES or (pareto and "sense" in raw):
+        raise _fail(src, f"{where} sense", f"must be 'min' or 'max' (with 'objective'), got {sense!r}")
+    init = raw.get("init", "sobol")
+    if init not in INITS:
+        raise _fail(src, f"{where} init", f"must be one of {', '.join(INITS)}, got {init!r}")
+    tol = _number(src, raw, "tol", where, default=1e-3)
+    atol = _number(src, raw, "atol", where, default=0.0)
+    delta = _number(src, raw, "flywheel_delta", where, default=0.0)
+    if tol < 0 or atol < 0 or not 0 <= delta < 1:
+        raise _fail(src, where, "tol and atol must be >= 0 and flywheel_delta within [0, 1)")
+    return Optimize(
+        objective,
+        sense,
+        pareto,
+        _integer(src, raw, "points", where, 3, 64, default=7),
+        _integer(src, raw, "population", where, 5, 100_000, default=max(16, 10 * n_params)),
+        _integer(src, raw, "generations", where, 1, 100_000, default=200),
+        _integer(src, raw, "seed", where, 0, 2**63 - 1, default=0),
+        tol,
+        atol,
+        init,
+        delta,
+    )
+
+
+def _robust(src: object, raw: Any, seed: int) -> Robust:
+    where = "[robust]"
+    if not isinstance(raw, dict):
+        raise _fail(src, where, "must be a table")
+    _keys(src, raw, where, ["samples"], ["k", "seed"])
+    k = _number(src, raw, "k", where, default=2.0)
+    if k < 0:
+        raise _fail(src, f"{where} k", f"must be >= 0, got {k:g}")
+    return Robust(
+        _integer(src, raw, "samples", where, 2, 100_000),
+        k,
+        _integer(src, raw, "seed", where, 0, 2**63 - 1, default=seed),
+    )
 
 
 def _range(src: object, rp: dict, where: str) -> tuple[float, float]:
