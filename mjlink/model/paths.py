@@ -119,7 +119,9 @@ def catalogue(mech: Mechanism) -> dict[str, Param]:
     if dyn.motor is not None:
         for key, (scale, unit, positive) in _MOTOR.items():
             add(f"dynamics.motor.{key}", scale, unit, positive, getattr(dyn.motor, key))
-    if mech.steady is not None:
+    # Without a [steady] table the file's [dynamics.motor] is the steady-motion motor too (the
+    # same object): its paths are dynamics.motor.*, which move both.
+    if mech.steady is not None and mech.steady.motor is not dyn.motor:
         for key, (scale, unit, positive) in _MOTOR.items():
             add(f"steady.{key}", scale, unit, positive, getattr(mech.steady.motor, key))
         add("steady.target_delta", 1.0, "", True, mech.steady.target_delta)
@@ -225,6 +227,8 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
     if dyn:
         d = dataclasses.replace(d, **dyn)
     st = mech.steady
+    if motor and st is not None and st.motor is mech.dynamics.motor:
+        st = dataclasses.replace(st, motor=d.motor)
     if steady:
         assert st is not None
         m = {k: v for k, v in steady.items() if k in _MOTOR}
@@ -330,6 +334,9 @@ def file_text(mech: Mechanism, values: Mapping[Param, float], header: str, name:
         if old is None or old.nominal == p.nominal or (math.isnan(old.nominal) and math.isnan(p.nominal)):
             continue
         _set(raw, path, p.nominal)
+    if "counterweight" in raw:  # a [counterweight] table is whole (mass and radius required)
+        for key in ("mass", "radius", "angle"):
+            raw["counterweight"].setdefault(key, after[f"counterweight.{key}"].nominal)
     for p, v in values.items():  # a force's scale multiplies its numbers (the catalogue keeps 1)
         parts = p.path.split(".")
         if parts[:2] == ["dynamics", "force"]:

@@ -1,0 +1,262 @@
+"""Optimal synthesis (``[optimize]`` studies): known optima, constraints, determinism, robust
+mode, the Pareto front, the winner file's round trip through check and simulate."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjlink import study as api
+from mjlink import validation
+from mjlink.model import paths
+from mjlink.reference import synthesis
+from mjlink.study import optimize
+from mjlink.study.spec import StudyFileError, parse
+
+ROOT = Path(__file__).resolve().parent.parent
+CRANK_ROCKER = ROOT / "mechanisms" / "examples" / "crank_rocker.toml"
+
+
+def _study(body: str, mechanism: str | Path = CRANK_ROCKER, angles: int = 72):
+    return parse(f'[study]\nmechanism = "{mechanism}"\nname = "t"\nangles = {angles}\n' + body)
+
+
+# A target on the crank pin's circle (radius 12 mm, at a sampled crank angle): the crank length
+# that puts the pin's path through it is 12 mm exactly, with a miss of 0; the rocker pivot's x
+# does not move the pin and must not disturb the search.
+CIRCLE = """
+[optimize]
+objective = "path_error_B"
+population = 20
+generations = 120
+seed = 7
+tol = 0
+atol = 1e-10
+[[parameter]]
+path = "construct.B.length"
+range = [8.0, 20.0]
+[[parameter]]
+path = "ground.D.x"
+range = [46.0, 54.0]
+[[metric]]
+kind = "path_error"
+point = "B"
+targets = [[6.0, 10.392304845413264]]
+"""
+
+
+def test_known_optimum_is_found():
+    res = optimize.run(_study(CIRCLE))
+    assert res.winner[0] == pytest.approx(12.0, abs=1e-5)
+    assert res.objective == pytest.approx(0.0, abs=1e-5)
+    assert res.runs[0].history[-1][2] == pytest.approx(res.objective)
+
+
+def test_seeded_runs_are_identical_and_engine_independent():
+    st = _study(CIRCLE.replace("generations = 120", "generations = 15"))
+    a, b = optimize.run(st), optimize.run(st)
+    assert np.array_equal(a.winner, b.winner)
+    assert np.array_equal(a.archive.values, b.archive.values)
+    assert np.array_equal(a.archive.objective, b.archive.objective)
+    # Cut into other chunks (as on a cluster of 3 workers): the same bits.
+    c = optimize.run(st, workers=3)
+    assert np.array_equal(a.winner, c.winner) and np.array_equal(a.archive.objective, c.archive.objective)
+    other = optimize.run(
+        _study(CIRCLE.replace("generations = 120", "generations = 15").replace("seed = 7", "seed = 8"))
+    )
+    assert not np.array_equal(a.archive.values, other.archive.values)
+
+
+@pytest.mark.slow
+def test_dask_cluster_gives_the_same_optimum():
+    from distributed import Client, LocalCluster
+
+    st = _study(CIRCLE.replace("generations = 120", "generations = 10"))
+    here = optimize.run(st)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with Client(cluster) as client:
+            there = optimize.run(st, client=client, workers=2)
+    assert np.array_equal(here.winner, there.winner)
+    assert np.array_equal(here.archive.objective, there.archive.objective)
+
+
+# The head height (A to the needle-bar joint C) falls as lambda = r/l grows; the pressure-angle
+# limit caps lambda at what synth finds: the constrained optimum sits on the limit.
+HEAD = """
+[optimize]
+objective = "distance_A_C"
+population = 16
+generations = 80
+seed = 1
+tol = 0
+atol = 1e-9
+[[parameter]]
+path = "synthesis.lambda"
+range = [0.2, 0.6]
+[[metric]]
+kind = "distance"
+points = ["A", "C"]
+[[metric]]
+kind = "pressure_max"
+[[bound]]
+metric = "pressure_max"
+max = 40.0
+"""
+
+
+def test_constraint_is_active_and_never_violated():
+    st = _study(HEAD, "crank_slider", 360)
+    res = optimize.run(st)
+    lam = res.winner[0]
+    assert res.columns["pressure_max"] <= 40.0
+    assert res.columns["pressure_max"] == pytest.approx(40.0, abs=0.05)  # on the limit
+    # synth's largest admissible lambda for S = 45 mm, e = 15 mm, [theta] = 40 deg (0.37 on its
+    # 0.01 grid): the optimum is that bound.
+    assert synthesis.largest_ratio(0.045, 0.015, math.radians(40.0)) == 0.37
+    assert synthesis.largest_ratio(0.045, 0.015, math.radians(40.0), step=1e-3) == pytest.approx(lam, abs=1e-3)
+    feasible = res.archive.violation <= 0
+    assert res.objective == pytest.approx(res.archive.objective[feasible].min())
+    assert res.objective > np.nanmin(res.archive.objective[~feasible])  # infeasible ones went lower
+
+
+def test_nothing_feasible_is_an_error_not_a_design():
+    st = _study(
+        HEAD.replace("max = 40.0", "max = 5.0").replace("generations = 80", "generations = 3"), "crank_slider", 72
+    )
+    with pytest.raises(optimize.OptimizeError, match="no feasible design.*pressure_max <= 5"):
+        optimize.run(st)
+
+
+def test_robust_winner_keeps_a_margin_the_nominal_one_lacks():
+    robust = HEAD.replace("range = [0.2, 0.6]", "range = [0.2, 0.6]\ntolerance = 0.01").replace(
+        "[[parameter]]", "[robust]\nsamples = 8\nk = 2.0\n\n[[parameter]]", 1
+    )
+    nominal_st = _study(HEAD.replace("generations = 80", "generations = 40"), "crank_slider", 72)
+    robust_st = _study(robust.replace("generations = 80", "generations = 40"), "crank_slider", 72)
+    nom, rob = optimize.run(nominal_st), optimize.run(robust_st)
+    assert rob.winner[0] < nom.winner[0] - 0.002
+    # Judged under the tolerances, the nominal optimum fails the bound; the robust one holds it.
+    ev = optimize.Evaluator(robust_st)
+    s = ev.score(np.stack([nom.winner, rob.winner]))
+    assert s.violation[0] > 0 and s.violation[1] == 0
+
+
+def test_pareto_front_of_the_crank_slider():
+    body = """
+[optimize]
+pareto = ["accel_peak_C", "distance_A_C"]
+points = 4
+population = 12
+generations = 25
+seed = 2
+[[parameter]]
+path = "synthesis.lambda"
+range = [0.15, 0.5]
+[[metric]]
+kind = "acceleration_peak"
+point = "C"
+[[metric]]
+kind = "distance"
+points = ["A", "C"]
+[[metric]]
+kind = "pressure_max"
+[[bound]]
+metric = "pressure_max"
+max = 40.0
+"""
+    res = optimize.run(_study(body, "crank_slider", 180))
+    assert res.front is not None and res.front_columns is not None
+    a, d = res.front_columns["accel_peak_C"], res.front_columns["distance_A_C"]
+    assert len(a) >= 3 and np.all(np.diff(a) > 0) and np.all(np.diff(d) < 0)  # a trade-off, sorted
+    assert np.all(res.front_columns["pressure_max"] <= 40.0)
+    assert any(np.array_equal(res.winner, x) for x in res.front)
+    # The low-head end is the pressure-angle limit: lambda there is synth's bound.
+    assert res.front[-1, 0] == pytest.approx(0.379, abs=2e-3)
+
+
+def test_winner_file_round_trips_through_check_and_simulate(tmp_path):
+    from mjlink import pipeline
+    from mjlink.pipeline import optimize as pipe
+
+    st = _study(CIRCLE.replace("generations = 120", "generations = 30"))
+    out = pipe.run(st, tmp_path, workers=0, plots=False, progress=False)
+    assert out.verified.passed.all()
+    text = out.winner_file.read_text()
+    assert text.startswith("# winner of the optimization study 't'")
+    mech = validation.get(out.winner_file)
+    assert mech.name == "t_winner"
+    assert mech.input_crank.length == pytest.approx(out.result.winner[0] * 1e-3, rel=1e-15)
+    report = validation.check(mech)
+    assert report.ok
+    res = pipeline.run(mech, tmp_path / "sim", pipeline.Options(dynamics=True, plots=False, video=False, loads=True))
+    assert not res.failures
+    assert res.agreements[0].position_um < 0.1  # the kinematic run: as the nominal file
+
+
+def test_file_text_writes_every_kind_of_path(tmp_path):
+    mech = api.mechanism("takeup_eyelets")
+    values = {
+        "ground.P4.x": -36.5,
+        "ground.P1.z": 1.5,  # a 2-D point gains a z
+        "construct.P5.angle": 185.0,
+        "construct.P6.z": -7.0,
+        "links.coupler.mass": 13.0,
+        "input.phi0": 12.0,
+        "thread.elongation": 5.0,
+        "dynamics.motor.stall_torque": 0.07,
+        "dynamics.force.P5.scale": 2.0,
+        "counterweight.mass": 3.0,
+        "counterweight.angle": 170.0,
+    }
+    vals = {paths.resolve(mech, k): v for k, v in values.items()}
+    f = tmp_path / "w.toml"
+    f.write_text(paths.file_text(mech, vals, "a test", name="w"))
+    got = validation.get(f, full_turn=False)
+    want = paths.apply(mech, vals)
+    cat_got, cat_want = paths.catalogue(got), paths.catalogue(want)
+    for k in cat_want:
+        if not k.startswith("dynamics.force"):
+            assert cat_got[k].nominal == pytest.approx(cat_want[k].nominal, rel=1e-14, abs=1e-14), k
+    raw = tomllib.loads(f.read_text())
+    assert raw["dynamics"]["force"][0]["values"][1] == [0.0, -4.0, 0.0]
+    assert got.name == "w"
+
+
+@pytest.mark.parametrize(
+    ("body", "match"),
+    [
+        ("[sampling]\nmethod = 'grid'\n[optimize]\nobjective = 'path_error_B'\n", "no \\[sampling\\]"),
+        ("[optimize]\nobjective = 'path_eror_B'\n", "did you mean 'path_error_B'"),
+        ("[optimize]\nobjective = 'path_error_B'\npareto = ['a', 'b']\n", "either 'objective'"),
+        ("[optimize]\nobjective = 'path_error_B'\n[robust]\nsamples = 4\n", "needs a 'tolerance'"),
+        ("[robust]\nsamples = 4\n", "add an \\[optimize\\] table"),
+        ("[optimize]\nobjective = 'path_error_B'\nsense = 'down'\n", "'min' or 'max'"),
+        ("[optimize]\nobjective = 'path_error_B'\n[verify]\nmujoco = 'all'\n", "verifies its winner"),
+        ("[set]\n'ground.Q.x' = 1.0\n[optimize]\nobjective = 'path_error_B'\n", "unknown parameter path"),
+    ],
+)
+def test_bad_optimize_tables_are_one_line_errors(body, match):
+    rest = """
+[[parameter]]
+path = "construct.B.length"
+range = [8.0, 20.0]
+[[metric]]
+kind = "path_error"
+point = "B"
+targets = [[6.0, 10.0]]
+"""
+    with pytest.raises(StudyFileError, match=match) as e:
+        _study(body + rest)
+    assert "\n" not in str(e.value)
+
+
+def test_optimize_needs_ranges():
+    with pytest.raises(StudyFileError, match="needs 'range'"):
+        _study(
+            "[optimize]\nobjective = 'path_error_B'\n[[parameter]]\npath = 'construct.B.length'\n"
+            "[[metric]]\nkind = 'path_error'\npoint = 'B'\ntargets = [[6.0, 10.0]]\n"
+        )
