@@ -127,7 +127,7 @@ def test_nothing_feasible_is_an_error_not_a_design():
     st = _study(
         HEAD.replace("max = 40.0", "max = 5.0").replace("generations = 80", "generations = 3"), "crank_slider", 72
     )
-    with pytest.raises(optimize.OptimizeError, match="no feasible design.*pressure_max <= 5"):
+    with pytest.raises(optimize.OptimizeError, match=r"no feasible design.*pressure_max <= 5"):
         optimize.run(st)
 
 
