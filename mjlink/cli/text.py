@@ -329,7 +329,7 @@ def optimization(res: OptimizeResult) -> str:
         f"MuJoCo: {agree} of {len(designs)} designs agree (winner{' and front' if s['front'] else ''}); worst position error {worst:.3g} um"
     )
     lines.append(
-        f"wrote {res.out_dir}/ (winner.toml, {', '.join(p.name for p in res.files if p.name != 'winner.toml')[:200]}) in {s['timing_s']['total']:.1f} s"
+        f"wrote {res.out_dir}/ (winner.toml, {', '.join(p.name for p in res.files if p.name != 'winner.toml')}) in {s['timing_s']['total']:.1f} s"
     )
     lines.append(f"next: python -m mjlink simulate {res.winner_file}")
     return "\n".join(lines)

@@ -227,7 +227,7 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
     if dyn:
         d = dataclasses.replace(d, **dyn)
     st = mech.steady
-    if motor and st is not None and st.motor is mech.dynamics.motor:
+    if motor and st is not None and d.motor is not None and st.motor is mech.dynamics.motor:
         st = dataclasses.replace(st, motor=d.motor)
     if steady:
         assert st is not None

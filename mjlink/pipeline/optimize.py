@@ -400,17 +400,19 @@ def _plots(res: _opt.Result, ver: Verified, stage: Path) -> list[Path]:
     loads = _metrics.Loads()
     names = [c for c, _ in opt.objective] + list(opt.pareto or ())
     curves = []
+    traced: list[str] = []  # the points the objective is about, their paths drawn
     with np.errstate(all="ignore"):
         for m in st.metrics:
             if any(c.name in names for c in m.columns()):
                 cv = m.curve(b, loads)
                 if cv is not None:
                     curves.append(cv)
+                traced += [p for p in (m.point, *getattr(m, "pair", ())) if p and p not in st.mechanism.ground]
     targets = {m.point: m.targets * 1e3 for m in st.metrics if hasattr(m, "targets")}
     title = f"{st.name}: {st.title or st.mechanism.title}"
     out: list[Path | None] = [
         po.convergence(title, res, stage),
-        po.before_after(title, st, b, feas, curves, targets, res, stage),
+        po.before_after(title, st, b, feas, curves, targets, traced, res, stage),
     ]
     if res.front is not None:
         out.append(po.pareto(title, res, ver, stage))

@@ -30,35 +30,47 @@ def _unit(u: str) -> str:
     return {"m/s^2": "m/s²", "N*m": "N·m", "kg*m^2": "kg·m²"}.get(u, u)
 
 
+def _title(title: str, what: str, width: int = 90) -> str:
+    import textwrap
+
+    return "\n".join([*textwrap.wrap(user_text(title), width), *textwrap.wrap(user_text(what), width)])
+
+
 def convergence(title: str, res: Result, out_dir: Path) -> Path:
-    """``convergence.png``: the best feasible objective so far against the evaluations, one
-    line per run (a Pareto study's runs each minimize their own objective)."""
+    """``convergence.png``: the best feasible objective so far against the evaluations. One
+    run: its value (log scale where positive). A Pareto study's runs minimize different
+    columns, so each is shown as its excess over its own final value, relative, on a log scale."""
     st = res.study
     opt = st.optimize
     assert opt is not None
-    fig, ax = plt.subplots(figsize=(8.0, 4.6), layout="constrained")
+    many = len(res.runs) > 1
+    fig, ax = plt.subplots(figsize=(8.4, 5.2 if many else 4.6), layout="constrained")
     sign = -1.0 if (opt.sense == "max" and not opt.pareto) else 1.0
     positive = True
     for k, r in enumerate(res.runs):
-        h = np.array(r.history, dtype=float).reshape(-1, 3)
+        h = np.array(r.history, dtype=float).reshape(-1, 4)
         if not len(h):
             continue
         y = sign * h[:, 2]
+        if many:
+            final = y[np.isfinite(y)][-1] if np.isfinite(y).any() else np.nan
+            y = np.maximum(np.abs(y / final - 1.0), 1e-9)
         positive &= bool(np.all(y[np.isfinite(y)] > 0))
         ax.step(h[:, 1], y, where="post", lw=1.6 if k == 0 else 1.1, label=user_text(r.name), color=f"C{k % 10}")
-    if positive and not opt.pareto and opt.sense == "min":
+    if many or (positive and opt.sense == "min"):
         ax.set_yscale("log")
     ax.set_xlabel("evaluations (candidates; a robust candidate counts once)")
-    what = opt.label if not opt.pareto else "each run's objective"
-    ax.set_ylabel(user_text(f"best feasible so far: {what}"))
-    ax.grid(True, alpha=0.3)
-    per = f"{opt.population} candidates per generation"
-    rb = f", robust: {st.robust.samples} tolerance samples each" if st.robust else ""
-    ax.set_title(
-        f"{user_text(title)}\nconvergence of differential evolution\n({per}{rb}, seed {opt.seed})", fontsize=10
+    ax.set_ylabel(
+        "best feasible so far: relative excess over the run's final value"
+        if many
+        else user_text(f"best feasible so far: {opt.label}")
     )
-    if len(res.runs) > 1:
-        ax.legend(fontsize=7.5, loc="upper right", ncol=1 if len(res.runs) < 6 else 2)
+    ax.grid(True, alpha=0.3)
+    rb = f", robust: {st.robust.samples} tolerance samples each" if st.robust else ""
+    what = f"convergence of differential evolution ({opt.population} candidates per generation{rb}, seed {opt.seed})"
+    ax.set_title(_title(title, what), fontsize=10)
+    if many:
+        fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", fontsize=7.5, ncol=2)
     return save(fig, out_dir, "convergence.png")
 
 
@@ -81,16 +93,19 @@ def before_after(
     feasible: np.ndarray,
     curves: list[Curve],
     targets: dict[str, np.ndarray],
+    points: list[str],
     res: Result,
     out_dir: Path,
 ) -> Path:
     """``before_after.png``: the mechanism file's design (grey, dashed) and the optimum (blue)
     drawn at phi0 with the paths of the points that matter; beside it each objective's curve
-    over the cycle for both, with its target (a demand table) where it has one."""
+    over the cycle for both, with its target (a demand table) where it has one. ``points``
+    the objective's points, whose paths are drawn (with the thread's and the targets')."""
     mech = st.mechanism
-    traced = list(dict.fromkeys([*targets, *[p for p in (mech.thread or ()) if p not in mech.ground]]))
-    if not traced:
-        traced = [mech.steps[-1].point]
+    traced = list(dict.fromkeys([*points, *targets, *[p for p in (mech.thread or ()) if p not in mech.ground]]))
+    if not traced:  # the last point built that is not a centre of mass
+        coms = {l.com for l in mech.links}
+        traced = [next(s.point for s in reversed(mech.steps) if s.point not in coms)]
     n = max(1, len(curves))
     if curves:
         fig = plt.figure(figsize=(12.0, max(5.0, 2.6 * n)), layout="constrained")
@@ -128,7 +143,7 @@ def before_after(
     assert opt is not None
     obj = "" if opt.pareto else f": {res.objective:.5g}"
     nom = "" if feasible[0] else " (the mechanism file's design is infeasible here: not drawn)"
-    fig.suptitle(f"{user_text(title)}\n{user_text(f'before and after: {opt.label}{obj}{nom}')}", fontsize=10)
+    fig.suptitle(_title(title, f"before and after: {opt.label}{obj}{nom}", 120), fontsize=10)
     return save(fig, out_dir, "before_after.png")
 
 
@@ -159,7 +174,6 @@ def pareto(title: str, res: Result, ver: Verified, out_dir: Path) -> Path | None
     ax.legend(fontsize=8)
     bounds = "; ".join(b.text() for b in st.bounds)
     ax.set_title(
-        f"{user_text(title)}\n{user_text('Pareto front: minimize both' + (f' subject to {bounds}' if bounds else ''))}",
-        fontsize=10,
+        _title(title, "Pareto front: minimize both" + (f" subject to {bounds}" if bounds else "")), fontsize=10
     )
     return save(fig, out_dir, "pareto.png")

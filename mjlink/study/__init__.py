@@ -13,6 +13,10 @@ The Python API (the ``study`` command is a thin layer over it)::
     checks = study.verify([v, mech])                          # MuJoCo, one batched rollout
     out = study.run("takeup_tolerance", client=my_dask_client)  # a whole study file, written
 
+    from mjlink.study import optimize                         # optimal synthesis ([optimize])
+    res = optimize.run(study.load("crank_slider_pareto"))     # no files: res.winner, res.front
+    out = study.run("takeup_eyelets_demand")                  # searched, verified, winner.toml written
+
 Parameter paths and their units: :mod:`mjlink.model.paths`; metrics:
 :mod:`mjlink.analysis.metrics`; the study file: ``studies/README.md``.
 """
@@ -120,7 +124,8 @@ def verify(mechs: Sequence[Mechanism], *, threads: int | None = None) -> list[Ve
 
 
 def run(study: Study | str | Path, out_root: Path | str = Path("renders"), **kw: Any) -> StudyResult:
-    """Run a study and write its outputs (see :func:`mjlink.pipeline.study.run` for the options:
+    """Run a study (an ``[optimize]`` one returns a
+    :class:`~mjlink.pipeline.optimize.OptimizeResult`) and write its outputs (see :func:`mjlink.pipeline.study.run` for the options:
     ``client``, ``scheduler``, ``workers``, ``plots``, ``force``, ``progress``)."""
     from ..pipeline.study import run as _run
 

@@ -78,7 +78,8 @@ class Run:
     """One differential-evolution run: its best feasible candidate ``x`` (P,) and objective
     ``f`` (what was minimized), generations and evaluations, whether scipy's convergence test
     stopped it, and ``history``: (generation, evaluations so far, best feasible objective so
-    far) per generation (NaN until a feasible candidate appears)."""
+    far, wall seconds since the run started) per generation (NaN until a feasible candidate
+    appears)."""
 
     name: str
     x: np.ndarray
@@ -86,7 +87,7 @@ class Run:
     generations: int
     evaluations: int
     converged: bool
-    history: list[tuple[int, int, float]] = field(default_factory=list)
+    history: list[tuple[int, int, float, float]] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -296,6 +297,7 @@ def _de(
     hi = np.array([v.high for v in st.varied])
     P = len(lo)
     cache: dict[bytes, tuple[float, float]] = {}
+    t0 = time.perf_counter()
     run = Run(name, np.full(P, np.nan), math.inf, 0, 0, False)
     gen = -1
 
@@ -318,7 +320,8 @@ def _de(
                 j = ok[np.argmin(f[ok])]
                 if f[j] < run.f:
                     run.f, run.x = float(f[j]), Xn[j].copy()
-            run.history.append((gen, run.evaluations, run.f if math.isfinite(run.f) else math.nan))
+            best = run.f if math.isfinite(run.f) else math.nan
+            run.history.append((gen, run.evaluations, best, time.perf_counter() - t0))
             run.generations = gen
             if progress:
                 progress(name, gen, opt.generations, run.f)
