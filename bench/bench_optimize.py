@@ -35,7 +35,6 @@ PATHS = (
     "construct.B.length",
     "construct.C.length_a",
     "construct.C.length_b",
-    "ground.D.x",
     "construct.E.length",
     "construct.E.angle",
 )
@@ -54,6 +53,8 @@ def fourbar_study(budget: int, population: int, seed: int):
 mechanism = "{CRANK_ROCKER}"
 name = "fourbar_path"
 angles = {peer.SAMPLES}
+[set]
+"ground.D.x" = {peer.D_X!r}
 [optimize]
 objective = "path_error_E"
 population = {population}
@@ -83,8 +84,8 @@ def same_problem(st, n: int = 200, seed: int = 0) -> tuple[int, float]:
     return int(both.sum()), float(np.max(np.abs(ours[both] - theirs[both]))) if both.any() else float("nan")
 
 
-def mjlink_fourbar(budget: int, seed: int, threshold: float) -> dict:
-    st = fourbar_study(budget, 60, seed)
+def mjlink_fourbar(budget: int, seed: int, threshold: float, population: int) -> dict:
+    st = fourbar_study(budget, population, seed)
     c0, t0 = time.process_time(), time.perf_counter()
     res = optimize.run(st)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -122,6 +123,7 @@ def seeds(quick: bool) -> list[str]:
 
         assert rb.optimize is not None
         rb = dataclasses.replace(rb, optimize=dataclasses.replace(rb.optimize, generations=10))
+    assert rb.robust is not None
     with (
         LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
         Client(cluster) as client,
@@ -146,6 +148,15 @@ def seeds(quick: bool) -> list[str]:
         )
     a, b = times["in process"][0], times["Dask 2 workers"][0]
     rows.append(f"  Dask 2 workers vs in process: {a / b:.2f}x faster")
+    # Both winners judged the robust way (the same 16 tolerance samples): the nominal optimum
+    # is good only at its nominal dimensions.
+    sc = optimize.Evaluator(rb).score(np.stack([res.winner, r.winner]))
+    for name, i in (("nominal winner", 0), ("robust winner", 1)):
+        how = "meets" if sc.violation[i] <= 0 else f"violates ({sc.reason[i]})"
+        rows.append(
+            f"  {name} under the tolerance samples: mean + {rb.robust.k:g} std of the objective "
+            f"{sc.objective[i]:.4f} mm; {how} transmission_min >= 40 in every sample"
+        )
     return rows
 
 
@@ -172,7 +183,10 @@ def main() -> None:
         f"{'optimizer':<34} {'evals':>7} {'wall s':>8} {'CPU s':>8} {'evals/s':>9} {'best mm':>10} {'to threshold':>22}"
     )
     print(head)
-    rows = {"mjlink (scipy DE, vectorized)": mjlink_fourbar(budget, 1, threshold)}
+    rows = {
+        "mjlink DE, 60 per generation": mjlink_fourbar(budget, 1, threshold, 60),
+        "mjlink DE, 200 per generation": mjlink_fourbar(budget, 1, threshold, 200),
+    }
     for method in peer.METHODS:
         rows[f"pylinkage {method}"] = peer.run(method, seed=1, budget=budget, threshold=threshold)
     for name, r in rows.items():
@@ -185,13 +199,14 @@ def main() -> None:
             f"{name:<34} {r['evaluations']:>7} {r['wall_s']:>8.2f} {r['cpu_s']:>8.2f} {r['evals_per_s']:>9.0f} "
             f"{r['best']:>10.4g} {reach:>22}"
         )
-    ours = rows["mjlink (scipy DE, vectorized)"]
-    for name, r in rows.items():
-        if name.startswith("pylinkage"):
-            line = f"mjlink vs {name}: {ours['evals_per_s'] / r['evals_per_s']:.1f}x evaluations per second"
-            if ours["wall_to_threshold_s"] and r["wall_to_threshold_s"]:
-                line += f", {r['wall_to_threshold_s'] / ours['wall_to_threshold_s']:.1f}x faster to {threshold} mm"
-            print(line)
+    for mine in ("mjlink DE, 60 per generation", "mjlink DE, 200 per generation"):
+        ours = rows[mine]
+        for name, r in rows.items():
+            if name.startswith("pylinkage"):
+                line = f"{mine} vs {name}: {ours['evals_per_s'] / r['evals_per_s']:.1f}x evaluations per second"
+                if ours["wall_to_threshold_s"] and r["wall_to_threshold_s"]:
+                    line += f", {r['wall_to_threshold_s'] / ours['wall_to_threshold_s']:.1f}x faster to {threshold} mm"
+                print(line)
 
 
 if __name__ == "__main__":

@@ -260,3 +260,17 @@ def test_optimize_needs_ranges():
             "[optimize]\nobjective = 'path_error_B'\n[[parameter]]\npath = 'construct.B.length'\n"
             "[[metric]]\nkind = 'path_error'\npoint = 'B'\ntargets = [[6.0, 10.0]]\n"
         )
+
+
+def test_infeasible_rows_do_not_touch_feasible_ones():
+    """Kinematic metrics are computed on the batch as it is (no safe stand-in for the rows that
+    do not assemble): a feasible variant's numbers are the same bits as on its own."""
+    mech = api.mechanism(CRANK_ROCKER)
+    lengths = np.array([15.0, 30.0, 14.0, 40.0, 16.0])  # a crank of 30 or 40 mm cannot turn
+    mets = [{"kind": "stroke", "point": "E"}, {"kind": "dwell", "point": "E", "within": 0.5}, {"kind": "transmission_min"}]
+    all_rows = api.evaluate(mech, {"construct.B.length": lengths}, mets)
+    assert list(all_rows.feasible) == [True, False, True, False, True]
+    alone = api.evaluate(mech, {"construct.B.length": lengths[all_rows.feasible]}, mets)
+    for c, v in all_rows.columns.items():
+        assert np.array_equal(v[all_rows.feasible], alone.columns[c]), c
+        assert np.all(np.isnan(v[~all_rows.feasible]))

@@ -81,6 +81,9 @@ class Metric(ABC):
     needs_point: ClassVar[bool] = False
     options: ClassVar[tuple[str, ...]] = ()
     doc: ClassVar[str] = ""
+    # Computed from dynamics (kinetostatics, steady motion): rows that do not assemble could
+    # make such a batch singular, so their variants are evaluated on a safe stand-in.
+    needs_loads: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kw: Any) -> None:
         super().__init_subclass__(**kw)
@@ -401,6 +404,7 @@ def _dead_points(b: Batch) -> list[Any]:
 # -------------------------------------------------------------------------------- loads
 class _AtSpeed(Metric):
     options: ClassVar[tuple[str, ...]] = ("speed",)
+    needs_loads = True
 
     def read(self, raw: dict[str, Any]) -> None:
         self.speed = self._speed(raw)
@@ -554,6 +558,7 @@ class AccelerationPeak(_AtSpeed):
 
     kind = "acceleration_peak"
     needs_point = True
+    needs_loads = False
     options: ClassVar[tuple[str, ...]] = ("speed", "axis")
 
     def read(self, raw: dict[str, Any]) -> None:
@@ -704,6 +709,7 @@ class SpeedFluctuation(Metric):
     :func:`mjlink.reference.batch.steady_delta`)."""
 
     kind = "speed_fluctuation"
+    needs_loads = True
 
     def read(self, raw: dict[str, Any]) -> None:
         if self.mech.steady is None and self.mech.dynamics.motor is None:

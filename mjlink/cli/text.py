@@ -306,7 +306,9 @@ def optimization(res: OptimizeResult) -> str:
         f"{o['population']} per generation, seed {o['seed']}; {s['engine']}",
     ]
     if w["objective"] is not None:
-        lines.append(f"winner: objective {w['objective']:.6g}")
+        f = s["mechanism_file_design"]["objective"]
+        was = f"{f:.6g}" if f is not None else "infeasible or out of bounds"
+        lines.append(f"winner: objective {w['objective']:.6g} (the mechanism file's design: {was})")
     elif s["front"]:
         lines.append(f"Pareto front: {len(s['front'])} designs; winner: the knee")
     for p in s["parameters"]:

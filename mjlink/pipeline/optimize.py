@@ -330,6 +330,10 @@ def summary(res: _opt.Result, ver: Verified, fly: Flywheel | None, command: str 
         "nominal_in_range": bool(
             np.all((nominal >= [v.low for v in st.varied]) & (nominal <= [v.high for v in st.varied]))
         ),
+        "mechanism_file_design": {
+            "objective": None if opt.pareto or not np.isfinite(res.file_objective) else res.file_objective,
+            "metrics": {c.name: res.file_columns[c.name] for c in st.columns},
+        },
         "winner": {
             "objective": None if opt.pareto else res.objective,
             "metrics": {

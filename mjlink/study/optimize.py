@@ -112,7 +112,8 @@ class Result:
     unit, the sense as written); ``columns`` its metric columns (robust: mean + k std);
     ``nominal_columns`` the same design's columns without deviations; ``front`` (F, P) the
     Pareto designs with ``front_columns`` (F,) each (None for one objective), sorted by the
-    first column; ``runs``; ``archive``; ``evaluations`` variants evaluated (a robust
+    first column; ``file_objective`` and ``file_columns`` the mechanism file's own design,
+    scored the same way (NaN where it is infeasible or outside a bound); ``runs``; ``archive``; ``evaluations`` variants evaluated (a robust
     candidate counts its samples); ``engine``; ``timing`` wall seconds per stage.
     """
 
@@ -123,6 +124,8 @@ class Result:
     nominal_columns: dict[str, float]
     front: np.ndarray | None
     front_columns: dict[str, np.ndarray] | None
+    file_objective: float
+    file_columns: dict[str, float]
     runs: list[Run]
     archive: Archive
     evaluations: int
@@ -441,6 +444,11 @@ def run(
         value = float(final.objective[0]) * (-1.0 if opt.sense == "max" else 1.0)
     else:
         value = math.nan
+    file_values = np.array([[p.nominal for p in study.params]])
+    fs0 = ev.score(file_values)
+    file_value = math.nan
+    if opt.pareto is None and fs0.violation[0] <= 0:
+        file_value = float(fs0.objective[0]) * (-1.0 if opt.sense == "max" else 1.0)
     front_cols = None
     if front is not None:
         fs = ev.score(front)
@@ -453,6 +461,8 @@ def run(
         {c: float(v[0]) for c, v in nominal.columns.items()},
         front,
         front_cols,
+        file_value,
+        {c: float(v[0]) for c, v in fs0.columns.items()},
         runs,
         book.archive(study),
         ev.evaluations,

@@ -56,14 +56,29 @@ def nominal_values(study: Study) -> np.ndarray:
     return np.array([[p.nominal for p in study.params]])
 
 
+_NOMINAL: list[tuple[Study, _batch.Batch]] = []  # the last few studies' nominal batches
+
+
+def _nominal(study: Study) -> _batch.Batch:
+    """The nominal design's batch, solved once per study in this process (an optimization
+    evaluates many small generations of the same study)."""
+    for st, b in _NOMINAL:
+        if st is study:
+            return b
+    b = _batch.solve_batch(study.mechanism, study.params, nominal_values(study), study.per_turn)
+    _NOMINAL.insert(0, (study, b))
+    del _NOMINAL[4:]
+    return b
+
+
 def reference_chunk(study: Study, values: np.ndarray) -> Evaluated:
     """Feasibility and every metric of the variants ``values`` ((n, P), file units)."""
     _keep_freed_memory()
     params = study.params
-    nominal = _batch.solve_batch(study.mechanism, params, nominal_values(study), study.per_turn)
+    nominal = _nominal(study)
     b = _batch.solve_batch(study.mechanism, params, values, study.per_turn)
     f = _metrics.feasibility(b)
-    if not f.feasible.all():
+    if not f.feasible.all() and any(m.needs_loads for m in study.metrics):
         # Loads on a geometry that does not close can be singular: infeasible variants are
         # evaluated as the nominal design and their columns blanked.
         safe = np.where(f.feasible[:, None], values, nominal_values(study))
