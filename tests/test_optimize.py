@@ -267,7 +267,11 @@ def test_infeasible_rows_do_not_touch_feasible_ones():
     do not assemble): a feasible variant's numbers are the same bits as on its own."""
     mech = api.mechanism(CRANK_ROCKER)
     lengths = np.array([15.0, 30.0, 14.0, 40.0, 16.0])  # a crank of 30 or 40 mm cannot turn
-    mets = [{"kind": "stroke", "point": "E"}, {"kind": "dwell", "point": "E", "within": 0.5}, {"kind": "transmission_min"}]
+    mets = [
+        {"kind": "stroke", "point": "E"},
+        {"kind": "dwell", "point": "E", "within": 0.5},
+        {"kind": "transmission_min"},
+    ]
     all_rows = api.evaluate(mech, {"construct.B.length": lengths}, mets)
     assert list(all_rows.feasible) == [True, False, True, False, True]
     alone = api.evaluate(mech, {"construct.B.length": lengths[all_rows.feasible]}, mets)

@@ -200,6 +200,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
         except (OSError, TimeoutError) as e:
             raise EngineError(f"cannot reach the Dask scheduler at {address}: {e}") from None
         try:
+            client.run(_warm)  # mjlink importable on every worker, its allocator settings made
             n = len(client.scheduler_info()["workers"])
             yield client, f"Dask cluster at {address} ({n} workers)"
         finally:
@@ -212,6 +213,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
         processes=True,
         dashboard_address=None,
         silence_logs=logging.ERROR,
+        env={"MALLOC_ARENA_MAX": "1"},  # see tasks._keep_freed_memory: set before the process starts
     )
     client = Client(cluster)
     try:
@@ -223,8 +225,10 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
 
 
 def _warm() -> None:
-    import mjlink.sim.batch
-    import mjlink.study.tasks  # noqa: F401
+    import mjlink.sim.batch  # noqa: F401
+    import mjlink.study.tasks
+
+    mjlink.study.tasks._keep_freed_memory()
 
 
 # --------------------------------------------------------------------------------- running

@@ -52,7 +52,7 @@ from .spec import Study
 from .tasks import Evaluated, reference_chunk
 
 INFEASIBLE = 1.0e6  # the violation of a candidate that does not assemble (bounds add relative excesses)
-CHUNK_MAX = 256  # rows per reference task
+CHUNK_ROWS = 100_000  # variants x crank angles per reference task, at most
 
 
 class OptimizeError(MjlinkError):
@@ -176,7 +176,11 @@ class Evaluator:
         from .engine import _map
 
         n = len(X)
-        size = max(1, min(CHUNK_MAX, -(-n // self.workers)))
+        # Equal chunks, a multiple of the workers in number, none above CHUNK_ROWS rows of
+        # variants x angles (the reference's memory per task).
+        cap = max(1, CHUNK_ROWS // self.study.per_turn)
+        count = self.workers * max(1, -(-n // (self.workers * cap)))
+        size = max(1, -(-n // count))
         parts = [(i, min(i + size, n)) for i in range(0, n, size)]
         got: dict[tuple[int, int], Evaluated] = {}
         t = time.perf_counter()
