@@ -225,7 +225,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
 
 
 def _warm() -> None:
-    import mjlink.sim.batch  # noqa: F401
+    import mjlink.sim.batch
     import mjlink.study.tasks
 
     mjlink.study.tasks._keep_freed_memory()
