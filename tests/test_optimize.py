@@ -278,3 +278,14 @@ def test_infeasible_rows_do_not_touch_feasible_ones():
     for c, v in all_rows.columns.items():
         assert np.array_equal(v[all_rows.feasible], alone.columns[c]), c
         assert np.all(np.isnan(v[~all_rows.feasible]))
+
+
+def test_winner_name_of_a_long_study_name_is_valid(tmp_path):
+    from mjlink.pipeline import optimize as pipe
+
+    body = CIRCLE.replace("generations = 120", "generations = 3")
+    st = parse(
+        f'[study]\nmechanism = "{CRANK_ROCKER}"\nname = "a_rather_long_study_name_for_sur"\nangles = 72\n' + body
+    )
+    out = pipe.run(st, tmp_path, workers=0, plots=False, progress=False)
+    assert validation.get(out.winner_file).name == "a_rather_long_study_name_winner"

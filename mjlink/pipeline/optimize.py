@@ -224,7 +224,9 @@ def winner_text(st: Study, res: _opt.Result, x: np.ndarray, ver: Verified, row: 
     lines.append(verdict + ".")
     lines.append("Units: lengths mm, angles deg, masses g, inertias kg*m^2, speeds rad/s. The base file's comments")
     lines.append("are not carried over: see it for the [choice]s behind each number.")
-    name = f"{st.name}_winner" if row == 0 else f"{st.name}_pareto_{row:02d}"
+    # A mechanism name has at most 32 characters: the study's name is cut to leave room.
+    tail = "_winner" if row == 0 else f"_pareto_{row:02d}"
+    name = st.name[: 32 - len(tail)].rstrip("_") + tail
     return paths.file_text(base, values, "\n".join(lines), name=name)
 
 
