@@ -606,8 +606,9 @@ COMMANDS: tuple[Command, ...] = (
     ),
     Command(
         "study",
-        "a design study: parameter grid, quasi-random sample or tolerance study, on Dask",
+        "a design study (parameter grid, quasi-random sample, tolerance study) or an optimal synthesis, on Dask",
         "examples:\n  python -m mjlink study takeup_tolerance\n"
+        "  python -m mjlink study takeup_eyelets_demand                 # [optimize]: writes winner.toml\n"
         "  python -m mjlink study crank_slider_grid --workers 0          # in this process\n"
         "  python -m mjlink study my_study.toml --scheduler tcp://10.0.0.5:8786",
         _study_arguments,
