@@ -34,6 +34,7 @@ import numpy as np
 from ..errors import MjlinkError
 from ..output import atomic_path
 from .spec import Study
+from . import tasks
 from .tasks import Evaluated, Verified, mujoco_chunk, reference_chunk
 
 REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
@@ -207,14 +208,18 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
             client.close()
         return
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(
-        n_workers=n,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        silence_logs=logging.ERROR,
-        env={"MALLOC_ARENA_MAX": "1"},  # see tasks._keep_freed_memory: set before the process starts
-    )
+    import dask
+
+    # glibc reads these when a process starts (see tasks._keep_freed_memory): the nanny's
+    # pre-spawn environment is the only place to set them before a worker exists.
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": tasks.MALLOC_ENV}):
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
     client = Client(cluster)
     try:
         client.run(_warm)  # imports on every worker now, not inside the first timed task

@@ -29,6 +29,18 @@ class Evaluated:
     reason: tuple[str, ...]
 
 
+# The same settings as environment variables, for processes started by the engine (glibc reads
+# them at start-up, before any thread exists); Dask's own defaults (OMP_NUM_THREADS=1 ...) kept.
+MALLOC_ENV = {
+    "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
+    "MALLOC_MMAP_THRESHOLD_": str(256 << 20),
+    "MALLOC_ARENA_MAX": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+}
+
+
 @functools.cache
 def _keep_freed_memory() -> None:
     """Let this process's allocator keep freed memory for reuse.
