@@ -33,8 +33,8 @@ import numpy as np
 
 from ..errors import MjlinkError
 from ..output import atomic_path
-from .spec import Study
 from . import tasks
+from .spec import Study
 from .tasks import Evaluated, Verified, mujoco_chunk, reference_chunk
 
 REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
