@@ -220,14 +220,25 @@ def steady_delta(b: Batch, iterations: int = 12) -> np.ndarray:
         x0 = (s0 + Q.mean(axis=0)) / c  # where the motor balances damping and the mean load
         x1 = x0 * 1.001
         f0 = period(x0)[3] - x0
+        last = None
         for _ in range(iterations):
-            f1 = period(x1)[3] - x1
+            last = period(x1)
+            f1 = last[3] - x1
             step = np.where(f1 != f0, f1 * (x1 - x0) / (f1 - f0), 0.0)
             x0, f0, x1 = x1, f1, x1 - step
             if np.all(~np.isfinite(x1) | (np.abs(step) <= 1e-13 * np.abs(x1))):
                 break
-        us, ds, t, end = period(x1)
-        closed = np.abs(end - x1) <= 1e-9 * np.abs(x1)
+        else:
+            last = None
+        if last is None:
+            us, ds, t, end = period(x1)
+            start = x1
+        else:
+            # Converged: the last period, from a start within 1e-13 of x1, is the orbit (one
+            # integration fewer; the difference is far below the samples' own accuracy).
+            us, ds, t, end = last
+            start = x0
+        closed = np.abs(end - start) <= 1e-9 * np.abs(start)
         # Refine the extremes between samples: u'' from the change of u' across a sample.
         dd = (np.roll(ds, -1, axis=0) - np.roll(ds, 1, axis=0)) / (2.0 * h)
         hi = _refined(us.T, ds.T * h, dd.T * h * h, True)

@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import MechanismFileError
 from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from ..model.topology import Pair, pairs
+from . import linalg as _linalg
 from .dynamics import reduced
 from .kinematics import Kinematics, solve
 
@@ -78,8 +79,10 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
             f"({len(prs)} pairs, {len(geared)} gears and {len(links)} links give {nu} unknowns for "
             f"{3 * len(links)} equations)"
         )
-    A = np.zeros((n, 3 * len(links), nu))
-    b = np.zeros((n, 3 * len(links)))
+    # Systems stacked last, (equations, unknowns, rows): every entry written and read below is
+    # one contiguous row of n values.
+    A = np.zeros((3 * len(links), nu, n))
+    b = np.zeros((3 * len(links), n))
     origin = {l.name: P[l.points[0]] for l in mech.links}
 
     col = 0
@@ -90,10 +93,10 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
                 if link is None:
                     continue
                 r0, d = row[link], at - origin[link]
-                A[:, r0, col] += sgn
-                A[:, r0 + 1, col + 1] += sgn
-                A[:, r0 + 2, col] += -sgn * d[:, 1]  # moment of (Fx, 0): -dy Fx
-                A[:, r0 + 2, col + 1] += sgn * d[:, 0]  # moment of (0, Fy): dx Fy
+                A[r0, col] += sgn
+                A[r0 + 1, col + 1] += sgn
+                A[r0 + 2, col] += -sgn * d[:, 1]  # moment of (Fx, 0): -dy Fx
+                A[r0 + 2, col + 1] += sgn * d[:, 0]  # moment of (0, Fy): dx Fy
         else:
             g = (P[pr.rail[1]] - P[pr.rail[0]])[:, :2]
             u = g / np.linalg.norm(g, axis=1, keepdims=True)
@@ -103,19 +106,19 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
                 if link is None:
                     continue
                 r0, d = row[link], at - origin[link]
-                A[:, r0, col] += sgn * nrm[:, 0]
-                A[:, r0 + 1, col] += sgn * nrm[:, 1]
-                A[:, r0 + 2, col] += sgn * (d[:, 0] * nrm[:, 1] - d[:, 1] * nrm[:, 0])
-                A[:, r0 + 2, col + 1] += sgn
+                A[r0, col] += sgn * nrm[:, 0]
+                A[r0 + 1, col] += sgn * nrm[:, 1]
+                A[r0 + 2, col] += sgn * (d[:, 0] * nrm[:, 1] - d[:, 1] * nrm[:, 0])
+                A[r0 + 2, col + 1] += sgn
         col += 2
-    A[:, row[mech.input_link.name] + 2, col] = 1.0
+    A[row[mech.input_link.name] + 2, col] = 1.0
     col_tau = col
     col += 1
     gear_cols = {}
     for s in geared:
         gl = mech.carrier(s)
-        A[:, row[gl.name] + 2, col] += 1.0
-        A[:, row[mech.input_link.name] + 2, col] += -s.ratio  # ideal gears: no power lost
+        A[row[gl.name] + 2, col] += 1.0
+        A[row[mech.input_link.name] + 2, col] += -s.ratio  # ideal gears: no power lost
         gear_cols[gl.name] = col
         col += 1
 
@@ -136,8 +139,8 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
             f_net = np.asarray(l.mass)[..., None] * (a - grav)
             rhs_f += f_net
             rhs_m = rhs_m + d[:, 0] * f_net[:, 1] - d[:, 1] * f_net[:, 0]
-        b[:, r0 : r0 + 2] = rhs_f
-        b[:, r0 + 2] = rhs_m
+        b[r0 : r0 + 2] = rhs_f.T
+        b[r0 + 2] = rhs_m
     cw = mech.counterweight
     if cw is not None:  # a point mass on the input crank: its inertia and weight load the crank
         c = kin.points[COUNTERWEIGHT]
@@ -146,8 +149,8 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
         link = mech.input_link.name
         d = (c.v - origin[link])[:, :2]
         r0 = row[link]
-        b[:, r0 : r0 + 2] += f_net
-        b[:, r0 + 2] += d[:, 0] * f_net[:, 1] - d[:, 1] * f_net[:, 0]
+        b[r0 : r0 + 2] += f_net.T
+        b[r0 + 2] += d[:, 0] * f_net[:, 1] - d[:, 1] * f_net[:, 0]
     for f in mech.dynamics.forces:
         owner = mech.link_of(f.point)
         if owner is None:
@@ -155,22 +158,22 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
         F = f.at(phi, mech.period)[:, :2]
         d = (P[f.point] - origin[owner.name])[:, :2]
         r0 = row[owner.name]
-        b[:, r0 : r0 + 2] -= F
-        b[:, r0 + 2] -= d[:, 0] * F[:, 1] - d[:, 1] * F[:, 0]
+        b[r0 : r0 + 2] -= F.T
+        b[r0 + 2] -= d[:, 0] * F[:, 1] - d[:, 1] * F[:, 0]
     # Damping acts on the input crank joint like a torque -b omega.
-    b[:, row[mech.input_link.name] + 2] += mech.dynamics.damping * w
+    b[row[mech.input_link.name] + 2] += mech.dynamics.damping * w
 
-    x = np.linalg.solve(A, b[..., None])[..., 0]
+    x = _linalg.solve_stacked(A, b)
     forces, moments = {}, {}
     col = 0
     for pr in prs:
         lab = pr.label
         if pr.revolute:
-            forces[lab] = np.column_stack([x[:, col], x[:, col + 1], np.zeros(n)])
+            forces[lab] = np.column_stack([x[col], x[col + 1], np.zeros(n)])
         else:
             g = (P[pr.rail[1]] - P[pr.rail[0]])[:, :2]
             u = g / np.linalg.norm(g, axis=1, keepdims=True)
-            forces[lab] = np.column_stack([-u[:, 1] * x[:, col], u[:, 0] * x[:, col], np.zeros(n)])
-            moments[lab] = x[:, col + 1]
+            forces[lab] = np.column_stack([-u[:, 1] * x[col], u[:, 0] * x[col], np.zeros(n)])
+            moments[lab] = x[col + 1]
         col += 2
-    return Reactions(phi, forces, moments, x[:, col_tau], {k: x[:, c] for k, c in gear_cols.items()})
+    return Reactions(phi, forces, moments, x[col_tau], {k: x[c] for k, c in gear_cols.items()})
