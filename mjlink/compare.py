@@ -192,12 +192,53 @@ def _rel(err: np.ndarray, ref: np.ndarray) -> float:
     return float(np.linalg.norm(err, axis=1).max() / scale) if scale > 0 else 0.0
 
 
+def reference_at(mech: Mechanism, mj: Trace) -> Trace:
+    """The reference at MuJoCo's own crank angle, speed and acceleration at each of ``mj``'s
+    samples: what :func:`agreement` compares with, and what a residual panel subtracts."""
+    return reference_trace(mech, reference.Motion(mj.time, mj.phi, mj.omega, mj.eps), mj.kind)
+
+
+@dataclass(frozen=True)
+class PointLimits:
+    """The kinematic thresholds of one point in absolute units, as :func:`agreement` applies
+    them: ``position`` m, ``velocity`` m/s (VELOCITY_REL of the largest reference speed),
+    ``acceleration`` m/s^2 (ACCELERATION_REL of the largest reference acceleration)."""
+
+    position: float
+    velocity: float
+    acceleration: float
+
+
+def point_limits(ref: Trace, point: str) -> PointLimits:
+    """The thresholds of ``point`` (see :class:`PointLimits`) for the reference trace ``ref``."""
+    return PointLimits(
+        POSITION_UM * 1e-6,
+        VELOCITY_REL * float(np.linalg.norm(ref.velocities[point], axis=1).max()),
+        ACCELERATION_REL * float(np.linalg.norm(ref.accelerations[point], axis=1).max()),
+    )
+
+
+def omega_limit(ref_omega: np.ndarray) -> float:
+    """The dynamic run's crank-speed threshold, rad/s: OMEGA_REL of the largest reference speed."""
+    return OMEGA_REL * float(np.abs(ref_omega).max())
+
+
+def torque_limit(ref_torque: np.ndarray) -> float:
+    """The driving torque's threshold, N*m: TORQUE_REL of the reference torque's range."""
+    return TORQUE_REL * float(np.ptp(ref_torque))
+
+
+def force_limit(ref_force: np.ndarray) -> float:
+    """A pair reaction's threshold, N: FORCE_REL of the pair's largest reference force."""
+    return FORCE_REL * float(np.linalg.norm(ref_force, axis=1).max())
+
+
 def agreement(mech: Mechanism, mj: Trace, ref_motion: reference.Motion | None = None) -> Agreement:
     """Compare a MuJoCo trace with the reference (see module docstring).
 
     ``ref_motion``: for a dynamic run, the reference's own crank motion at the same times.
     """
-    ref = reference_trace(mech, reference.Motion(mj.time, mj.phi, mj.omega, mj.eps), mj.kind)
+    ref = reference_at(mech, mj)
     pts = []
     for n in mech.point_names:
         if n in mech.ground:

@@ -227,3 +227,50 @@ def test_already_imported_mujoco_reports_its_choice():
         MUJOCO_GL=None,
     )
     assert out == "glfw None"
+
+
+def test_overlay_text_is_in_every_frame(frames):
+    """The top band carries the time, angle and speed: it changes from frame to frame (the
+    numbers), while a band of the same height lower in the frame, away from the text, is
+    the rendered scene's; and the overlay itself writes dark text on a light box."""
+    band = max(8, round(2.3 * render.OVERLAY_HEIGHT * HEIGHT))
+    top = frames[:, :band, : WIDTH // 2].astype(float)
+    assert np.abs(top[0] - top[len(top) // 2]).mean() > 1.0, "the overlay's numbers do not change"
+    # Text is dark on the light box: the top-left band holds near-black pixels.
+    assert (top[0].min(axis=-1) < 80).mean() > 0.01
+
+
+def test_overlay_writes_only_its_corner():
+    from PIL import ImageFont
+
+    blank = np.full((HEIGHT, WIDTH, 3), 128, np.uint8)
+    font = ImageFont.load_default(size=12)
+    out = render._overlay(blank, ["t 0.0100 s   phi1 90.0 deg   n1 955 rpm CCW   slow motion 47.7x"], font)
+    changed = np.any(out != blank, axis=-1)
+    rows, cols = np.nonzero(changed)
+    assert changed.sum() > 200  # the text and its box are drawn
+    assert rows.max() < 3 * 12 and cols.min() == 0  # only in the top-left band
+
+
+def test_camera_frames_the_swept_box():
+    """frame_camera puts every point inside the frame (below the overlay band) for 4:3 and 16:9."""
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-0.05, 0.08, size=(200, 3)) * [1.0, 0.6, 0.1]
+    axes = np.eye(3)  # looking down -Z, Y up
+    for aspect in (4 / 3, 16 / 9):
+        fovy, band = 40.0, 0.08
+        pos = render.frame_camera(pts, axes, aspect, fovy, band)
+        rel = pts - pos
+        depth = -rel[:, 2]
+        x = rel[:, 0] / depth / np.tan(np.radians(fovy) / 2) / aspect
+        y = rel[:, 1] / depth / np.tan(np.radians(fovy) / 2)
+        assert np.all(np.abs(x) <= 1.0) and np.all(y >= -1.0) and np.all(y <= 1.0 - 2 * band + 1e-9)
+        assert max(np.abs(x).max(), (y.max() - y.min()) / (2 - 2 * band)) > 0.85  # and fills it
+
+
+def test_trail_follows_the_key_point(mech, trace):
+    times = np.linspace(trace.time[0], trace.time[-1], 7, endpoint=False)
+    key, now, trail = render.key_path(mech, trace, times)
+    assert key == "P5"
+    assert trail.shape == (7, render.TRAIL_SAMPLES, 3)
+    np.testing.assert_allclose(trail[:, -1], now, atol=1e-12)  # the trail ends at the point

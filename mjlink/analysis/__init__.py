@@ -291,7 +291,7 @@ def torque_cycle(mech: Mechanism, omega: float, per_turn: int = CYCLE_SAMPLES) -
     phi = one_period(mech, per_turn)
     tau = reference.driving_torque(mech, phi, omega)
     mean = float(tau.mean())
-    work = np.concatenate([[0.0], np.cumsum(tau - mean)]) * (mech.period / len(phi))
+    work = energy_fluctuation(phi, tau)
     return TorqueCycle(
         float(omega),
         float(np.abs(tau).max()),
@@ -300,3 +300,74 @@ def torque_cycle(mech: Mechanism, omega: float, per_turn: int = CYCLE_SAMPLES) -
         mean * float(omega),
         float(np.ptp(work)),
     )
+
+
+def energy_fluctuation(phi: np.ndarray, torque: np.ndarray) -> np.ndarray:
+    """The energy the crank's shaft stores and gives back over a cycle at constant speed:
+    E(phi) = integral of (T - T_mean) dphi from the first angle, J, at the angles ``phi``
+    (rad, uniform, one period with its end excluded, as :func:`one_period` gives) for the
+    driving torque ``torque`` (N*m); shape (N + 1,), the last value the period's end (0 to
+    rounding). Its swing max - min is what a flywheel has to absorb."""
+    phi = np.asarray(phi, dtype=float)
+    tau = np.asarray(torque, dtype=float)
+    step = float(phi[1] - phi[0])
+    # Trapezoids on the periodic samples (the period's end is the first sample again).
+    t = tau - tau.mean()
+    return np.concatenate([[0.0], np.cumsum(0.5 * (t + np.roll(t, -1)))]) * step
+
+
+def flywheel_estimate(energy_swing: float, omega: float, delta: float) -> float:
+    """The classical flywheel estimate J = dE / (delta omega^2), kg*m^2: the whole rotating
+    inertia, reduced to the crank, that keeps the coefficient of speed fluctuation at ``delta``
+    when the shaft's energy swings by ``energy_swing`` J at mean speed ``omega`` rad/s. The
+    steady-motion study (:func:`mjlink.reference.flywheel_for`) gives the exact figure under a
+    motor characteristic; this is the one designers size from the torque diagram."""
+    return float(energy_swing / (delta * omega * omega))
+
+
+@dataclass(frozen=True)
+class PairLoad:
+    """One revolute pair's reaction as its bearing sees it.
+
+    ``label`` the pair (``P3:lever-rocker``); ``frame`` the link whose frame the force is
+    resolved in: the parent, which carries the bearing, or ``ground`` (fixed axes) for a frame
+    pivot; ``force`` (N, 2) N, the force on the child, in that frame (x along the link's first
+    two points, y normal to it, counter-clockwise); ``magnitude`` (N,) N."""
+
+    label: str
+    frame: str
+    force: np.ndarray
+    magnitude: np.ndarray
+
+
+def pair_loads(mech: Mechanism, rx: reference.Reactions) -> list[PairLoad]:
+    """Every revolute pair's reaction in the frame of the link that carries its bearing (see
+    :class:`PairLoad`): the polar load diagram of a bearing. Prismatic pairs are left out (their
+    load is a normal force and a moment along the guide, not a vector turning in a bearing)."""
+    from ..model.names import GROUND
+    from ..model.topology import pairs
+
+    kin = reference.solve(mech, rx.phi)
+    out = []
+    for _, pr in pairs(mech):
+        if not pr.revolute or pr.label not in rx.forces:
+            continue
+        f = np.asarray(rx.forces[pr.label])[:, :2]
+        if pr.parent is None:
+            local = f
+        else:
+            a = kin.angles[pr.parent].v
+            c, s = np.cos(a), np.sin(a)
+            local = np.column_stack([c * f[:, 0] + s * f[:, 1], -s * f[:, 0] + c * f[:, 1]])
+        out.append(PairLoad(pr.label, pr.parent or GROUND, local, np.hypot(local[:, 0], local[:, 1])))
+    return out
+
+
+def energy_cycle(mech: Mechanism, omega: float, per_turn: int = 720) -> tuple[np.ndarray, np.ndarray]:
+    """The reference's energy fluctuation over one period at constant crank speed ``omega``
+    (rad/s), integrated the way the crank turns (from phi0 down for a clockwise crank): input
+    angles (rad, (N + 1,), the period's end included) and :func:`energy_fluctuation` at them (J)."""
+    sense = 1.0 if omega >= 0 else -1.0
+    phi = mech.phi0 + sense * (one_period(mech, per_turn) - mech.phi0)
+    e = energy_fluctuation(phi, reference.driving_torque(mech, phi, omega))
+    return np.append(phi, phi[0] + sense * mech.period), e

@@ -40,7 +40,7 @@ from .limits import (
     SAMPLES_PER_TURN,
 )
 from .names import RESERVED_LINK_NAMES
-from .reader import Reader
+from .reader import Reader, shown
 
 __all__ = [
     "Attached",
@@ -138,7 +138,9 @@ class Dynamics:
 
     ``moment`` driving moment on the input crank, N*m; ``damping`` viscous torque
     coefficient on it, N*m*s; ``omega0`` initial crank speed, rad/s; ``duration`` s;
-    ``gravity`` m/s^2 along -Y; ``forces`` external forces at points.
+    ``gravity`` m/s^2 along -Y; ``forces`` external forces at points; ``paper_rk4_steps`` the
+    number of fixed steps the source paper's own RK4 took over ``duration`` (None: the paper
+    integrated no equation of motion, and no "paper's RK4" is computed or drawn).
     """
 
     moment: float = 0.0
@@ -148,6 +150,7 @@ class Dynamics:
     gravity: float = 9.81
     forces: tuple[Force, ...] = ()
     motor: Motor | None = None
+    paper_rk4_steps: int | None = None
 
     def drive_torque(self, omega):
         """Driving torque on the input crank (N*m) at speed omega (rad/s): moment + motor."""
@@ -302,6 +305,21 @@ def _read_counterweight(r: Reader, raw: Any) -> Counterweight:
     )
 
 
+MAX_PAPER_RK4_STEPS = 1_000_000
+
+
+def _steps(r: Reader, raw: dict, key: str, where: str) -> int | None:
+    """An optional whole number of integration steps (1..MAX_PAPER_RK4_STEPS), None if absent."""
+    if key not in raw:
+        return None
+    v = raw[key]
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_PAPER_RK4_STEPS:
+        raise r.fail(
+            f"{where} {key}", f"must be a whole number of steps from 1 to {MAX_PAPER_RK4_STEPS:,}, got {shown(v)}"
+        )
+    return v
+
+
 def _read_motor(r: Reader, raw: Any, where: str) -> Motor:
     raw = r.table(raw, where)
     if where == "[dynamics.motor]":
@@ -434,7 +452,21 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     cycles = r.number(inp, "cycles", "[input]", default=1.0, positive=True, hi=MAX_CYCLES)
 
     dyn_raw = r.table(data.get("dynamics", {}), "[dynamics]")
-    r.keys(dyn_raw, "[dynamics]", [], ["moment", "damping", "omega0", "duration", "gravity", "force", "motor"])
+    r.keys(
+        dyn_raw,
+        "[dynamics]",
+        [],
+        [
+            "moment",
+            "damping",
+            "omega0",
+            "duration",
+            "gravity",
+            "force",
+            "motor",
+            "paper_rk4_steps",
+        ],
+    )
     forces = []
     raw_forces = dyn_raw.get("force", [])
     if not isinstance(raw_forces, list):
@@ -506,6 +538,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         gravity=r.number(dyn_raw, "gravity", "[dynamics]", default=9.81, nonneg=True),
         forces=tuple(forces),
         motor=motor,
+        paper_rk4_steps=_steps(r, dyn_raw, "paper_rk4_steps", "[dynamics]"),
     )
 
     thread = elongation = None

@@ -29,7 +29,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon, Rectangle
 
-from .. import analysis, reference
+from .. import analysis, compare, palette, reference
 from ..errors import AssemblyError
 from ..model import blocks
 from ..model.mechanism import Crank, Mechanism
@@ -45,62 +45,168 @@ from .style import (
     crank_axis,
     crank_x,
     darker,
+    direction,
     finish_x,
     pair,
+    residual,
     save,
     title,
 )
 
-
 # ----------------------------------------------------------------------------- speed (Figs. 3, 4)
+ZOOM_TURNS = 2  # the speed plots' right column: the last turns of the run
+TRANSIENT_SHARE = 0.02  # the share of the run whose start transient is kept out of the eps autoscale
+
+
+def _robust_limits(x: np.ndarray, y: np.ndarray, start: float) -> tuple[float, float] | None:
+    """y limits that fit ``y`` where ``x >= start`` (a start transient left out), padded;
+    None if that leaves nothing or the transient fits anyway."""
+    keep = x >= start
+    if keep.sum() < 2 or keep.all():
+        return None
+    lo, hi = float(np.min(y[keep])), float(np.max(y[keep]))
+    if np.min(y) >= lo - 0.25 * (hi - lo) and np.max(y) <= hi + 0.25 * (hi - lo):
+        return None
+    pad = 0.08 * (hi - lo or abs(hi) or 1.0)
+    return lo - pad, hi + pad
+
+
 def speed_plots(
     mech: Mechanism, dyn_mj: Trace, dyn_ref: Trace, out_dir, rk4: reference.Motion | None = None
 ) -> list[Path]:
     """The run-up of the forward-dynamics case, as the paper's Figs. 3 and 4.
 
-    ``speed_vs_time.png``: crank speed n1 (rpm) and angular acceleration eps1 (rad/s^2)
-    against time (s); ``speed_vs_angle.png``: the same against the unwrapped crank angle
-    phi1 (deg). Overlays MuJoCo, the reference (tight ODE) and, if given, the paper's
-    fixed-step RK4 ``rk4`` (a :class:`reference.Motion`, SI units). Returns both paths.
+    ``speed_vs_time.png`` against time (s), ``speed_vs_angle.png`` against the unwrapped crank
+    angle (deg). Left, the whole run: the crank speed |n1| (rpm, its sense in the title), the
+    crank acceleration eps1 (rad/s^2; a start transient shorter than 2 % of the run is kept
+    out of the autoscale and its extreme named) and MuJoCo minus the reference (rad/s, with
+    the omega threshold). Right, the last :data:`ZOOM_TURNS` turns, where the speed's
+    oscillation within a turn shows, and, where the paper integrated with RK4 (``rk4``, a
+    :class:`reference.Motion` in SI units), the paper's RK4 minus the reference (rpm) over
+    the whole run. ``dyn_ref`` is the reference's tight ODE solution at MuJoCo's times.
+    Returns both paths.
     """
     paths = []
     angle, angle_label = crank_axis(mech, dyn_mj.phi)
-    for name, xlabel, key in (
-        ("speed_vs_time.png", "time t [s]", "t"),
-        ("speed_vs_angle.png", angle_label + " (unwrapped)", "phi"),
+    sense = direction(dyn_mj.omega)
+    limit = compare.omega_limit(dyn_ref.omega)
+    t_end = float(max(dyn_mj.time[-1], dyn_ref.time[-1]))
+    k = int(np.searchsorted(rk4.t, t_end * (1 + 1e-9), "right")) if rk4 is not None else 0
+    for name, xlabel, by_time in (
+        ("speed_vs_time.png", "time t [s]", True),
+        ("speed_vs_angle.png", angle_label + " (unwrapped)", False),
     ):
-        fig, (a1, a2) = plt.subplots(2, 1, figsize=(8.0, 6.6), sharex=True, layout="constrained")
-        by_time = key == "t"
+        fig = plt.figure(figsize=(13.0, 9.4), layout="constrained")
+        gs = fig.add_gridspec(3, 2, width_ratios=(1.75, 1.0), height_ratios=(1.0, 1.0, 0.72))
+        a_n = fig.add_subplot(gs[0, 0])
+        a_e = fig.add_subplot(gs[1, 0], sharex=a_n)
+        a_r = fig.add_subplot(gs[2, 0], sharex=a_n)
+        z_n = fig.add_subplot(gs[0, 1])
+        z_e = fig.add_subplot(gs[1, 1], sharex=z_n)
+        a_k = fig.add_subplot(gs[2, 1])
         xm = dyn_mj.time if by_time else angle(dyn_mj.phi)
         xr = dyn_ref.time if by_time else angle(dyn_ref.phi)
-        # Dozens of speed oscillations: a narrower MuJoCo line keeps neighbouring ones apart.
-        mj = dict(MJ_STYLE, lw=1.7)
-        a1.plot(xm, to_rpm(dyn_mj.omega), color="tab:blue", label=MJ_LABEL, **mj)
-        a1.plot(xr, to_rpm(dyn_ref.omega), label=REF_LABEL + ", DOP853 ODE", **REF_STYLE)
-        a2.plot(xm, dyn_mj.eps, color="tab:blue", label=MJ_LABEL, **mj)
-        a2.plot(xr, dyn_ref.eps, label=REF_LABEL + ", DOP853 ODE", **REF_STYLE)
+        nm, nr = np.abs(to_rpm(dyn_mj.omega)), np.abs(to_rpm(dyn_ref.omega))
+        xk: np.ndarray | None = None
+        nk = ek = np.empty(0)
         if rk4 is not None:
-            # Only the span of the runs shown: samples beyond would stretch the y autoscale.
-            k = int(np.searchsorted(rk4.t, max(dyn_mj.time[-1], dyn_ref.time[-1]) * (1 + 1e-9), "right"))
+            # Only the span of the runs shown: samples beyond would stretch the autoscale.
             xk = rk4.t[:k] if by_time else angle(rk4.phi[:k])
-            lab = f"paper's RK4, {len(rk4.t) - 1} steps of {rk4.t[1] - rk4.t[0]:.3g} s"
-            a1.plot(xk, to_rpm(rk4.omega[:k]), label=lab, **RK4_STYLE)
-            a2.plot(xk, rk4.eps[:k], label=lab, **RK4_STYLE)
-        a1.set_ylabel("crank speed $n_1$ [rpm]")
-        a2.set_ylabel("crank acceleration $\\varepsilon_1$ [rad/s$^2$]")
-        a2.set_xlabel(xlabel)
-        if by_time:
-            a2.set_xlim(0.0, max(xm[-1], xr[-1]))
+            nk, ek = np.abs(to_rpm(rk4.omega[:k])), rk4.eps[:k]
+        rk4_label = (
+            f"paper's RK4, {len(rk4.t) - 1} steps of {rk4.t[1] - rk4.t[0]:.3g} s (dotted)" if rk4 is not None else ""
+        )
+        for ax_n, ax_e in ((a_n, a_e), (z_n, z_e)):
+            ax_n.plot(xr, nr, label=REF_LABEL + ", DOP853 ODE", **REF_STYLE)
+            ax_n.plot(xm, nm, color=palette.MUJOCO, label=MJ_LABEL, **MJ_STYLE)
+            ax_e.plot(xr, dyn_ref.eps, label=REF_LABEL, **REF_STYLE)
+            ax_e.plot(xm, dyn_mj.eps, color=palette.MUJOCO, label=MJ_LABEL, **MJ_STYLE)
+            if xk is not None:
+                ax_n.plot(xk, nk, label=rk4_label, **RK4_STYLE)
+                ax_e.plot(xk, ek, **RK4_STYLE)
+            ax_n.set_ylabel("crank speed $|n_1|$ [rpm]")
+            ax_e.set_ylabel("crank acceleration $\\varepsilon_1$ [rad/s$^2$]")
+            for ax in (ax_n, ax_e):
+                ax.grid(True, alpha=0.3)
+        # A start transient (a run-up in milliseconds, a jump of the load at t = 0) dwarfs
+        # what follows: kept out of the autoscale, its extreme named on the panel.
+        x0 = float(xm[0])
+        start = x0 + TRANSIENT_SHARE * (float(xm[-1]) - x0)
+        span = f"{1e3 * (start - x0):.3g} ms" if by_time else f"{start - x0:.3g}° of crank angle"
+        early = np.asarray(xm) < start
+        for ax, y, what in (
+            (a_n, nm, f"run-up from {float(np.min(nm[early])):.4g} rpm in the first {span} off scale"),
+            (a_e, np.asarray(dyn_mj.eps), ""),
+        ):
+            lim = _robust_limits(np.asarray(xm), y, start)
+            if lim is None:
+                continue
+            ax.set_ylim(*lim)
+            e_abs = float(np.max(np.abs(y[early])))
+            ax.text(
+                0.01,
+                0.04,
+                what or f"start transient off scale: |ε₁| up to {e_abs:.3g} rad/s² in the first {span}",
+                transform=ax.transAxes,
+                fontsize=7.5,
+                color="0.25",
+                zorder=6,
+                bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="0.7", alpha=0.9),
+            )
+        # Zoom: the last turns of the crank, MuJoCo's and the reference's and RK4's.
+        turned = np.abs(dyn_mj.phi - dyn_mj.phi[-1])
+        z0 = float(np.asarray(xm)[turned <= ZOOM_TURNS * 2.0 * math.pi][0])
+        z1 = float(np.asarray(xm)[-1])
+        z_n.set_xlim(z0, z1)
+        for ax, xs, ys in ((z_n, [xm, xr], [nm, nr]), (z_e, [xm, xr], [dyn_mj.eps, dyn_ref.eps])):
+            vals = np.concatenate(
+                [np.asarray(y)[(np.asarray(x) >= z0) & (np.asarray(x) <= z1)] for x, y in zip(xs, ys)]
+            )
+            if xk is not None and ax is z_n:
+                sel = (np.asarray(xk) >= z0) & (np.asarray(xk) <= z1)
+                vals = np.concatenate([vals, nk[sel]])
+            if vals.size:
+                lo, hi = float(vals.min()), float(vals.max())
+                pad = 0.1 * (hi - lo or abs(hi) or 1.0)
+                ax.set_ylim(lo - pad, hi + pad)
+        z_n.set_title(f"zoom: the last {ZOOM_TURNS} turns", fontsize=9)
+        z_e.set_xlabel(xlabel)
+        residual(a_r, xm, dyn_mj.omega - dyn_ref.omega, "rad/s", limit, what="MuJoCo − reference\n$\\omega_1$")
+        a_r.set_xlabel(xlabel)
+        if rk4 is not None and xk is not None:
+            tight = np.interp(rk4.t[:k], dyn_ref.time, dyn_ref.omega)
+            diff = np.abs(to_rpm(rk4.omega[:k])) - np.abs(to_rpm(tight))
+            a_k.plot(xk, diff, **dict(RK4_STYLE, ls="-"))
+            a_k.axhline(0.0, color="0.5", lw=0.6)
+            rel = float(np.max(np.abs(diff)) / np.max(np.abs(to_rpm(tight))))
+            a_k.set_ylabel("paper's RK4 − reference\n$|n_1|$ [rpm]", fontsize=8.5)
+            a_k.set_title(f"the paper's RK4 is off by up to {100 * rel:.3g} % of the top speed", fontsize=9)
+            a_k.grid(True, alpha=0.3)
+            a_k.set_xlabel(xlabel)
+            a_k.set_gid("rk4-residual")  # the paper's method against the reference, not MuJoCo
         else:
-            angle_ticks(a2, min(xm.min(), xr.min()), max(xm.max(), xr.max()))
+            # No RK4 in this paper: the zoom's residual instead, where the scale is that of a turn.
+            sel = np.asarray(xm) >= z0
+            residual(
+                a_k, np.asarray(xm)[sel], (dyn_mj.omega - dyn_ref.omega)[sel], "rad/s", limit, what="MuJoCo − reference"
+            )
+            a_k.set_xlabel(xlabel)
+        if by_time:
+            a_r.set_xlim(0.0, t_end)
+            if rk4 is not None:
+                a_k.set_xlim(0.0, t_end)
+        else:
+            angle_ticks(a_r, float(min(np.min(xm), np.min(xr))), float(max(np.max(xm), np.max(xr))))
             if np.ptp(xm) >= 720.0:
                 # Tens of turns in degrees are hard to count: name the turns on top as well.
-                top = a1.secondary_xaxis("top", functions=(lambda d: d / 360.0, lambda n: n * 360.0))
+                top = a_n.secondary_xaxis(
+                    "top", functions=(lambda d: np.asarray(d) / 360.0, lambda k: np.asarray(k) * 360.0)
+                )
                 top.set_xlabel("crank turns (angle / 360°)", fontsize=9)
-        for ax in (a1, a2):
-            ax.grid(True, alpha=0.3)
-        # A run-up leaves the corner on the side of zero speed free: below if it turns CCW.
-        a1.legend(loc="lower right" if np.mean(dyn_mj.omega) >= 0 else "upper right", fontsize=8)
+        for ax in (a_n, a_e):
+            ax.tick_params(labelbottom=False)
+        z_n.tick_params(labelbottom=False)
+        a_n.legend(loc="lower right", fontsize=8)
         d = mech.dynamics
         motor = getattr(d, "motor", None)
         drive = (
@@ -109,7 +215,12 @@ def speed_plots(
             else f"$M_1$ = {d.moment:g} N·m"
         )
         fig.suptitle(
-            title(mech, f"run-up, {drive}, b = {d.damping:g} N·m·s, $\\omega_0$ = {d.omega0:g} rad/s"), fontsize=10
+            title(
+                mech,
+                f"run-up, crank turning {sense} (speeds as magnitudes), {drive}, "
+                f"b = {d.damping:g} N·m·s, $\\omega_0$ = {d.omega0:g} rad/s",
+            ),
+            fontsize=10,
         )
         paths.append(save(fig, out_dir, name))
     return paths
@@ -136,6 +247,146 @@ def _segments(mech: Mechanism) -> list[tuple[str, str]]:
             parent = next((c for c in cand if c in pts and c != p), pts[0])
             pairs.append((parent, p))
     return pairs
+
+
+def _angle_ticks(ax, mech: Mechanism, phi: np.ndarray, xy: np.ndarray, size: float, label_every: int) -> list:
+    """Short ticks across the path ``xy`` (mm, sampled at the input angles ``phi`` over one
+    period from phi0) every 30 deg of crank angle turned; returns the ticks to be labelled
+    every ``label_every`` deg (0: none) as (text, point, normal) for :func:`_label_ticks`."""
+    turned = np.degrees(np.abs(np.asarray(phi) - phi[0]))
+    out = []
+    for d in range(0, round(math.degrees(mech.period)), 30):
+        i = int(np.argmin(np.abs(turned - d)))
+        j0, j1 = max(i - 1, 0), min(i + 1, len(xy) - 1)
+        t = xy[j1] - xy[j0]
+        nrm = np.array([-t[1], t[0]]) / (np.hypot(*t) or 1.0)
+        big = bool(label_every) and d % label_every == 0
+        h = (0.55 if big else 0.35) * size
+        ax.plot(*np.stack([xy[i] - h * nrm, xy[i] + h * nrm]).T, color="k", lw=1.1 if big else 0.8, zorder=4.5)
+        if big:
+            out.append((f"{d}°", xy[i], nrm))
+    return out
+
+
+def _label_ticks(ax, ticks: list) -> None:
+    """Name the ticks of :func:`_angle_ticks` beside the path, on the side away from it; a
+    name that would cover one already written (where the path crosses itself, or its second
+    turn runs beside the first) is left out: the tick stays."""
+    r = ax.figure.canvas.get_renderer()
+    taken = [t.get_window_extent(r) for t in ax.texts if t.get_text().strip()]
+    for text, xy, nrm in ticks:
+        for sgn in (1.0, -1.0):
+            lab = ax.annotate(
+                text,
+                xy,
+                xytext=tuple(13 * sgn * nrm),
+                textcoords="offset points",
+                ha="center",
+                va="center",
+                fontsize=7,
+                color="0.2",
+                zorder=7,
+                bbox=dict(boxstyle="round,pad=0.05", fc="white", ec="none", alpha=0.7),
+            )
+            lab.set_in_layout(False)
+            box = lab.get_window_extent(r)
+            if not any(box.overlaps(b) for b in taken):
+                taken.append(box)
+                break
+            lab.remove()
+
+
+def _rotation_arrow(ax, mech: Mechanism, size: float) -> None:
+    """A curved arrow around the input crank's pivot in the sense the crank turns, named n1."""
+    crank = mech.input_crank
+    c = to_mm(mech.ground[crank.pivot][:2])
+    r = max(2.2 * size, 0.6 * to_mm(crank.length))
+    ccw = mech.speed >= 0
+    a0, a1 = (200.0, 320.0) if ccw else (320.0, 200.0)
+    p0 = c + r * np.array([math.cos(math.radians(a0)), math.sin(math.radians(a0))])
+    p1 = c + r * np.array([math.cos(math.radians(a1)), math.sin(math.radians(a1))])
+    ax.annotate(
+        "",
+        p1,
+        xytext=p0,
+        arrowprops=dict(
+            arrowstyle="-|>", color="k", lw=1.4, connectionstyle=f"arc3,rad={0.45 if ccw else -0.45}", mutation_scale=12
+        ),
+        zorder=6,
+    )
+    t = ax.annotate(
+        f"$n_1$, {direction(mech.speed)}",
+        c + np.array([0.0, -1.35 * r]),
+        ha="center",
+        va="top",
+        fontsize=8,
+        zorder=7,
+        bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.8),
+    )
+    t.set_in_layout(False)
+
+
+def _place_labels(ax, mech, names, xy0, pairs, P, size, coms, pivots) -> None:
+    """Name every point next to it, in free space: the direction away from the drawing around
+    it first (other points, link midpoints, ground symbols, weighted by closeness), then the
+    other directions and farther out, until its box meets no label or tick text already on the
+    axes (a leader line joins a label set farther out to its point)."""
+    fig = ax.figure
+    r = fig.canvas.get_renderer()
+    mids = [0.5 * (P[a][0, :2] + P[b][0, :2]) for a, b in pairs]
+    feet = [to_mm(xyz[:2]) - (0.0, 0.7 * size) for g, xyz in mech.ground.items() if g in pivots]
+    crowd = np.concatenate([xy0] + [np.array(v).reshape(-1, 2) for v in (mids, feet) if v])
+    taken = [t.get_window_extent(r) for t in ax.texts if t.get_text().strip()]
+    # Points in pixels: a label must not sit on another point's marker either.
+    marks = ax.transData.transform(xy0)
+    order = sorted(range(len(names)), key=lambda i: names[i] in coms)  # joints first, centres of mass after
+    for i in order:
+        p = names[i]
+        d = xy0[i] - crowd
+        r2 = np.einsum("ij,ij->i", d, d)
+        near = r2 > 1e-12
+        push = (d[near] / r2[near, None] ** 1.5).sum(axis=0)
+        base = math.atan2(push[1], push[0]) if np.hypot(*push) > 0 else math.pi / 4
+        placed = None
+        for dist in (11.0, 17.0, 25.0, 34.0):
+            for k in (0, 1, -1, 2, -2, 3, -3, 4):
+                a = base + k * math.pi / 4
+                t = ax.annotate(
+                    p,
+                    xy0[i],
+                    xytext=(dist * math.cos(a), dist * math.sin(a)),
+                    textcoords="offset points",
+                    ha="center",
+                    va="center",
+                    zorder=7,
+                    fontsize=7.5 if p in coms else 9,
+                    color="0.3" if p in coms else "k",
+                    fontweight="normal" if p in coms else "bold",
+                    bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7),
+                    arrowprops=dict(arrowstyle="-", color="0.5", lw=0.6, shrinkA=0, shrinkB=3) if dist > 11 else None,
+                )
+                t.set_in_layout(False)
+                box = t.get_window_extent(r)
+                hits_mark = any(box.contains(*m) for j, m in enumerate(marks) if j != i and names[j] not in coms)
+                if not any(box.overlaps(b) for b in taken) and not hits_mark:
+                    placed = box
+                    break
+                t.remove()
+            if placed is not None:
+                break
+        if placed is None:  # nowhere free: the first choice, overlapping, beats no name at all
+            t = ax.annotate(
+                p,
+                xy0[i],
+                xytext=(11 * math.cos(base), 11 * math.sin(base)),
+                textcoords="offset points",
+                ha="center",
+                va="center",
+                zorder=7,
+                fontsize=7.5 if p in coms else 9,
+            )
+            placed = t.get_window_extent(r)
+        taken.append(placed)
 
 
 def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None = None) -> Path:
@@ -167,7 +418,15 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
     pad = 0.08 * float(max(hi - lo))
     aspect = (hi[1] - lo[1] + 2 * pad + size) / (hi[0] - lo[0] + 2 * pad)
     box_w, box_h = (6.4, max(2.6, 6.4 * aspect)) if aspect < 1.0 else (max(3.2, 6.4 / aspect), 6.4)
-    fig, ax = plt.subplots(figsize=(max(7.6, box_w + 3.4), box_h + 1.3), layout="constrained")
+    key = highlight or (traced[0] if traced else None)
+    key_xy = paths[key] if key else None
+    # A key path much smaller than the drawing (warp knitting's needle: 10 x 26 mm in 300 mm)
+    # would be a squiggle under the ghost positions: it gets an enlarged panel of its own.
+    enlarge = key_xy is not None and float(np.max(np.ptp(key_xy, axis=0))) < 0.25 * float(max(hi - lo))
+    fig = plt.figure(figsize=(max(7.6, box_w + 3.4), max(box_h + 1.3, 7.4 if enlarge else 0.0)), layout="constrained")
+    gs = fig.add_gridspec(2, 2, width_ratios=(box_w, 3.2), height_ratios=(1.0, 1.0))
+    ax = fig.add_subplot(gs[:, 0])
+    side = fig.add_subplot(gs[1, 1]) if enlarge else None
     # All ghost positions in one collection: one draw call instead of n * links.
     ghost = [np.stack([P[a][i, :2], P[b][i, :2]]) for i in range(1, n) for a, b in pairs]
     ax.add_collection(LineCollection(ghost, colors="0.6", linewidths=0.7, alpha=0.6, zorder=1))
@@ -238,33 +497,14 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         else:
             ax.plot(x, y, "s", ms=7, mfc="white", mec="k", mew=1.2, zorder=6)
 
-    # Each label is pushed away from the drawing around its point (other points, link
-    # midpoints, ground symbols), weighted by closeness, so it lands in free space.
-    names = list(mech.point_names)
-    xy0 = np.array([P[p][0, :2] for p in names])
-    mids = [0.5 * (P[a][0, :2] + P[b][0, :2]) for a, b in pairs]
-    feet = [to_mm(xyz[:2]) - (0.0, 0.7 * size) for g, xyz in mech.ground.items() if g in pivots]
-    crowd = np.concatenate([xy0] + [np.array(v).reshape(-1, 2) for v in (mids, feet) if v])
-    for i, p in enumerate(names):
-        d = xy0[i] - crowd
-        r2 = np.einsum("ij,ij->i", d, d)
-        near = r2 > 1e-12
-        push = (d[near] / r2[near, None] ** 1.5).sum(axis=0)
-        push = push / (np.linalg.norm(push) or 1.0)
-        ax.annotate(
-            p,
-            xy0[i],
-            xytext=(11 * push[0], 11 * push[1]),
-            textcoords="offset points",
-            ha="center",
-            va="center",
-            zorder=7,
-            fontsize=7.5 if p in coms else 9,
-            color="0.3" if p in coms else "k",
-            fontweight="normal" if p in coms else "bold",
-            bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7),
-        )
-
+    main_ticks: list = []
+    if key is not None and key_xy is not None and not enlarge:
+        main_ticks = _angle_ticks(ax, mech, path_kin.phi, key_xy, size, label_every=90)
+    elif key_xy is not None:
+        # Where the enlarged path is on the drawing.
+        (x0, y0), (x1, y1) = key_xy.min(axis=0) - size, key_xy.max(axis=0) + size
+        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fc="none", ec="0.3", lw=0.8, ls="--", zorder=4))
+    _rotation_arrow(ax, mech, size)
     ax.set_xlim(lo[0] - pad, hi[0] + pad)
     ax.set_ylim(lo[1] - pad - size, hi[1] + pad)
     ax.set_aspect("equal", adjustable="box", anchor="NW")  # blank space to the right: cropped on saving
@@ -272,13 +512,53 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.plot([], [], color="0.55", lw=0.7, label=f"{n} crank positions")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=8, framealpha=0.9)
+    ax.plot(
+        [],
+        [],
+        "|",
+        color="k",
+        ms=7,
+        label="crank angle every 30° along the path\n(from $\\varphi_0$, labelled every 90°)",
+    )
+    fig.legend(
+        *ax.get_legend_handles_labels(),
+        loc="upper left",
+        bbox_to_anchor=(0.0, 1.0),
+        bbox_transform=fig.add_subplot(gs[0, 1]).transAxes,
+        borderaxespad=0.0,
+        fontsize=8,
+        framealpha=0.9,
+    )
+    fig.axes[-1].axis("off")
+    if side is not None and key is not None and key_xy is not None:
+        xy = key_xy
+        side.plot(xy[:, 0], xy[:, 1], color="#c51b7d", lw=1.8)
+        span = float(np.max(np.ptp(xy, axis=0)))
+        side_ticks = _angle_ticks(side, mech, path_kin.phi, xy, 0.06 * span, label_every=30 if mech.period < 7 else 60)
+        side.set_aspect("equal", adjustable="datalim")
+        side.margins(0.18)
+        side.grid(True, alpha=0.3)
+        side.set_xlabel("x [mm]", fontsize=8.5)
+        side.set_ylabel("y [mm]", fontsize=8.5)
+        side.tick_params(labelsize=8)
+        side.set_title(
+            f"path of {key} enlarged: Δx {np.ptp(xy[:, 0]):.2f} mm, Δy {np.ptp(xy[:, 1]):.2f} mm\n"
+            f"ticks every 30° of crank angle from $\\varphi_0$, {direction(mech.speed)}",
+            fontsize=8.5,
+        )
     # Left-aligned: a tall drawing's axes are narrower than the title, which runs on over the legend.
     ax.set_title(
         title(mech, f"{n} positions over one period, bold: $\\varphi_0$ = {math.degrees(mech.phi0):g}°"),
         fontsize=10,
         loc="left",
     )
+    # Labels last, once the layout has fixed where everything is on the canvas.
+    fig.canvas.draw()
+    _label_ticks(ax, main_ticks)
+    if side is not None:
+        _label_ticks(side, side_ticks)
+    names = list(mech.point_names)
+    _place_labels(ax, mech, names, np.array([P[p][0, :2] for p in names]), pairs, P, size, coms, pivots)
     return save(fig, out_dir, "positions.png", tight=True)
 
 
@@ -294,15 +574,13 @@ def thread_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> Path
     fig, (a1, a2) = plt.subplots(
         2, 1, figsize=(8.0, 6.2), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(2.2, 1))
     )
-    a1.plot(xm, to_mm(Lm), color="tab:orange", label=MJ_LABEL + " (spatial tendon)", **MJ_STYLE)
     a1.plot(xr, to_mm(Lr), label=REF_LABEL, **REF_STYLE)
+    a1.plot(xm, to_mm(Lm), color=palette.THREAD, label=MJ_LABEL + ", spatial tendon", **MJ_STYLE)
     a1.set_ylabel("thread length [mm]")
     a1.legend(loc="best", fontsize=8)
     # The two runs share their time samples, so compare sample by sample on MuJoCo's angles.
     diff = to_um(Lm - np.interp(xm, xr, Lr) if len(Lm) != len(Lr) else Lm - Lr)
-    a2.plot(xm, diff, color="tab:orange", lw=1.2)
-    a2.axhline(0.0, color="0.5", lw=0.8)
-    a2.set_ylabel("MuJoCo − reference [µm]")
+    residual(a2, xm, diff, "µm", compare.THREAD_UM, color=palette.THREAD)
     finish_x(a2, [xm, xr], xlabel)
     for ax in (a1, a2):
         ax.grid(True, alpha=0.3)
@@ -315,40 +593,84 @@ def thread_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> Path
 
 # ----------------------------------------------------------------------------- one point
 def kinematics_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, point: str) -> Path:
-    """``kinematics_<point>.png``: x and y position (mm), speed |v| (m/s) and acceleration |a|
-    (m/s^2) of ``point`` against crank angle (deg) over the kinematic run, MuJoCo vs reference."""
+    """``kinematics_<point>.png``: the motion of ``point`` against crank angle over the
+    kinematic run, MuJoCo vs ``kin_ref`` (the reference at MuJoCo's own crank state,
+    :func:`mjlink.compare.reference_at`). Three columns, position (mm), velocity (m/s) and
+    acceleration (m/s^2); a row per component x, y, z that changes over the run, each on its
+    own axes (a y swinging 24 mm is not flattened by an x of 250 mm), a row with the
+    magnitudes |v| and |a| (the position column names the strokes), and a last row with the
+    length of MuJoCo's error vector (um, m/s, m/s^2) against the thresholds of ``simulate``."""
     (xm, xr), xlabel = crank_x(mech, kin_mj, kin_ref)
-    fig, axs = plt.subplots(3, 1, figsize=(8.0, 8.0), sharex=True, layout="constrained")
-    pm, pr = to_mm(kin_mj.points[point]), to_mm(kin_ref.points[point])
-    pair(axs[0], xm, pm[:, 0], xr, pr[:, 0], "tab:blue", "x")
-    pair(axs[0], xm, pm[:, 1], xr, pr[:, 1], "tab:green", "y")
-    axs[0].set_ylabel(f"position of {point} [mm]")
-    axs[0].legend(loc="best", fontsize=8, ncol=2)
-    pair(
-        axs[1],
-        xm,
-        analysis.magnitude(kin_mj.velocities[point]),
-        xr,
-        analysis.magnitude(kin_ref.velocities[point]),
-        "tab:purple",
+    lim = compare.point_limits(kin_ref, point)
+    series = (
+        (kin_mj.points[point], kin_ref.points[point], 1e3, "mm", "position", lim.position * 1e6, 1e6, "µm"),
+        (kin_mj.velocities[point], kin_ref.velocities[point], 1.0, "m/s", "velocity", lim.velocity, 1.0, "m/s"),
+        (
+            kin_mj.accelerations[point],
+            kin_ref.accelerations[point],
+            1.0,
+            "m/s$^2$",
+            "acceleration",
+            lim.acceleration,
+            1.0,
+            "m/s$^2$",
+        ),
     )
-    axs[1].set_ylabel(f"speed |v| of {point} [m/s]")
-    axs[1].legend(loc="best", fontsize=8)
-    pair(
-        axs[2],
-        xm,
-        analysis.magnitude(kin_mj.accelerations[point]),
-        xr,
-        analysis.magnitude(kin_ref.accelerations[point]),
-        "tab:red",
+    comps = [
+        j for j in range(3) if np.ptp(kin_ref.points[point][:, j]) > 1e-9 or np.ptp(kin_mj.points[point][:, j]) > 1e-9
+    ]
+    rows = len(comps) + 2
+    fig, axs = plt.subplots(
+        rows,
+        3,
+        figsize=(14.0, 2.05 * rows + 1.2),
+        sharex=True,
+        layout="constrained",
+        gridspec_kw=dict(height_ratios=[1.0] * (rows - 1) + [0.8]),
     )
-    axs[2].set_ylabel(f"acceleration |a| of {point} [m/s$^2$]")
-    axs[2].legend(loc="best", fontsize=8)
-    finish_x(axs[2], [xm, xr], xlabel)
-    for ax in axs:
-        ax.grid(True, alpha=0.3)
+    hues = ("tab:blue", "tab:green", "tab:purple")
+    for c, (mj, ref, scale, unit, what, limit, rscale, runit) in enumerate(series):
+        for r, j in enumerate(comps):
+            ax = axs[r, c]
+            pair(ax, xm, scale * mj[:, j], xr, scale * ref[:, j], hues[j])
+            if what != "position":
+                ax.axhline(0.0, color="0.5", lw=0.6, zorder=0)
+            ax.set_ylabel(f"{what} {'xyz'[j]} [{unit}]")
+            ax.grid(True, alpha=0.3)
+        ax = axs[len(comps), c]
+        if what == "position":
+            strokes = ", ".join(f"{'xyz'[j]} {1e3 * np.ptp(ref[:, j]):.3f} mm" for j in comps)
+            ax.axis("off")
+            ax.text(
+                0.5,
+                0.5,
+                f"strokes of {point} over the run:\n{strokes}\n(range max − min of each coordinate)",
+                transform=ax.transAxes,
+                ha="center",
+                va="center",
+                fontsize=9,
+            )
+        else:
+            pair(ax, xm, analysis.magnitude(mj), xr, analysis.magnitude(ref), "tab:red")
+            ax.set_ylabel(f"|{what[0]}| [{unit}]")
+            ax.grid(True, alpha=0.3)
+        residual(
+            axs[-1, c],
+            xm,
+            rscale * analysis.magnitude(mj - ref),
+            runit,
+            limit,
+            what=f"|Δ{what[0] if what != 'position' else 'P'}|, MuJoCo − ref.",
+            signed=False,
+        )
+        axs[0, c].set_title(what, fontsize=10)
+        finish_x(axs[-1, c], [xm, xr], xlabel)
+    axs[0, 0].legend(loc="best", fontsize=8)
     w = float(np.mean(kin_mj.omega))
-    axs[0].set_title(title(mech, f"point {point}, crank at {w:.4g} rad/s ({to_rpm(w):.4g} rpm)"), fontsize=10)
+    fig.suptitle(
+        title(mech, f"point {point}, crank at {to_rpm(abs(w)):.4g} rpm ({abs(w):.4g} rad/s), {direction(w)}"),
+        fontsize=10,
+    )
     return save(fig, out_dir, f"kinematics_{point}.png")
 
 
@@ -372,15 +694,18 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         moving = analysis.guide_moves(mech, sl)
         guide = ("relative to its moving guide " if moving else "on guide ") + f"{n1}→{n2}"
 
-        # --- s, ds/dt, d2s/dt2
-        fig, axs = plt.subplots(3, 1, figsize=(8.0, 8.0), sharex=True, layout="constrained")
+        # --- s, ds/dt, d2s/dt2 and MuJoCo's error in s
+        fig, axs = plt.subplots(
+            4, 1, figsize=(8.0, 9.6), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7))
+        )
         # Velocity and acceleration reverse within a stroke: a zero line shows where.
         panels = (
             ("position $s$ along the guide [mm]", to_mm, "tab:blue"),
             ("velocity $ds/dt$ [m/s]", None, "tab:purple"),
             ("acceleration $d^2s/dt^2$ [m/s$^2$]", None, "tab:red"),
         )
-        for ax, a, b, (lab, scale, c) in zip(axs, sm, sr, panels):
+        residual(axs[3], xm, to_um(sm[0] - sr[0]), "µm", compare.POSITION_UM, what="MuJoCo − ref., s")
+        for ax, a, b, (lab, scale, c) in zip(axs[:3], sm, sr, panels):
             if scale is None:
                 pair(ax, xm, a, xr, b, c)
                 ax.axhline(0.0, color="0.5", lw=0.6, zorder=0)
@@ -396,7 +721,7 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
             syn += f" (also of {', '.join(also)})"
         for v in (sr[0].min(), sr[0].max()):
             axs[0].axhline(to_mm(v), color="0.4", lw=0.7, ls=":")
-        finish_x(axs[2], [xm, xr], xlabel)
+        finish_x(axs[3], [xm, xr], xlabel)
         axs[0].set_title(title(mech, f"slider {p} {guide}: stroke {to_mm(stroke):.2f} mm{syn}"), fontsize=10)
         paths.append(save(fig, out_dir, f"slider_{p}.png"))
 
@@ -489,7 +814,19 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
     Lm, dm, fm = analysis.thread_feed(mech, kin_mj)
     Lr, dr, fr = analysis.thread_feed(mech, kin_ref)
     xm, xr = xm[: len(Lm)], xr[: len(Lr)]  # the axis is cut at one turn
-    fig, axs = plt.subplots(3, 1, figsize=(8.0, 8.0), sharex=True, layout="constrained")
+    fig, axs = plt.subplots(
+        4, 1, figsize=(8.0, 9.6), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7))
+    )
+    n = min(len(fm), len(fr))
+    residual(
+        axs[3],
+        xm[:n],
+        to_um(fm[:n] - fr[:n]),
+        "µm",
+        compare.THREAD_UM,
+        color=palette.THREAD,
+        what="MuJoCo − ref., $P_d$",
+    )
     pair(axs[0], xm, to_mm(Lm), xr, to_mm(Lr), "tab:orange")
     axs[0].set_ylabel(f"thread length $l_F$ [mm]\n{'–'.join(mech.thread)}")
     pair(axs[1], xm, to_mm(dm), xr, to_mm(dr), "tab:orange")
@@ -498,7 +835,7 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
     axs[2].axhline(0.0, color="k", lw=0.9, zorder=0)
     axs[2].set_ylabel(f"feed $P_d = \\Delta l_F - \\Delta P$ [mm]\n($\\Delta P$ = {to_mm(dp):g} mm)")
     pd = to_mm(fr)
-    for ax in axs:
+    for ax in axs[:3]:
         ax.grid(True, alpha=0.3)
     for v, va in ((pd.max(), "bottom"), (pd.min(), "top")):
         i = int(np.argmin(np.abs(pd - v)))
@@ -514,8 +851,8 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
         )
     axs[2].margins(y=0.15)
     axs[0].legend(loc="best", fontsize=8)
-    axs[2].set_xlabel(xlabel)
-    angle_ticks(axs[2], float(xr[0]), float(xr[0]) + 360.0)
+    axs[3].set_xlabel(xlabel)
+    angle_ticks(axs[3], float(xr[0]), float(xr[0]) + 360.0)
     axs[0].set_title(
         title(
             mech,
@@ -716,29 +1053,45 @@ def phase_study_plot(
 # ----------------------------------------------------------------------------- link rotation (seed 004 Fig. 4a-b)
 def link_motion_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, link: str) -> Path:
     """``link_<link>.png``: angular velocity (rad/s) and angular acceleration (rad/s^2) of
-    ``link`` about z against crank angle, MuJoCo (its body's) vs reference."""
+    ``link`` about z against crank angle, MuJoCo (its body's) vs reference, each with MuJoCo's
+    error beneath (informational: link rates are held to no threshold)."""
     (xm, xr), xlabel = crank_x(mech, kin_mj, kin_ref)
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8.0, 6.4), sharex=True, layout="constrained")
-    for ax, mj, ref, lab, c in (
-        (a1, kin_mj.link_omega, kin_ref.link_omega, f"angular velocity $\\omega$ of {link} [rad/s]", "tab:blue"),
+    fig, axs = plt.subplots(
+        4, 1, figsize=(8.0, 9.0), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 0.55, 1, 0.55))
+    )
+    for ax, rax, mj, ref, lab, c, unit in (
         (
-            a2,
+            axs[0],
+            axs[1],
+            kin_mj.link_omega,
+            kin_ref.link_omega,
+            f"angular velocity $\\omega$ of {link} [rad/s]",
+            "tab:blue",
+            "rad/s",
+        ),
+        (
+            axs[2],
+            axs[3],
             kin_mj.link_eps,
             kin_ref.link_eps,
             f"angular acceleration $\\varepsilon$ of {link} [rad/s$^2$]",
             "tab:red",
+            "rad/s$^2$",
         ),
     ):
+        ax.plot(xr, ref[link], label=REF_LABEL, **REF_STYLE)
         if link in mj:
             ax.plot(xm, mj[link], color=c, label=MJ_LABEL, **MJ_STYLE)
-        ax.plot(xr, ref[link], label=REF_LABEL, **REF_STYLE)
+            residual(rax, xm, mj[link] - ref[link], unit, None, color=c, what="MuJoCo − ref.")
+        else:
+            rax.axis("off")
         ax.axhline(0.0, color="0.5", lw=0.6, zorder=0)
         ax.set_ylabel(lab)
         ax.grid(True, alpha=0.3)
-    a1.legend(loc="best", fontsize=8)
-    finish_x(a2, [xm, xr], xlabel)
+    axs[0].legend(loc="best", fontsize=8)
+    finish_x(axs[3], [xm, xr], xlabel)
     w, e = kin_ref.link_omega[link], kin_ref.link_eps[link]
-    a1.set_title(
+    axs[0].set_title(
         title(mech, f"rotation of link {link}: |ω| ≤ {np.abs(w).max():.4g} rad/s, |ε| ≤ {np.abs(e).max():.4g} rad/s²"),
         fontsize=10,
     )

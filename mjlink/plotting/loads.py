@@ -7,60 +7,209 @@ reference dashed on top, atomic writes); the quantities come from the traces,
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .. import analysis, reference
-from ..model.mechanism import Mechanism
+from .. import analysis, compare, palette, reference
+from ..model.mechanism import Mechanism, SteadyCase
+from ..model.names import GROUND
 from ..reference.batch import FrameLoads
 from ..runs import SteadyRun, Trace
 from ..units import to_rpm
-from .style import MJ_LABEL, MJ_STYLE, REF_LABEL, REF_STYLE, crank_x, finish_x, save, title
+from .style import (
+    MJ_LABEL,
+    MJ_STYLE,
+    REF_LABEL,
+    REF_STYLE,
+    crank_axis,
+    crank_x,
+    direction,
+    finish_x,
+    residual,
+    save,
+    title,
+)
 
 
 def torque_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_dir) -> Path:
-    """``torque.png``: driving torque (N*m) and drive power (W) against crank angle; ``kin_mj``
-    must have recorded its loads (:attr:`mjlink.runs.Case.loads`)."""
+    """``torque.png``, what a drive and its flywheel are sized from, against crank angle: the
+    driving torque (N*m) MuJoCo vs kinetostatics with its peak, RMS and mean power over one
+    period named; MuJoCo minus the reference (N*m, with the threshold); the drive power (W);
+    and the energy fluctuation E = integral of (T - T_mean) dphi (J) over one period with its
+    swing and the classical flywheel estimate J = dE / (delta omega^2) for the file's target
+    delta. ``kin_mj`` must have recorded its loads (:attr:`mjlink.runs.Case.loads`)."""
     torque = kin_mj.torque
     if torque is None:
         raise ValueError(f"{mech.name}: the torque plot needs a run that recorded its driving torque")
     (x,), label = crank_x(mech, kin_mj)
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.4), sharex=True, layout="constrained")
-    a1.plot(x, torque, label=MJ_LABEL, color="tab:blue", **MJ_STYLE)
-    a1.plot(x, rx.torque, label=REF_LABEL + ", kinetostatics", **REF_STYLE)
-    a1.axhline(0, color="0.6", lw=0.8)
-    a1.set_ylabel("driving torque $M_1$ [N·m]")
-    a1.legend(loc="best", fontsize=8)
-    power_ref = analysis.drive_power(rx.torque, kin_mj.omega)
-    a2.plot(x, analysis.drive_power(torque, kin_mj.omega), color="tab:orange", label=MJ_LABEL, **MJ_STYLE)
-    a2.plot(x, power_ref, label=REF_LABEL, **REF_STYLE)
-    a2.axhline(float(np.mean(power_ref)), color="tab:red", lw=1, ls="-.", label=f"mean {np.mean(power_ref):.3g} W")
-    a2.set_ylabel("drive power [W]")
-    a2.legend(loc="best", fontsize=8)
-    finish_x(a2, [x], label)
+    f_angle, _ = crank_axis(mech, kin_mj.phi)
     w = float(np.mean(kin_mj.omega))
-    a1.set_title(title(mech, f"torque to turn the crank at {to_rpm(abs(w)):.0f} rpm (inverse dynamics)"), fontsize=10)
+    cycle = analysis.torque_cycle(mech, w)
+    fig, (a1, ar, a2, a3) = plt.subplots(
+        4,
+        1,
+        figsize=(10.5, 10.4),
+        sharex=True,
+        layout="constrained",
+        gridspec_kw=dict(height_ratios=(1.3, 0.6, 0.9, 1.0)),
+    )
+    a1.plot(x, rx.torque, label=REF_LABEL + ", kinetostatics", **REF_STYLE)
+    a1.plot(x, torque, label=MJ_LABEL, color=palette.MUJOCO, **MJ_STYLE)
+    a1.axhline(0, color="0.6", lw=0.8)
+    i = int(np.argmax(np.abs(rx.torque)))
+    a1.plot(x[i], rx.torque[i], "v" if rx.torque[i] >= 0 else "^", color="k", ms=7, zorder=5)
+    a1.axhline(cycle.mean, color="tab:red", lw=1.0, ls="-.", label=f"mean {cycle.mean:.4g} N·m")
+    a1.plot([], [], " ", label=f"peak |M₁| {cycle.peak:.4g} N·m (triangle)")
+    a1.plot([], [], " ", label=f"RMS {cycle.rms:.4g} N·m")
+    a1.plot([], [], " ", label=f"mean power {cycle.power:.4g} W")
+    a1.set_ylabel("driving torque $M_1$ [N·m]")
+    a1.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="over one period", title_fontsize=8)
+    residual(ar, x, torque - rx.torque, "N·m", compare.torque_limit(rx.torque), what="MuJoCo − ref.")
+    power_ref = analysis.drive_power(rx.torque, kin_mj.omega)
+    a2.plot(x, power_ref, label=REF_LABEL, **REF_STYLE)
+    a2.plot(x, analysis.drive_power(torque, kin_mj.omega), color="tab:orange", label=MJ_LABEL, **MJ_STYLE)
+    a2.axhline(cycle.power, color="tab:red", lw=1, ls="-.", label=f"mean {cycle.power:.3g} W")
+    a2.axhline(0, color="0.6", lw=0.8)
+    a2.set_ylabel("drive power [W]")
+    a2.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    phi_e, energy = analysis.energy_cycle(mech, w)
+    xe = f_angle(phi_e)
+    target = mech.steady.target_delta if mech.steady else SteadyCase.target_delta
+    j_fly = analysis.flywheel_estimate(cycle.energy, w, target)
+    a3.plot(xe, energy, color="tab:purple", lw=1.6)
+    lo, hi = int(np.argmin(energy)), int(np.argmax(energy))
+    for k, _va in ((lo, "top"), (hi, "bottom")):
+        a3.plot(xe[k], energy[k], "o", color="k", ms=4, zorder=5)
+    a3.annotate(
+        "",
+        (xe[hi], energy[hi]),
+        xytext=(xe[hi], energy[lo]),
+        arrowprops=dict(arrowstyle="<->", color="0.3", lw=1.0),
+    )
+    a3.axhline(energy[lo], color="0.6", lw=0.6, ls=":")
+    a3.axhline(0.0, color="0.5", lw=0.6)
+    a3.set_ylabel("energy fluctuation\n$\\int (M_1 - \\bar M_1)\\,d\\varphi$ [J]")
+    a3.set_title(
+        f"energy swing ΔE = {cycle.energy:.4g} J over one period (arrow): a flywheel of J = ΔE / (δ ω²) = "
+        f"{j_fly:.3g} kg·m²\n(all rotating inertia reduced to the crank) keeps δ = {target:g} at {abs(w):.4g} rad/s",
+        fontsize=8.5,
+    )
+    a3.margins(y=0.12)
+    for ax in (a1, a2, a3):
+        ax.grid(True, alpha=0.3)
+    finish_x(a3, [x, xe], label)
+    a1.set_title(
+        title(mech, f"torque to turn the crank at {to_rpm(abs(w)):.0f} rpm, {direction(w)} (inverse dynamics)"),
+        fontsize=10,
+    )
     return save(fig, out_dir, "torque.png")
 
 
-def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_dir) -> Path:
-    """``reactions.png``: the force magnitude (N) in every kinematic pair against crank angle."""
+def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_dir) -> list[Path]:
+    """The loads in the kinematic pairs over the kinematic run, two files.
+
+    ``reactions.png``: small multiples, one panel per pair: the force magnitude |F| (N)
+    against crank angle, MuJoCo vs kinetostatics, the peak marked and named, and MuJoCo's
+    error as a thin line against the pair's threshold on a second axis.
+    ``reaction_polar.png``: the polar load diagram of every revolute pair: the force on the
+    pair's child, resolved in the frame of the link that carries the bearing (the parent;
+    fixed axes for a frame pivot), as the bearing sees it over a cycle (N, equal axes), the
+    start and the peak marked (reference; the direction of travel by an arrow).
+    """
     (x,), label = crank_x(mech, kin_mj)
-    fig, ax = plt.subplots(figsize=(9, 5.6), layout="constrained")
-    colors = plt.get_cmap("tab10")
-    for i, (lab, f_ref) in enumerate(rx.forces.items()):
-        c = colors(i % 10)
-        ax.plot(x, analysis.magnitude(kin_mj.reactions[lab]), color=c, label=lab, **MJ_STYLE)
-        ax.plot(x, analysis.magnitude(f_ref), color="k", lw=0.9, ls=(0, (4, 3)))
-    ax.plot([], [], label="dashed: " + REF_LABEL, **REF_STYLE)
-    ax.set_ylabel("force in the pair |F| [N]")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="pair (MuJoCo, solid)")
-    finish_x(ax, [x], label)
+    labels = list(rx.forces)
+    n = len(labels)
+    cols = 2 if n > 1 else 1
+    rows = math.ceil(n / cols)
+    fig, axs = plt.subplots(
+        rows, cols, figsize=(12.0, 2.3 * rows + 1.1), sharex=True, layout="constrained", squeeze=False
+    )
+    for k, lab in enumerate(labels):
+        ax = axs[k // cols, k % cols]
+        f_ref, f_mj = analysis.magnitude(rx.forces[lab]), analysis.magnitude(kin_mj.reactions[lab])
+        ax.plot(x, f_ref, **REF_STYLE)
+        ax.plot(x, f_mj, color=palette.link(k), **MJ_STYLE)
+        i = int(np.argmax(f_ref))
+        ax.plot(x[i], f_ref[i], "v", color="k", ms=6, zorder=5)
+        ax.annotate(
+            f"peak {f_ref[i]:.4g} N",
+            (x[i], f_ref[i]),
+            xytext=(0, 4),
+            textcoords="offset points",
+            ha="center",
+            va="bottom",
+            fontsize=8,
+        )
+        ax.set_ylim(0.0, 1.3 * float(f_ref.max()) or 1.0)
+        ax.set_ylabel("|F| [N]")
+        err = analysis.magnitude(kin_mj.reactions[lab] - rx.forces[lab])
+        limit = compare.force_limit(rx.forces[lab])
+        ax.set_title(
+            f"{lab}: MuJoCo − ref. at most {err.max():.2g} N = {100 * err.max() / limit:.2g} % of the threshold",
+            fontsize=8.5,
+        )
+        ax.grid(True, alpha=0.3)
+    for k in range(n, rows * cols):
+        axs[k // cols, k % cols].axis("off")
+    for c in range(cols):
+        finish_x(axs[-1, c] if (rows - 1) * cols + c < n else axs[-2, c], [x], label)
+    handles = [
+        plt.Line2D([], [], **REF_STYLE, label=REF_LABEL + ", kinetostatics"),
+        plt.Line2D([], [], color="0.3", **MJ_STYLE, label=MJ_LABEL + " (in the pair's colour)"),
+    ]
+    fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=8.5)
     w = float(np.mean(kin_mj.omega))
-    ax.set_title(title(mech, f"reactions in the kinematic pairs at {to_rpm(abs(w)):.0f} rpm"), fontsize=10)
-    return save(fig, out_dir, "reactions.png")
+    fig.suptitle(
+        title(mech, f"force in every kinematic pair at {to_rpm(abs(w)):.0f} rpm, {direction(w)}; peak marked"),
+        fontsize=10,
+    )
+    paths = [save(fig, out_dir, "reactions.png")]
+
+    loads = analysis.pair_loads(mech, rx)
+    if loads:
+        cols = min(4, len(loads))
+        rows = math.ceil(len(loads) / cols)
+        fig, axs = plt.subplots(
+            rows, cols, figsize=(3.4 * cols + 0.6, 3.6 * rows + 0.9), layout="constrained", squeeze=False
+        )
+        for k, pl in enumerate(loads):
+            ax = axs[k // cols, k % cols]
+            f = pl.force
+            c = palette.link(labels.index(pl.label))
+            ax.plot(f[:, 0], f[:, 1], color=c, lw=1.6)
+            ax.plot([0, f[0, 0]], [0, f[0, 1]], color="0.5", lw=0.8)
+            ax.plot(*f[0], "s", color="k", ms=4.5, zorder=5)
+            i = int(np.argmax(pl.magnitude))
+            ax.plot([0, f[i, 0]], [0, f[i, 1]], color="k", lw=1.0)
+            ax.plot(*f[i], "v", color="k", ms=6, zorder=5)
+            j = min(len(f) - 1, max(1, len(f) // 8))
+            ax.annotate("", f[j], xytext=f[j - 1], arrowprops=dict(arrowstyle="-|>", color=c, lw=1.4))
+            r = 1.15 * float(pl.magnitude.max()) or 1.0
+            ax.set_xlim(-r, r)
+            ax.set_ylim(-r, r)
+            ax.set_aspect("equal")
+            ax.axhline(0, color="0.6", lw=0.6)
+            ax.axvline(0, color="0.6", lw=0.6)
+            ax.grid(True, alpha=0.3)
+            frame = "fixed axes (frame pivot)" if pl.frame == GROUND else f"axes of {pl.frame}"
+            ax.set_title(f"{pl.label}\npeak {pl.magnitude[i]:.4g} N; {frame}", fontsize=8.5)
+            ax.set_xlabel("$F_x$ [N]", fontsize=8.5)
+            ax.set_ylabel("$F_y$ [N]", fontsize=8.5)
+        for k in range(len(loads), rows * cols):
+            axs[k // cols, k % cols].axis("off")
+        fig.suptitle(
+            title(
+                mech,
+                "polar load diagrams: force on each pair's child in the frame of the link carrying the bearing\n"
+                "(x along the link's first two points; square: start, triangle: peak; reference, one cycle)",
+            ),
+            fontsize=10,
+        )
+        paths.append(save(fig, out_dir, "reaction_polar.png"))
+    return paths
 
 
 def steady_plot(

@@ -1,8 +1,12 @@
 """The look every figure shares, and the one way a figure is written to disk.
 
-Line styles (MuJoCo solid, wide and translucent; the reference dashed on top in black or a
-darker tone of the same hue, so both stay visible where they coincide, which is the expected
-case; the paper's RK4 dotted), legend labels, titles, crank-angle axes and :func:`save`.
+Line styles: the reference a thin solid line (black, or a darker tone of the quantity's hue
+where several share a panel), MuJoCo coloured dashes on top of it, so both stay visible
+where they coincide, which is the expected case; the paper's RK4 dotted red. Residual panels
+(:func:`residual`: MuJoCo minus the reference with the agreement threshold drawn), legend
+labels, titles, crank-angle axes, :func:`text_overlaps` (the figure tests' check) and
+:func:`save`. Colours of links, thread and key point are :mod:`mjlink.palette`'s, shared
+with the video.
 
 Crank angles are plotted in degrees, unwrapped from the traces; a crank turning clockwise is
 plotted against the angle turned from phi0 (the axis label says so), so every angle axis
@@ -18,11 +22,13 @@ from typing import Any
 
 import matplotlib.colors
 import matplotlib.pyplot as plt
+import matplotlib.text
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.typing import ColorType
 
+from .. import palette
 from ..errors import OutputError
 from ..model.mechanism import Mechanism
 from ..output import atomic_path
@@ -30,12 +36,31 @@ from ..runs import Trace
 
 DPI = 120
 
-MJ_STYLE: dict[str, Any] = dict(lw=2.2, alpha=0.75, solid_capstyle="butt")
-REF_STYLE: dict[str, Any] = dict(lw=1.1, ls=(0, (4, 3)), color="k")
-RK4_STYLE: dict[str, Any] = dict(lw=1.0, ls=":", color="tab:red")
+MJ_STYLE: dict[str, Any] = dict(lw=2.0, ls=(0, (3.0, 2.4)), alpha=0.95, dash_capstyle="butt", zorder=3)
+REF_STYLE: dict[str, Any] = dict(lw=1.0, color=palette.REFERENCE, zorder=2.5)
+RK4_STYLE: dict[str, Any] = dict(lw=1.3, ls=(0, (1.0, 1.6)), color=palette.RK4, zorder=2.8)
 
-MJ_LABEL = "MuJoCo"
-REF_LABEL = "reference (vector method)"
+MJ_LABEL = "MuJoCo (dashed)"
+REF_LABEL = "reference, vector method (solid)"
+RESIDUAL_GID = "residual"  # every residual panel's Axes carries this gid (the figure tests look for it)
+
+_KEEP: list[tuple[str, Figure]] | None = None
+
+
+class keep_figures:
+    """Within ``with keep_figures() as figs:``, :func:`save` still writes every PNG but keeps
+    its figure open and appends ``(file name, Figure)`` to ``figs``, so a test can read what
+    a figure shows (its axes, labels, texts) rather than only that the file exists."""
+
+    def __enter__(self) -> list[tuple[str, Figure]]:
+        global _KEEP
+        self._before = _KEEP
+        _KEEP = []
+        return _KEEP
+
+    def __exit__(self, *exc: object) -> None:
+        global _KEEP
+        _KEEP = self._before
 
 
 def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Path:
@@ -55,7 +80,10 @@ def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Pa
         with atomic_path(path, suffix=".png") as tmp:
             fig.savefig(tmp, format="png", dpi=DPI, **crop)
     finally:
-        plt.close(fig)
+        if _KEEP is not None:
+            _KEEP.append((name, fig))
+        else:
+            plt.close(fig)
     return path
 
 
@@ -95,14 +123,105 @@ def darker(color: ColorType) -> tuple[float, float, float]:
 
 
 def pair(ax: Axes, x_mj: Any, y_mj: Any, x_ref: Any, y_ref: Any, color: str, what: str = "") -> None:
-    """MuJoCo solid (wide, translucent) with the reference dashed on top in a darker tone."""
+    """The reference as a thin solid line, MuJoCo as coloured dashes on top of it."""
     sep = " " if what else ""
-    ax.plot(x_mj, y_mj, color=color, label=f"{what}{sep}{MJ_LABEL}", **MJ_STYLE)
     style = dict(REF_STYLE)
     if what:
-        # Several quantities share the panel: keep the hue so each dashed line finds its twin.
+        # Several quantities share the panel: keep the hue so each line finds its twin.
         style["color"] = darker(color)
-    ax.plot(x_ref, y_ref, label=f"{what}{sep}reference", **style)
+    ax.plot(x_ref, y_ref, label=f"{what}{sep}reference" if what else REF_LABEL, **style)
+    ax.plot(x_mj, y_mj, color=color, label=f"{what}{sep}MuJoCo" if what else MJ_LABEL, **MJ_STYLE)
+
+
+def _num(v: float) -> str:
+    return f"{v:.3g}"
+
+
+def residual(
+    ax: Axes,
+    x: Any,
+    diff: Any,
+    unit: str,
+    limit: float | None,
+    *,
+    color: str = palette.MUJOCO,
+    what: str = "MuJoCo − reference",
+    signed: bool = True,
+) -> None:
+    """A residual panel: ``diff`` (MuJoCo minus the reference, or the length of that difference
+    when not ``signed``) in ``unit`` against ``x``, the agreement threshold ``limit`` (same unit;
+    None: held to none) as red dashed lines and the worst value in words.
+
+    A threshold far above the residual (more than 25 times) would flatten it to a line at zero:
+    the axis then fits the residual and the threshold is named in the text, with the worst
+    value as a share of it."""
+    d = np.asarray(diff, dtype=float)
+    worst = float(np.nanmax(np.abs(d))) if d.size else 0.0
+    ax.plot(x, d, color=color, lw=1.0, zorder=3)
+    ax.axhline(0.0, color="0.5", lw=0.6, zorder=1)
+    ax.set_gid(RESIDUAL_GID)
+    ax.set_ylabel(f"{what}\n[{unit}]", fontsize=8.5)
+    ax.grid(True, alpha=0.3)
+    top = worst if worst > 0 else 1.0
+    text = f"max |Δ| {_num(worst)} {unit}"
+    if limit is not None and limit > 0:
+        text += f" = {100 * worst / limit:.2g} % of the threshold {_num(limit)} {unit}"
+        if worst * 25 >= limit:
+            for sgn in (1.0, -1.0) if signed else (1.0,):
+                ax.axhline(sgn * limit, color=palette.THRESHOLD, lw=1.0, ls=(0, (5, 3)), zorder=2)
+            top = max(top, limit)
+            text += " (red)"
+        else:
+            text += " (off scale)"
+    ax.set_ylim(-1.3 * top if signed else 0.0, 1.45 * top)
+    ax.text(
+        0.005,
+        0.96,
+        text,
+        transform=ax.transAxes,
+        ha="left",
+        va="top",
+        fontsize=7.5,
+        zorder=6,
+        bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8),
+    )
+
+
+def direction(omega: Any) -> str:
+    """'counter-clockwise' or 'clockwise': the sense of a crank speed (rad/s, CCW positive)."""
+    return "counter-clockwise" if float(np.mean(omega)) >= 0 else "clockwise"
+
+
+def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
+    """Pairs of drawn texts of ``fig`` whose boxes overlap on the canvas: titles, axis labels,
+    annotations, free texts and legends (a legend counts as one box); tick labels are laid out
+    by matplotlib and not checked. Empty when nothing collides. ``pad`` pixels shrink every
+    box before testing (touching is not overlapping)."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    boxes = []
+    legends = [lg for ax in fig.axes if (lg := ax.get_legend()) is not None] + list(fig.legends)
+    inside = {id(t) for lg in legends for t in lg.get_texts()} | {id(lg.get_title()) for lg in legends}
+    ticks = {
+        id(t)
+        for ax in fig.axes
+        for axis in (ax.xaxis, ax.yaxis)
+        for t in [*axis.get_ticklabels(), *axis.get_ticklabels(minor=True), axis.get_offset_text()]
+    }
+    for t in fig.findobj(matplotlib.text.Text):
+        if id(t) in inside or id(t) in ticks or not t.get_visible() or not t.get_text().strip():
+            continue
+        boxes.append((t.get_text(), t.get_window_extent(r)))
+    for lg in legends:
+        if lg.get_visible():
+            boxes.append(("legend", lg.get_window_extent(r)))
+    out = []
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            a, b = boxes[i][1], boxes[j][1]
+            if min(a.x1, b.x1) - max(a.x0, b.x0) > 2 * pad + 0.5 and min(a.y1, b.y1) - max(a.y0, b.y0) > 2 * pad + 0.5:
+                out.append((boxes[i][0], boxes[j][0]))
+    return out
 
 
 def crank_axis(mech: Mechanism, phi: np.ndarray) -> tuple[Callable[[Any], np.ndarray], str]:

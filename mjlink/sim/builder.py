@@ -21,14 +21,13 @@ to 1: soft loop closure is the main error source, and these keep it below 0.1 um
 
 from __future__ import annotations
 
-import colorsys
 import time
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from .. import reference
+from .. import palette, reference
 from ..model import names
 from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from ..model.topology import Pair, topology
@@ -46,7 +45,8 @@ _INTEGRATORS = {
 
 
 def _colors(n: int) -> list[tuple[float, float, float, float]]:
-    return [(*colorsys.hsv_to_rgb((0.58 + i / max(n, 1)) % 1.0, 0.65, 0.85), 1.0) for i in range(n)]
+    """The links' colours, those of the figures (:mod:`mjlink.palette`)."""
+    return [palette.rgba(palette.link(i)) for i in range(n)]
 
 
 @dataclass(frozen=True)
@@ -146,8 +146,8 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         width=256,
         height=1536,
     )
-    spec.add_material(name="mat_ground").rgba = [0.35, 0.35, 0.38, 1.0]
-    spec.add_material(name="mat_eyelet").rgba = [0.95, 0.2, 0.15, 1.0]
+    spec.add_material(name="mat_ground").rgba = list(palette.rgba(palette.GROUND))
+    spec.add_material(name="mat_eyelet").rgba = list(palette.rgba(palette.KEY_PATH))
 
     world = spec.worldbody
     world.add_light(
@@ -186,6 +186,23 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
                 pos=(pos[pr.pin] - [0, 0, 0.02 * size]).tolist(),
                 size=[2.2 * r_link, 0.012 * size, 0],
                 material="mat_ground",
+                contype=0,
+                conaffinity=0,
+            )
+
+    # The frame (ground link) joining the input crank's pivot to every other frame pivot,
+    # behind the moving links, as the ground link of a kinematic diagram.
+    frame_pivots = [pr.pin for pr in topo.tree + topo.loops if pr.revolute and pr.parent is None]
+    hub = mech.input_crank.pivot
+    for g in dict.fromkeys(frame_pivots):
+        if g != hub and hub in pos:
+            a, c = (pos[q] - [0, 0, 0.035 * size] for q in (hub, g))
+            world.add_geom(
+                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                fromto=[*a, *c],
+                size=[0.35 * r_link, 0, 0],
+                material="mat_ground",
+                rgba=list(palette.rgba(palette.GROUND, 0.55)),
                 contype=0,
                 conaffinity=0,
             )
@@ -306,7 +323,7 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
             pos=(pos[p] - origin[owner]).tolist(),
             size=[(1.9 if eyelet else 0.5) * r_link, 0, 0],
             material="mat_eyelet" if eyelet else "",
-            rgba=[0.95, 0.2, 0.15, 1] if eyelet else [0.1, 0.1, 0.1, 1],
+            rgba=list(palette.rgba(palette.KEY_PATH)) if eyelet else [0.1, 0.1, 0.1, 1],
         )
 
     loops: list[tuple[Pair, mujoco.MjsEquality]] = []
@@ -340,7 +357,7 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
 
     t = None
     if mech.thread:
-        t = spec.add_tendon(name=names.THREAD, width=0.45 * r_link, rgba=[0.95, 0.7, 0.05, 1.0])
+        t = spec.add_tendon(name=names.THREAD, width=0.45 * r_link, rgba=list(palette.rgba(palette.THREAD)))
         for p in mech.thread:
             t.wrap_site(p)
     # The drive: ctrl is the moment plus the motor's stall torque; an affine bias in the joint

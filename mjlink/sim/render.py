@@ -4,8 +4,11 @@ Two steps, in this order:
 
 1. :func:`mjlink.sim.gl.ensure_gl_backend` has picked the offscreen OpenGL backend when
    :mod:`mjlink.sim` was imported.
-2. :func:`render_video` replays a trace's joint positions through the model's fixed camera
-   ``front`` and encodes the frames as H.264 (yuv420p) with imageio's ffmpeg.
+2. :func:`render_video` replays a trace's joint positions through a camera framed on the
+   box that every point sweeps over the cycle, for the video's own aspect ratio (straight on
+   for a planar mechanism, obliquely with an axis triad for one with points in depth), draws
+   the key point's path as a fading trail, writes time, crank angle, speed and slow-motion
+   factor over each frame, and encodes the frames as H.264 (yuv420p) with imageio's ffmpeg.
 
 Units: times s, frame rates frames/s, sizes pixels; the trace is in SI units.
 """
@@ -13,6 +16,7 @@ Units: times s, frame rates frames/s, sizes pixels; the trace is in SI units.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import sys
 import time
@@ -22,7 +26,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from .. import output, reference
+from .. import analysis, output, palette, reference
 from ..errors import OutputError, RenderError
 from ..model.mechanism import Mechanism
 from ..runs import Settings, Trace
@@ -84,6 +88,71 @@ def frame_qpos(trace: Trace, frames: int) -> tuple[np.ndarray, np.ndarray]:
     return times, qpos.reshape(frames, q.shape[1])
 
 
+TRAIL_SAMPLES = 120  # key-point positions along the trail (one period)
+OVERLAY_HEIGHT = 0.034  # overlay text height, share of the frame's height
+
+
+def frame_camera(
+    points: np.ndarray, axes: np.ndarray, aspect: float, fovy: float, band: float, margin: float = 1.1
+) -> np.ndarray:
+    """Where a camera of orientation ``axes`` (3 x 3, columns: its right, up and backward
+    directions in the world, as ``data.cam_xmat``) must stand, m, to hold every point of
+    ``points`` (M, 3) m with ``margin`` in a frame of ``aspect`` = width / height and vertical
+    field of view ``fovy`` deg, below a top ``band`` (share of the height) kept for the overlay
+    text. The least distance that keeps every point inside both half-angles."""
+    right, up, back = axes[:, 0], axes[:, 1], axes[:, 2]
+    fwd = -back
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    center = 0.5 * (lo + hi)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - center
+    ty = np.tan(np.radians(fovy) / 2.0)
+    tx = ty * aspect
+    # The usable height is (1 - band) of the frame: the content's half-height must fit in
+    # (1 - band) ty d, and the camera aims above the content so that it sits below the band.
+    dist = max(
+        float(np.max(np.abs(corners @ right) * margin / tx - corners @ fwd)),
+        float(np.max(np.abs(corners @ up) * margin / (ty * (1.0 - band)) - corners @ fwd)),
+        1e-3,
+    )
+    aim = center + band * ty * dist * up
+    return aim - dist * fwd
+
+
+def key_path(mech: Mechanism, trace: Trace, times: np.ndarray) -> tuple[str, np.ndarray, np.ndarray]:
+    """The key point (:func:`mjlink.analysis.key_point`), its positions at the frame ``times``
+    (frames, 3) m, and for each frame the trail behind it: (frames, TRAIL_SAMPLES, 3) m, the
+    positions over the last period of crank rotation (fewer at the start are repeated)."""
+    key = analysis.key_point(mech)
+    t = np.asarray(trace.time, dtype=float)
+    p = np.asarray(trace.points[key], dtype=float)
+    now = np.column_stack([np.interp(times, t, p[:, j]) for j in range(3)])
+    period_t = mech.period / max(abs(float(np.mean(trace.omega))), 1e-9)
+    back = times[:, None] - period_t * np.linspace(1.0, 0.0, TRAIL_SAMPLES)[None, :]
+    back = np.maximum(back, t[0])
+    trail = np.stack([np.interp(back, t, p[:, j]) for j in range(3)], axis=-1)
+    return key, now, trail
+
+
+def overlay_lines(trace: Trace, times: np.ndarray, time_scale: float, phi0: float) -> list[list[str]]:
+    """The text written over each frame, one line: time (s), crank angle phi1 (deg) and the
+    angle turned from phi0, crank speed (rpm, magnitude, its sense) and the slow-motion factor."""
+    t = np.asarray(trace.time, dtype=float)
+    phi = np.interp(times, t, trace.phi)
+    omega = np.interp(times, t, trace.omega)
+    out = []
+    for i, ti in enumerate(times):
+        turned = math.degrees(abs(phi[i] - phi0))
+        w = float(omega[i])
+        sense = "CCW" if w >= 0 else "CW"
+        out.append(
+            [
+                f"t {ti:.4f} s   phi1 {math.degrees(phi[i]):7.1f} deg ({turned:3.0f} turned)   "
+                f"n1 {abs(w) * 30.0 / math.pi:.0f} rpm {sense}   slow motion {time_scale:.3g}x"
+            ]
+        )
+    return out
+
+
 def render_video(
     mech: Mechanism,
     trace: Trace,
@@ -102,8 +171,12 @@ def render_video(
     ``width`` and ``height`` pixels (even; beyond 1920x1080 the GL driver's limits apply).
     ``settings`` those the trace was run with (default: the kinematic case's); only the
     number and order of joints matter, since the geometry is the same for any settings.
-    The view is the model's fixed camera ``front`` (``oblique`` for a mechanism with points
-    out of its plane, so the eyelets' depth shows) with sites and the thread tendon shown.
+    The view is the model's camera ``front`` (``oblique`` for a mechanism with points out of
+    its plane, so the eyelets' depth shows, with a floor grid and an axis triad), moved so
+    that it frames every point's sweep over a period in this width and height (below the
+    overlay line), with sites and the thread tendon shown; the key point's path over the last
+    period trails it, fading; time, crank angle, speed (rpm, CCW or CW) and the slow-motion
+    factor are written at the top of every frame.
 
     The file is written to a temporary name in the same folder and renamed at the end, so
     ``path`` is either complete or untouched. With ``progress``, a frame counter goes to
@@ -120,7 +193,7 @@ def render_video(
         raise RenderError(
             f"video size {width}x{height} pixels: width and height must be positive and even (H.264 yuv420p)"
         )
-    _, qpos = frame_qpos(trace, n)
+    times, qpos = frame_qpos(trace, n)
     backend = ensure_gl_backend()
     built = builder.make(mech, settings or simulate.kinematic_case(mech).settings)
     model = built.model
@@ -129,8 +202,26 @@ def render_video(
             f"{mech.name}: the trace has {qpos.shape[1]} joint positions per sample, the model has "
             f"{model.nq}: was it run on another mechanism?"
         )
-    # A mechanism with points out of its plane (eyelets in depth) is shown obliquely.
-    camera = built.oblique if _is_3d(mech) else built.front
+    spatial = _is_3d(mech)
+    camera = built.oblique if spatial else built.front
+    # Framed on what every point sweeps over a period, for this video's aspect ratio.
+    sweep = reference.solve(mech, mech.phi0 + np.linspace(0.0, mech.period, 73), check=False)
+    pts = np.concatenate([v.v for v in sweep.points.values()])
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    axes = np.zeros(9)
+    mujoco.mju_quat2Mat(axes, model.cam_quat[camera])  # the builder's cameras sit on the world body
+    axes = axes.reshape(3, 3)
+    band = 2.3 * OVERLAY_HEIGHT * (2 if spatial else 1)
+    model.cam_pos[camera] = frame_camera(pts, axes, width / height, float(model.cam_fovy[camera]), band)
+    size = float(np.max(np.ptp(pts, axis=0)))
+    span = float(trace.time[-1] - trace.time[0])
+    time_scale = (n / fps) / span
+    key, _, trail = key_path(mech, trace, times)
+    lines = overlay_lines(trace, times, time_scale, mech.phi0)
+    if spatial:
+        for row in lines:
+            row.append("axes: x red, y green, z blue; floor grid under the mechanism")
+    extras = Extras(key, trail, size, pts.min(axis=0), pts.max(axis=0), spatial, lines)
     # The builder sizes the offscreen buffer for 1080p; a larger video only needs a larger one.
     model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
     model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
@@ -143,13 +234,94 @@ def render_video(
         raise OutputError(f"{path}: folder {path.parent} does not exist")
 
     with output.atomic_path(path, suffix=".mp4") as tmp:
-        _frames(model, data, qpos, camera, option, tmp, fps, width, height, backend, progress)
-    span = float(trace.time[-1] - trace.time[0])
-    return VideoInfo(path, n, fps, width, height, (n / fps) / span, backend)
+        _frames(model, data, qpos, camera, extras, option, tmp, fps, width, height, backend, progress)
+    return VideoInfo(path, n, fps, width, height, time_scale, backend)
+
+
+@dataclass(frozen=True)
+class Extras:
+    """What a frame shows beyond the model: the key point's trail (frames, samples, 3) m, the
+    swept box (m) for the floor grid and axis triad of a 3D view, the overlay text per frame."""
+
+    key: str
+    trail: np.ndarray
+    size: float
+    lo: np.ndarray
+    hi: np.ndarray
+    spatial: bool
+    lines: list[list[str]]
+
+
+def _segment(scene, kind: int, a: np.ndarray, b: np.ndarray, width: float, rgba) -> None:
+    """Append one connector geom (capsule, line or arrow from ``a`` to ``b``, m) to ``scene``."""
+    if scene.ngeom >= scene.maxgeom:
+        return
+    g = scene.geoms[scene.ngeom]
+    mujoco.mjv_initGeom(g, kind, np.zeros(3), np.zeros(3), np.eye(3).ravel(), np.asarray(rgba, dtype=np.float32))
+    mujoco.mjv_connector(g, kind, width, a, b)
+    g.category = int(mujoco.mjtCatBit.mjCAT_DECOR)
+    scene.ngeom += 1
+
+
+def _decorate(scene, extras: Extras, i: int) -> None:
+    """The fading trail of the key point up to frame ``i``, and for a 3D view a floor grid
+    under the mechanism and an axis triad at the swept box's corner."""
+    tr = extras.trail[i]
+    r, g, b, _ = palette.rgba(palette.KEY_PATH)
+    k = len(tr) - 1
+    for j in range(k):
+        if np.allclose(tr[j], tr[j + 1]):
+            continue
+        alpha = 0.08 + 0.92 * (j + 1) / k
+        # Lines, not capsules: a capsule per segment doubles a software-rendered frame.
+        _segment(scene, mujoco.mjtGeom.mjGEOM_LINE, tr[j], tr[j + 1], 3.0, (r, g, b, alpha))
+    if not extras.spatial:
+        return
+    lo, hi, s = extras.lo, extras.hi, extras.size
+    y = lo[1] - 0.08 * s
+    x0, x1, z0, z1 = lo[0] - 0.1 * s, hi[0] + 0.1 * s, lo[2] - 0.1 * s, hi[2] + 0.1 * s
+    step = 10 ** math.floor(math.log10(s / 4))  # a round grid pitch: 1, 10 or 100 mm
+    grey = (0.45, 0.45, 0.5, 0.6)
+    for x in np.arange(math.ceil(x0 / step) * step, x1, step):
+        _segment(scene, mujoco.mjtGeom.mjGEOM_LINE, np.array([x, y, z0]), np.array([x, y, z1]), 1.0, grey)
+    for z in np.arange(math.ceil(z0 / step) * step, z1, step):
+        _segment(scene, mujoco.mjtGeom.mjGEOM_LINE, np.array([x0, y, z]), np.array([x1, y, z]), 1.0, grey)
+    o = np.array([x0, y, z0])
+    for axis, rgba in enumerate(((0.85, 0.1, 0.1, 1.0), (0.1, 0.65, 0.1, 1.0), (0.1, 0.2, 0.9, 1.0))):
+        e = np.zeros(3)
+        e[axis] = 0.18 * s
+        _segment(scene, mujoco.mjtGeom.mjGEOM_ARROW, o, o + e, 0.012 * s, rgba)
+
+
+def _overlay(frame: np.ndarray, lines: list[str], font) -> np.ndarray:
+    """``lines`` written in the frame's top-left corner on a translucent white box."""
+    from PIL import Image, ImageDraw
+
+    img = Image.fromarray(frame)
+    d = ImageDraw.Draw(img, "RGBA")
+    pad = max(4, font.size // 3)
+    boxes = [d.textbbox((0, 0), t, font=font) for t in lines]
+    w = max(b[2] for b in boxes) + 2 * pad
+    h = int(len(lines) * font.size * 1.25) + 2 * pad
+    d.rectangle([0, 0, w, h], fill=(255, 255, 255, 200))
+    for k, t in enumerate(lines):
+        d.text((pad, pad + k * font.size * 1.25), t, fill=(20, 20, 20, 255), font=font)
+    return np.asarray(img)
 
 
 def _frames(
-    model, data, qpos, camera: int, option, tmp: Path, fps: float, width: int, height: int, backend: str, progress: bool
+    model,
+    data,
+    qpos,
+    camera: int,
+    extras: Extras,
+    option,
+    tmp: Path,
+    fps: float,
+    width: int,
+    height: int,
+    backend: str,
+    progress: bool,
 ) -> None:
     """Render every frame into an H.264 file at ``tmp`` (complete when this returns)."""
     n = len(qpos)
@@ -173,6 +345,9 @@ def _frames(
         # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
         # yet the 4096^2 shadow map costs ~2/3 of a frame on a software (Mesa) renderer.
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+        from PIL import ImageFont
+
+        font = ImageFont.load_default(size=max(10, round(OVERLAY_HEIGHT * height * 0.8)))
         writer = _open_writer(tmp, fps)
         start = last = time.monotonic()
         for i in range(n):
@@ -180,7 +355,8 @@ def _frames(
             mujoco.mj_forward(model, data)
             try:
                 renderer.update_scene(data, camera=camera, scene_option=option)
-                frame = renderer.render()
+                _decorate(renderer.scene, extras, i)
+                frame = _overlay(renderer.render(), extras.lines[i], font)
             except Exception as e:
                 raise RenderError(f"rendering frame {i + 1}/{n} failed: {_clip(e)}") from e
             try:

@@ -1,0 +1,177 @@
+"""What the figures show, read from the figures themselves (axes, labels, texts), on every
+shipped mechanism: residual panels with units and thresholds, no colliding labels, the
+loads' statistics and energy curve, the direction of rotation; and the run's HTML page
+opened in a real headless Chromium (Debian's package), every image and the video loaded."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import matplotlib
+import pytest
+from conftest import ROOT
+
+from mjlink import pipeline
+from mjlink.model import catalogue, mechanism
+from mjlink.plotting import figures, style
+
+MECHS = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting"]
+UNIT = re.compile(r"\[[^\]]+\]")
+
+
+@pytest.mark.parametrize("name", MECHS)
+def test_positions_labels_never_collide(name, tmp_path):
+    mech = mechanism.load(catalogue.path_of(name))
+    with style.keep_figures() as figs:
+        figures.positions_plot(mech, tmp_path, highlight=None if mech.thread else figures.analysis.key_point(mech))
+    ((_, fig),) = figs
+    assert style.text_overlaps(fig) == []
+    texts = [t.get_text() for ax in fig.axes for t in ax.texts]
+    assert any("clockwise" in t for t in texts), "no direction of rotation on the drawing"
+    assert sum(t.endswith("°") for t in texts) >= 3, "no crank-angle marks along the key path"
+    matplotlib.pyplot.close(fig)
+
+
+@pytest.fixture(scope="module", params=MECHS)
+def run_figures(request, tmp_path_factory):
+    """Every figure ``simulate`` draws for one mechanism (no video), kept open to be read."""
+    mech = mechanism.load(catalogue.path_of(request.param))
+    out = tmp_path_factory.mktemp(request.param)
+    with style.keep_figures() as figs:
+        pipeline.run(mech, out, pipeline.Options(video=False))
+    yield mech, dict(figs)
+    for f in dict(figs).values():
+        matplotlib.pyplot.close(f)
+
+
+def _residuals(fig):
+    return [ax for ax in fig.axes if ax.get_gid() == style.RESIDUAL_GID]
+
+
+@pytest.mark.slow
+def test_figure_content(run_figures):
+    mech, figs = run_figures
+    rk4 = mech.dynamics.paper_rk4_steps is not None
+    for name, fig in figs.items():
+        assert style.text_overlaps(fig) == [], f"{name}: labels overlap"
+        for ax in fig.axes:
+            if not ax.axison or not ax.lines:
+                continue
+            assert UNIT.search(ax.get_ylabel()), f"{name}: y axis '{ax.get_ylabel()}' has no unit"
+        labels = [l.get_label() for ax in fig.axes for l in ax.lines]
+        assert any("RK4" in l for l in labels) == (rk4 and name.startswith("speed_vs")), name
+    # Every MuJoCo-vs-reference overlay has its residual panel, with its unit.
+    must = [
+        "speed_vs_time.png",
+        "speed_vs_angle.png",
+        "torque.png",
+        f"kinematics_{figures.analysis.key_point(mech)}.png",
+    ]
+    must += [
+        n for n in figs if n.startswith(("slider_", "link_", "thread_length", "thread_feed")) and "spectrum" not in n
+    ]
+    for name in must:
+        res = _residuals(figs[name])
+        assert res, f"{name}: no residual panel"
+        for ax in res:
+            assert UNIT.search(ax.get_ylabel()) and "max |Δ|" in " ".join(t.get_text() for t in ax.texts), name
+    # Speeds as magnitudes, the direction named.
+    speed = figs["speed_vs_time.png"]
+    sense = "counter-clockwise" if mech.speed > 0 else "clockwise"
+    assert f"turning {sense}" in speed.texts[0].get_text() or f"turning {sense}" in speed._suptitle.get_text()
+    # Loads: statistics, the energy fluctuation and the flywheel; reactions per pair and polar.
+    torque = figs["torque.png"]
+    legend = " ".join(t.get_text() for ax in torque.axes if ax.get_legend() for t in ax.get_legend().get_texts())
+    assert "peak" in legend and "RMS" in legend and "mean power" in legend
+    assert any("energy fluctuation" in ax.get_ylabel() for ax in torque.axes)
+    assert any("flywheel" in ax.get_title() for ax in torque.axes)
+    assert sum(1 for ax in figs["reactions.png"].axes if ax.axison) >= 2
+    polar = figs["reaction_polar.png"]
+    assert all(ax.get_aspect() == 1.0 for ax in polar.axes if ax.axison)
+
+
+def _chromium() -> str:
+    """Debian's Chromium, installed by this test on a fresh machine where it may (as root)."""
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None and shutil.which("apt-get") and os.geteuid() == 0:
+        env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+        subprocess.run(["apt-get", "update", "-q"], capture_output=True, env=env, timeout=900)
+        subprocess.run(["apt-get", "install", "-y", "-q", "chromium"], capture_output=True, env=env, timeout=1800)
+        exe = shutil.which("chromium")
+    assert exe, "the page test needs Chromium: apt-get install chromium (Debian's package)"
+    return exe
+
+
+@pytest.mark.slow
+def test_html_page_in_headless_chromium(tmp_path):
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mjlink",
+            "simulate",
+            "takeup",
+            "--out",
+            str(tmp_path),
+            "--video-seconds",
+            "1",
+            "--size",
+            "320x240",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+    )
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "takeup"
+    page = out / "index.html"
+    text = page.read_text()
+    pngs = sorted(p.name for p in out.glob("*.png"))
+    assert "http://" not in text and "https://" not in text, "the page must not reach the network"
+    for p in [*pngs, "takeup.mp4"]:
+        assert f"src='{p}'" in text, p
+    assert "✓ pass" in text
+    flags = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--virtual-time-budget=20000",
+    ]
+    dom = subprocess.run(
+        [_chromium(), *flags, f"--user-data-dir={tmp_path / 'profile1'}", "--dump-dom", page.as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    ).stdout
+    body = re.search(r"<body[^>]*>", dom)
+    assert body, dom[:500]
+    assert f'data-images="{len(pngs)}/{len(pngs)}"' in body.group(0), body.group(0)
+    assert 'data-video="loaded"' in body.group(0), body.group(0)
+    shot = tmp_path / "page.png"
+    subprocess.run(
+        [
+            _chromium(),
+            *flags,
+            f"--user-data-dir={tmp_path / 'profile2'}",
+            "--window-size=1280,1600",
+            f"--screenshot={shot}",
+            page.as_uri(),
+        ],
+        capture_output=True,
+        timeout=120,
+    )
+    import imageio.v2 as iio
+    import numpy as np
+
+    img = np.asarray(iio.imread(shot))
+    assert img.shape[0] >= 1000 and img.std() > 10, "the screenshot is blank"
