@@ -233,6 +233,12 @@ def force_limit(ref_force: np.ndarray) -> float:
     return FORCE_REL * float(np.linalg.norm(ref_force, axis=1).max())
 
 
+def shaking_force_limit(ref_force: np.ndarray) -> float:
+    """The frame shaking force's threshold, N: SHAKING_REL of the reference force's range (the
+    larger of its components' max - min), as :func:`loads` applies it."""
+    return SHAKING_REL * float(np.ptp(ref_force, axis=0).max())
+
+
 def agreement(mech: Mechanism, mj: Trace, ref_motion: reference.Motion | None = None) -> Agreement:
     """Compare a MuJoCo trace with the reference (see module docstring).
 

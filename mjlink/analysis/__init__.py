@@ -184,6 +184,28 @@ def last_period(trace: Trace, duration: float) -> tuple[np.ndarray, np.ndarray]:
     return angle_turned(trace.phi[last]), trace.omega[last]
 
 
+def period_angle(mech: Mechanism, phi: np.ndarray) -> np.ndarray:
+    """Input angles ``phi`` (rad) as the angle turned from phi0 within the period, rad in
+    [0, period): the abscissa on which a periodic orbit and a run's last period line up
+    whatever crank angle the run's last period starts at."""
+    sense = 1.0 if mech.speed >= 0 else -1.0
+    return np.mod(sense * (np.asarray(phi, dtype=float) - mech.phi0), mech.period)
+
+
+def last_period_at(mech: Mechanism, trace: Trace, duration: float, ref_phi: np.ndarray, ref_omega: np.ndarray):
+    """MuJoCo's last ``duration`` s of ``trace`` against a reference orbit (``ref_phi`` rad,
+    ``ref_omega`` rad/s over one period) on the same abscissa: the angle turned from phi0
+    within the period (rad, sorted), MuJoCo's speed there and the reference's interpolated
+    there (rad/s, periodic), each (M,)."""
+    last = trace.time >= trace.time[-1] - abs(duration)
+    a = period_angle(mech, trace.phi[last])
+    order = np.argsort(a)
+    ar = period_angle(mech, ref_phi)
+    k = np.argsort(ar)
+    ref = np.interp(a[order], ar[k], np.asarray(ref_omega)[k], period=mech.period)
+    return a[order], trace.omega[last][order], ref
+
+
 # ----------------------------------------------------------------------------- geometry
 def is_spatial(mech: Mechanism) -> bool:
     """Whether some point of the mechanism lies off the plane z = 0 at phi0."""

@@ -170,7 +170,8 @@ def speed_plots(
                 pad = 0.1 * (hi - lo or abs(hi) or 1.0)
                 ax.set_ylim(lo - pad, hi + pad)
         z_n.set_title(f"zoom: the last {ZOOM_TURNS} turns", fontsize=9)
-        z_e.set_xlabel(xlabel)
+        short = "time t [s]" if by_time else "crank angle, as on the left [deg]"
+        z_e.set_xlabel(short)
         residual(a_r, xm, dyn_mj.omega - dyn_ref.omega, "rad/s", limit, what="MuJoCo − reference\n$\\omega_1$")
         a_r.set_xlabel(xlabel)
         if rk4 is not None and xk is not None:
@@ -182,7 +183,7 @@ def speed_plots(
             a_k.set_ylabel("paper's RK4 − reference\n$|n_1|$ [rpm]", fontsize=8.5)
             a_k.set_title(f"the paper's RK4 is off by up to {100 * rel:.3g} % of the top speed", fontsize=9)
             a_k.grid(True, alpha=0.3)
-            a_k.set_xlabel(xlabel)
+            a_k.set_xlabel(short)
             a_k.set_gid("rk4-residual")  # the paper's method against the reference, not MuJoCo
         else:
             # No RK4 in this paper: the zoom's residual instead, where the scale is that of a turn.
@@ -190,7 +191,7 @@ def speed_plots(
             residual(
                 a_k, np.asarray(xm)[sel], (dyn_mj.omega - dyn_ref.omega)[sel], "rad/s", limit, what="MuJoCo − reference"
             )
-            a_k.set_xlabel(xlabel)
+            a_k.set_xlabel(short)
         if by_time:
             a_r.set_xlim(0.0, t_end)
             if rk4 is not None:
@@ -771,7 +772,10 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
 
         # --- pressure angle
         gm, gr = np.degrees(analysis.pressure_angle(kin_mj, sl)), np.degrees(analysis.pressure_angle(kin_ref, sl))
-        fig, ax = plt.subplots(figsize=(8.0, 4.6), layout="constrained")
+        fig, (ax, rax) = plt.subplots(
+            2, 1, figsize=(8.0, 6.0), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 0.4))
+        )
+        residual(rax, xm, gm - gr, "deg", None, color="tab:green", what="MuJoCo − ref.")
         pair(ax, xm, gm, xr, gr, "tab:green")
         i = int(np.argmax(gr))
         top = float(gr[i])
@@ -794,7 +798,7 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         ax.set_ylabel(f"pressure angle at {p} [deg]\n(rod {sl.start}–{p} to the guide)")
         ax.grid(True, alpha=0.3)
         ax.legend(loc="lower right", fontsize=8)
-        finish_x(ax, [xm, xr], xlabel)
+        finish_x(rax, [xm, xr], xlabel)
         ax.set_title(
             title(mech, f"pressure angle of slider {p}, rod {sl.start}→{p} against guide {n1}→{n2}"), fontsize=10
         )

@@ -24,6 +24,7 @@ from .style import (
     MJ_STYLE,
     REF_LABEL,
     REF_STYLE,
+    RESIDUAL_GID,
     crank_axis,
     crank_x,
     direction,
@@ -124,11 +125,14 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
     n = len(labels)
     cols = 2 if n > 1 else 1
     rows = math.ceil(n / cols)
-    fig, axs = plt.subplots(
-        rows, cols, figsize=(12.0, 2.3 * rows + 1.1), sharex=True, layout="constrained", squeeze=False
-    )
+    fig = plt.figure(figsize=(12.0, 3.1 * rows + 1.1), layout="constrained")
+    gs = fig.add_gridspec(2 * rows, cols, height_ratios=[1.0, 0.42] * rows)
+    first = None
     for k, lab in enumerate(labels):
-        ax = axs[k // cols, k % cols]
+        r, c = divmod(k, cols)
+        ax = fig.add_subplot(gs[2 * r, c], sharex=first)
+        first = first or ax
+        rax = fig.add_subplot(gs[2 * r + 1, c], sharex=first)
         f_ref, f_mj = analysis.magnitude(rx.forces[lab]), analysis.magnitude(kin_mj.reactions[lab])
         ax.plot(x, f_ref, **REF_STYLE)
         ax.plot(x, f_mj, color=palette.link(k), **MJ_STYLE)
@@ -145,17 +149,17 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
         )
         ax.set_ylim(0.0, 1.3 * float(f_ref.max()) or 1.0)
         ax.set_ylabel("|F| [N]")
-        err = analysis.magnitude(kin_mj.reactions[lab] - rx.forces[lab])
-        limit = compare.force_limit(rx.forces[lab])
-        ax.set_title(
-            f"{lab}: MuJoCo − ref. at most {err.max():.2g} N = {100 * err.max() / limit:.2g} % of the threshold",
-            fontsize=8.5,
-        )
+        ax.set_title(lab, fontsize=9)
         ax.grid(True, alpha=0.3)
-    for k in range(n, rows * cols):
-        axs[k // cols, k % cols].axis("off")
-    for c in range(cols):
-        finish_x(axs[-1, c] if (rows - 1) * cols + c < n else axs[-2, c], [x], label)
+        ax.tick_params(labelbottom=False)
+        err = analysis.magnitude(kin_mj.reactions[lab] - rx.forces[lab])
+        residual(
+            rax, x, err, "N", compare.force_limit(rx.forces[lab]), color=palette.link(k), what="|ΔF|", signed=False
+        )
+        if r == rows - 1 or k + cols >= n:
+            finish_x(rax, [x], label)
+        else:
+            rax.tick_params(labelbottom=False)
     handles = [
         plt.Line2D([], [], **REF_STYLE, label=REF_LABEL + ", kinetostatics"),
         plt.Line2D([], [], color="0.3", **MJ_STYLE, label=MJ_LABEL + " (in the pair's colour)"),
@@ -215,27 +219,38 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
 def steady_plot(
     mech: Mechanism, plain: reference.Steady, fly: reference.Steady, runs: tuple[SteadyRun, SteadyRun], out_dir
 ) -> Path:
-    """``steady.png``: crank speed over one period of steady motion, without and with the flywheel."""
-    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    """``steady.png``: crank speed (rpm, magnitude) over one period of steady motion, without
+    and with the flywheel, MuJoCo's last period vs the reference's orbit; beneath, MuJoCo minus
+    the reference at the same angle turned (rpm; the rule is on delta, not on this curve)."""
+    fig, (ax, rax) = plt.subplots(
+        2, 1, figsize=(8, 6.6), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 0.45))
+    )
     for st, run, color, what in (
         (plain, runs[0], "tab:blue", "no flywheel"),
         (fly, runs[1], "tab:green", f"flywheel {fly.extra_inertia:.3g} kg·m²"),
     ):
-        # MuJoCo's run spans several periods to settle: only its last, as long as the reference's.
-        turned, omega = analysis.last_period(run.trace, st.t[-1])
+        # MuJoCo's run spans several periods to settle: only its last, lined up with the
+        # reference's orbit by the crank angle turned from phi0 within the period.
+        a, omega, at = analysis.last_period_at(mech, run.trace, st.t[-1], st.phi, st.omega)
+        ar = analysis.period_angle(mech, st.phi)
+        k = np.argsort(ar)
         ax.plot(
-            np.degrees(turned), to_rpm(omega), color=color, label=f"{what}: {MJ_LABEL}, δ = {run.delta:.4f}", **MJ_STYLE
+            np.degrees(ar[k]), np.abs(to_rpm(st.omega[k])), label=f"{what}: reference, δ = {st.delta:.4f}", **REF_STYLE
         )
         ax.plot(
-            np.degrees(analysis.angle_turned(st.phi)),
-            to_rpm(st.omega),
-            label=f"{what}: reference, δ = {st.delta:.4f}",
-            **REF_STYLE,
+            np.degrees(a), np.abs(to_rpm(omega)), color=color, label=f"{what}: MuJoCo, δ = {run.delta:.4f}", **MJ_STYLE
         )
-    ax.set_xlabel("crank angle turned in the period [deg]")
-    ax.set_ylabel("crank speed $n_1$ [rpm]")
+        rax.plot(np.degrees(a), np.abs(to_rpm(omega)) - np.abs(to_rpm(at)), color=color, lw=1.0, label=what)
+    rax.axhline(0.0, color="0.5", lw=0.6)
+    rax.set_gid(RESIDUAL_GID)
+    rax.set_ylabel("MuJoCo − ref.\n$|n_1|$ [rpm]", fontsize=8.5)
+    rax.grid(True, alpha=0.3)
+    rax.legend(loc="best", fontsize=7.5)
+    rax.set_xlabel("crank angle turned from $\\varphi_0$ within the period [deg]")
+    ax.set_ylabel("crank speed $|n_1|$ [rpm]")
+    ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
-    ax.set_title(title(mech, "steady motion under the motor characteristic"), fontsize=10)
+    ax.set_title(title(mech, f"steady motion under the motor characteristic, {direction(fly.omega_mean)}"), fontsize=10)
     return save(fig, out_dir, "steady.png")
 
 
@@ -244,10 +259,23 @@ def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoad
     the start marked) and the shaking moment about the input crank's pivot (N*m) against crank
     angle; the reference as a line, MuJoCo as markers (they coincide where they agree)."""
     (x,), label = crank_x(mech, kin_mj)
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.8), layout="constrained", width_ratios=(1, 1.4))
+    fig = plt.figure(figsize=(11, 6.4), layout="constrained")
+    gs = fig.add_gridspec(2, 2, width_ratios=(1, 1.4), height_ratios=(1, 0.45))
+    a1 = fig.add_subplot(gs[:, 0])
+    a2 = fig.add_subplot(gs[0, 1])
+    a3 = fig.add_subplot(gs[1, 1], sharex=a2)
+    a2.tick_params(labelbottom=False)
     every = max(1, len(x) // 60)
     a1.plot(ref.force[:, 0], ref.force[:, 1], label=REF_LABEL, **REF_STYLE)
-    a1.plot(got.force[::every, 0], got.force[::every, 1], "o", ms=3.5, mfc="none", color="tab:blue", label=MJ_LABEL)
+    a1.plot(
+        got.force[::every, 0],
+        got.force[::every, 1],
+        "o",
+        ms=3.5,
+        mfc="none",
+        color="tab:blue",
+        label="MuJoCo (circles)",
+    )
     a1.plot(*ref.force[0], "s", color="tab:red", ms=6, label="start (phi01)")
     a1.plot(0, 0, "+", color="0.4", ms=10)
     a1.set_aspect("equal", adjustable="datalim")
@@ -258,11 +286,21 @@ def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoad
     a1.set_title("shaking force hodograph", fontsize=9)
     a2.plot(x, ref.moment, label=REF_LABEL, **REF_STYLE)
     if got.moment is not None and not mech.geared:
-        a2.plot(x[::every], got.moment[::every], "o", ms=3.5, mfc="none", color="tab:blue", label=MJ_LABEL)
+        a2.plot(x[::every], got.moment[::every], "o", ms=3.5, mfc="none", color="tab:blue", label="MuJoCo (circles)")
     a2.axhline(0, color="0.6", lw=0.8)
-    a2.set_ylabel("shaking moment about the crank pivot [N·m]")
+    a2.set_ylabel("shaking moment\nabout the crank pivot [N·m]")
     a2.legend(loc="best", fontsize=8)
-    finish_x(a2, [x], label)
+    df = analysis.magnitude(got.force - ref.force)
+    residual(
+        a3,
+        x,
+        df,
+        "N",
+        compare.shaking_force_limit(ref.force),
+        what="|ΔF| on the frame",
+        signed=False,
+    )
+    finish_x(a3, [x], label)
     w = float(np.mean(kin_mj.omega))
     fig.suptitle(title(mech, f"loads on the frame at {to_rpm(abs(w)):.0f} rpm (inertia, gravity, forces)"), fontsize=10)
     return save(fig, out_dir, "shaking.png")
