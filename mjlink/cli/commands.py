@@ -308,7 +308,11 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--no-video", action="store_true", help="skip the MP4")
     s.add_argument("--video-seconds", type=float, default=3.0, help="length of the video, s (default 3)")
     s.add_argument("--fps", type=float, default=30, help="video frames per second, a whole number (default 30)")
-    s.add_argument("--size", default="640x480", help="video size WIDTHxHEIGHT in pixels (default 640x480)")
+    s.add_argument(
+        "--size",
+        default="640x480",
+        help="video size WIDTHxHEIGHT in pixels (default 640x480; 1280x720 for HD, framed for its aspect)",
+    )
     s.add_argument(
         "--phi0",
         "--phi01",

@@ -77,6 +77,31 @@ def _caption(name: str) -> str:
     return stem
 
 
+# Figures in the order an engineer reads a run: the mechanism, its motion, then its loads.
+_ORDER = (
+    "positions",
+    "speed_vs_time",
+    "speed_vs_angle",
+    "kinematics_",
+    "thread_length",
+    "thread_feed",
+    "thread_contour",
+    "slider_",
+    "pressure_angle_",
+    "link_",
+    "phase_study",
+    "torque",
+    "reactions",
+    "reaction_polar",
+    "shaking",
+    "steady",
+)
+
+
+def _rank(name: str) -> tuple[int, str]:
+    return next((i for i, p in enumerate(_ORDER) if name.startswith(p)), len(_ORDER)), name
+
+
 def _num(v: Any, unit: str) -> str:
     if v is None:
         return "–"
@@ -91,7 +116,7 @@ def index_html(result: Any, files: Iterable[str]) -> str:
     on every thresholded row, the video and every PNG with a caption, the data files."""
     e = html.escape
     names = sorted(files)
-    pngs = [n for n in names if n.endswith(".png")]
+    pngs = sorted((n for n in names if n.endswith(".png")), key=_rank)
     videos = [n for n in names if n.endswith(".mp4")]
     data = [n for n in names if n.endswith((".csv", ".json", ".xml"))]
     rows = []

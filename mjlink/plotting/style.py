@@ -165,7 +165,7 @@ def residual(
     top = worst if worst > 0 else 1.0
     text = f"max |Δ| {_num(worst)} {unit}"
     if limit is not None and limit > 0:
-        text += f" = {100 * worst / limit:.2g} % of the threshold {_num(limit)} {unit}"
+        text += f" = {100 * worst / limit:.2g} % of threshold {_num(limit)} {unit}"
         if worst * 25 >= limit:
             for sgn in (1.0, -1.0) if signed else (1.0,):
                 ax.axhline(sgn * limit, color=palette.THRESHOLD, lw=1.0, ls=(0, (5, 3)), zorder=2)
