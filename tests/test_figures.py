@@ -41,8 +41,14 @@ def run_figures(request, tmp_path_factory):
     """Every figure ``simulate`` draws for one mechanism (no video), kept open to be read."""
     mech = mechanism.load(catalogue.path_of(request.param))
     out = tmp_path_factory.mktemp(request.param)
-    with style.keep_figures() as figs:
-        pipeline.run(mech, out, pipeline.Options(video=False))
+    # Drawn in this process (no forked plot workers), so that the figures can be kept and read.
+    mp = pytest.MonkeyPatch()
+    mp.setattr(pipeline, "_start", lambda jobs: None)
+    try:
+        with style.keep_figures() as figs:
+            pipeline.run(mech, out, pipeline.Options(video=False))
+    finally:
+        mp.undo()
     yield mech, dict(figs)
     for f in dict(figs).values():
         matplotlib.pyplot.close(f)

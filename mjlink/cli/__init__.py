@@ -12,6 +12,8 @@ MuJoCo's and Python's versions.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import ctypes
 import difflib
 import re
 import sys
@@ -91,6 +93,16 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _interrupt_handled() -> None:
+    """Tell CPython the KeyboardInterrupt was handled. A Ctrl-C that lands while a C extension
+    evaluates Python through ``PyRun_*`` (pybind11's ``py::exec``) sets the interpreter's
+    "unhandled KeyboardInterrupt" flag even when mjlink catches the exception later, and the
+    interpreter then ends by re-raising SIGINT on itself (status -2, not the documented 130):
+    seen when the interruption reaches the run in MuJoCo's bindings."""
+    with contextlib.suppress(Exception):  # another interpreter, or a CPython without the flag
+        ctypes.c_int.in_dll(ctypes.pythonapi, "_Py_UnhandledKeyboardInterrupt").value = 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse ``argv`` (default: ``sys.argv[1:]``), run the command; returns the exit status.
 
@@ -113,6 +125,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         print("mjlink: interrupted", file=sys.stderr)
+        _interrupt_handled()
         return 130
     except Terminated:
         print("mjlink: terminated", file=sys.stderr)

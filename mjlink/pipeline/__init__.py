@@ -833,12 +833,32 @@ def run(
         output.write_csv(stage / "reference_kinematics.csv", mech, kin_ref)
         kinematics = KinematicsSummary(kcase.omega0, kcase.duration, kcase.settings)
 
+        # Figures are drawn in forked workers while this process goes on (two cores): those of
+        # the kinematic run at once, beside the dynamic run; those of the dynamics and loads
+        # beside the video. Without fork (or without plots) they are drawn here, in order.
+        workers: list[_Worker] = []
+        pending: list[PlotJob] = []
+
+        def draw(jobs: list[PlotJob], *, now: bool = True) -> None:
+            worker = _start(jobs) if (jobs and now) else None
+            if worker is not None:
+                workers.append(worker)
+            else:
+                pending.extend(jobs)
+
+        if opts.plots:
+            from ..plotting import figures
+
+            # Residual panels subtract the reference at MuJoCo's own crank state, as the
+            # agreement table does (the imposed speed holds to 1e-6, not exactly).
+            draw([functools.partial(figures.kinematic_plots, mech, kin_mj, compare.reference_at(mech, kin_mj), stage)])
+
         dyn = None
         if opts.dynamics and has_masses(mech):
             dyn = _forward_dynamics(mech, opts.duration, stage, clock, progress)
             agreements.append(dyn.agreement)
-        jobs: list[PlotJob] = []
-        queue = jobs if opts.plots else None
+        load_jobs: list[PlotJob] = []
+        queue = load_jobs if opts.plots else None
         loads_summary = steady_summary = None
         if opts.loads and _has_mass(mech):
             loads_summary = _loads_study(mech, kin_mj, stage, queue)
@@ -850,36 +870,27 @@ def run(
         failures += loads_summary.failures if loads_summary else ()
         failures += steady_summary.failures if steady_summary else ()
 
-        if opts.plots:
+        speed_jobs: list[PlotJob] = []
+        if opts.plots and dyn is not None:
             from ..plotting import figures
 
-            jobs.append(
-                functools.partial(
-                    figures.all_plots,
-                    mech,
-                    kin_mj,
-                    # Residual panels subtract the reference at MuJoCo's own crank state, as
-                    # the agreement table does (the imposed speed holds to 1e-6, not exactly).
-                    compare.reference_at(mech, kin_mj),
-                    dyn.mujoco_trace if dyn else None,
-                    dyn.reference_trace if dyn else None,
-                    stage,
-                    rk4=dyn.rk4 if dyn else None,
-                )
+            speed_jobs.append(
+                functools.partial(figures.speed_plots, mech, dyn.mujoco_trace, dyn.reference_trace, stage, dyn.rk4)
             )
-        # Plots and video are independent and each takes seconds: on a machine with two cores
-        # the plots are drawn in a forked worker while this process renders.
-        worker = _start(jobs) if (opts.video and jobs) else None
-        if worker is None:
-            run_jobs(jobs)
-            clock.lap("plots")
         video = None
         if opts.video:
-            video = _video(mech, kin_mj, kcase.settings, stage, opts, progress=worker is None)
-            clock.lap("video" if worker is None else "video_and_plots")
-        if worker is not None:
-            _finish(worker)
-            clock.lap("plots_after_video")
+            # The loads' figures beside the video; the speed plots here once the video is done.
+            draw(load_jobs)
+            video = _video(mech, kin_mj, kcase.settings, stage, opts, progress=not workers)
+            clock.lap("video")
+            pending.extend(speed_jobs)
+        else:
+            draw(speed_jobs)
+            pending.extend(load_jobs)
+        run_jobs(pending)
+        for w in workers:
+            _finish(w)
+        clock.lap("plots")
         result = SimulateResult(
             mechanism=mech.name,
             title=mech.title,

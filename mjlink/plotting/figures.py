@@ -1103,25 +1103,11 @@ def link_motion_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, li
 
 
 # ----------------------------------------------------------------------------- all
-def all_plots(
-    mech: Mechanism,
-    kin_mj: Trace,
-    kin_ref: Trace,
-    dyn_mj: Trace | None,
-    dyn_ref: Trace | None,
-    out_dir,
-    rk4: reference.Motion | None = None,
-) -> list[Path]:
-    """Every plot above that applies into ``out_dir`` (created if missing); returns the paths.
-
-    The speed plots need the dynamic runs (skipped if ``dyn_mj`` or ``dyn_ref`` is None); the
-    slider plots a slider block, the feed a thread elongation, the contour a spatial thread,
-    the phase study a geared crank."""
+def kinematic_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> list[Path]:
+    """Every figure of the kinematic run that applies (see :func:`all_plots`), into ``out_dir``:
+    they need nothing of the dynamic run, so they can be drawn while it runs."""
     point = analysis.key_point(mech)
-    paths = []
-    if dyn_mj is not None and dyn_ref is not None:
-        paths += speed_plots(mech, dyn_mj, dyn_ref, out_dir, rk4)
-    paths.append(positions_plot(mech, out_dir, highlight=None if mech.thread else point))
+    paths = [positions_plot(mech, out_dir, highlight=None if mech.thread else point)]
     paths += [
         p
         for p in (
@@ -1138,3 +1124,24 @@ def all_plots(
     if ph is not None:
         paths.append(ph)
     return paths
+
+
+def all_plots(
+    mech: Mechanism,
+    kin_mj: Trace,
+    kin_ref: Trace,
+    dyn_mj: Trace | None,
+    dyn_ref: Trace | None,
+    out_dir,
+    rk4: reference.Motion | None = None,
+) -> list[Path]:
+    """Every plot above that applies into ``out_dir`` (created if missing); returns the paths.
+
+    The speed plots need the dynamic runs (skipped if ``dyn_mj`` or ``dyn_ref`` is None); the
+    slider plots a slider block, the feed a thread elongation, the contour a spatial thread,
+    the phase study a geared crank. ``kin_ref`` is best the reference at MuJoCo's own crank
+    state (:func:`mjlink.compare.reference_at`): the residual panels subtract it."""
+    paths = []
+    if dyn_mj is not None and dyn_ref is not None:
+        paths += speed_plots(mech, dyn_mj, dyn_ref, out_dir, rk4)
+    return paths + kinematic_plots(mech, kin_mj, kin_ref, out_dir)
