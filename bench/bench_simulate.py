@@ -1,0 +1,279 @@
+"""What ``simulate`` costs, side by side in one run (the speed issue's figures).
+
+Prints, on this machine, in one run so that the ratios compare like with like:
+
+1. CPU and wall seconds of ``python -m mjlink simulate NAME`` (a fresh process: imports,
+   the GL choice, runs, reference, loads, plots, video, CSVs) for every shipped mechanism,
+   with and without the video (best of ``--repeat`` runs each, interleaved);
+2. the project's sampling loop (:func:`mjlink.sim.simulate.run`, traces included) against a
+   plain C loop ``mj_step(m, d, nstep)`` on the same model: steps per second and their ratio,
+   for the kinematic and the dynamic case of the take-up;
+3. the reference's kinematics of the take-up four-bar (positions, velocities and
+   accelerations of every point on jets) against pylinkage 1.3.0 with numba
+   (``step_fast_with_kinematics``, its first, compiling call excluded) and against a plain
+   numpy closed form of the same four-bar (positions, velocities and accelerations from the
+   loop-closure equations): crank angles per second and their ratios;
+4. the cost of one more named point: ``simulate --no-video --no-plots`` of the take-up file
+   with 0 and with ``--points`` extra points attached to the lever, the CPU difference per point.
+
+pylinkage and numba come with ``pip install -e '.[bench]'``; without them item 3 says so.
+Run: ``python bench/bench_simulate.py`` (``--quick``: one repeat, fewer angles).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+MECHANISMS = ("takeup", "crank_slider", "takeup_eyelets", "warp_knitting")
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def run_cli(args: list[str]) -> tuple[float, float]:
+    """Wall and CPU seconds of ``python -m mjlink ARGS`` in a fresh process (its forked plot
+    workers and the video encoder included: they are its children, reaped before it ends)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    c0, t0 = _children_cpu(), time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, env=env, cwd=ROOT)
+    wall = time.perf_counter() - t0
+    if r.returncode != 0:
+        raise SystemExit(f"simulate failed: {r.stderr.strip().splitlines()[-1:]}")
+    return wall, _children_cpu() - c0
+
+
+def bench_simulate(repeat: int) -> list[tuple[str, str, str, str]]:
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        best: dict[tuple[str, bool], tuple[float, float]] = {}
+        for _ in range(repeat):
+            for name in MECHANISMS:
+                for video in (True, False):
+                    args = ["simulate", name, "--out", tmp, "--force"] + ([] if video else ["--no-video"])
+                    w, c = run_cli(args)
+                    key = (name, video)
+                    if key not in best or w < best[key][0]:
+                        best[key] = (w, c)
+        for name in MECHANISMS:
+            for video in (True, False):
+                w, c = best[(name, video)]
+                target = "4 s wall, 6 s CPU" if (name == "takeup" and video) else ("6 s wall" if video else "-")
+                rows.append((f"simulate {name}" + ("" if video else " --no-video"), f"{w:.2f}", f"{c:.2f}", target))
+    return rows
+
+
+def bench_sampling() -> list[tuple[str, str, str, str]]:
+    import mujoco
+
+    from mjlink.model import catalogue, mechanism
+    from mjlink.sim import builder, simulate
+
+    mech = mechanism.load(catalogue.path_of("takeup"))
+    rows = []
+    for label, case in (
+        ("kinematic", simulate.kinematic_case(mech)),
+        ("dynamic", simulate.dynamic_case(mech)),
+    ):
+        simulate.run(mech, case)  # warm: imports, first compile
+        t0 = time.process_time()
+        simulate.run(mech, case)
+        ours = time.process_time() - t0
+        steps = round(case.duration / case.settings.timestep)
+        m = builder.make(mech, case.settings).model
+        d = mujoco.MjData(m)
+        mujoco.mj_resetDataKeyframe(m, d, 0) if m.nkey else mujoco.mj_resetData(m, d)
+        t0 = time.process_time()
+        mujoco.mj_step(m, d, nstep=steps)
+        c_loop = time.process_time() - t0
+        rows.append(
+            (
+                f"sampling loop, take-up {label} run ({steps} steps)",
+                "",
+                f"{ours:.3f}",
+                f"{steps / ours:,.0f} steps/s vs C loop {steps / c_loop:,.0f} = {c_loop / ours:.2f} x (target >= 0.5)",
+            )
+        )
+    return rows
+
+
+def _fourbar(mech) -> dict[str, float]:
+    g = {k: np.asarray(v, dtype=float)[:2] * 1e3 for k, v in mech.ground.items()}
+    steps = {s.point: s for s in mech.steps}
+    p3 = steps["P3"]
+    p5 = steps["P5"]
+    return dict(
+        ax=g["P1"][0],
+        ay=g["P1"][1],
+        dx=g["P4"][0],
+        dy=g["P4"][1],
+        a=steps["P2"].length * 1e3,
+        b=p3.length_a * 1e3,
+        c=p3.length_b * 1e3,
+        # mjlink's sign is the closure's sense P2 -> P3 -> P4 (-1 clockwise): P3 lies on the
+        # other side of the line P2 -> P4 from the closed form's normal, hence the minus.
+        side=-float(p3.sign),
+        e=p5.length * 1e3,
+        alpha=p5.angle,
+    )
+
+
+def closed_form(fb: dict[str, float], phi: np.ndarray, omega: float) -> tuple[np.ndarray, ...]:
+    """Positions (mm), velocities and accelerations of the coupler point P5 of the four-bar, in
+    closed form: P3 from the circle intersection, the link rates from the loop's two linear
+    velocity and acceleration equations."""
+    A = np.array([fb["ax"], fb["ay"]])
+    D = np.array([fb["dx"], fb["dy"]])
+    a, b, c = fb["a"], fb["b"], fb["c"]
+    cp, sp = np.cos(phi), np.sin(phi)
+    B = A[:, None] + a * np.stack([cp, sp])
+    dvec = D[:, None] - B
+    dist = np.hypot(dvec[0], dvec[1])
+    along = (b * b - c * c + dist * dist) / (2 * dist)
+    h = np.sqrt(np.maximum(b * b - along * along, 0.0))
+    u = dvec / dist
+    C = B + along * u + fb["side"] * h * np.stack([-u[1], u[0]])
+    th3 = np.arctan2(C[1] - B[1], C[0] - B[0])
+    th4 = np.arctan2(C[1] - D[1], C[0] - D[0])
+    # velocity: a w e^{i phi} i + b w3 i e^{i th3} = c w4 i e^{i th4}
+    s34 = np.sin(th3 - th4)
+    w3 = a * omega * np.sin(th4 - phi) / (b * s34)
+    w4 = a * omega * np.sin(th3 - phi) / (c * s34)
+    # acceleration (constant crank speed)
+    k1 = -a * omega**2 * np.cos(phi - th4) - b * w3**2 * np.cos(th3 - th4) + c * w4**2
+    e3 = k1 / (b * s34)
+    k2 = -a * omega**2 * np.cos(phi - th3) - b * w3**2 + c * w4**2 * np.cos(th4 - th3)
+    e4 = k2 / (c * s34)
+    g = th3 + np.pi + fb["alpha"]  # P5 hangs off P3, from the direction P3 -> P2 turned by alpha
+    P = C + fb["e"] * np.stack([np.cos(g), np.sin(g)])
+    vC = c * w4 * np.stack([-np.sin(th4), np.cos(th4)])
+    V = vC + fb["e"] * w3 * np.stack([-np.sin(g), np.cos(g)])
+    aC = c * e4 * np.stack([-np.sin(th4), np.cos(th4)]) - c * w4**2 * np.stack([np.cos(th4), np.sin(th4)])
+    Acc = aC + fb["e"] * (e3 * np.stack([-np.sin(g), np.cos(g)]) - w3**2 * np.stack([np.cos(g), np.sin(g)]))
+    return P, V, Acc
+
+
+def bench_reference(n: int) -> list[tuple[str, str, str, str]]:
+    from mjlink import reference
+    from mjlink.model import catalogue, mechanism
+
+    mech = mechanism.load(catalogue.path_of("takeup"))
+    phi = mech.phi0 + 2 * math.pi * np.arange(n) / n
+    omega = 100.0
+    reference.solve(mech, phi[:16])
+    t0 = time.process_time()
+    kin = reference.solve(mech, phi)
+    ours = time.process_time() - t0
+    fb = _fourbar(mech)
+    closed_form(fb, phi[:16], omega)
+    t0 = time.process_time()
+    P, V, Acc = closed_form(fb, phi, omega)
+    t_np = time.process_time() - t0
+    ref5 = kin.position("P5")[:, :2].T * 1e3
+    miss = float(np.abs(ref5 - P).max())
+    rows = [
+        (f"reference kinematics, take-up (all points, jets), {n} angles", "", f"{ours:.4f}", f"{n / ours:,.0f} angles/s"),
+        (
+            f"numpy closed form, the same four-bar (P5 with v and a), {n} angles",
+            "",
+            f"{t_np:.4f}",
+            f"{n / t_np:,.0f} angles/s; reference / closed form = {t_np / ours:.2f} x the speed (target >= 0.5); "
+            f"P5 agrees within {miss:.1e} mm",
+        ),
+    ]
+    try:
+        import numba  # noqa: F401
+        import pylinkage as pl
+    except ImportError as e:
+        rows.append(("pylinkage with numba", "", "", f"not installed ({e}): pip install -e '.[bench]'"))
+        return rows
+    A = pl.Ground(fb["ax"], fb["ay"], name="A")
+    D = pl.Ground(fb["dx"], fb["dy"], name="D")
+    crank = pl.Crank(anchor=A, radius=fb["a"], angular_velocity=2 * math.pi / n, name="B")
+    c0 = reference.solve(mech, [0.0]).position("P3")[0, :2] * 1e3  # C on the file's branch at phi = 0
+    C = pl.RRRDyad(crank.output, D, distance1=fb["b"], distance2=fb["c"], x=c0[0], y=c0[1], name="C")
+    P5 = pl.FixedDyad(C, crank.output, distance=fb["e"], angle=fb["alpha"], name="P5")
+    lk = pl.Linkage([A, D, crank, C, P5], name="takeup-fourbar")
+    try:
+        lk.set_input_velocity(crank, omega)
+    except Exception:
+        pass
+    lk.step_fast_with_kinematics(iterations=16)  # numba compiles here: excluded
+    t0 = time.process_time()
+    lk.step_fast_with_kinematics(iterations=n)
+    t_pl = time.process_time() - t0
+    rows.append(
+        (
+            f"pylinkage 1.3.0 + numba step_fast_with_kinematics, {n} angles",
+            "",
+            f"{t_pl:.4f}",
+            f"{n / t_pl:,.0f} angles/s; reference / pylinkage = {t_pl / ours:.2f} x the speed (target >= 2)",
+        )
+    )
+    return rows
+
+
+def bench_points(k: int) -> list[tuple[str, str, str, str]]:
+    text = (ROOT / "mechanisms" / "takeup.toml").read_text()
+    extra = "".join(
+        f'\n[[construct]]\npoint = "Q{i}"\nblock = "attached"\norigin = "P3"\ntoward = "P2"\n'
+        f"angle = {10.0 * i:.1f}\nlength = {10.0 + i:.1f}\n"
+        for i in range(1, k + 1)
+    )
+    names = ", ".join(f'"Q{i}"' for i in range(1, k + 1))
+    more = text.replace('points = ["P2", "P3", "P5"]', f'points = ["P2", "P3", "P5", {names}]', 1)
+    head, sep, tail = more.partition("\n[links.crank]")
+    more = head + extra + sep + tail
+    with tempfile.TemporaryDirectory() as tmp:
+        base, plus = Path(tmp) / "takeup.toml", Path(tmp) / "takeup_more.toml"
+        base.write_text(text)
+        plus.write_text(more)
+        best = {}
+        for _ in range(2):
+            for f in (base, plus):
+                w, c = run_cli(["simulate", str(f), "--out", tmp, "--force", "--no-video", "--no-plots"])
+                best[f] = min(best.get(f, (1e9, 1e9)), (c, w))
+        per = (best[plus][0] - best[base][0]) / k
+    return [
+        (
+            f"one more named point (take-up, {k} extra on the lever, --no-video --no-plots)",
+            "",
+            f"{1e3 * per:.1f} ms",
+            "CPU per extra point (target <= 10 ms)",
+        )
+    ]
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--quick", action="store_true", help="one repeat, fewer angles")
+    p.add_argument("--repeat", type=int, default=2, help="runs of each simulate command (best counts)")
+    p.add_argument("--points", type=int, default=10, help="extra named points for the per-point cost")
+    a = p.parse_args(argv)
+    print(f"load average before the runs: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    rows = bench_simulate(1 if a.quick else a.repeat)
+    rows += bench_sampling()
+    rows += bench_reference(3600 if a.quick else 36000)
+    rows += bench_points(a.points)
+    width = max(len(r[0]) for r in rows)
+    print(f"{'':{width}}  {'wall s':>8}  {'CPU s':>8}  note")
+    for name, wall, cpu, note in rows:
+        print(f"{name:{width}}  {wall:>8}  {cpu:>8}  {note}")
+
+
+if __name__ == "__main__":
+    main()
