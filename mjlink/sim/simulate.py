@@ -118,6 +118,27 @@ class Probe:
             (f, self.site[f.point], int(model.site_bodyid[self.site[f.point]])) for f in mech.dynamics.forces
         ]
         self._jac = np.zeros((3, model.nv))
+        # Moving points are read per body: each point's velocity and acceleration follow from
+        # its body's origin motion by rigid-body kinematics (see body_state), so a sample costs
+        # two Jacobians per body whatever the number of points on it.
+        self.point_site = np.array([self.site[n] for n in self.moving], dtype=int)
+        self.point_body = np.array([int(model.site_bodyid[self.site[n]]) for n in self.moving], dtype=int)
+        self.bodies = sorted(set(self.point_body.tolist()) | {int(self.body[l]) for l in self.links})
+        self.body_row = {b: i for i, b in enumerate(self.bodies)}
+
+    def body_state(self, data: mujoco.MjData, out: np.ndarray) -> None:
+        """Origin velocity, angular velocity, origin acceleration and angular acceleration of
+        every body in :attr:`bodies` into ``out`` (bodies, 4, 3): m/s, rad/s, m/s^2, rad/s^2,
+        world axes, from the Jacobians at the body origin and their time derivatives (exact,
+        as the per-point Jacobians are)."""
+        for i, b in enumerate(self.bodies):
+            o = data.xpos[b]
+            mujoco.mj_jac(self.model, data, self._jp, self._jr, o, b)
+            mujoco.mj_jacDot(self.model, data, self._jd, self._jrd, o, b)
+            out[i, 0] = self._jp @ data.qvel
+            out[i, 1] = self._jr @ data.qvel
+            out[i, 2] = self._jp @ data.qacc + self._jd @ data.qvel
+            out[i, 3] = self._jr @ data.qacc + self._jrd @ data.qvel
 
     def apply_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """External point forces at the current (stage) state, as body forces.
@@ -142,13 +163,6 @@ class Probe:
             mujoco.mj_jac(model, data, self._jac, None, data.site_xpos[sid], body)
             total += np.asarray(f.at_scalar(phi, self.mech.period)) @ self._jac
         return total
-
-    def link_state(self, data: mujoco.MjData, name: str) -> tuple[float, float]:
-        """Angular velocity (rad/s) and acceleration (rad/s^2) of a link about Z."""
-        b = self.body[name]
-        mujoco.mj_jac(self.model, data, None, self._jr, data.xpos[b], b)
-        mujoco.mj_jacDot(self.model, data, None, self._jrd, data.xpos[b], b)
-        return float(self._jr[2] @ data.qvel), float(self._jr[2] @ data.qacc + self._jrd[2] @ data.qvel)
 
     def driving_torque(self, data: mujoco.MjData) -> float:
         """Torque (N*m) the drive supplies to the input crank in this state, the flywheel aside.
@@ -210,15 +224,29 @@ class Probe:
             gaps[k] = np.linalg.norm(p1 - p2)
         return gaps
 
-    def point_state(self, data: mujoco.MjData, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        sid = self.site[name]
-        pos = data.site_xpos[sid].copy()
-        if name not in self.moving:
-            return pos, np.zeros(3), np.zeros(3)
-        body = self.model.site_bodyid[sid]
-        mujoco.mj_jac(self.model, data, self._jp, None, pos, body)
-        mujoco.mj_jacDot(self.model, data, self._jd, None, pos, body)
-        return pos, self._jp @ data.qvel, self._jp @ data.qacc + self._jd @ data.qvel
+
+def _points_from_bodies(mech, probe: Probe, sites, origins, states, P, V, A, LW, LE) -> None:
+    """Every point's position, velocity and acceleration and every link's angular rates from the
+    recorded site positions and body states, all samples at once: for a point at ``r`` from its
+    body's origin, ``v = v_o + w x r`` and ``a = a_o + alpha x r + w x (w x r)`` (rigid-body
+    kinematics, exact). Ground points (sites on the world body) stand still."""
+    k = len(sites)
+    for n in probe.names:
+        P[n][:k] = sites[:, probe.site[n]]
+        if n not in probe.moving:
+            V[n][:k] = 0.0
+            A[n][:k] = 0.0
+    for j, n in enumerate(probe.moving):
+        b = int(probe.point_body[j])
+        st = states[:, probe.body_row[b]]
+        r = sites[:, probe.site[n]] - origins[:, b]
+        w, al = st[:, 1], st[:, 3]
+        V[n][:k] = st[:, 0] + np.cross(w, r)
+        A[n][:k] = st[:, 2] + np.cross(al, r) + np.cross(w, np.cross(w, r))
+    for n in probe.links:
+        st = states[:, probe.body_row[int(probe.body[n])]]
+        LW[n][:k] = st[:, 1, 2]
+        LE[n][:k] = st[:, 3, 2]
 
 
 def run(
@@ -263,6 +291,9 @@ def _run(
     A = {n: np.empty((samples, 3)) for n in probe.names}
     LW = {n: np.empty(samples) for n in probe.links}
     LE = {n: np.empty(samples) for n in probe.links}
+    sites = np.empty((samples, model.nsite, 3))
+    origins = np.empty((samples, model.nbody, 3))
+    states = np.empty((samples, len(probe.bodies), 4, 3))
     tau = np.empty(samples)
     RF: dict[str, np.ndarray] = {}
     RM: dict[str, np.ndarray] = {}
@@ -282,10 +313,9 @@ def _run(
             gap[k] = gaps.max(initial=0.0)
             if th is not None:
                 th[k] = data.ten_length[probe.thread]
-            for n in probe.names:
-                P[n][k], V[n][k], A[n][k] = probe.point_state(data, n)
-            for n in probe.links:
-                LW[n][k], LE[n][k] = probe.link_state(data, n)
+            sites[k] = data.site_xpos
+            origins[k] = data.xpos
+            probe.body_state(data, states[k])
             if case.loads:
                 tau[k] = probe.driving_torque(data)
                 f, m = probe.pair_forces(data)
@@ -306,6 +336,7 @@ def _run(
             mujoco.mj_step(model, data)
     if progress is not None:
         progress(1.0)
+    _points_from_bodies(mech, probe, sites[:k], origins[:k], states[:k], P, V, A, LW, LE)
     phi = mech.phi0 + q[:k, probe.qadr]
     return Trace(
         Source.MUJOCO,
