@@ -73,7 +73,7 @@ from ..runs import DYNAMIC, KINEMATIC, Case, Settings, Trace
 from ..sim import builder, simulate
 from ..units import DEG, MM, RunKind, to_rpm
 
-REFERENCE_ODE_METHOD = "DOP853"  # what reference.forward_dynamics solves the equation of motion with
+REFERENCE_ODE_METHOD = "LSODA"  # what reference.forward_dynamics solves the equation of motion with
 STEADY_DEFINITION = "delta = (omega_max - omega_min) / omega_mean, omega_mean = time average over a period"
 DEFAULT_TARGET_DELTA = SteadyCase.target_delta  # the file format's default coefficient of speed fluctuation
 SYNTHESIS_PROBLEMS = ("crank_slider",)  # what synthesize knows how to solve

@@ -117,7 +117,7 @@ def speed_plots(
             f"paper's RK4, {len(rk4.t) - 1} steps of {rk4.t[1] - rk4.t[0]:.3g} s (dotted)" if rk4 is not None else ""
         )
         for ax_n, ax_e in ((a_n, a_e), (z_n, z_e)):
-            ax_n.plot(xr, nr, label=REF_LABEL + ", DOP853 ODE", **REF_STYLE)
+            ax_n.plot(xr, nr, label=REF_LABEL + ", ODE solved tightly", **REF_STYLE)
             ax_n.plot(xm, nm, color=palette.MUJOCO, label=MJ_LABEL, **MJ_STYLE)
             ax_e.plot(xr, dyn_ref.eps, label=REF_LABEL, **REF_STYLE)
             ax_e.plot(xm, dyn_mj.eps, color=palette.MUJOCO, label=MJ_LABEL, **MJ_STYLE)
