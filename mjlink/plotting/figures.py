@@ -48,6 +48,7 @@ from .style import (
     direction,
     finish_x,
     pair,
+    place,
     residual,
     save,
     title,
@@ -96,8 +97,9 @@ def speed_plots(
         ("speed_vs_time.png", "time t [s]", True),
         ("speed_vs_angle.png", angle_label + " (unwrapped)", False),
     ):
-        fig = plt.figure(figsize=(13.0, 9.4), layout="constrained")
+        fig = plt.figure(figsize=(13.0, 9.4))
         gs = fig.add_gridspec(3, 2, width_ratios=(1.75, 1.0), height_ratios=(1.0, 1.0, 0.72))
+        place(fig, gs, left=1.05, top=0.95 if by_time else 1.25, bottom=0.6, hgap=0.62, wgap=1.05)
         a_n = fig.add_subplot(gs[0, 0])
         a_e = fig.add_subplot(gs[1, 0], sharex=a_n)
         a_r = fig.add_subplot(gs[2, 0], sharex=a_n)
@@ -181,7 +183,17 @@ def speed_plots(
             a_k.axhline(0.0, color="0.5", lw=0.6)
             rel = float(np.max(np.abs(diff)) / np.max(np.abs(to_rpm(tight))))
             a_k.set_ylabel("paper's RK4 − reference\n$|n_1|$ [rpm]", fontsize=8.5)
-            a_k.set_title(f"the paper's RK4 is off by up to {100 * rel:.3g} % of the top speed", fontsize=9)
+            a_k.text(
+                0.005,
+                0.96,
+                f"the paper's RK4 is off by up to {100 * rel:.3g} % of the top speed",
+                transform=a_k.transAxes,
+                ha="left",
+                va="top",
+                fontsize=7.5,
+                bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8),
+            )
+            a_k.margins(y=0.25)
             a_k.grid(True, alpha=0.3)
             a_k.set_xlabel(short)
             a_k.set_gid("rk4-residual")  # the paper's method against the reference, not MuJoCo
@@ -626,9 +638,9 @@ def kinematics_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, poi
         3,
         figsize=(14.0, 2.05 * rows + 1.2),
         sharex=True,
-        layout="constrained",
         gridspec_kw=dict(height_ratios=[1.0] * (rows - 1) + [0.8]),
     )
+    place(fig, axs[0, 0].get_gridspec(), left=1.05, right=0.25, top=1.0, bottom=0.6, hgap=0.22, wgap=1.15)
     hues = ("tab:blue", "tab:green", "tab:purple")
     for c, (mj, ref, scale, unit, what, limit, rscale, runit) in enumerate(series):
         for r, j in enumerate(comps):
@@ -1060,9 +1072,8 @@ def link_motion_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, li
     ``link`` about z against crank angle, MuJoCo (its body's) vs reference, each with MuJoCo's
     error beneath (informational: link rates are held to no threshold)."""
     (xm, xr), xlabel = crank_x(mech, kin_mj, kin_ref)
-    fig, axs = plt.subplots(
-        4, 1, figsize=(8.0, 9.0), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 0.55, 1, 0.55))
-    )
+    fig, axs = plt.subplots(4, 1, figsize=(8.0, 9.0), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.55, 1, 0.55)))
+    place(fig, axs[0].get_gridspec(), left=1.05, right=0.25, top=0.75, bottom=0.6, hgap=0.2)
     for ax, rax, mj, ref, lab, c, unit in (
         (
             axs[0],

@@ -29,6 +29,7 @@ from .style import (
     crank_x,
     direction,
     finish_x,
+    place,
     residual,
     save,
     title,
@@ -52,11 +53,11 @@ def torque_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_dir
     fig, (a1, ar, a2, a3) = plt.subplots(
         4,
         1,
-        figsize=(10.5, 10.4),
+        figsize=(11.5, 10.8),
         sharex=True,
-        layout="constrained",
         gridspec_kw=dict(height_ratios=(1.3, 0.6, 0.9, 1.0)),
     )
+    place(fig, a1.get_gridspec(), left=1.1, right=3.3, top=0.75, bottom=0.6, hgap=0.6)
     a1.plot(x, rx.torque, label=REF_LABEL + ", kinetostatics", **REF_STYLE)
     a1.plot(x, torque, label=MJ_LABEL, color=palette.MUJOCO, **MJ_STYLE)
     a1.axhline(0, color="0.6", lw=0.8)
@@ -125,8 +126,9 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
     n = len(labels)
     cols = 2 if n > 1 else 1
     rows = math.ceil(n / cols)
-    fig = plt.figure(figsize=(12.0, 3.1 * rows + 1.1), layout="constrained")
+    fig = plt.figure(figsize=(12.0, 3.1 * rows + 1.1))
     gs = fig.add_gridspec(2 * rows, cols, height_ratios=[1.0, 0.42] * rows)
+    place(fig, gs, left=0.85, right=0.2, top=1.0, bottom=0.85, hgap=0.32, wgap=0.85)
     first = None
     for k, lab in enumerate(labels):
         r, c = divmod(k, cols)
@@ -164,7 +166,7 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
         plt.Line2D([], [], **REF_STYLE, label=REF_LABEL + ", kinetostatics"),
         plt.Line2D([], [], color="0.3", **MJ_STYLE, label=MJ_LABEL + " (in the pair's colour)"),
     ]
-    fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=8.5)
+    fig.legend(handles=handles, loc="lower center", ncol=2, fontsize=8.5, bbox_to_anchor=(0.5, 0.0))
     w = float(np.mean(kin_mj.omega))
     fig.suptitle(
         title(mech, f"force in every kinematic pair at {to_rpm(abs(w)):.0f} rpm, {direction(w)}; peak marked"),
