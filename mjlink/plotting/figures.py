@@ -584,9 +584,8 @@ def thread_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> Path
         return None
     Lm, Lr = analysis.thread_length(mech, kin_mj), analysis.thread_length(mech, kin_ref)
     (xm, xr), xlabel = crank_x(mech, kin_mj, kin_ref)
-    fig, (a1, a2) = plt.subplots(
-        2, 1, figsize=(8.0, 6.2), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(2.2, 1))
-    )
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8.0, 6.2), sharex=True, gridspec_kw=dict(height_ratios=(2.2, 1)))
+    place(fig, a1.get_gridspec(), left=1.05, top=0.75, bottom=0.6, hgap=0.2)
     a1.plot(xr, to_mm(Lr), label=REF_LABEL, **REF_STYLE)
     a1.plot(xm, to_mm(Lm), color=palette.THREAD, label=MJ_LABEL + ", spatial tendon", **MJ_STYLE)
     a1.set_ylabel("thread length [mm]")
@@ -708,9 +707,8 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         guide = ("relative to its moving guide " if moving else "on guide ") + f"{n1}→{n2}"
 
         # --- s, ds/dt, d2s/dt2 and MuJoCo's error in s
-        fig, axs = plt.subplots(
-            4, 1, figsize=(8.0, 9.6), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7))
-        )
+        fig, axs = plt.subplots(4, 1, figsize=(8.0, 9.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7)))
+        place(fig, axs[0].get_gridspec(), left=1.05, top=0.75, bottom=0.6, hgap=0.2)
         # Velocity and acceleration reverse within a stroke: a zero line shows where.
         panels = (
             ("position $s$ along the guide [mm]", to_mm, "tab:blue"),
@@ -784,9 +782,8 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
 
         # --- pressure angle
         gm, gr = np.degrees(analysis.pressure_angle(kin_mj, sl)), np.degrees(analysis.pressure_angle(kin_ref, sl))
-        fig, (ax, rax) = plt.subplots(
-            2, 1, figsize=(8.0, 6.0), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 0.4))
-        )
+        fig, (ax, rax) = plt.subplots(2, 1, figsize=(8.0, 6.0), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.4)))
+        place(fig, ax.get_gridspec(), left=1.15, top=0.75, bottom=0.6, hgap=0.2)
         residual(rax, xm, gm - gr, "deg", None, color="tab:green", what="MuJoCo − ref.")
         pair(ax, xm, gm, xr, gr, "tab:green")
         i = int(np.argmax(gr))
@@ -830,9 +827,8 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
     Lm, dm, fm = analysis.thread_feed(mech, kin_mj)
     Lr, dr, fr = analysis.thread_feed(mech, kin_ref)
     xm, xr = xm[: len(Lm)], xr[: len(Lr)]  # the axis is cut at one turn
-    fig, axs = plt.subplots(
-        4, 1, figsize=(8.0, 9.6), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7))
-    )
+    fig, axs = plt.subplots(4, 1, figsize=(8.0, 9.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7)))
+    place(fig, axs[0].get_gridspec(), left=1.15, top=0.75, bottom=0.6, hgap=0.2)
     n = min(len(fm), len(fr))
     residual(
         axs[3],

@@ -224,9 +224,8 @@ def steady_plot(
     """``steady.png``: crank speed (rpm, magnitude) over one period of steady motion, without
     and with the flywheel, MuJoCo's last period vs the reference's orbit; beneath, MuJoCo minus
     the reference at the same angle turned (rpm; the rule is on delta, not on this curve)."""
-    fig, (ax, rax) = plt.subplots(
-        2, 1, figsize=(8, 6.6), sharex=True, layout="constrained", gridspec_kw=dict(height_ratios=(1, 0.45))
-    )
+    fig, (ax, rax) = plt.subplots(2, 1, figsize=(8, 6.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.45)))
+    place(fig, ax.get_gridspec(), left=1.05, top=0.75, bottom=0.6, hgap=0.2)
     for st, run, color, what in (
         (plain, runs[0], "tab:blue", "no flywheel"),
         (fly, runs[1], "tab:green", f"flywheel {fly.extra_inertia:.3g} kg·m²"),
@@ -261,8 +260,9 @@ def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoad
     the start marked) and the shaking moment about the input crank's pivot (N*m) against crank
     angle; the reference as a line, MuJoCo as markers (they coincide where they agree)."""
     (x,), label = crank_x(mech, kin_mj)
-    fig = plt.figure(figsize=(11, 6.4), layout="constrained")
+    fig = plt.figure(figsize=(11, 6.4))
     gs = fig.add_gridspec(2, 2, width_ratios=(1, 1.4), height_ratios=(1, 0.45))
+    place(fig, gs, left=0.85, right=0.2, top=0.75, bottom=0.6, hgap=0.2, wgap=1.2)
     a1 = fig.add_subplot(gs[:, 0])
     a2 = fig.add_subplot(gs[0, 1])
     a3 = fig.add_subplot(gs[1, 1], sharex=a2)
