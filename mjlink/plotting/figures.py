@@ -99,7 +99,7 @@ def speed_plots(
     ):
         fig = plt.figure(figsize=(13.0, 9.4))
         gs = fig.add_gridspec(3, 2, width_ratios=(1.75, 1.0), height_ratios=(1.0, 1.0, 0.72))
-        place(fig, gs, left=1.05, top=0.95 if by_time else 1.25, bottom=0.6, hgap=0.62, wgap=1.05)
+        place(fig, gs, left=1.05, right=0.4, top=0.95 if by_time else 1.25, bottom=0.6, hgap=0.62, wgap=1.05)
         a_n = fig.add_subplot(gs[0, 0])
         a_e = fig.add_subplot(gs[1, 0], sharex=a_n)
         a_r = fig.add_subplot(gs[2, 0], sharex=a_n)
