@@ -15,6 +15,7 @@ import argparse
 import contextlib
 import ctypes
 import difflib
+import os
 import re
 import sys
 from typing import Any, NoReturn
@@ -112,6 +113,10 @@ def main(argv: list[str] | None = None) -> int:
     from ..output import Terminated, interruptible
 
     args = _parser().parse_args(argv)
+    if not (args.command == "simulate" and not args.no_video):
+        # Only simulate's video renders: every other command (and its Dask workers, which
+        # inherit the environment) imports mujoco without probing OpenGL first.
+        os.environ.setdefault("MJLINK_NO_GL", "1")
     # The command line as typed, for the reports: "python -m mjlink" and the arguments.
     args.command_line = ("python", "-m", "mjlink", *(sys.argv[1:] if argv is None else argv))
     run = next(c.run for c in COMMANDS if c.name == args.command)

@@ -200,6 +200,9 @@ def _available() -> str:
     return ", ".join(found) or "none"
 
 
+NO_GL_ENV = "MJLINK_NO_GL"  # "1": the process will not render, so choose() probes nothing
+
+
 def choose() -> None:
     """Choose the backend if it can be chosen; a failure is kept for the first render to raise.
 
@@ -223,6 +226,10 @@ def choose() -> None:
                 if _hook not in sys.meta_path:
                     sys.meta_path.insert(0, _hook)
             return
+    if os.environ.get(NO_GL_ENV) == "1" and not preset:
+        # This process will not render (a command without video): mujoco is imported without
+        # probing OpenGL, which costs a subprocess (~0.5 s) for nothing.
+        return
     try:
         ensure_gl_backend()
     except RenderError as e:
