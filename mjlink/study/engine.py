@@ -212,7 +212,9 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
 
     # glibc reads these when a process starts (see tasks._keep_freed_memory): the nanny's
     # pre-spawn environment is the only place to set them before a worker exists.
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": tasks.MALLOC_ENV}):
+    # A worker never renders: it imports mujoco without probing OpenGL (a subprocess each).
+    environ = {**tasks.MALLOC_ENV, "MJLINK_NO_GL": "1"}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
         cluster = LocalCluster(
             n_workers=n,
             threads_per_worker=1,
