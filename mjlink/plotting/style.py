@@ -78,7 +78,9 @@ def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Pa
             raise OutputError(f"{path}: cannot write plot: {e.strerror or e}") from None
         crop: dict[str, Any] = dict(bbox_inches="tight", pad_inches=0.12) if tight else {}
         with atomic_path(path, suffix=".png") as tmp:
-            fig.savefig(tmp, format="png", dpi=DPI, **crop)
+            # zlib level 1: a figure's PNG is ~25 % larger than at the default 6 and encodes in
+            # a fifth of the time (70 -> 15 ms a figure; the same pixels).
+            fig.savefig(tmp, format="png", dpi=DPI, pil_kwargs={"compress_level": 1}, **crop)
     finally:
         if _KEEP is not None:
             _KEEP.append((name, fig))
