@@ -566,7 +566,7 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         loc="left",
     )
     # Labels last, once the layout has fixed where everything is on the canvas.
-    fig.canvas.draw()
+    fig.draw_without_rendering()
     _label_ticks(ax, main_ticks)
     if side is not None:
         _label_ticks(side, side_ticks)
