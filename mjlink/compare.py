@@ -239,12 +239,15 @@ def shaking_force_limit(ref_force: np.ndarray) -> float:
     return SHAKING_REL * float(np.ptp(ref_force, axis=0).max())
 
 
-def agreement(mech: Mechanism, mj: Trace, ref_motion: reference.Motion | None = None) -> Agreement:
+def agreement(
+    mech: Mechanism, mj: Trace, ref_motion: reference.Motion | None = None, *, ref: Trace | None = None
+) -> Agreement:
     """Compare a MuJoCo trace with the reference (see module docstring).
 
     ``ref_motion``: for a dynamic run, the reference's own crank motion at the same times.
+    ``ref``: :func:`reference_at` of ``mj`` if the caller has it already (not computed again).
     """
-    ref = reference_at(mech, mj)
+    ref = ref if ref is not None else reference_at(mech, mj)
     pts = []
     for n in mech.point_names:
         if n in mech.ground:

@@ -177,13 +177,6 @@ def drive_power(torque: np.ndarray, omega: np.ndarray) -> np.ndarray:
     return torque * omega
 
 
-def last_period(trace: Trace, duration: float) -> tuple[np.ndarray, np.ndarray]:
-    """The samples of ``trace`` in its last ``duration`` (s; the sign is ignored), as the angle
-    turned (rad, from the first of them) and the crank speed (rad/s), each (M,)."""
-    last = trace.time >= trace.time[-1] - abs(duration)
-    return angle_turned(trace.phi[last]), trace.omega[last]
-
-
 def period_angle(mech: Mechanism, phi: np.ndarray) -> np.ndarray:
     """Input angles ``phi`` (rad) as the angle turned from phi0 within the period, rad in
     [0, period): the abscissa on which a periodic orbit and a run's last period line up

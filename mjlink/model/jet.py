@@ -66,12 +66,6 @@ class S:
         return S(f, df * self.d, ddf * self.d**2 + df * self.dd)
 
 
-def const(v, n: int) -> S:
-    v = np.broadcast_to(np.asarray(v, dtype=float), (n,))
-    z = np.zeros(n)
-    return S(v, z, z)
-
-
 def sqrt(a: S) -> S:
     r = np.sqrt(a.v)
     return a.chain(r, 0.5 / r, -0.25 / (r * a.v))

@@ -827,7 +827,9 @@ def run(
         kin_ref = reference.reference_trace(
             mech, reference.constant_speed(mech, kin_mj.time, kcase.omega0), RunKind.KINEMATICS
         )
-        agreements = [compare.agreement(mech, kin_mj)]
+        # The reference at MuJoCo's own crank state: the agreement's and the residual panels'.
+        kin_at = compare.reference_at(mech, kin_mj)
+        agreements = [compare.agreement(mech, kin_mj, ref=kin_at)]
         clock.lap("reference_kinematics")
         output.write_csv(stage / "kinematics.csv", mech, kin_mj)
         output.write_csv(stage / "reference_kinematics.csv", mech, kin_ref)
@@ -851,7 +853,7 @@ def run(
 
             # Residual panels subtract the reference at MuJoCo's own crank state, as the
             # agreement table does (the imposed speed holds to 1e-6, not exactly).
-            draw([functools.partial(figures.kinematic_plots, mech, kin_mj, compare.reference_at(mech, kin_mj), stage)])
+            draw([functools.partial(figures.kinematic_plots, mech, kin_mj, kin_at, stage)])
 
         dyn = None
         if opts.dynamics and has_masses(mech):

@@ -107,8 +107,6 @@ def place(
     figure's time). The figures that use it have labels of known length."""
     w, h = fig.get_size_inches()
     rows, cols = gs.get_geometry()
-    hr = gs.get_height_ratios() or [1.0] * rows
-    wr = gs.get_width_ratios() or [1.0] * cols
     avg_h = (h - top - bottom - (rows - 1) * hgap) / rows
     avg_w = (w - left - right - (cols - 1) * wgap) / cols
     gs.update(
@@ -116,8 +114,8 @@ def place(
         right=1.0 - right / w,
         top=1.0 - top / h,
         bottom=bottom / h,
-        hspace=hgap / avg_h * (sum(hr) / rows) / (sum(hr) / rows),
-        wspace=wgap / avg_w * (sum(wr) / cols) / (sum(wr) / cols),
+        hspace=hgap / avg_h,  # matplotlib's gaps are fractions of the mean axes size
+        wspace=wgap / avg_w,
     )
 
 

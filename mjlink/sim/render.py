@@ -33,13 +33,6 @@ from ..runs import Settings, Trace
 from . import builder, simulate
 from .gl import _clip, ensure_gl_backend
 
-
-def _is_3d(mech) -> bool:
-    """Whether any point leaves the mechanism's plane (z != 0)."""
-    k = reference.solve(mech, [mech.phi0])
-    return any(abs(v.v[0, 2]) > 1e-9 for v in k.points.values())
-
-
 PROGRESS_AFTER = 1.0  # s of rendering before a progress line is worth printing
 
 
@@ -202,7 +195,7 @@ def render_video(
             f"{mech.name}: the trace has {qpos.shape[1]} joint positions per sample, the model has "
             f"{model.nq}: was it run on another mechanism?"
         )
-    spatial = _is_3d(mech)
+    spatial = analysis.is_spatial(mech)
     camera = built.oblique if spatial else built.front
     # Framed on what every point sweeps over a period, for this video's aspect ratio.
     sweep = reference.solve(mech, mech.phi0 + np.linspace(0.0, mech.period, 73), check=False)
