@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import errno
+import functools
 import json
 import os
 import re
@@ -281,6 +282,13 @@ def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+def _quiet_interruption(hook: Callable[[Any], Any], unraisable: Any) -> None:
+    """An unraisable exception goes to ``hook`` unless it is the interruption itself."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt | Terminated):
+        return
+    hook(unraisable)
+
+
 @contextmanager
 def interruptible() -> Iterator[None]:
     """Make SIGINT and SIGTERM end the body cleanly, whatever code they land in.
@@ -307,6 +315,11 @@ def interruptible() -> Iterator[None]:
     _signalled.clear()
     for sig in install:
         signal.signal(sig, _on_signal)
+    # A signal that lands in code whose exceptions Python can only print (an import lock's
+    # weakref callback, a __del__) would show as "Exception ignored ... Traceback" on stderr;
+    # it is recorded above and re-raised when the body ends, so it is not printed there.
+    before = sys.unraisablehook
+    sys.unraisablehook = functools.partial(_quiet_interruption, before)
     try:
         yield
     except BaseException as e:
@@ -317,6 +330,7 @@ def interruptible() -> Iterator[None]:
         if _signalled:
             raise _interruption(_signalled[0])
     finally:
+        sys.unraisablehook = before
         for sig, old in install.items():
             signal.signal(sig, old)
         _signalled.clear()

@@ -496,3 +496,25 @@ def test_a_swallowed_or_disguised_interruption_still_ends_the_run(tmp_path):
     assert isinstance(e.value.__cause__, RuntimeError)
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_an_interruption_in_unraisable_code_is_not_printed(monkeypatch):
+    """A signal landing where Python can only report the exception as unraisable (an import
+    lock's weakref callback, a __del__) is not reported ('Exception ignored ... Traceback' on
+    stderr), and the run still ends with the signal's exception once the body is done."""
+    if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        pytest.skip("SIGTERM has a handler here already; interruptible leaves it alone")
+    reported = []
+    monkeypatch.setattr(sys, "unraisablehook", reported.append)
+
+    class Dying:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGTERM)
+            _until(lambda: False, timeout=5)  # the handler raises Terminated in here
+
+    with pytest.raises(output.Terminated):
+        with output.interruptible():
+            Dying()  # collected at once: Terminated is raised inside __del__, unraisable
+            _until(lambda: False, timeout=0.2)
+    assert reported == []
+    assert sys.unraisablehook == reported.append  # put back as it was
