@@ -5,8 +5,8 @@ Prints, on this machine, in one run so that the ratios compare like with like:
 1. CPU and wall seconds of ``python -m mjlink simulate NAME`` (a fresh process: imports,
    the GL choice, runs, reference, loads, plots, video, CSVs) for every shipped mechanism,
    with and without the video (best of ``--repeat`` runs each, interleaved);
-2. the project's sampling loop (:func:`mjlink.sim.simulate.run`, traces included) against a
-   plain C loop ``mj_step(m, d, nstep)`` on the same model: steps per second and their ratio,
+2. the project's sampling loop (:func:`mjlink.sim.simulate.run` on a compiled model, traces
+   and loads decoded from the sensors included) against a plain C loop ``mj_step(m, d, nstep)`` on the same model: steps per second and their ratio,
    for the kinematic and the dynamic case of the take-up;
 3. the reference's kinematics of the take-up four-bar (positions, velocities and
    accelerations of every point on jets) against pylinkage 1.3.0 with numba
@@ -89,12 +89,13 @@ def bench_sampling() -> list[tuple[str, str, str, str]]:
         ("kinematic", simulate.kinematic_case(mech)),
         ("dynamic", simulate.dynamic_case(mech)),
     ):
-        simulate.run(mech, case)  # warm: imports, first compile
+        built = builder.make(mech, case.settings)  # both sides step the same compiled model
+        simulate.run(mech, case, built=built)  # warm: imports, first call
         t0 = time.process_time()
-        simulate.run(mech, case)
+        simulate.run(mech, case, built=built)
         ours = time.process_time() - t0
         steps = round(case.duration / case.settings.timestep)
-        m = builder.make(mech, case.settings).model
+        m = built.model
         d = mujoco.MjData(m)
         mujoco.mj_resetDataKeyframe(m, d, 0) if m.nkey else mujoco.mj_resetData(m, d)
         t0 = time.process_time()

@@ -379,3 +379,14 @@ def test_crank_setting_overrides_are_bounded():
     with pytest.raises(MjlinkError, match="--phi0 must be finite and at most 720 deg"):
         validation.with_crank_settings(m, phi0_deg=1e300)
     assert abs(validation.with_crank_settings(m, phi0_deg=-90.0).phi0 + __import__("math").pi / 2) < 1e-15
+
+
+def test_a_point_named_like_a_site_of_the_model_is_refused(tmp_path):
+    """Points are MuJoCo sites: one named like the load site the builder adds on a link's joint
+    (``load_LINK``) or a loop anchor would make the model fail to compile; refused by name."""
+    text = with_attached(EXAMPLE, "load_coupler", "B", "C", 15.0)
+    text = text.replace(
+        '[links.coupler]\npoints = ["B", "C", "E"]', '[links.coupler]\npoints = ["B", "C", "E", "load_coupler"]'
+    )
+    msg = rejected(tmp_path, text)
+    assert "point 'load_coupler' has the name of a site the model adds" in msg and "rename the point" in msg

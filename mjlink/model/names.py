@@ -45,9 +45,15 @@ def loop_equality(point: str, parent: str | None, child: str) -> str:
 
 
 def loop_anchor(point: str, link: str | None) -> str:
-    """The site marking a loop pin on one of its two bodies (None: the ground), in the models
-    of batched verification, whose framepos sensors give the loop's gap."""
+    """The site marking a loop pin on one of its two bodies (None: the ground), whose framepos
+    sensors give the loop's gap."""
     return f"anchor_{point}_{link or GROUND}"
+
+
+def load_site(link: str) -> str:
+    """The site at the joint of ``link``'s tree pair (its body origin), carrying the force and
+    torque sensors of that pair's reaction."""
+    return f"load_{link}"
 
 
 def gear_equality(link: str) -> str:
@@ -100,4 +106,12 @@ def element_clash(links: Iterable[Any], ground: set[str]) -> tuple[str, str] | N
                         return b if b != GROUND else a, (
                             f"its loop equality name '{n}' would be the same as another's: rename the link or the point"
                         )
+    # Points are sites too: a point may not take the name of a site the builder adds.
+    points = set(owners) | set(ground)
+    for l in links:
+        sites = [load_site(l.name)] + [loop_anchor(p, l.name) for p in l.points if len(owners[p]) > 1 or p in ground]
+        sites += [loop_anchor(p, None) for p in l.points if p in ground]
+        for n in sites:
+            if n in points:
+                return l.name, f"point '{n}' has the name of a site the model adds for this link: rename the point"
     return None

@@ -295,7 +295,7 @@ def external_forces(mech: Mechanism, built: builder.Built, nstep: int) -> np.nda
     Returns:
       (nstep, 6 nbody): row k the force (N) and its moment (N*m) about each body's centre of
       mass during step k+1, evaluated on the reference's motion at mid-step, t = (k + 1/2) dt,
-      as :meth:`mjlink.sim.simulate.Probe.hold_forces` evaluates them on MuJoCo's state half
+      as :meth:`mjlink.sim.simulate.Forces.hold` evaluates them on MuJoCo's state half
       a step ahead and holds them through the step.
     """
     model = built.model

@@ -57,7 +57,9 @@ class Built:
     ``sites[point]``, ``bodies[link]``; ``tree`` each tree pair with its joint id; ``loops``
     each loop-closing pair with its connect equality id; ``gears`` the joint equalities of
     geared cranks; ``thread`` the tendon id (-1 without a thread); ``drive`` the actuator;
-    ``front`` and ``oblique`` the cameras.
+    ``front`` and ``oblique`` the cameras; ``sensors[(quantity, element)]`` the address in
+    ``sensordata`` of each sensor of :func:`_add_sensors` (``("pos", "P5")``,
+    ``("force", "lever")``, ``("angle", "input")``, ``("output", "drive")`` ...).
     """
 
     spec: mujoco.MjSpec
@@ -74,6 +76,7 @@ class Built:
     thread: int
     front: int
     oblique: int
+    sensors: dict[tuple[str, str], int]
 
 
 @dataclass(frozen=True)
@@ -88,6 +91,7 @@ class _Elements:
     thread: mujoco.MjsTendon | None
     front: mujoco.MjsCamera
     oblique: mujoco.MjsCamera
+    sensors: dict[tuple[str, str], mujoco.MjsSensor]
 
 
 def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec:
@@ -98,9 +102,7 @@ def build_spec(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjSpec
 def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[mujoco.MjSpec, _Elements]:
     """The spec and its elements. ``batch``: the model of batched verification
     (:mod:`mjlink.sim.batch`, see :func:`make_batch`): framed by its initial pose rather than a
-    sweep over the cycle (it is never drawn), and with a site on each side of every loop pin
-    whose position sensors, after the standard ones, give the loop's gap: rollout returns
-    traces through sensors alone."""
+    sweep over the cycle (it is never drawn)."""
     kin = reference.solve(mech, [mech.phi0])
     pos = {k: v.v[0] for k, v in kin.points.items()}
     topo = topology(mech)
@@ -385,18 +387,12 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         if motor is not None:
             bias[2] = -motor.stall_torque / motor.no_load_speed
     act.biasprm = bias
-    _add_sensors(spec, mech, input_joint)
-    if batch:  # after the standard sensors, so that those keep make's layout of sensordata
-        for pr, _ in loops:
-            for link in (pr.child, pr.parent):
-                anchor = names.loop_anchor(pr.pin, link)
-                bodies[link].add_site(name=anchor, pos=(pos[pr.pin] - origin[link]).tolist())
-                spec.add_sensor(
-                    name=names.sensor(anchor, "pos"),
-                    type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
-                    objtype=mujoco.mjtObj.mjOBJ_SITE,
-                    objname=anchor,
-                )
+    for pr, _ in loops:  # a site on each side of every loop pin: their positions give the gap
+        for link in (pr.child, pr.parent):
+            bodies[link].add_site(name=names.loop_anchor(pr.pin, link), pos=(pos[pr.pin] - origin[link]).tolist())
+    for pr, _ in tree:  # the pair's reaction is read at its joint, the child's body origin
+        bodies[pr.child].add_site(name=names.load_site(pr.child), pos=[0.0, 0.0, 0.0])
+    sensors = _add_sensors(spec, mech, input_joint, [pr for pr, _ in tree], [pr for pr, _ in loops])
     return spec, _Elements(
         input_joint,
         act,
@@ -408,6 +404,7 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         t,
         front,
         oblique,
+        sensors,
     )
 
 
@@ -426,15 +423,40 @@ def _quat_z(a: float) -> list[float]:
     return [float(np.cos(a / 2)), 0.0, 0.0, float(np.sin(a / 2))]
 
 
-def _add_sensors(spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJoint) -> None:
-    """Position and velocity of every moving point, the thread's length and the crank's angle
-    and speed: what a user of the MJCF alone reads (SI units, world frame)."""
-    site, sens = mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtSensor
+def _add_sensors(
+    spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJoint, tree: list[Pair], loops: list[Pair]
+) -> dict[tuple[str, str], mujoco.MjsSensor]:
+    """The sensors a run is sampled through, which also make the MJCF readable on its own
+    (SI units, world frame unless said):
+
+    * every moving point: ``P_pos`` (m), ``P_vel`` (m/s), ``P_acc`` (m/s^2; MuJoCo's frame
+      acceleration counts gravity as an upward acceleration, so at rest it reads -g);
+    * ``thread_length`` (m); the input crank's ``LINK_angle`` (rad from phi0) and
+      ``LINK_speed`` (rad/s);
+    * every link: ``LINK_angvel`` (rad/s), ``LINK_angacc`` (rad/s^2) and ``LINK_comacc``
+      (its centre of mass, m/s^2, with -g as above);
+    * every tree pair, at the site ``load_CHILD`` on its joint: ``CHILD_force`` (N) and
+      ``CHILD_torque`` (N*m, about the joint) that the parent exerts on the child's subtree
+      (loop forces included), in the site's frame, and ``CHILD_quat`` that frame's orientation;
+    * ``drive_output``: the drive's torque on the crank (N*m);
+    * every loop pin: ``anchor_PIN_LINK_pos`` on each of its two links (m); their distance is
+      the loop's gap.
+    """
+    out: dict[tuple[str, str], mujoco.MjsSensor] = {}
+    site, body, xbody = mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_XBODY
+    sens = mujoco.mjtSensor
     for p in mech.moving_points:
-        spec.add_sensor(name=names.sensor(p, "pos"), type=sens.mjSENS_FRAMEPOS, objtype=site, objname=p)
-        spec.add_sensor(name=names.sensor(p, "vel"), type=sens.mjSENS_FRAMELINVEL, objtype=site, objname=p)
+        out[("pos", p)] = spec.add_sensor(
+            name=names.sensor(p, "pos"), type=sens.mjSENS_FRAMEPOS, objtype=site, objname=p
+        )
+        out[("vel", p)] = spec.add_sensor(
+            name=names.sensor(p, "vel"), type=sens.mjSENS_FRAMELINVEL, objtype=site, objname=p
+        )
+        out[("acc", p)] = spec.add_sensor(
+            name=names.sensor(p, "acc"), type=sens.mjSENS_FRAMELINACC, objtype=site, objname=p
+        )
     if mech.thread:
-        spec.add_sensor(
+        out[("length", names.THREAD)] = spec.add_sensor(
             name=names.sensor(names.THREAD, "length"),
             type=sens.mjSENS_TENDONPOS,
             objtype=mujoco.mjtObj.mjOBJ_TENDON,
@@ -442,12 +464,46 @@ def _add_sensors(spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJo
         )
     joint = mujoco.mjtObj.mjOBJ_JOINT
     link = input_joint.name.rsplit("_", 1)[0] if input_joint.name else names.DRIVE
-    spec.add_sensor(
+    out[("angle", "input")] = spec.add_sensor(
         name=names.sensor(link, "angle"), type=sens.mjSENS_JOINTPOS, objtype=joint, objname=input_joint.name
     )
-    spec.add_sensor(
+    out[("speed", "input")] = spec.add_sensor(
         name=names.sensor(link, "speed"), type=sens.mjSENS_JOINTVEL, objtype=joint, objname=input_joint.name
     )
+    for l in mech.links:
+        out[("angvel", l.name)] = spec.add_sensor(
+            name=names.sensor(l.name, "angvel"), type=sens.mjSENS_FRAMEANGVEL, objtype=xbody, objname=l.name
+        )
+        out[("angacc", l.name)] = spec.add_sensor(
+            name=names.sensor(l.name, "angacc"), type=sens.mjSENS_FRAMEANGACC, objtype=xbody, objname=l.name
+        )
+        out[("comacc", l.name)] = spec.add_sensor(
+            name=names.sensor(l.name, "comacc"), type=sens.mjSENS_FRAMELINACC, objtype=body, objname=l.name
+        )
+    for pr in tree:
+        s = names.load_site(pr.child)
+        out[("force", pr.child)] = spec.add_sensor(
+            name=names.sensor(pr.child, "force"), type=sens.mjSENS_FORCE, objtype=site, objname=s
+        )
+        out[("torque", pr.child)] = spec.add_sensor(
+            name=names.sensor(pr.child, "torque"), type=sens.mjSENS_TORQUE, objtype=site, objname=s
+        )
+        out[("quat", pr.child)] = spec.add_sensor(
+            name=names.sensor(pr.child, "quat"), type=sens.mjSENS_FRAMEQUAT, objtype=site, objname=s
+        )
+    out[("output", names.DRIVE)] = spec.add_sensor(
+        name=names.sensor(names.DRIVE, "output"),
+        type=sens.mjSENS_ACTUATORFRC,
+        objtype=mujoco.mjtObj.mjOBJ_ACTUATOR,
+        objname=names.DRIVE,
+    )
+    for pr in loops:
+        for l in (pr.child, pr.parent):
+            a = names.loop_anchor(pr.pin, l)
+            out[("pos", a)] = spec.add_sensor(
+                name=names.sensor(a, "pos"), type=sens.mjSENS_FRAMEPOS, objtype=site, objname=a
+            )
+    return out
 
 
 def _equality_rows(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
@@ -500,14 +556,14 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
         -1 if el.thread is None else el.thread.id,
         el.front.id,
         el.oblique.id,
+        {k: int(model.sensor_adr[v.id]) for k, v in el.sensors.items()},
     )
 
 
 def make_batch(mech: Mechanism, settings: Settings = KINEMATIC, times: dict[str, float] | None = None) -> Built:
     """:func:`make`'s model of ``mech`` for batched verification (:mod:`mjlink.sim.batch`), built
-    for speed: the same bodies, joints, equalities, drive, sensors and keyframe ``initial``,
-    plus a site on each side of every loop pin with its position sensor
-    (``names.loop_anchor``), so that rollout's sensors give the loops' gaps. Physics and
+    for speed: the same bodies, joints, equalities, drive, sensors and keyframe ``initial``
+    (rollout's sensors give the loops' gaps through the loop anchors). Physics and
     initial state are make's (tested against it); only what is drawn differs: no skybox (its
     texture is 90 % of the compile time), sizes framed by the initial pose.
 
@@ -546,6 +602,7 @@ def make_batch(mech: Mechanism, settings: Settings = KINEMATIC, times: dict[str,
         -1 if el.thread is None else el.thread.id,
         el.front.id,
         el.oblique.id,
+        {k: int(model.sensor_adr[v.id]) for k, v in el.sensors.items()},
     )
 
 

@@ -9,9 +9,14 @@ Two cases per mechanism:
 * dynamic: the file's ``[dynamics]`` case: driving moment by a motor, viscous damping on the
   crank joint, gravity, from (phi0, omega0).
 
-Samples are taken after ``mj_forward`` on the current state and before ``mj_step`` (after a
-step MuJoCo's derived quantities belong to the state before it). Point velocities are
-``J_site qvel``, accelerations ``J_site qacc + Jdot_site qvel``.
+Every quantity is read from the model's own sensors (:func:`builder._add_sensors`), the
+same a user of the written MJCF reads: point positions, velocities and accelerations (frame
+sensors: MuJoCo's exact rigid-body kinematics), the thread's length, the crank's angle and
+speed, the links' angular rates, the drive's torque and each tree pair's reaction (force and
+torque sensors on MuJoCo's body interaction forces). The loop pairs' forces, which no sensor
+reports, follow from the same sensors by Newton's law per link (:func:`_loop_forces`). A
+sample is the state at its time: after a step MuJoCo's derived quantities belong to the
+state before it, and so do the sensors rollout records.
 """
 
 from __future__ import annotations
@@ -19,12 +24,14 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from .. import reference
 from ..errors import SimulationError
+from ..model import names
 from ..model.mechanism import Mechanism
 from ..runs import DYNAMIC, KINEMATIC, Case, Settings, SteadyRun, Trace
 from ..units import RunKind, Source
@@ -92,176 +99,315 @@ def steady_run(mech: Mechanism, steady: reference.Steady, periods: int = 3) -> S
     return SteadyRun(float((w.max() - w.min()) / abs(mean)), float(mean), tr)
 
 
-class Probe:
-    """Reads points, thread and loop gaps off a MuJoCo state, by the builder's element ids."""
+class Forces:
+    """The file's external point forces on a MuJoCo state, as body forces (``xfrc_applied``).
+
+    They go into ``xfrc_applied`` (the force at the body's centre of mass with its moment)
+    rather than ``qfrc_applied``, so that the body interaction forces of
+    ``mj_rnePostConstraint``, which the load sensors read, count them.
+    """
 
     def __init__(self, mech: Mechanism, built: builder.Built):
         model = built.model
-        self.model = model
-        self.names = list(mech.point_names)
-        self.site = built.sites
-        self.moving = [n for n in self.names if n not in mech.ground]
-        self.input_dof = built.input_dof
-        self.qadr = built.input_qpos
-        self.connects = [i for _, i in built.loops]
-        self.thread = built.thread
-        self._jp = np.zeros((3, model.nv))
-        self._jd = np.zeros((3, model.nv))
-        self._jr = np.zeros((3, model.nv))
-        self._jrd = np.zeros((3, model.nv))
-        self.links = [l.name for l in mech.links]
-        self.body = built.bodies
-        self.tree_pairs = [(p.label, p) for p, _ in built.tree]
-        self.loop_eqs = [(p.label, i) for p, i in built.loops]
         self.mech = mech
-        self.forces = [
-            (f, self.site[f.point], int(model.site_bodyid[self.site[f.point]])) for f in mech.dynamics.forces
+        self.qadr = built.input_qpos
+        self.items = [
+            (f, built.sites[f.point], int(model.site_bodyid[built.sites[f.point]])) for f in mech.dynamics.forces
         ]
-        self._jac = np.zeros((3, model.nv))
-        # Moving points are read per body: each point's velocity and acceleration follow from
-        # its body's origin motion by rigid-body kinematics (see body_state), so a sample costs
-        # two Jacobians per body whatever the number of points on it.
-        self.point_site = np.array([self.site[n] for n in self.moving], dtype=int)
-        self.point_body = np.array([int(model.site_bodyid[self.site[n]]) for n in self.moving], dtype=int)
-        self.bodies = sorted(set(self.point_body.tolist()) | {int(self.body[l]) for l in self.links})
-        self.body_row = {b: i for i, b in enumerate(self.bodies)}
 
-    def body_state(self, data: mujoco.MjData, out: np.ndarray) -> None:
-        """Origin velocity, angular velocity, origin acceleration and angular acceleration of
-        every body in :attr:`bodies` into ``out`` (bodies, 4, 3): m/s, rad/s, m/s^2, rad/s^2,
-        world axes, from the Jacobians at the body origin and their time derivatives (exact,
-        as the per-point Jacobians are)."""
-        for i, b in enumerate(self.bodies):
-            o = data.xpos[b]
-            mujoco.mj_jac(self.model, data, self._jp, self._jr, o, b)
-            mujoco.mj_jacDot(self.model, data, self._jd, self._jrd, o, b)
-            out[i, 0] = self._jp @ data.qvel
-            out[i, 1] = self._jr @ data.qvel
-            out[i, 2] = self._jp @ data.qacc + self._jd @ data.qvel
-            out[i, 3] = self._jr @ data.qacc + self._jrd @ data.qvel
-
-    def apply_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """External point forces at the state whose positions ``data`` holds (``mj_kinematics``
-        done), as body forces: at a sample's own state, or at a step's midpoint
-        (:meth:`hold_forces`). Each goes into ``xfrc_applied`` (the force at the body's
-        centre of mass with its moment) rather than ``qfrc_applied``, so that the body
-        interaction forces of ``mj_rnePostConstraint`` count it.
-        """
+    def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """The forces at the state whose positions ``data`` holds (``mj_kinematics`` done):
+        at a sample's own state, or at a step's midpoint (:meth:`hold`)."""
         phi = self.mech.phi0 + float(data.qpos[self.qadr])
         data.xfrc_applied[:] = 0.0
-        for f, sid, body in self.forces:
+        for f, sid, body in self.items:
             F = np.asarray(f.at_scalar(phi, self.mech.period))
             data.xfrc_applied[body, :3] += F
             data.xfrc_applied[body, 3:] += np.cross(data.site_xpos[sid] - data.xipos[body], F)
 
-    def hold_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Set the file's point forces for the coming step at its midpoint: the configuration
-        half a step ahead (qpos + qvel dt / 2: every joint is a hinge or a slide) gives the
-        crank angle for the force tables and the points' lever arms, and the force is held
-        through the step's Runge-Kutta stages (second order in the step, like the midpoint
-        rule), instead of a Python callback at every stage: that cost 255 us a step (5 s of
-        a takeup_eyelets run); this costs 2 kinematics passes a step, and omega still agrees
+    def hold(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Set the forces for the coming step at its midpoint: the configuration half a step
+        ahead (qpos + qvel dt / 2: every joint is a hinge or a slide) gives the crank angle
+        for the force tables and the points' lever arms, and the force is held through the
+        step's Runge-Kutta stages (second order in the step, like the midpoint rule), instead
+        of a Python callback at every stage: that cost 255 us a step (5 s of a
+        takeup_eyelets run); this costs 2 kinematics passes a step, and omega still agrees
         with the reference within 1.9e-5 of its range there (9.1e-6 with the per-stage
         callback; threshold 5e-4). Holding the force of the step's start instead missed the
-        threshold (1.5e-3): the lever arm and the table lag by half a step."""
+        threshold (1.5e-3): the lever arm and the table lag by half a step. MuJoCo has no
+        native element for a force that is a table of the crank angle (an actuator's gain and
+        bias are affine in its own length and speed), and rollout's open-loop controls would
+        need the angle before the run has found it."""
         q = data.qpos.copy()
         data.qpos[:] = q + 0.5 * model.opt.timestep * data.qvel
         mujoco.mj_kinematics(model, data)
-        self.apply_forces(model, data)
+        self.apply(model, data)
         data.qpos[:] = q
 
-    def applied(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-        """Generalized force (nv,) of the external point forces in this state."""
-        phi = self.mech.phi0 + float(data.qpos[self.qadr])
-        total = np.zeros(model.nv)
-        for f, sid, body in self.forces:
-            mujoco.mj_jac(model, data, self._jac, None, data.site_xpos[sid], body)
-            total += np.asarray(f.at_scalar(phi, self.mech.period)) @ self._jac
-        return total
 
-    def driving_torque(self, data: mujoco.MjData) -> float:
-        """Torque (N*m) the drive supplies to the input crank in this state, the flywheel aside.
+@dataclass(frozen=True)
+class Record:
+    """A run's raw samples: ``time`` (n,) s, ``qpos`` (n, nq), ``qvel`` (n, nv), ``rows`` (n,
+    nsensordata) the model's sensors, ``xfrc`` (n, nbody, 3) N the external point forces in
+    effect at each sample (None: the file has none)."""
 
-        The crank row of ``M qacc + bias = passive + constraint + applied + actuator`` with the
-        flywheel's armature taken out of M: in the kinematic run this is the effort of the
-        imposed motion, computed from ordinary-sized terms rather than as armature x a tiny
-        acceleration.
-        """
-        c = self.input_dof
-        mq = np.zeros(self.model.nv)
-        mujoco.mj_mulM(self.model, data, mq, data.qacc)
-        return float(
-            mq[c]
-            - self.model.dof_armature[c] * data.qacc[c]
-            + data.qfrc_bias[c]
-            - data.qfrc_passive[c]
-            - data.qfrc_constraint[c]
-            - self.applied(self.model, data)[c]
+    time: np.ndarray
+    qpos: np.ndarray
+    qvel: np.ndarray
+    rows: np.ndarray
+    xfrc: np.ndarray | None
+
+
+CHUNK_STEPS = 4096  # steps per rollout call: progress, Ctrl-C and the divergence check between them
+
+
+def _record_rollout(
+    case: Case, built: builder.Built, data: mujoco.MjData, progress: Callable[[float], None] | None
+) -> Record:
+    """Step the run in compiled chunks (``mujoco.rollout``) and keep every ``sample_every``-th
+    row of sensors with its state.
+
+    Rollout copies ``sensordata`` after each ``mj_step``, whose forward pass computes the
+    sensors before it integrates (the Runge-Kutta stages skip them): row j holds the sensors of
+    the state before step j+1, at t = j dt, which is the state rollout returned for step j
+    (the initial state for j = 0). ``steps + 1`` steps give the samples up to the run's end.
+    """
+    from mujoco import rollout
+
+    model = built.model
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    ns = mujoco.mj_stateSize(model, spec)
+    state0 = np.empty(ns)
+    mujoco.mj_getState(model, data, state0, spec)
+    total, every = case.steps + 1, case.sample_every
+    chunk = max(every, CHUNK_STEPS // every * every)
+    keep_t, keep_q, keep_v, keep_r = [], [], [], []
+    warm = data.qacc_warmstart.copy()
+    shown = time.monotonic()
+    done = 0
+    before = state0
+    while done < total:
+        if progress is not None and time.monotonic() - shown >= PROGRESS_EVERY:
+            progress(done / total)
+            shown = time.monotonic()
+        n = min(chunk, total - done)
+        st, sd = rollout.rollout(model, data, before, nstep=n, initial_warmstart=warm)
+        st, sd = st[0], sd[0]
+        # The state at each row's time: the one before its step.
+        at = np.concatenate([before[None], st[:-1]])
+        idx = np.arange(0, n, every) if done % every == 0 else np.arange(every - done % every, n, every)
+        keep_t.append(at[idx, 0])
+        keep_q.append(at[idx, 1 : 1 + model.nq])
+        keep_v.append(at[idx, 1 + model.nq : 1 + model.nq + model.nv])
+        keep_r.append(sd[idx])
+        _check(built, keep_t[-1], keep_r[-1], keep_q[-1])
+        _check_reset(built, data, at[:, 0])
+        before = st[-1].copy()
+        warm = data.qacc_warmstart.copy()
+        done += n
+    return Record(np.concatenate(keep_t), np.concatenate(keep_q), np.concatenate(keep_v), np.concatenate(keep_r), None)
+
+
+def _record_stepped(
+    mech: Mechanism,
+    case: Case,
+    built: builder.Built,
+    data: mujoco.MjData,
+    progress: Callable[[float], None] | None,
+) -> Record:
+    """Step the run in Python, once per step, for a file with point forces (set per step by
+    :meth:`Forces.hold`); at each sample the forces of the sample's own state are applied and
+    the sensors read after ``mj_forward``."""
+    model = built.model
+    forces = Forces(mech, built)
+    n = case.samples
+    t = np.empty(n)
+    q = np.empty((n, model.nq))
+    v = np.empty((n, model.nv))
+    rows = np.empty((n, model.nsensordata))
+    xfrc = np.empty((n, model.nbody, 3))
+    k = 0
+    shown = time.monotonic()
+    for step in range(case.steps + 1):
+        if progress is not None and step % 1000 == 0 and time.monotonic() - shown > PROGRESS_EVERY:
+            progress(step / max(case.steps, 1))
+            shown = time.monotonic()
+        if step % case.sample_every == 0:
+            # The sample's loads see the forces of its own state, not the step's midpoint.
+            mujoco.mj_kinematics(model, data)
+            forces.apply(model, data)
+            mujoco.mj_forward(model, data)
+            t[k] = data.time
+            q[k] = data.qpos
+            v[k] = data.qvel
+            rows[k] = data.sensordata
+            xfrc[k] = data.xfrc_applied[:, :3]
+            _check(built, t[k : k + 1], rows[k : k + 1], q[k : k + 1])
+            k += 1
+        if step < case.steps:
+            forces.hold(model, data)
+            mujoco.mj_step(model, data)
+            _check_reset(built, data, np.array([data.time]))
+    return Record(t[:k], q[:k], v[:k], rows[:k], xfrc[:k])
+
+
+_UNSTABLE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
+
+
+def _check_reset(built: builder.Built, data: mujoco.MjData, times: np.ndarray) -> None:
+    """Raise SimulationError if MuJoCo found the state non-finite or huge and reset it (it
+    warns and goes on from the initial state): at the last time ``times`` (s, the rows'
+    times) reached before the reset."""
+    if any(data.warning[w].number for w in _UNSTABLE):
+        back = np.nonzero(np.diff(times) <= 0)[0]
+        t = times[back[0]] if len(back) else times[-1]
+        raise SimulationError(f"{_name(built.model)}: MuJoCo diverged (non-finite or huge state) at t = {t:.6g} s")
+
+
+def _gaps(built: builder.Built, rows: np.ndarray) -> np.ndarray:
+    """(n, loops) distance (m) between the two anchors of every loop pin."""
+    S = built.sensors
+    out = np.zeros((len(rows), len(built.loops)))
+    for i, (pr, _) in enumerate(built.loops):
+        a, b = (S[("pos", names.loop_anchor(pr.pin, link))] for link in (pr.child, pr.parent))
+        out[:, i] = np.linalg.norm(rows[:, a : a + 3] - rows[:, b : b + 3], axis=1)
+    return out
+
+
+def _check(built: builder.Built, t: np.ndarray, rows: np.ndarray, qpos: np.ndarray) -> None:
+    """Raise SimulationError at the first sample that is not finite or whose loop opened."""
+    model = built.model
+    bad = ~(np.isfinite(rows).all(axis=1) & np.isfinite(qpos).all(axis=1))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise SimulationError(f"{_name(model)}: MuJoCo diverged (non-finite state) at t = {t[k]:.6g} s")
+    if not built.loops:
+        return
+    gaps = _gaps(built, rows)
+    worst = gaps.max(axis=1)
+    if (worst > DIVERGED_LOOP).any():
+        k = int(np.argmax(worst > DIVERGED_LOOP))
+        eq = built.loops[int(np.argmax(gaps[k]))][1]
+        raise SimulationError(
+            f"{_name(model)}: loop constraint {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, eq)} "
+            f"opened to {worst[k] * 1e3:.3g} mm at t = {t[k]:.6g} s: the run diverged"
         )
 
-    def pair_forces(self, data: mujoco.MjData) -> tuple[dict[str, np.ndarray], dict[str, float]]:
-        """Force (N) on each pair's child from its parent, and prismatic pairs' moments (N*m).
 
-        Tree pairs: the child body's interaction force with its parent (``cfrc_int`` after
-        ``mj_rnePostConstraint``, which counts the loop equalities' forces); loop pairs: the
-        connect equality's constraint force.
-        """
-        mujoco.mj_rnePostConstraint(self.model, data)
-        forces, moments = {}, {}
-        for label, pr in self.tree_pairs:
-            b = self.body[pr.child]
-            f = data.cfrc_int[b, 3:6].copy()
-            if not pr.revolute:
-                u = self.model.jnt_axis[self.model.body_jntadr[b]]
-                u = data.xmat[b].reshape(3, 3) @ u
-                n = np.array([-u[1], u[0], 0.0])
-                forces[label] = (f @ n) * n
-                c = data.subtree_com[self.model.body_rootid[b]]
-                o = data.xpos[b]
-                moments[label] = float(data.cfrc_int[b, 2] + np.cross(c - o, f)[2])
+def _name(model: mujoco.MjModel) -> str:
+    """The mechanism's name (the builder names the model after it)."""
+    return model.names[: model.names.index(b"\0")].decode()
+
+
+def _rotate(quat: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(n, 3) vectors ``v`` turned by the unit quaternions ``quat`` (n, 4), w first."""
+    w, u = quat[:, :1], quat[:, 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def _loop_forces(
+    mech: Mechanism, built: builder.Built, rec: Record, tree_force: dict[str, np.ndarray]
+) -> dict[str, np.ndarray]:
+    """Force (N, world) on each loop pair's child from its connect equality, per sample, from
+    Newton's law for every link: MuJoCo's body interaction forces (the load sensors) count
+    every force on a body, the loops' included, so m (a - g) minus the pair forces from the
+    parent and to the children, minus the point forces, is what the loops put on the body.
+    Solved for all loops and samples at once (least squares, exact when each loop's force
+    shows in some body's balance; raises SimulationError if the loops' forces cannot be told
+    apart, as when two loops join the same two links)."""
+    model = built.model
+    S = built.sensors
+    rows = rec.rows
+    links = [l.name for l in mech.links]
+    row_of = {l: i for i, l in enumerate(links)}
+    inc = np.zeros((len(links), len(built.loops)))
+    for e, (pr, _) in enumerate(built.loops):
+        inc[row_of[pr.child], e] += 1.0
+        if pr.parent is not None:
+            inc[row_of[pr.parent], e] -= 1.0
+    if np.linalg.matrix_rank(inc) < len(built.loops):
+        raise SimulationError(f"{mech.name}: the loops' forces cannot be told apart from the links' balances")
+    rhs = np.empty((len(links), len(rows), 3))
+    for l in links:
+        b = built.bodies[l]
+        a = S[("comacc", l)]
+        r = float(model.body_mass[b]) * rows[:, a : a + 3] - tree_force[l]
+        for pr, _ in built.tree:
+            if pr.parent == l:
+                r = r + tree_force[pr.child]
+        if rec.xfrc is not None:
+            r = r - rec.xfrc[:, b]
+        rhs[row_of[l]] = r
+    sol = np.linalg.pinv(inc) @ rhs.reshape(len(links), -1)
+    return {pr.label: sol[e].reshape(len(rows), 3) for e, (pr, _) in enumerate(built.loops)}
+
+
+def decode(mech: Mechanism, case: Case, built: builder.Built, rec: Record) -> Trace:
+    """The trace of a run from its raw samples: every quantity from the model's sensors
+    (:func:`builder._add_sensors`), vectorized over the samples."""
+    model = built.model
+    S = built.sensors
+    rows = rec.rows
+    n = len(rows)
+    g = np.asarray(model.opt.gravity)
+
+    def col(key: tuple[str, str], dim: int = 3) -> np.ndarray:
+        return rows[:, S[key] : S[key] + dim]
+
+    P, V, A = {}, {}, {}
+    for name in mech.point_names:
+        if name in mech.ground:
+            P[name] = np.broadcast_to(model.site_pos[built.sites[name]], (n, 3)).copy()
+            V[name] = np.zeros((n, 3))
+            A[name] = np.zeros((n, 3))
+        else:
+            P[name], V[name] = col(("pos", name)).copy(), col(("vel", name)).copy()
+            A[name] = col(("acc", name)) + g  # the sensor reads a - g
+    LW = {l.name: col(("angvel", l.name))[:, 2].copy() for l in mech.links}
+    LE = {l.name: col(("angacc", l.name))[:, 2].copy() for l in mech.links}
+    # The input crank turns on the frame about Z: its angular acceleration is the crank's.
+    eps = LE[mech.input_link.name].copy()
+    gaps = _gaps(built, rows)
+    tau = None
+    RF: dict[str, np.ndarray] = {}
+    RM: dict[str, np.ndarray] = {}
+    if case.loads:
+        # The drive's torque on the crank minus what turns the flywheel: the effort of the
+        # imposed motion from ordinary-sized terms.
+        tau = col(("output", names.DRIVE), 1)[:, 0] - model.dof_armature[built.input_dof] * eps
+        full: dict[str, np.ndarray] = {}
+        for pr, j in built.tree:
+            quat = col(("quat", pr.child), 4)
+            f = _rotate(quat, col(("force", pr.child)))
+            full[pr.child] = f
+            if pr.revolute:
+                RF[pr.label] = f
             else:
-                forces[label] = f
-        for label, i in self.loop_eqs:
-            rows = np.nonzero(
-                (data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (data.efc_id[: data.nefc] == i)
-            )[0]
-            forces[label] = data.efc_force[rows].copy()
-        return forces, moments
-
-    def loop_gaps(self, data: mujoco.MjData) -> np.ndarray:
-        """Distance (m) between the two anchors of every loop-closing connect equality."""
-        gaps = np.zeros(len(self.connects))
-        for k, i in enumerate(self.connects):
-            b1, b2 = self.model.eq_obj1id[i], self.model.eq_obj2id[i]
-            a1, a2 = self.model.eq_data[i, 0:3], self.model.eq_data[i, 3:6]
-            p1 = data.xpos[b1] + data.xmat[b1].reshape(3, 3) @ a1
-            p2 = data.xpos[b2] + data.xmat[b2].reshape(3, 3) @ a2
-            gaps[k] = np.linalg.norm(p1 - p2)
-        return gaps
-
-
-def _points_from_bodies(mech, probe: Probe, sites, origins, states, P, V, A, LW, LE) -> None:
-    """Every point's position, velocity and acceleration and every link's angular rates from the
-    recorded site positions and body states, all samples at once: for a point at ``r`` from its
-    body's origin, ``v = v_o + w x r`` and ``a = a_o + alpha x r + w x (w x r)`` (rigid-body
-    kinematics, exact). Ground points (sites on the world body) stand still."""
-    k = len(sites)
-    for n in probe.names:
-        P[n][:k] = sites[:, probe.site[n]]
-        if n not in probe.moving:
-            V[n][:k] = 0.0
-            A[n][:k] = 0.0
-    for j, n in enumerate(probe.moving):
-        b = int(probe.point_body[j])
-        st = states[:, probe.body_row[b]]
-        r = sites[:, probe.site[n]] - origins[:, b]
-        w, al = st[:, 1], st[:, 3]
-        V[n][:k] = st[:, 0] + np.cross(w, r)
-        A[n][:k] = st[:, 2] + np.cross(al, r) + np.cross(w, np.cross(w, r))
-    for n in probe.links:
-        st = states[:, probe.body_row[int(probe.body[n])]]
-        LW[n][:k] = st[:, 1, 2]
-        LE[n][:k] = st[:, 3, 2]
+                u = _rotate(quat, np.broadcast_to(model.jnt_axis[j], (n, 3)))
+                nrm = np.column_stack([-u[:, 1], u[:, 0], np.zeros(n)])
+                RF[pr.label] = np.einsum("ij,ij->i", f, nrm)[:, None] * nrm
+                RM[pr.label] = _rotate(quat, col(("torque", pr.child)))[:, 2]
+        RF.update(_loop_forces(mech, built, rec, full))
+    return Trace(
+        Source.MUJOCO,
+        case.kind,
+        rec.time,
+        mech.phi0 + col(("angle", "input"), 1)[:, 0],
+        col(("speed", "input"), 1)[:, 0].copy(),
+        eps,
+        P,
+        V,
+        A,
+        col(("length", names.THREAD), 1)[:, 0].copy() if mech.thread else None,
+        gaps.max(axis=1, initial=0.0),
+        rec.qpos,
+        LW,
+        LE,
+        tau,
+        RF,
+        RM,
+    )
 
 
 def run(
@@ -270,105 +416,20 @@ def run(
     built: builder.Built | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> Trace:
-    """Simulate ``case`` in MuJoCo and sample it. Raises SimulationError if the run diverges.
+    """Simulate ``case`` in MuJoCo and sample it through the model's sensors. Raises
+    SimulationError if the run diverges.
 
-    ``progress``, if given, is called with the fraction done (0..1) about every PROGRESS_EVERY
-    seconds of a long run, and with 1 at its end."""
+    A file without point forces is stepped in compiled chunks (:func:`_record_rollout`); one
+    with them in Python, once per step (:func:`_record_stepped`). ``progress``, if given, is
+    called with the fraction done (0..1) about every PROGRESS_EVERY seconds of a long run, and
+    with 1 at its end."""
     built = built or builder.make(mech, case.settings)
-    model = built.model
-    data = mujoco.MjData(model)
-    probe = Probe(mech, built)
-    return _run(mech, case, model, data, probe, progress)
-
-
-def _run(
-    mech: Mechanism,
-    case: Case,
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    probe: Probe,
-    progress: Callable[[float], None] | None,
-) -> Trace:
-    data.qvel[:] = builder.consistent_velocity(model, data, probe.input_dof, case.omega0)
-    nsteps, samples = case.steps, case.samples
-    t = np.empty(samples)
-    q = np.empty((samples, model.nq))
-    w, e, gap = (np.empty(samples) for _ in range(3))
-    th = np.empty(samples) if probe.thread >= 0 else None
-    P = {n: np.empty((samples, 3)) for n in probe.names}
-    V = {n: np.empty((samples, 3)) for n in probe.names}
-    A = {n: np.empty((samples, 3)) for n in probe.names}
-    LW = {n: np.empty(samples) for n in probe.links}
-    LE = {n: np.empty(samples) for n in probe.links}
-    sites = np.empty((samples, model.nsite, 3))
-    origins = np.empty((samples, model.nbody, 3))
-    states = np.empty((samples, len(probe.bodies), 4, 3))
-    tau = np.empty(samples)
-    RF: dict[str, np.ndarray] = {}
-    RM: dict[str, np.ndarray] = {}
-    k = 0
-    shown = time.monotonic()
-    for step in range(nsteps + 1):
-        if progress is not None and step % 1000 == 0 and time.monotonic() - shown > PROGRESS_EVERY:
-            progress(step / max(nsteps, 1))
-            shown = time.monotonic()
-        if step % case.sample_every == 0:
-            if probe.forces:
-                # The sample's loads see the forces of its own state, not the step's midpoint.
-                mujoco.mj_kinematics(model, data)
-                probe.apply_forces(model, data)
-            mujoco.mj_forward(model, data)
-            t[k] = data.time
-            q[k] = data.qpos
-            w[k] = data.qvel[probe.input_dof]
-            e[k] = data.qacc[probe.input_dof]
-            gaps = probe.loop_gaps(data)
-            gap[k] = gaps.max(initial=0.0)
-            if th is not None:
-                th[k] = data.ten_length[probe.thread]
-            sites[k] = data.site_xpos
-            origins[k] = data.xpos
-            probe.body_state(data, states[k])
-            if case.loads:
-                tau[k] = probe.driving_torque(data)
-                f, m = probe.pair_forces(data)
-                for lab, v in f.items():
-                    RF.setdefault(lab, np.empty((samples, 3)))[k] = v
-                for lab, v in m.items():
-                    RM.setdefault(lab, np.empty(samples))[k] = v
-            if not np.isfinite(data.qpos).all() or not np.isfinite(data.qacc).all():
-                raise SimulationError(f"{mech.name}: MuJoCo diverged (non-finite state) at t = {data.time:.6g} s")
-            if gap[k] > DIVERGED_LOOP:
-                worst = probe.connects[int(np.argmax(gaps))]
-                raise SimulationError(
-                    f"{mech.name}: loop constraint {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, worst)} "
-                    f"opened to {gap[k] * 1e3:.3g} mm at t = {data.time:.6g} s: the run diverged"
-                )
-            k += 1
-        if step < nsteps:
-            if probe.forces:
-                probe.hold_forces(model, data)
-            mujoco.mj_step(model, data)
+    data = mujoco.MjData(built.model)
+    data.qvel[:] = builder.consistent_velocity(built.model, data, built.input_dof, case.omega0)
+    if mech.dynamics.forces:
+        rec = _record_stepped(mech, case, built, data, progress)
+    else:
+        rec = _record_rollout(case, built, data, progress)
     if progress is not None:
         progress(1.0)
-    _points_from_bodies(mech, probe, sites[:k], origins[:k], states[:k], P, V, A, LW, LE)
-    phi = mech.phi0 + q[:k, probe.qadr]
-    return Trace(
-        Source.MUJOCO,
-        case.kind,
-        t[:k],
-        phi,
-        w[:k],
-        e[:k],
-        {n: a[:k] for n, a in P.items()},
-        {n: a[:k] for n, a in V.items()},
-        {n: a[:k] for n, a in A.items()},
-        None if th is None else th[:k],
-        gap[:k],
-        q[:k],
-        {n: a[:k] for n, a in LW.items()},
-        {n: a[:k] for n, a in LE.items()},
-        tau[:k] if case.loads else None,
-        {n: a[:k] for n, a in RF.items()},
-        {n: a[:k] for n, a in RM.items()},
-    )
+    return decode(mech, case, built, rec)
