@@ -144,9 +144,10 @@ def test_rollout_chunks_join_exactly(monkeypatch):
     np.testing.assert_array_equal(whole.points["P5"], pieces.points["P5"])
 
 
-def test_a_divergent_run_is_named_at_its_time():
+@pytest.mark.parametrize("name", ["takeup", "takeup_eyelets"])  # rollout chunks; Python steps (point forces)
+def test_a_divergent_run_is_named_at_its_time(name):
     """A loop that opens is reported with its equality and time, from the sensors."""
-    mech = validation.get("takeup")
+    mech = validation.get(name)
     case = simulate.kinematic_case(mech)
     built = builder.make(mech, case.settings)
     built.model.eq_solref[:, 0] = 1.0  # a loop so soft that the run pulls it apart

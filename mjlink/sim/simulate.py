@@ -114,16 +114,21 @@ class Forces:
         self.items = [
             (f, built.sites[f.point], int(model.site_bodyid[built.sites[f.point]])) for f in mech.dynamics.forces
         ]
+        self.period = mech.period
 
     def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """The forces at the state whose positions ``data`` holds (``mj_kinematics`` done):
-        at a sample's own state, or at a step's midpoint (:meth:`hold`)."""
+        at a sample's own state, or at a step's midpoint (:meth:`hold`). Scalar arithmetic:
+        this runs every step, where numpy's small-array calls cost more than the step."""
         phi = self.mech.phi0 + float(data.qpos[self.qadr])
-        data.xfrc_applied[:] = 0.0
+        xfrc = data.xfrc_applied
+        xfrc[:] = 0.0
         for f, sid, body in self.items:
-            F = np.asarray(f.at_scalar(phi, self.mech.period))
-            data.xfrc_applied[body, :3] += F
-            data.xfrc_applied[body, 3:] += np.cross(data.site_xpos[sid] - data.xipos[body], F)
+            fx, fy, fz = f.at_scalar(phi, self.period)
+            px, py, pz = data.site_xpos[sid]
+            cx, cy, cz = data.xipos[body]
+            rx, ry, rz = px - cx, py - cy, pz - cz
+            xfrc[body] += (fx, fy, fz, ry * fz - rz * fy, rz * fx - rx * fz, rx * fy - ry * fx)
 
     def hold(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Set the forces for the coming step at its midpoint: the configuration half a step
@@ -159,6 +164,7 @@ class Record:
 
 
 CHUNK_STEPS = 4096  # steps per rollout call: progress, Ctrl-C and the divergence check between them
+CHECK_EVERY = 256  # samples of a Python-stepped run between divergence checks
 
 
 def _record_rollout(
@@ -226,7 +232,7 @@ def _record_stepped(
     v = np.empty((n, model.nv))
     rows = np.empty((n, model.nsensordata))
     xfrc = np.empty((n, model.nbody, 3))
-    k = 0
+    k = checked = 0
     shown = time.monotonic()
     for step in range(case.steps + 1):
         if progress is not None and step % 1000 == 0 and time.monotonic() - shown > PROGRESS_EVERY:
@@ -242,12 +248,14 @@ def _record_stepped(
             v[k] = data.qvel
             rows[k] = data.sensordata
             xfrc[k] = data.xfrc_applied[:, :3]
-            _check(built, t[k : k + 1], rows[k : k + 1], q[k : k + 1])
             k += 1
+            if k - checked == CHECK_EVERY or step == case.steps:
+                _check(built, t[checked:k], rows[checked:k], q[checked:k])
+                _check_reset(built, data, t[checked:k])
+                checked = k
         if step < case.steps:
             forces.hold(model, data)
             mujoco.mj_step(model, data)
-            _check_reset(built, data, np.array([data.time]))
     return Record(t[:k], q[:k], v[:k], rows[:k], xfrc[:k])
 
 
