@@ -217,6 +217,23 @@ def test_probe_sets_backend_without_importing_mujoco():
     assert (imported, cached) == ("False", "True")
 
 
+def test_in_process_egl_probe_agrees_with_mujoco_in_a_fresh_interpreter():
+    """The EGL probe by the C library in this process (no interpreter started) says yes exactly
+    where mujoco itself, imported with MUJOCO_GL=egl, makes a context current."""
+    fast = _python(
+        """
+        import sys
+        from mjlink.sim import gl
+        print(gl._egl_in_process() is None, 'mujoco' in sys.modules, 'OpenGL' in sys.modules)
+        """,
+        MUJOCO_GL="osmesa",  # chosen by the environment: importing mjlink.sim probes nothing
+    )
+    plain = subprocess.run(
+        [sys.executable, "-c", gl._PROBE_CODE], env=_env(MUJOCO_GL="egl"), capture_output=True, timeout=60
+    )
+    assert fast == f"{plain.returncode == 0} False False"
+
+
 def test_already_imported_mujoco_reports_its_choice():
     out = _python(
         """

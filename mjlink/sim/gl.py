@@ -119,8 +119,86 @@ def _imported_backend() -> str:
     return "none"
 
 
+# EGL constants (Khronos egl.h, EGL_EXT_platform_device) for the in-process probe.
+_EGL_NONE, _EGL_PLATFORM_DEVICE_EXT, _EGL_OPENGL_API = 0x3038, 0x313F, 0x30A2
+# What mujoco.egl asks of a framebuffer configuration: RGBA 8 bits, depth 24, stencil 8, an
+# RGB buffer, pbuffer surfaces, desktop OpenGL.
+_EGL_ATTRIBUTES = (0x3024, 8, 0x3023, 8, 0x3022, 8, 0x3021, 8, 0x3025, 24, 0x3026, 8)
+_EGL_ATTRIBUTES += (0x303F, 0x308E, 0x3033, 0x0001, 0x3040, 0x0008, _EGL_NONE)
+
+
+def _loads(soname: str) -> bool:
+    try:
+        ctypes.CDLL(soname)
+    except OSError:
+        return False
+    return True
+
+
+def _egl_in_process() -> str | None:
+    """None if an EGL device display makes an OpenGL context current here, as mujoco.egl
+    makes one (device displays, the same configuration), else why not; without importing
+    mujoco or PyOpenGL, so that a failure leaves the choice of osmesa open. It costs the
+    driver's loading, which the renderer would pay anyway, instead of a fresh interpreter
+    importing mujoco (0.5 s of CPU)."""
+    # Loaded by their sonames (dlopen), not through ctypes.util.find_library, which runs
+    # ldconfig in a subprocess: PyOpenGL needs libOpenGL or libGL beside libEGL at import.
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+    except OSError:
+        return "libEGL.so.1 not found"
+    if not any(_loads(lib) for lib in ("libOpenGL.so.0", "libGL.so.1")):
+        return "neither libOpenGL.so.0 nor libGL.so.1 found"
+    p, i32 = ctypes.c_void_p, ctypes.c_int32
+    egl.eglGetProcAddress.restype, egl.eglGetProcAddress.argtypes = p, [ctypes.c_char_p]
+    egl.eglInitialize.argtypes = [p, ctypes.POINTER(i32), ctypes.POINTER(i32)]
+    egl.eglChooseConfig.argtypes = [p, ctypes.POINTER(i32), ctypes.POINTER(p), i32, ctypes.POINTER(i32)]
+    egl.eglBindAPI.argtypes = [ctypes.c_uint]
+    egl.eglCreateContext.restype, egl.eglCreateContext.argtypes = p, [p, p, p, ctypes.POINTER(i32)]
+    egl.eglMakeCurrent.argtypes = [p, p, p, p]
+    egl.eglDestroyContext.argtypes = [p, p]
+    query_addr = egl.eglGetProcAddress(b"eglQueryDevicesEXT")
+    display_addr = egl.eglGetProcAddress(b"eglGetPlatformDisplayEXT")
+    if not (query_addr and display_addr):
+        return "EGL has no device platform (EGL_EXT_device_enumeration, EGL_EXT_platform_device)"
+    query = ctypes.CFUNCTYPE(ctypes.c_uint, i32, ctypes.POINTER(p), ctypes.POINTER(i32))(query_addr)
+    get_display = ctypes.CFUNCTYPE(p, ctypes.c_uint, p, ctypes.POINTER(i32))(display_addr)
+    n = i32()
+    if not query(0, None, ctypes.byref(n)) or n.value < 1:
+        return "EGL lists no device"
+    devices = (p * n.value)()
+    query(n.value, devices, ctypes.byref(n))
+    attributes = (i32 * len(_EGL_ATTRIBUTES))(*_EGL_ATTRIBUTES)
+    for device in devices[: n.value]:
+        display = get_display(_EGL_PLATFORM_DEVICE_EXT, device, None)
+        major, minor, count, config = i32(), i32(), i32(), p()
+        if not display or not egl.eglInitialize(display, ctypes.byref(major), ctypes.byref(minor)):
+            continue
+        if not egl.eglChooseConfig(display, attributes, ctypes.byref(config), 1, ctypes.byref(count)):
+            continue
+        if count.value < 1 or not egl.eglBindAPI(_EGL_OPENGL_API):
+            continue
+        context = egl.eglCreateContext(display, config, None, None)
+        if not context:
+            continue
+        current = egl.eglMakeCurrent(display, None, None, context)
+        egl.eglMakeCurrent(display, None, None, None)
+        egl.eglDestroyContext(display, context)
+        if current:
+            return None
+    return f"none of {n.value} EGL device(s) made an OpenGL context current"
+
+
 def _probe(name: str) -> str | None:
-    """None if backend ``name`` can make a context current in a fresh interpreter, else why not."""
+    """None if backend ``name`` can make a context current, else why not: EGL in this process
+    by its C library (:func:`_egl_in_process`), when it answers yes; any other backend, and an
+    EGL that said no, in a fresh interpreter that imports mujoco with it, as rendering will."""
+    if name == "egl":
+        try:
+            if _egl_in_process() is None:
+                return None
+        except (OSError, AttributeError, ValueError):
+            pass
     env = dict(os.environ, MUJOCO_GL=name)
     try:
         res = subprocess.run(
