@@ -160,11 +160,18 @@ def _accel(mech: Mechanism, J, dJ, Q, w):
 
 
 def _rhs(sd: SpectralDynamics):
-    mech = sd.mech
+    """(phi, omega)' at (t, y): plain floats, the drive law unrolled (:meth:`Dynamics.drive_torque`
+    and :func:`_accel` with numpy cost more per call than the table itself)."""
+    dyn = sd.mech.dynamics
+    moment, damping = float(dyn.moment), float(dyn.damping)
+    stall = float(dyn.motor.stall_torque) if dyn.motor else 0.0
+    slope = stall / float(dyn.motor.no_load_speed) if dyn.motor else 0.0
+    scalar = sd.scalar
 
     def f(_t, y):
-        J, dJ, Q = sd.scalar(y[0])
-        return [y[1], _accel(mech, J, dJ, Q, y[1])]
+        phi, w = y
+        J, dJ, Q = scalar(phi)
+        return [w, (Q + moment + stall - slope * w - damping * w - 0.5 * dJ * w * w) / J]
 
     return f
 
@@ -204,13 +211,14 @@ def forward_dynamics(
         phi, omega = sol.y
     else:
         y, info = odeint(
-            lambda y, t: f(t, y),
+            f,
             y0,
             np.asarray(t_eval, dtype=float),
             rtol=rtol,
             atol=rtol * 1e-2,
             mxstep=1_000_000,
             full_output=True,
+            tfirst=True,
         )
         if info["message"] != "Integration successful.":
             raise AssemblyError(f"{mech.name}: reference ODE failed: {info['message']}")
