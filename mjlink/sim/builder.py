@@ -392,7 +392,7 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
             bodies[link].add_site(name=names.loop_anchor(pr.pin, link), pos=(pos[pr.pin] - origin[link]).tolist())
     for pr, _ in tree:  # the pair's reaction is read at its joint, the child's body origin
         bodies[pr.child].add_site(name=names.load_site(pr.child), pos=[0.0, 0.0, 0.0])
-    sensors = _add_sensors(spec, mech, input_joint, [pr for pr, _ in tree], [pr for pr, _ in loops])
+    sensors = _add_sensors(spec, mech, input_joint, [pr for pr, _ in tree], [pr for pr, _ in loops], full=not batch)
     return spec, _Elements(
         input_joint,
         act,
@@ -424,7 +424,13 @@ def _quat_z(a: float) -> list[float]:
 
 
 def _add_sensors(
-    spec: mujoco.MjSpec, mech: Mechanism, input_joint: mujoco.MjsJoint, tree: list[Pair], loops: list[Pair]
+    spec: mujoco.MjSpec,
+    mech: Mechanism,
+    input_joint: mujoco.MjsJoint,
+    tree: list[Pair],
+    loops: list[Pair],
+    *,
+    full: bool = True,
 ) -> dict[tuple[str, str], mujoco.MjsSensor]:
     """The sensors a run is sampled through, which also make the MJCF readable on its own
     (SI units, world frame unless said):
@@ -441,6 +447,12 @@ def _add_sensors(
     * ``drive_output``: the drive's torque on the crank (N*m);
     * every loop pin: ``anchor_PIN_LINK_pos`` on each of its two links (m); their distance is
       the loop's gap.
+
+    ``full`` False (batched verification, :func:`make_batch`): only what it compares, the
+    points' positions and velocities, the thread, the crank and the loop anchors. The
+    acceleration-stage sensors cost a pass of ``mj_rnePostConstraint`` at every step, and
+    rollout returns every sensor at every step of every variant (1000 take-up variants:
+    1.7 GB with them, a quarter without).
     """
     out: dict[tuple[str, str], mujoco.MjsSensor] = {}
     site, body, xbody = mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_XBODY
@@ -452,9 +464,10 @@ def _add_sensors(
         out[("vel", p)] = spec.add_sensor(
             name=names.sensor(p, "vel"), type=sens.mjSENS_FRAMELINVEL, objtype=site, objname=p
         )
-        out[("acc", p)] = spec.add_sensor(
-            name=names.sensor(p, "acc"), type=sens.mjSENS_FRAMELINACC, objtype=site, objname=p
-        )
+        if full:
+            out[("acc", p)] = spec.add_sensor(
+                name=names.sensor(p, "acc"), type=sens.mjSENS_FRAMELINACC, objtype=site, objname=p
+            )
     if mech.thread:
         out[("length", names.THREAD)] = spec.add_sensor(
             name=names.sensor(names.THREAD, "length"),
@@ -470,33 +483,34 @@ def _add_sensors(
     out[("speed", "input")] = spec.add_sensor(
         name=names.sensor(link, "speed"), type=sens.mjSENS_JOINTVEL, objtype=joint, objname=input_joint.name
     )
-    for l in mech.links:
-        out[("angvel", l.name)] = spec.add_sensor(
-            name=names.sensor(l.name, "angvel"), type=sens.mjSENS_FRAMEANGVEL, objtype=xbody, objname=l.name
+    if full:
+        for l in mech.links:
+            out[("angvel", l.name)] = spec.add_sensor(
+                name=names.sensor(l.name, "angvel"), type=sens.mjSENS_FRAMEANGVEL, objtype=xbody, objname=l.name
+            )
+            out[("angacc", l.name)] = spec.add_sensor(
+                name=names.sensor(l.name, "angacc"), type=sens.mjSENS_FRAMEANGACC, objtype=xbody, objname=l.name
+            )
+            out[("comacc", l.name)] = spec.add_sensor(
+                name=names.sensor(l.name, "comacc"), type=sens.mjSENS_FRAMELINACC, objtype=body, objname=l.name
+            )
+        for pr in tree:
+            s = names.load_site(pr.child)
+            out[("force", pr.child)] = spec.add_sensor(
+                name=names.sensor(pr.child, "force"), type=sens.mjSENS_FORCE, objtype=site, objname=s
+            )
+            out[("torque", pr.child)] = spec.add_sensor(
+                name=names.sensor(pr.child, "torque"), type=sens.mjSENS_TORQUE, objtype=site, objname=s
+            )
+            out[("quat", pr.child)] = spec.add_sensor(
+                name=names.sensor(pr.child, "quat"), type=sens.mjSENS_FRAMEQUAT, objtype=site, objname=s
+            )
+        out[("output", names.DRIVE)] = spec.add_sensor(
+            name=names.sensor(names.DRIVE, "output"),
+            type=sens.mjSENS_ACTUATORFRC,
+            objtype=mujoco.mjtObj.mjOBJ_ACTUATOR,
+            objname=names.DRIVE,
         )
-        out[("angacc", l.name)] = spec.add_sensor(
-            name=names.sensor(l.name, "angacc"), type=sens.mjSENS_FRAMEANGACC, objtype=xbody, objname=l.name
-        )
-        out[("comacc", l.name)] = spec.add_sensor(
-            name=names.sensor(l.name, "comacc"), type=sens.mjSENS_FRAMELINACC, objtype=body, objname=l.name
-        )
-    for pr in tree:
-        s = names.load_site(pr.child)
-        out[("force", pr.child)] = spec.add_sensor(
-            name=names.sensor(pr.child, "force"), type=sens.mjSENS_FORCE, objtype=site, objname=s
-        )
-        out[("torque", pr.child)] = spec.add_sensor(
-            name=names.sensor(pr.child, "torque"), type=sens.mjSENS_TORQUE, objtype=site, objname=s
-        )
-        out[("quat", pr.child)] = spec.add_sensor(
-            name=names.sensor(pr.child, "quat"), type=sens.mjSENS_FRAMEQUAT, objtype=site, objname=s
-        )
-    out[("output", names.DRIVE)] = spec.add_sensor(
-        name=names.sensor(names.DRIVE, "output"),
-        type=sens.mjSENS_ACTUATORFRC,
-        objtype=mujoco.mjtObj.mjOBJ_ACTUATOR,
-        objname=names.DRIVE,
-    )
     for pr in loops:
         for l in (pr.child, pr.parent):
             a = names.loop_anchor(pr.pin, l)
