@@ -340,6 +340,11 @@ def _frames(
         # one is made again with the model's setting.
         samples = int(model.vis.quality.offsamples)
         model.vis.quality.offsamples = 0
+        # Capsules and cylinders with 16 slices and 8 stacks instead of MuJoCo's 28 and 16:
+        # 8 % of a software-rendered frame, 0.12/255 of image change on average (0.5 % of
+        # the pixels by more than 8/255, along the links' outlines) at these sizes.
+        slices = (int(model.vis.quality.numslices), int(model.vis.quality.numstacks))
+        model.vis.quality.numslices, model.vis.quality.numstacks = min(slices[0], 16), min(slices[1], 8)
         try:
             renderer = mujoco.Renderer(model, height, width)
         except Exception as e:
@@ -358,6 +363,7 @@ def _frames(
             # A hardware context can afford the model's antialiasing: made again with it.
             renderer.close()
             model.vis.quality.offsamples = samples
+            model.vis.quality.numslices, model.vis.quality.numstacks = slices
             renderer = mujoco.Renderer(model, height, width)
         # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
         # yet the 4096^2 shadow map costs ~2/3 of a frame on a software (Mesa) renderer.
