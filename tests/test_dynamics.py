@@ -120,18 +120,60 @@ def test_force_table_scalar_and_vector_agree():
 
 
 @pytest.mark.parametrize("name", ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting"])
-def test_lsoda_reference_matches_its_dop853_twin(name):
-    """The fast path (LSODA, compiled stepping) against the plain twin (scipy's DOP853 at a
-    tighter tolerance) over the file's dynamic run: the same crank speed within 1e-6 of its
-    largest value, far below MuJoCo's 5e-4 (6e-9 on the take-up; 2.4e-7 with the thread's
-    force table, whose kinks DOP853 itself resolves only to that between 1e-10 and 1e-12)."""
+def test_reference_ode_matches_its_dop853_twin(name):
+    """Both fast paths against the plain twin (scipy's DOP853 at a tighter tolerance) over the
+    file's dynamic run, far below MuJoCo's 5e-4: the solution over the crank angle (the
+    default) within 1e-8 of the largest speed (4e-10 on the take-up), 1e-6 with the thread's
+    force table, whose kinks DOP853 itself resolves only to 2e-8; LSODA within 1e-6 (3e-8 on
+    the take-up on this grid)."""
     from mjlink.model import catalogue
 
     mech = mechanism.load(catalogue.path_of(name))
     sd = R.SpectralDynamics(mech)
     t = np.linspace(0.0, mech.dynamics.duration, 801)
-    fast = R.forward_dynamics(mech, t, sd=sd)
     twin = R.forward_dynamics(mech, t, sd=sd, rtol=1e-12, method="DOP853")
     scale = float(np.abs(twin.omega).max())
-    assert float(np.abs(fast.omega - twin.omega).max()) <= 1e-6 * scale
-    assert float(np.abs(fast.phi - twin.phi).max()) <= 1e-6 * float(np.ptp(twin.phi))
+    for method in ("auto", "LSODA"):
+        limit = 1e-8 if method == "auto" and not mech.dynamics.forces else 1e-6
+        fast = R.forward_dynamics(mech, t, sd=sd, method=method)
+        assert fast.method == ("energy" if method == "auto" else "LSODA")
+        assert float(np.abs(fast.omega - twin.omega).max()) <= limit * scale, method
+        assert float(np.abs(fast.phi - twin.phi).max()) <= limit * float(np.ptp(twin.phi)), method
+        assert float(np.abs(fast.eps - twin.eps).max()) <= 1e3 * limit * float(np.abs(twin.eps).max()), method
+
+
+def test_a_crank_that_swings_back_is_solved_in_time():
+    """Without its moment the take-up's crank swings under gravity and turns back: the solution
+    over the crank angle does not apply there (the energy reaches zero), and LSODA solves it,
+    matching the twin."""
+    import dataclasses
+
+    from mjlink.model import catalogue
+    from mjlink.reference import energy
+
+    mech = mechanism.load(catalogue.path_of("takeup"))
+    mech = dataclasses.replace(mech, dynamics=dataclasses.replace(mech.dynamics, moment=0.0))
+    sd = R.SpectralDynamics(mech)
+    t = np.linspace(0.0, 1.0, 401)
+    d = mech.dynamics
+    assert energy.solve(sd, mech.phi0, 0.0, 0.0, d.damping, t) is None
+    got = R.forward_dynamics(mech, t, sd=sd)
+    twin = R.forward_dynamics(mech, t, sd=sd, rtol=1e-12, method="DOP853")
+    assert got.method == "LSODA" and got.omega.min() < 0.0 < np.abs(got.omega).max()
+    assert float(np.abs(got.omega - twin.omega).max()) <= 1e-8 * float(np.abs(twin.omega).max())
+
+
+def test_energy_solution_at_any_start_and_times():
+    """A start in motion (omega0 != 0), a time grid that does not start at 0 and an uneven one:
+    the same solution as the twin."""
+    from mjlink.model import catalogue
+
+    mech = mechanism.load(catalogue.path_of("crank_slider"))
+    sd = R.SpectralDynamics(mech)
+    t = 0.25 + np.sort(np.random.default_rng(3).uniform(0.0, 0.5, 300))
+    t[0] = 0.25
+    fast = R.forward_dynamics(mech, t, sd=sd, phi0=mech.phi0 + 1.0, omega0=-60.0)
+    twin = R.forward_dynamics(mech, t, sd=sd, phi0=mech.phi0 + 1.0, omega0=-60.0, rtol=1e-12, method="DOP853")
+    assert fast.method == "energy"
+    assert float(np.abs(fast.omega - twin.omega).max()) <= 1e-8 * float(np.abs(twin.omega).max())
+    assert fast.phi[0] == mech.phi0 + 1.0 and fast.omega[0] == pytest.approx(-60.0, rel=1e-12)

@@ -73,7 +73,6 @@ from ..runs import DYNAMIC, KINEMATIC, Case, Settings, Trace
 from ..sim import builder, simulate
 from ..units import DEG, MM, RunKind, to_rpm
 
-REFERENCE_ODE_METHOD = "LSODA"  # what reference.forward_dynamics solves the equation of motion with
 STEADY_DEFINITION = "delta = (omega_max - omega_min) / omega_mean, omega_mean = time average over a period"
 DEFAULT_TARGET_DELTA = SteadyCase.target_delta  # the file format's default coefficient of speed fluctuation
 SYNTHESIS_PROBLEMS = ("crank_slider",)  # what synthesize knows how to solve
@@ -417,7 +416,8 @@ class DynamicsSummary:
 
     ``moment`` driving moment, N*m; ``damping`` N*m*s; ``duration`` s; ``settings`` the model's
     numerical settings; ``omega_final_mujoco`` and ``omega_final_reference`` the final crank
-    speeds, rad/s; ``ode_rtol`` the reference ODE's relative tolerance; ``spectral_harmonics``
+    speeds, rad/s; ``ode_rtol`` the reference ODE's relative tolerance (LSODA's, when it is
+    the solver) and ``ode_method`` what solved it (:func:`mjlink.reference.forward_dynamics`); ``spectral_harmonics``
     and ``spectral_error`` the harmonics of the reduced inertia's series and its relative
     error; ``rk4`` the paper's method against it (None when the duration is not the file's).
     """
@@ -432,6 +432,7 @@ class DynamicsSummary:
     spectral_harmonics: int
     spectral_error: float
     rk4: Rk4Comparison | None = None
+    ode_method: str = "energy"
 
     def as_dict(self) -> dict[str, Any]:
         """The report's ``dynamics`` entry."""
@@ -442,8 +443,12 @@ class DynamicsSummary:
             "settings": settings_dict(self.settings),
             "omega_final_rad_s": {"mujoco": self.omega_final_mujoco, "reference": self.omega_final_reference},
             "reference_ode": {
-                "method": REFERENCE_ODE_METHOD,
-                "rtol": self.ode_rtol,
+                "method": self.ode_method,
+                **(
+                    {"newton_tol_rel": reference.energy.NEWTON_TOL, "panel_tail_rel": reference.energy.TAIL}
+                    if self.ode_method == "energy"
+                    else {"rtol": self.ode_rtol}
+                ),
                 "spectral_harmonics": self.spectral_harmonics,
                 "spectral_error_rel": self.spectral_error,
             },
@@ -972,6 +977,7 @@ def _forward_dynamics(
         sd.harmonics,
         sd.error,
         paper,
+        motion.method,
     )
     return _DynamicRun(summary, agreement, dyn_mj, dyn_ref, rk4)
 
@@ -1181,7 +1187,7 @@ def _on_grid(m: reference.Motion, t: np.ndarray) -> reference.Motion | None:
     k = (len(m.t) - 1) // max(len(t) - 1, 1)
     step = float(t[1] - t[0]) if len(t) > 1 else 0.0
     if k >= 1 and len(m.t[::k]) == len(t) and np.allclose(m.t[::k], t, rtol=0, atol=max(1e-12, 1e-6 * step)):
-        return reference.Motion(m.t[::k], m.phi[::k], m.omega[::k], m.eps[::k])
+        return reference.Motion(m.t[::k], m.phi[::k], m.omega[::k], m.eps[::k], m.method)
     return None
 
 

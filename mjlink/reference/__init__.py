@@ -1,10 +1,12 @@
 """The classical side: the papers' vector-method analysis, exact and vectorized, no MuJoCo.
 
 :mod:`.kinematics` (positions with exact derivatives, assembly), :mod:`.dynamics` (reduced
-inertia, the equation of motion, steady motion and flywheel), :mod:`.kinetostatics` (driving
+inertia, the equation of motion, steady motion and flywheel; :mod:`.energy` its solution over
+the crank angle), :mod:`.kinetostatics` (driving
 torque, forces in every pair), :mod:`.synthesis` (crank-slider metric synthesis).
 """
 
+from . import energy
 from .dynamics import (
     TIGHT_RTOL,
     Motion,
@@ -35,6 +37,7 @@ __all__ = [
     "check_rigidity",
     "constant_speed",
     "driving_torque",
+    "energy",
     "flywheel_for",
     "forward_dynamics",
     "link_angle",
