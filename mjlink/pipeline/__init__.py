@@ -842,7 +842,7 @@ def run(
 
         # Figures are drawn in forked workers while this process goes on (two cores): those of
         # the kinematic run at once, beside the dynamic run; those of the dynamics and loads
-        # beside the video. Without fork (or without plots) they are drawn here, in order.
+        # beside the loads and the video. Without fork they are drawn here, in order.
         workers: list[_Worker] = []
         pending: list[PlotJob] = []
 
@@ -864,6 +864,17 @@ def run(
         if opts.dynamics and has_masses(mech):
             dyn = _forward_dynamics(mech, opts.duration, stage, clock, progress)
             agreements.append(dyn.agreement)
+            if opts.plots:
+                from ..plotting import figures
+
+                # The speed figures from the moment the dynamics are compared, beside the loads.
+                draw(
+                    [
+                        functools.partial(
+                            figures.speed_plots, mech, dyn.mujoco_trace, dyn.reference_trace, stage, dyn.rk4
+                        )
+                    ]
+                )
         load_jobs: list[PlotJob] = []
         queue = load_jobs if opts.plots else None
         loads_summary = steady_summary = None
@@ -877,23 +888,14 @@ def run(
         failures += loads_summary.failures if loads_summary else ()
         failures += steady_summary.failures if steady_summary else ()
 
-        speed_jobs: list[PlotJob] = []
-        if opts.plots and dyn is not None:
-            from ..plotting import figures
-
-            speed_jobs.append(
-                functools.partial(figures.speed_plots, mech, dyn.mujoco_trace, dyn.reference_trace, stage, dyn.rk4)
-            )
+        # The loads' figures beside the video. Each group of figures is its own worker, started
+        # as soon as its data exists: the two cores stay busy to the end rather than one
+        # worker drawing the last figures alone while this process waits.
+        draw(load_jobs)
         video = None
         if opts.video:
-            # The loads' and the speed figures beside the video, on the other core (about as
-            # long as the video: 1.9 vs 1.8 s of CPU on the take-up).
-            draw(load_jobs + speed_jobs)
             video = _video(mech, kin_mj, kcase.settings, stage, opts, progress=not workers)
             clock.lap("video")
-        else:
-            draw(speed_jobs)
-            pending.extend(load_jobs)
         run_jobs(pending)
         for w in workers:
             _finish(w)
