@@ -13,7 +13,9 @@ Prints, on this machine, in one run so that the ratios compare like with like:
    (``step_fast_with_kinematics``, its first, compiling call excluded) and against a plain
    numpy closed form of the same four-bar (positions, velocities and accelerations from the
    loop-closure equations): crank angles per second and their ratios;
-4. the cost of one more named point: ``simulate --no-video --no-plots`` of the take-up file
+4. the reference's equation of motion over each file's dynamic run: the default solution over
+   the crank angle against LSODA and the DOP853 twin (CPU and deviation);
+5. the cost of one more named point: ``simulate --no-video --no-plots`` of the take-up file
    with 0 and with ``--points`` extra points attached to the lever, the CPU difference per point.
 
 pylinkage and numba come with ``pip install -e '.[bench]'``; without them item 3 says so.
@@ -23,9 +25,11 @@ Run: ``python bench/bench_simulate.py`` (``--quick``: one repeat, fewer angles).
 from __future__ import annotations
 
 import argparse
+import atexit
 import math
 import os
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -45,10 +49,28 @@ def _children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
+_PYCACHE: str | None = None
+
+
+def _bytecode() -> str:
+    """A bytecode cache of mjlink's modules outside the tree (``PYTHONPYCACHEPREFIX``), compiled
+    once: an installed package runs from its compiled bytecode, while a process started with
+    PYTHONDONTWRITEBYTECODE set (as on this machine) would compile mjlink's sources again
+    every time (0.2 to 0.3 s of CPU)."""
+    global _PYCACHE
+    if _PYCACHE is None:
+        _PYCACHE = tempfile.mkdtemp(prefix="mjlink-bench-pycache-")
+        atexit.register(shutil.rmtree, _PYCACHE, True)
+        env = dict(os.environ, PYTHONPYCACHEPREFIX=_PYCACHE)
+        subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "mjlink")], env=env, check=True)
+    return _PYCACHE
+
+
 def run_cli(args: list[str]) -> tuple[float, float]:
     """Wall and CPU seconds of ``python -m mjlink ARGS`` in a fresh process (its forked plot
-    workers and the video encoder included: they are its children, reaped before it ends)."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    workers and the video encoder included: they are its children, reaped before it ends),
+    from compiled bytecode (:func:`_bytecode`)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONPYCACHEPREFIX=_bytecode())
     c0, t0 = _children_cpu(), time.perf_counter()
     r = subprocess.run([sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, env=env, cwd=ROOT)
     wall = time.perf_counter() - t0
@@ -268,6 +290,44 @@ def bench_points(k: int) -> list[tuple[str, str, str, str]]:
     ]
 
 
+def bench_dynamics() -> list[tuple[str, str, str, str]]:
+    """The reference's equation of motion over each file's dynamic run (4001 times): the
+    default solution over the crank angle against LSODA and against the twin, scipy's
+    DOP853 at rtol 1e-12 (scipy imported beforehand: its 0.5 s of import is not counted)."""
+    import scipy.integrate  # noqa: F401
+
+    from mjlink import reference, validation
+
+    rows = []
+    for name in MECHANISMS:
+        mech = validation.get(name)
+        sd = reference.SpectralDynamics(mech)
+        t = np.linspace(0.0, mech.dynamics.duration, 4001)
+        cpu, got = {}, {}
+        for method in ("auto", "LSODA", "DOP853"):
+            best = math.inf
+            for _ in range(2):
+                t0 = time.process_time()
+                got[method] = reference.forward_dynamics(
+                    mech, t, sd=sd, method=method, rtol=1e-12 if method == "DOP853" else reference.TIGHT_RTOL
+                )
+                best = min(best, time.process_time() - t0)
+            cpu[method] = best
+        scale = float(np.abs(got["DOP853"].omega).max())
+        dev = {m: float(np.abs(got[m].omega - got["DOP853"].omega).max()) / scale for m in ("auto", "LSODA")}
+        rows.append(
+            (
+                f"reference dynamics, {name}: over the crank angle ({got['auto'].method}) / LSODA / DOP853 twin",
+                "",
+                f"{cpu['auto']:.3f}",
+                f"LSODA {cpu['LSODA']:.3f} s, DOP853 {cpu['DOP853']:.3f} s: {cpu['LSODA'] / cpu['auto']:.1f} x / "
+                f"{cpu['DOP853'] / cpu['auto']:.1f} x faster (target >= 3 x); omega off the twin by "
+                f"{dev['auto']:.1e} / {dev['LSODA']:.1e} of its largest value",
+            )
+        )
+    return rows
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="one repeat, fewer angles")
@@ -278,6 +338,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = bench_simulate(1 if a.quick else a.repeat)
     rows += bench_sampling()
     rows += bench_reference(3600 if a.quick else 36000)
+    rows += bench_dynamics()
     rows += bench_points(a.points)
     width = max(len(r[0]) for r in rows)
     print(f"{'':{width}}  {'wall s':>8}  {'CPU s':>8}  note")

@@ -536,7 +536,8 @@ def _study_arguments(q: argparse.ArgumentParser) -> None:
 
 
 def _shipped() -> str:
-    from ..study.spec import STUDIES_DIR
+    # The folder from the catalogue, not mjlink.study (whose import every command would pay).
+    from ..model.catalogue import STUDIES_DIR
 
     return ", ".join(sorted(p.stem for p in STUDIES_DIR.glob("*.toml")))
 

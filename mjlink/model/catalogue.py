@@ -23,6 +23,7 @@ from pathlib import Path
 from ..errors import UnknownMechanismError
 
 MECHANISMS_DIR = Path(__file__).resolve().parent.parent.parent / "mechanisms"
+STUDIES_DIR = MECHANISMS_DIR.parent / "studies"  # the shipped study files (mjlink.study.spec)
 
 
 def names() -> list[str]:

@@ -23,8 +23,8 @@ import numpy as np
 from .. import validation
 from ..analysis import metrics as _metrics
 from ..errors import MjlinkError
+from ..model import catalogue, paths
 from ..model import names as _names
-from ..model import paths
 from ..model.mechanism import Mechanism
 
 METHODS = ("grid", "random", "tolerance")  # sampling; an [optimize] table makes the method "optimize"
@@ -35,7 +35,7 @@ SENSES = ("min", "max")
 INITS = ("sobol", "lhs")
 MAX_VARIANTS = 10_000_000
 MAX_PER_TURN = 3600
-STUDIES_DIR = Path(__file__).resolve().parent.parent.parent / "studies"
+STUDIES_DIR = catalogue.STUDIES_DIR
 
 
 class StudyFileError(MjlinkError):
