@@ -90,3 +90,21 @@ def test_written_kinematic_mjcf_holds_its_speed(takeup, tmp_path):
             mujoco.mj_step(model, data)
         mujoco.mj_forward(model, data)
         assert abs(float(_sensor(model, data, "crank_speed")[0]) - takeup.speed) < 1e-6 * takeup.speed
+
+
+def test_sensor_only_sites_are_grouped_apart_for_the_video():
+    """The sites that only carry sensors (loop anchors, pair joints) sit in their own group,
+    which the video leaves out: the rendered points are the mechanism's own."""
+    from mjlink.model import names
+
+    for name in ("takeup", "warp_knitting"):
+        mech = validation.get(name)
+        built = builder.make(mech)
+        model = built.model
+        for i in range(model.nsite):
+            site = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i)
+            hidden = site.startswith(("anchor_", "load_")) and site not in mech.point_names
+            assert (model.site_group[i] == builder.SENSOR_SITE_GROUP) == hidden, site
+        assert {names.load_site(pr.child) for pr, _ in built.tree} <= {
+            mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i) for i in range(model.nsite)
+        }

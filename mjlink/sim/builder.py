@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -42,6 +43,9 @@ _INTEGRATORS = {
     Integrator.IMPLICIT: mujoco.mjtIntegrator.mjINT_IMPLICIT,
     Integrator.IMPLICITFAST: mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
 }
+
+
+SENSOR_SITE_GROUP = 4  # the group of the sites that only carry sensors (not drawn in the video)
 
 
 def _colors(n: int) -> list[tuple[float, float, float, float]]:
@@ -387,11 +391,17 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         if motor is not None:
             bias[2] = -motor.stall_torque / motor.no_load_speed
     act.biasprm = bias
-    for pr, _ in loops:  # a site on each side of every loop pin: their positions give the gap
+    # Sites that only carry sensors, in their own group (SENSOR_SITE_GROUP), small and hidden
+    # in the video: a site on each side of every loop pin (their positions give the loop's
+    # gap) and one at each tree pair's joint, the child's body origin (its reaction).
+    hidden: dict[str, Any] = dict(group=SENSOR_SITE_GROUP, size=[0.2 * r_link, 0, 0], rgba=[0.5, 0.5, 0.5, 0.5])
+    for pr, _ in loops:
         for link in (pr.child, pr.parent):
-            bodies[link].add_site(name=names.loop_anchor(pr.pin, link), pos=(pos[pr.pin] - origin[link]).tolist())
-    for pr, _ in tree:  # the pair's reaction is read at its joint, the child's body origin
-        bodies[pr.child].add_site(name=names.load_site(pr.child), pos=[0.0, 0.0, 0.0])
+            bodies[link].add_site(
+                name=names.loop_anchor(pr.pin, link), pos=(pos[pr.pin] - origin[link]).tolist(), **hidden
+            )
+    for pr, _ in tree:
+        bodies[pr.child].add_site(name=names.load_site(pr.child), pos=[0.0, 0.0, 0.0], **hidden)
     sensors = _add_sensors(spec, mech, input_joint, [pr for pr, _ in tree], [pr for pr, _ in loops], full=not batch)
     return spec, _Elements(
         input_joint,

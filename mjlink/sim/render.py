@@ -221,6 +221,7 @@ def render_video(
     data = mujoco.MjData(model)
     option = mujoco.MjvOption()
     option.sitegroup[:] = 1  # points (eyelet, pivots) are sites; not every group is on by default
+    option.sitegroup[builder.SENSOR_SITE_GROUP] = 0  # sites that only carry sensors
     option.tendongroup[:] = 1
 
     if not path.parent.is_dir():
