@@ -178,9 +178,10 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
     if loads:
         cols = min(4, len(loads))
         rows = math.ceil(len(loads) / cols)
-        fig, axs = plt.subplots(
-            rows, cols, figsize=(3.4 * cols + 0.6, 3.6 * rows + 0.9), layout="constrained", squeeze=False
-        )
+        fig, axs = plt.subplots(rows, cols, figsize=(3.4 * cols + 0.6, 3.6 * rows + 0.9), squeeze=False)
+        # Fixed margins (one draw): three lines of suptitle, two of each panel's title, the
+        # force ticks and labels; equal axes shrink to a square inside each cell.
+        place(fig, axs[0, 0].get_gridspec(), left=0.95, right=0.15, top=1.25, bottom=0.55, hgap=1.05, wgap=0.75)
         for k, pl in enumerate(loads):
             ax = axs[k // cols, k % cols]
             f = pl.force
