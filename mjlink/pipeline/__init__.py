@@ -854,8 +854,9 @@ def run(
                 pending.extend(jobs)
 
         if opts.plots:
-            from ..plotting import figures
+            from ..plotting import figures, style
 
+            style.warm()  # once here, for every worker forked from this process
             # Residual panels subtract the reference at MuJoCo's own crank state, as the
             # agreement table does (the imposed speed holds to 1e-6, not exactly).
             draw([functools.partial(figures.kinematic_plots, mech, kin_mj, kin_at, stage)])
