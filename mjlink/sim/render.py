@@ -16,6 +16,7 @@ Units: times s, frame rates frames/s, sizes pixels; the trace is in SI units.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import math
 import os
 import sys
@@ -413,16 +414,34 @@ def _frames(
             print(file=sys.stderr, flush=True)
 
 
+def _gl_renderer() -> bytes:
+    """GL_RENDERER of the current OpenGL context (b"" if none can be read): through the GL
+    library's C entry point, as importing PyOpenGL's GL module costs 90 ms; PyOpenGL where
+    neither library loads (a system without glvnd's libOpenGL or libGL, e.g. macOS)."""
+    osmesa = os.environ.get("MUJOCO_GL", "").lower() == "osmesa"  # its own GL entry points
+    for lib in ("libOSMesa.so.8", "libOSMesa.so") if osmesa else ("libOpenGL.so.0", "libGL.so.1"):
+        try:
+            get = ctypes.CDLL(lib).glGetString
+        except (OSError, AttributeError):
+            continue
+        get.restype, get.argtypes = ctypes.c_char_p, [ctypes.c_uint]
+        name = get(0x1F01)  # GL_RENDERER
+        if name:
+            return name
+    from OpenGL import GL
+
+    name = GL.glGetString(GL.GL_RENDERER) or b""
+    return name if isinstance(name, bytes) else str(name).encode()
+
+
 def _software_gl() -> bool:
     """Whether the current OpenGL context renders in software (Mesa's llvmpipe or softpipe,
     OSMesa, SwiftShader): read from GL_RENDERER once a context is current."""
     try:
-        from OpenGL import GL
-
-        name = GL.glGetString(GL.GL_RENDERER) or b""
-    except Exception:  # no PyOpenGL or no current context: keep the model's setting
+        name = _gl_renderer()
+    except Exception:  # no GL library or no current context: keep the model's setting
         return False
-    text = name.decode("ascii", "replace").lower() if isinstance(name, bytes) else str(name).lower()
+    text = name.decode("ascii", "replace").lower()
     return any(k in text for k in ("llvmpipe", "softpipe", "swrast", "swiftshader", "software"))
 
 
