@@ -6,7 +6,8 @@ study's loads. A mechanism's kinetostatic matrix is sparse and the same pattern 
 each Assur group's equations involve only its own pairs and those of the groups it hangs on.
 :func:`solve` permutes the pattern into block-triangular form once (a maximum matching puts a
 structural nonzero on the diagonal; the strongly connected components of the result are the
-diagonal blocks, solved in dependency order), then solves every diagonal block for all rows
+diagonal blocks, solved in dependency order; both graph searches in plain Python, for tens of
+unknowns, where scipy.sparse's would cost its import, 0.2 s, in every command), then solves every diagonal block for all rows
 at once by Gaussian elimination with partial pivoting written as array operations across the
 rows (the same algorithm as LAPACK's dgesv, vectorized the other way round), substituting the
 solved unknowns into the later blocks. The plain twin is ``numpy.linalg.solve``; the two agree
@@ -26,15 +27,14 @@ MAX_BLOCK = 12  # larger diagonal blocks go to LAPACK (the elimination's work gr
 def _plan(pattern_bytes: bytes, m: int) -> tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] | None:
     """The diagonal blocks (rows, unknowns) in solving order for a sparsity pattern, or None
     if the pattern is structurally singular."""
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
-
     pattern = np.frombuffer(pattern_bytes, dtype=bool).reshape(m, m)
-    match = maximum_bipartite_matching(csr_matrix(pattern.astype(np.int8)), perm_type="column")
-    if np.any(match < 0):
+    found = _matching(pattern)
+    if found is None:
         return None
+    match = np.array(found)
     P = pattern[:, match]  # row i's matched unknown is column i: a nonzero diagonal
-    count, label = connected_components(csr_matrix(P.astype(np.int8)), directed=True, connection="strong")
+    label = np.array(_components(P))
+    count = int(label.max()) + 1 if m else 0
     # Component a needs component b if a row of a uses an unknown of b.
     needs: dict[int, set[int]] = {a: set() for a in range(count)}
     for i, j in zip(*np.nonzero(P), strict=True):
@@ -54,6 +54,95 @@ def _plan(pattern_bytes: bytes, m: int) -> tuple[tuple[tuple[int, ...], tuple[in
         rows = tuple(int(i) for i in np.flatnonzero(label == a))
         blocks.append((rows, tuple(int(match[i]) for i in rows)))
     return tuple(blocks)
+
+
+def _matching(pattern: np.ndarray) -> list[int] | None:
+    """A column for every row with a structural nonzero, no column twice (a maximum bipartite
+    matching, Kuhn's augmenting paths: the systems have tens of unknowns), or None if there
+    is none that covers every row."""
+    m = len(pattern)
+    cols_of = [np.flatnonzero(pattern[i]).tolist() for i in range(m)]
+    row_of: list[int] = [-1] * m  # the row matched to each column
+    for start in range(m):
+        # Depth-first search for an augmenting path from row ``start``.
+        seen = [False] * m
+        stack = [(start, iter(cols_of[start]))]
+        via: dict[int, int] = {}  # column -> the row it was reached from
+        found = -1
+        while stack and found < 0:
+            row, it = stack[-1]
+            for c in it:
+                if seen[c]:
+                    continue
+                seen[c] = True
+                via[c] = row
+                if row_of[c] < 0:
+                    found = c
+                    break
+                stack.append((row_of[c], iter(cols_of[row_of[c]])))
+                break
+            else:
+                stack.pop()
+        if found < 0:
+            return None
+        c = found
+        while True:  # flip the path back to ``start``
+            r = via[c]
+            prev = next((k for k in range(m) if row_of[k] == r), -1)
+            row_of[c] = r
+            if r == start:
+                break
+            c = prev
+    match = [0] * m
+    for c, r in enumerate(row_of):
+        match[r] = c
+    return match
+
+
+def _components(P: np.ndarray) -> list[int]:
+    """Strongly connected component of every node of the directed graph i -> j where P[i, j]
+    (Tarjan's algorithm, iterative)."""
+    m = len(P)
+    succ = [np.flatnonzero(P[i]).tolist() for i in range(m)]
+    index = [-1] * m
+    low = [0] * m
+    on_stack = [False] * m
+    label = [-1] * m
+    stack: list[int] = []
+    counter = count = 0
+    for root in range(m):
+        if index[root] >= 0:
+            continue
+        work = [(root, iter(succ[root]))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack[root] = True
+        while work:
+            v, it = work[-1]
+            for w in it:
+                if index[w] < 0:
+                    index[w] = low[w] = counter
+                    counter += 1
+                    stack.append(w)
+                    on_stack[w] = True
+                    work.append((w, iter(succ[w])))
+                    break
+                if on_stack[w]:
+                    low[v] = min(low[v], index[w])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
+                if low[v] == index[v]:
+                    while True:
+                        w = stack.pop()
+                        on_stack[w] = False
+                        label[w] = count
+                        if w == v:
+                            break
+                    count += 1
+    return label
 
 
 def _gepp_stacked(A: np.ndarray, b: np.ndarray) -> np.ndarray:
