@@ -565,8 +565,11 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         fontsize=10,
         loc="left",
     )
-    # Labels last, once the layout has fixed where everything is on the canvas.
+    # Labels last, once the layout has fixed where everything is on the canvas; the layout is
+    # then kept as it is (the labels were placed for it), so that saving does not run the
+    # constrained layout engine again at its bounding-box pass and at its drawing.
     fig.draw_without_rendering()
+    fig.set_layout_engine("none")
     _label_ticks(ax, main_ticks)
     if side is not None:
         _label_ticks(side, side_ticks)
