@@ -742,7 +742,8 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         # --- harmonic content of the acceleration
         am, ar = analysis.harmonics(mech, kin_mj, sm[2]), analysis.harmonics(mech, kin_ref, sr[2])
         if am is not None and ar is not None:
-            fig, ax = plt.subplots(figsize=(8.0, 5.0), layout="constrained")
+            fig, ax = plt.subplots(figsize=(8.0, 5.0))
+            place(fig, ax.get_gridspec(), left=1.0, right=0.25, top=0.75, bottom=0.6)  # one draw
             k = np.arange(1, len(ar) + 1)
             ax.bar(k - 0.2, am, width=0.4, color="tab:red", alpha=0.75, label=MJ_LABEL)
             ax.bar(k + 0.2, ar, width=0.4, color="white", edgecolor="k", hatch="////", lw=0.8, label=REF_LABEL)
