@@ -381,3 +381,25 @@ def test_shaking_from_the_links_equals_the_ground_pairs_reactions(name: str) -> 
     scale_f = np.abs(fl.force).max()
     assert np.abs(force - fl.force).max() <= 1e-9 * scale_f
     assert np.abs(moment - fl.moment).max() <= 1e-9 * np.abs(fl.moment).max()
+
+
+def test_a_client_registration_race_is_retried_once() -> None:
+    """distributed's client fails with a bare AssertionError when the scheduler's first reply
+    batch holds more than its stream-start (a race under load): the engine connects once more,
+    and only once."""
+    calls: list[str] = []
+
+    class Flaky:
+        def __init__(self, address: str, timeout: str) -> None:
+            calls.append(address)
+            if len(calls) == 1:
+                raise AssertionError
+
+    assert isinstance(engine._connect(Flaky, "tcp://x:1"), Flaky) and calls == ["tcp://x:1"] * 2
+
+    class Broken:
+        def __init__(self, address: str, timeout: str) -> None:
+            raise AssertionError
+
+    with pytest.raises(AssertionError):
+        engine._connect(Broken, "tcp://x:1")

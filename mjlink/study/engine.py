@@ -179,6 +179,18 @@ def _unpack_mj(z: dict[str, np.ndarray]) -> Verified:
 
 
 # ------------------------------------------------------------------------------ clients
+def _connect(client_class: Any, address: str) -> Any:
+    """A client of the scheduler at ``address``. distributed (2026.8) checks that its first
+    read after registering holds the scheduler's stream-start alone, and fails with a bare
+    AssertionError when the scheduler's batched sends put another message in the same read
+    (a race seen once under load, with other clients on the scheduler): a second attempt
+    registers anew."""
+    try:
+        return client_class(address, timeout=f"{CONNECT_TIMEOUT_S}s")
+    except AssertionError:
+        return client_class(address, timeout=f"{CONNECT_TIMEOUT_S}s")
+
+
 @contextmanager
 def client_for(scheduler: str | None = None, workers: int | None = None) -> Iterator[tuple[Any, str]]:
     """A Dask client and a description of it (None and 'in process' for ``workers=0``).
@@ -197,7 +209,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
         raise EngineError(f"Dask distributed is not installed ({e}): pip install 'dask[distributed]'") from None
     if address:
         try:
-            client = Client(address, timeout=f"{CONNECT_TIMEOUT_S}s")
+            client = _connect(Client, address)
         except (OSError, TimeoutError) as e:
             raise EngineError(f"cannot reach the Dask scheduler at {address}: {e}") from None
         try:
