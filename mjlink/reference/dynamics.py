@@ -224,8 +224,12 @@ def forward_dynamics(
         dyn = mech.dynamics
         stall = float(dyn.motor.stall_torque) if dyn.motor else 0.0
         slope = stall / float(dyn.motor.no_load_speed) if dyn.motor else 0.0
-        out = energy.solve(sd, y0[0], y0[1], float(dyn.moment) + stall, slope + float(dyn.damping), t_eval)
-        if out is not None:
+        try:
+            with np.errstate(all="ignore"):  # a failure shows as None or non-finite values
+                out = energy.solve(sd, y0[0], y0[1], float(dyn.moment) + stall, slope + float(dyn.damping), t_eval)
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+            out = None
+        if out is not None and all(np.isfinite(x).all() for x in out[:2]):
             phi, omega, (J, dJ, Q) = out
             return Motion(t_eval, phi, omega, _accel(mech, J, dJ, Q, omega), "energy")
         method = "LSODA"
