@@ -2,8 +2,8 @@
 
 The twin samples the same runs the way MuJoCo's API reads a state one at a time: a Python
 loop of ``mj_step``, and at every sample ``mj_forward`` then point velocities ``J qvel`` and
-accelerations ``J qacc + Jdot qvel`` from the site Jacobians, tree pair forces from
-``cfrc_int``, loop pair forces from the connect equalities' ``efc_force``, the driving torque
+accelerations ``J qacc + Jdot qvel`` from the site Jacobians, tree pair forces and the guides'
+moments from ``cfrc_int``, loop pair forces from the connect equalities' ``efc_force``, the driving torque
 from the crank's row of the equation of motion. The fast route (compiled rollout chunks,
 everything from sensordata, loop forces by Newton's law per link) must give the same numbers
 to rounding.
@@ -75,10 +75,15 @@ def plain_run(mech, case: Case) -> dict[str, np.ndarray]:
                     - applied[c],
                 )
                 for pr, j in built.tree:
-                    f = data.cfrc_int[built.bodies[pr.child], 3:6]
+                    b = built.bodies[pr.child]
+                    f = data.cfrc_int[b, 3:6]
                     if not pr.revolute:
-                        u = data.xmat[built.bodies[pr.child]].reshape(3, 3) @ model.jnt_axis[j]
+                        u = data.xmat[b].reshape(3, 3) @ model.jnt_axis[j]
                         n = np.array([-u[1], u[0], 0.0])
+                        # The guide's moment about the body origin: cfrc_int's is about the
+                        # subtree's centre of mass.
+                        c = data.subtree_com[model.body_rootid[b]]
+                        put(f"RM {pr.label}", data.cfrc_int[b, 2] + np.cross(c - data.xpos[b], f)[2])
                         f = (f @ n) * n
                     put(f"RF {pr.label}", f)
                 for pr, i in built.loops:
@@ -107,6 +112,8 @@ def fast_arrays(mech, trace) -> dict[str, np.ndarray]:
         got["torque"] = trace.torque
         for label, f in trace.reactions.items():
             got[f"RF {label}"] = f
+        for label, m in trace.moments.items():
+            got[f"RM {label}"] = m
     return got
 
 
