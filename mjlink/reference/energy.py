@@ -28,9 +28,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.polynomial import chebyshev as C
+
+if TYPE_CHECKING:  # dynamics imports this module
+    from .dynamics import SpectralDynamics
 
 NODES = 24  # Chebyshev-Lobatto nodes per panel
 GRADED = 36  # geometric panels towards s = 0 for a start from rest (down to 2^-36 of a panel)
@@ -89,7 +93,10 @@ class _Block:
 
 
 class _Problem:
-    def __init__(self, sd, phi0: float, sigma: float, A: float, B: float):
+    """The equation in s: the series ``sd``, the start ``phi0``, the sense ``sigma`` (+1 or
+    -1) and the drive's A and B (see :func:`solve`)."""
+
+    def __init__(self, sd: SpectralDynamics, phi0: float, sigma: float, A: float, B: float):
         self.sd, self.phi0, self.sigma, self.A, self.B = sd, phi0, sigma, A, B
         self.period = float(sd.period)
 
@@ -103,8 +110,8 @@ class _Problem:
         panels at least, with every force table's corner added, doubled until f and J are
         resolved to TAIL."""
         breaks = []
-        for f in self.sd.tables:
-            for ang in f.angles:
+        for f in self.sd.tables:  # forces given as tables: they have angles
+            for ang in f.angles or ():
                 breaks.append((self.sigma * (ang - self.phi0)) % self.period)
         while True:
             edges = np.unique(np.concatenate([np.linspace(0.0, self.period, m + 1), breaks]))
@@ -183,7 +190,9 @@ def _solve_block(
     return _Block(a, b, s, T, t, J, decay)
 
 
-def solve(sd, phi0: float, omega0: float, A: float, B: float, t_eval: np.ndarray):
+def solve(
+    sd: SpectralDynamics, phi0: float, omega0: float, A: float, B: float, t_eval: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """(phi, omega) at the times ``t_eval`` (s, increasing, from the initial state's time
     ``t_eval[0]``), or None where this method does not apply (see the module's note).
 
