@@ -69,8 +69,9 @@ def ensure_gl_backend() -> str:
       ``mujoco.GLContext``: ``'glfw'`` on Linux and Windows, ``'cgl'`` or ``'glfw'`` on macOS;
       ``'none'`` if mujoco has no usable context class). Rendering then fails with a
       :class:`RenderError` if that backend cannot work here, e.g. glfw without a display.
-    * Otherwise, on Linux: ``'egl'`` then ``'osmesa'`` are each tried in a short subprocess
-      (import mujoco, create and make current a 16x16 context; about 0.5 s each) and the
+    * Otherwise, on Linux: ``'egl'`` then ``'osmesa'`` are tried (:func:`_probe`: EGL first in
+      this process through its C library, 0.1 s; where that says no, and for OSMesa, in a short
+      subprocess that imports mujoco and makes a 16x16 context current, about 0.5 s) and the
       first that works is written to ``os.environ['MUJOCO_GL']``. On other systems mujoco's
       own default (cgl on macOS, glfw elsewhere) is returned and nothing is set, since EGL
       and OSMesa are Linux-only there.
