@@ -307,7 +307,7 @@ def choose() -> None:
             return
     if os.environ.get(NO_GL_ENV) == "1" and not preset:
         # This process will not render (a command without video): mujoco is imported without
-        # probing OpenGL, which costs a subprocess (~0.5 s) for nothing.
+        # probing OpenGL, which costs 0.1 to 0.5 s (a library load or a subprocess) for nothing.
         return
     try:
         ensure_gl_backend()

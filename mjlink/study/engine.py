@@ -224,7 +224,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
 
     # glibc reads these when a process starts (see tasks._keep_freed_memory): the nanny's
     # pre-spawn environment is the only place to set them before a worker exists.
-    # A worker never renders: it imports mujoco without probing OpenGL (a subprocess each).
+    # A worker never renders: it imports mujoco without probing OpenGL.
     environ = {**tasks.MALLOC_ENV, "MJLINK_NO_GL": "1"}
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
         cluster = LocalCluster(
