@@ -18,8 +18,12 @@ is resolved by panels refined geometrically towards s = 0. The times of the node
 the same integration, and the requested times are found by Newton's method on each panel's
 interpolant.
 
-It applies while the crank keeps turning one way. A run in which the crank would stop or
-reverse, or whose start from rest has no sense of motion, is left to the time-domain solver
+The panels are sized for J and Q (and, under a stiff motor, for the damping's decay at the
+steady speed); a solution that is not resolved on them, as when the speed changes faster
+than the crank turns through a panel, is detected by its own last Chebyshev coefficients and
+solved again on finer panels. It applies while the crank keeps turning one way. A run in
+which the crank would stop or reverse, whose start from rest has no sense of motion, or that
+finer panels do not resolve, is left to the time-domain solver
 (:func:`mjlink.reference.dynamics.forward_dynamics` falls back to LSODA): :func:`solve`
 returns None. Units SI (rad, s, kg*m^2, N*m, J).
 """
@@ -42,6 +46,7 @@ NEWTON_TOL = 1e-15  # Newton's step, relative to the block's largest energy
 MAX_NEWTON = 40
 MAX_DECAY = 300.0  # largest integrating-factor exponent in a block (e^300 fits a double)
 TAIL = 1e-14  # the panels' width: f's last Chebyshev coefficients below this of its size
+RESOLVED = 1e-12  # the solution's last Chebyshev coefficients on a panel, as a share (1e-14 when resolved)
 
 
 @dataclass(frozen=True)
@@ -186,7 +191,17 @@ def _solve_block(
         return "newton"
     if (T <= 0.0).any():  # the crank would stop or turn back
         return "stall"
-    t = t0 + _cumulative(np.sqrt(J / (2.0 * T)), a, b)
+    rate = np.sqrt(J / (2.0 * T))  # dt/ds
+    t = t0 + _cumulative(rate, a, b)
+    # Resolved: the panels were sized for f and J, and the energy and dt/ds are smooth on
+    # them too unless the speed changes faster than the crank turns through a panel (a
+    # start in motion far below the steady speed under strong damping): their last
+    # Chebyshev coefficients, as a share of the block's energy and duration, say so.
+    span = float(t[-1, -1] - t[0, 0]) + 1e-300
+    if (_tail(T) > RESOLVED * np.abs(T).max()).any() or (
+        _tail(rate * (0.5 * (b - a))[:, None]) > RESOLVED * span
+    ).any():
+        return "resolution"
     return _Block(a, b, s, T, t, J, decay)
 
 
@@ -221,9 +236,9 @@ def solve(
     if B > 0.0 and A != 0.0:
         J_min = float(sd.evaluate(phi0 + prob.period * np.arange(64) / 64)[0].min())
         m = max(m, 1 << max(0, math.ceil(math.log2(B * B * prob.period / (4.0 * J_min * abs(A))))))
-    for _ in range(3):  # and finer again if Newton does not converge
+    for _ in range(4):  # and finer again if Newton does not converge or the solution is not resolved
         out = _solve(prob, t_eval, J0, omega0, m)
-        if out != "newton":
+        if out not in ("newton", "resolution"):
             return None if isinstance(out, str) else out
         m *= 2
     return None
