@@ -903,8 +903,11 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
     allp = np.concatenate([P[p] for p in P] + [to_mm(path.position(e)) for e in eyelets])
     lo, hi = allp.min(axis=0), allp.max(axis=0)
     pad = 0.07 * float(max(hi - lo))
-    fig = plt.figure(figsize=(13.0, 6.8), layout="constrained")
+    fig = plt.figure(figsize=(13.0, 6.8))
     gs = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.0), height_ratios=(0.42, 0.58))
+    # Fixed margins (one draw, then the crop): the suptitle and the panels' titles above, the
+    # top view's x label and y label between the panels; equal axes shrink inside their cells.
+    place(fig, gs, left=0.85, right=0.2, top=0.95, bottom=0.6, hgap=0.75, wgap=0.95)
     af = fig.add_subplot(gs[:, 0])
     at = fig.add_subplot(gs[0, 1], sharex=af)
     al = fig.add_subplot(gs[1, 1])
@@ -1019,7 +1022,10 @@ def phase_study_plot(
     phi = mech.phi0 + math.copysign(mech.period, mech.speed) * np.linspace(0.0, 1.0, 721)
     cmap = plt.get_cmap("coolwarm")
     span = max(1.0, max(abs(o) for o in offsets_deg))
-    fig, ax = plt.subplots(figsize=(9.0, 7.6), layout="constrained")
+    fig, ax = plt.subplots(figsize=(9.0, 7.6))
+    # Fixed margins (one draw, then the crop): room for three title lines above, the legend
+    # to the right; the equal-aspect axes shrink inside, and saving crops the rest.
+    place(fig, ax.get_gridspec(), left=0.85, right=3.6, top=0.95, bottom=0.6)
     drawn = []
     for off in offsets_deg:
         ph = (crank.phase or 0.0) + math.radians(off)  # a geared crank always has its phase
