@@ -56,7 +56,6 @@ from . import builder, simulate
 
 _RUN = str(RunKind.KINEMATICS)
 _FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
-_SENS = mujoco.mjtSensor
 # Errors a variant's numbers can cause while its model is built: the reference cannot
 # assemble it (MjlinkError), MuJoCo refuses to compile it or numpy's algebra fails (ValueError).
 _BUILD_ERRORS = (MjlinkError, ValueError, ArithmeticError)
@@ -333,17 +332,14 @@ def judge(mech: Mechanism, built: builder.Built, rows: np.ndarray) -> Verificati
       Its :class:`Verification`.
     """
     model = built.model
-    adr = {
-        (int(model.sensor_type[i]), int(model.sensor_objid[i])): int(model.sensor_adr[i]) for i in range(model.nsensor)
-    }
 
-    def col(kind: int, obj: int, dim: int = 1) -> np.ndarray:
-        a = adr[(kind, obj)]
+    def col(key: tuple[str, str], dim: int = 1) -> np.ndarray:  # by the builder's sensor addresses
+        a = built.sensors[key]
         return rows[:, a] if dim == 1 else rows[:, a : a + dim]
 
     n, dt = len(rows), float(model.opt.timestep)
-    angle = col(_SENS.mjSENS_JOINTPOS, built.input_joint)
-    omega = col(_SENS.mjSENS_JOINTVEL, built.input_joint)
+    angle = col(("angle", "input"))
+    omega = col(("speed", "input"))
     if not np.isfinite(rows).all():
         k = int(np.argmin(np.isfinite(rows).all(axis=1)))
         return _no_result(f"MuJoCo diverged: non-finite sensor values at t = {k * dt:.6g} s")
@@ -353,14 +349,7 @@ def judge(mech: Mechanism, built: builder.Built, rows: np.ndarray) -> Verificati
     if turn.any():
         k = int(np.argmax(turn)) + 1
         return _no_result(f"MuJoCo diverged at t = {k * dt:.6g} s: its state went non-finite or huge, the run stopped")
-    gap = np.zeros(n)
-    site = mujoco.mjtObj.mjOBJ_SITE
-    for pr, _ in built.loops:
-        a, b = (
-            col(_SENS.mjSENS_FRAMEPOS, mujoco.mj_name2id(model, site, names.loop_anchor(pr.pin, link)), 3)
-            for link in (pr.child, pr.parent)
-        )
-        gap = np.maximum(gap, np.linalg.norm(a - b, axis=1))
+    gap = simulate.loop_gaps(built, rows).max(axis=1, initial=0.0)
     if gap.max(initial=0.0) > simulate.DIVERGED_LOOP:
         k = int(np.argmax(gap > simulate.DIVERGED_LOOP))
         return _no_result(f"MuJoCo diverged: a loop opened to {gap[k] * 1e3:.3g} mm at t = {k * dt:.6g} s")
@@ -371,17 +360,16 @@ def judge(mech: Mechanism, built: builder.Built, rows: np.ndarray) -> Verificati
         return _no_result(f"reference: {_one_line(e)}")
     pos = vel = 0.0
     for p in mech.moving_points:
-        s = built.sites[p]
-        pos = max(pos, float(np.linalg.norm(col(_SENS.mjSENS_FRAMEPOS, s, 3) - kin.position(p), axis=1).max()))
+        pos = max(pos, float(np.linalg.norm(col(("pos", p), 3) - kin.position(p), axis=1).max()))
         v_ref = kin.velocity(p, omega)
         scale = float(np.linalg.norm(v_ref, axis=1).max())
         if scale > 0:  # compare's rule: a point that never moves has no velocity error
-            err = np.linalg.norm(col(_SENS.mjSENS_FRAMELINVEL, s, 3) - v_ref, axis=1).max()
+            err = np.linalg.norm(col(("vel", p), 3) - v_ref, axis=1).max()
             vel = max(vel, float(err) / scale)
     thread = math.nan
     lf = kin.thread_length()
     if built.thread >= 0 and lf is not None:
-        thread = float(np.abs(col(_SENS.mjSENS_TENDONPOS, built.thread) - lf.v).max())
+        thread = float(np.abs(col(("length", names.THREAD)) - lf.v).max())
     speed = float(np.abs(omega - omega[0]).max() / abs(omega[0]))
     checks = [
         compare.Check(_RUN, "samples", float(n), "", float(compare.MIN_SAMPLES), at_least=True),

@@ -269,10 +269,10 @@ def _check_reset(built: builder.Built, data: mujoco.MjData, times: np.ndarray) -
     if any(data.warning[w].number for w in _UNSTABLE):
         back = np.nonzero(np.diff(times) <= 0)[0]
         t = times[back[0]] if len(back) else times[-1]
-        raise SimulationError(f"{_name(built.model)}: MuJoCo diverged (non-finite or huge state) at t = {t:.6g} s")
+        raise SimulationError(f"{built.spec.modelname}: MuJoCo diverged (non-finite or huge state) at t = {t:.6g} s")
 
 
-def _gaps(built: builder.Built, rows: np.ndarray) -> np.ndarray:
+def loop_gaps(built: builder.Built, rows: np.ndarray) -> np.ndarray:
     """(n, loops) distance (m) between the two anchors of every loop pin."""
     S = built.sensors
     out = np.zeros((len(rows), len(built.loops)))
@@ -288,23 +288,18 @@ def _check(built: builder.Built, t: np.ndarray, rows: np.ndarray, qpos: np.ndarr
     bad = ~(np.isfinite(rows).all(axis=1) & np.isfinite(qpos).all(axis=1))
     if bad.any():
         k = int(np.argmax(bad))
-        raise SimulationError(f"{_name(model)}: MuJoCo diverged (non-finite state) at t = {t[k]:.6g} s")
+        raise SimulationError(f"{built.spec.modelname}: MuJoCo diverged (non-finite state) at t = {t[k]:.6g} s")
     if not built.loops:
         return
-    gaps = _gaps(built, rows)
+    gaps = loop_gaps(built, rows)
     worst = gaps.max(axis=1)
     if (worst > DIVERGED_LOOP).any():
         k = int(np.argmax(worst > DIVERGED_LOOP))
         eq = built.loops[int(np.argmax(gaps[k]))][1]
         raise SimulationError(
-            f"{_name(model)}: loop constraint {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, eq)} "
+            f"{built.spec.modelname}: loop constraint {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, eq)} "
             f"opened to {worst[k] * 1e3:.3g} mm at t = {t[k]:.6g} s: the run diverged"
         )
-
-
-def _name(model: mujoco.MjModel) -> str:
-    """The mechanism's name (the builder names the model after it)."""
-    return model.names[: model.names.index(b"\0")].decode()
 
 
 def _rotate(quat: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -376,7 +371,7 @@ def decode(mech: Mechanism, case: Case, built: builder.Built, rec: Record) -> Tr
     LE = {l.name: col(("angacc", l.name))[:, 2].copy() for l in mech.links}
     # The input crank turns on the frame about Z: its angular acceleration is the crank's.
     eps = LE[mech.input_link.name].copy()
-    gaps = _gaps(built, rows)
+    gaps = loop_gaps(built, rows)
     tau = None
     RF: dict[str, np.ndarray] = {}
     RM: dict[str, np.ndarray] = {}
