@@ -51,12 +51,13 @@ RESOLVED = 1e-12  # the solution's last Chebyshev coefficients on a panel, as a 
 
 @dataclass(frozen=True)
 class _Cheb:
-    """Lobatto nodes x (n,) on [-1, 1], the cumulative integration matrix (n, n) from -1 and
-    the barycentric weights."""
+    """Lobatto nodes x (n,) on [-1, 1], the cumulative integration matrix (n, n) from -1, the
+    barycentric weights and the matrix (n, n) from nodal values to Chebyshev coefficients."""
 
     x: np.ndarray
     integrate: np.ndarray
     weights: np.ndarray
+    to_coef: np.ndarray
 
 
 def _cheb(n: int) -> _Cheb:
@@ -71,7 +72,7 @@ def _cheb(n: int) -> _Cheb:
     w = np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
     w[0] *= 0.5
     w[-1] *= 0.5
-    return _Cheb(x, integrate, w)
+    return _Cheb(x, integrate, w, to_coef)
 
 
 _CH = _cheb(NODES)
@@ -79,8 +80,8 @@ _CH = _cheb(NODES)
 
 def _tail(values: np.ndarray) -> np.ndarray:
     """Size of the last two Chebyshev coefficients of nodal values (..., n) per panel."""
-    coef = np.polynomial.chebyshev.chebfit(_CH.x, values.T, NODES - 1).T
-    return np.abs(coef[..., -2:]).max(axis=-1)
+    coef = values @ _CH.to_coef[-2:].T
+    return np.abs(coef).max(axis=-1)
 
 
 @dataclass
