@@ -158,12 +158,15 @@ def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    table = np.column_stack(cols).astype(float, copy=False)
+    # Column by column, each contiguous: Arrow formats a column at a time.
+    table = np.ascontiguousarray(np.column_stack(cols).T, dtype=float)
     buf = io.BytesIO()
     buf.write((",".join(names) + "\n").encode())
-    arrays = {f"c{i}": pa.array(table[:, i]) for i in range(table.shape[1])}
+    arrays = {f"c{i}": pa.array(row) for i, row in enumerate(table)}
     pacsv.write_csv(pa.table(arrays), buf, pacsv.WriteOptions(include_header=False, batch_size=1 << 16))
-    return write_text(path, buf.getvalue().decode("ascii"), in_stage=True)
+    path = Path(path)
+    path.write_bytes(buf.getbuffer())  # ASCII already: no text round trip
+    return path
 
 
 def write_records(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray]) -> Path:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mjlink import reference as R
-from mjlink.model import mechanism
+from mjlink.model import jet, mechanism
 
 PARALLELOGRAM = """
 [mechanism]
@@ -90,6 +90,37 @@ def test_derivatives_match_finite_differences(takeup):
         th, thp, thm = k.angles[link.name], kp.angles[link.name], km.angles[link.name]
         fd = np.angle(np.exp(1j * (thp.v - thm.v))) / (2 * h)
         assert np.abs(fd - th.d).max() < 1e-8
+
+
+def _quadratic(v, d, dd, t):
+    """The Taylor polynomial of a jet (value, first and second derivative) at t."""
+    return v + d * t + 0.5 * dd * t * t
+
+
+def test_polar_and_turn_derivatives_match_finite_differences():
+    # Along t, the angle (or the cosine) and the rotated vector move as the quadratics their
+    # jets describe; the jet operations' derivatives at t = 0 must be those of the composed
+    # function, whatever the curvature (a geared crank, a dyad's varying angle).
+    rng = np.random.default_rng(7)
+    n, h = 64, 1e-4
+    a = jet.S(*rng.uniform(-3.0, 3.0, (3, n)))
+    length = rng.uniform(0.01, 0.05, n)
+    w = jet.S(rng.uniform(-0.9, 0.9, n), *rng.uniform(-1.0, 1.0, (2, n)))
+    pc = [rng.normal(size=n) + 1j * rng.normal(size=n) for _ in range(3)]
+    sign = -1.0
+
+    def polar_at(t):
+        return length * np.exp(1j * _quadratic(a.v, a.d, a.dd, t))
+
+    def turn_at(t):
+        c = _quadratic(w.v, w.d, w.dd, t)
+        return _quadratic(*pc, t) * (c + 1j * sign * np.sqrt(1.0 - c * c))
+
+    for got, f in ((jet.polar(length, a), polar_at), (jet.turn(jet.V(*pc), w, sign), turn_at)):
+        fp, f0, fm = f(h), f(0.0), f(-h)
+        np.testing.assert_allclose(got.c, f0, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(got.cd, (fp - fm) / (2 * h), rtol=0, atol=1e-6)
+        np.testing.assert_allclose(got.cdd, (fp - 2 * f0 + fm) / h**2, rtol=0, atol=1e-4)
 
 
 def test_velocity_and_acceleration_chain_rule(takeup):

@@ -110,9 +110,11 @@ def main(argv: list[str] | None = None) -> int:
     SIGINT ends a command with ``mjlink: interrupted`` and status 130, SIGTERM with ``mjlink:
     terminated`` and 143 (128 + the signal), both after the run has cleaned up (no staging
     folder, no worker process left)."""
+    from .. import memory
     from ..output import Terminated, interruptible
 
     args = _parser().parse_args(argv)
+    memory.keep_freed_memory()  # the reference's temporaries reused, not faulted in anew
     if not (args.command == "simulate" and not args.no_video):
         # Only simulate's video renders: every other command (and its Dask workers, which
         # inherit the environment) imports mujoco without probing OpenGL first.

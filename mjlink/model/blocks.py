@@ -319,8 +319,7 @@ class Crank(Block):
     def solve(self, pts: dict[str, jet.V], phi: jet.S, phi0: float) -> Solved:
         phase = phi0 if self.phase is None else self.phase
         angle = (phi - phi0) * self.ratio + phase
-        ex = jet.vplanar(self.length, 0.0, len(angle.v))
-        return Solved(pts[self.pivot] + jet.rotate(ex, angle))
+        return Solved(pts[self.pivot] + jet.polar(self.length, angle))
 
     def describe(self) -> str:
         if self.is_input:
@@ -393,8 +392,9 @@ class Dyad(Block):
         d = (a - b).planar()
         dist = d.norm()
         cos_u = (dist * dist + (self.length_b**2 - self.length_a**2)) / (dist * (2.0 * self.length_b))
-        u = jet.arccos(jet.S(np.clip(cos_u.v, -1.0, 1.0), cos_u.d, cos_u.dd))
-        c = b + jet.rotate(d.scale(self.length_b / dist), u * float(self.sign))
+        c = b + jet.turn(
+            d.scale(self.length_b / dist), jet.S(np.clip(cos_u.v, -1.0, 1.0), cos_u.d, cos_u.dd), self.sign
+        )
         return Solved(c, 1.0 - np.abs(cos_u.v))
 
     def cannot_close(self, mech_name: str, ranges: str) -> str:

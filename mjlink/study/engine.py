@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
+from .. import memory
 from ..errors import MjlinkError
 from ..output import atomic_path
-from . import tasks
 from .spec import Study
 from .tasks import Evaluated, Verified, mujoco_chunk, reference_chunk
 
@@ -222,10 +222,10 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
     n = workers or os.cpu_count() or 1
     import dask
 
-    # glibc reads these when a process starts (see tasks._keep_freed_memory): the nanny's
+    # glibc reads these when a process starts (see mjlink.memory): the nanny's
     # pre-spawn environment is the only place to set them before a worker exists.
     # A worker never renders: it imports mujoco without probing OpenGL.
-    environ = {**tasks.MALLOC_ENV, "MJLINK_NO_GL": "1"}
+    environ = {**memory.MALLOC_ENV, "MJLINK_NO_GL": "1"}
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
         cluster = LocalCluster(
             n_workers=n,

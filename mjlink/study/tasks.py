@@ -7,13 +7,11 @@ so that the same chunk gives the same result (bit for bit for the reference) whe
 
 from __future__ import annotations
 
-import ctypes
-import functools
-import sys
 from dataclasses import dataclass
 
 import numpy as np
 
+from .. import memory
 from ..analysis import metrics as _metrics
 from ..reference import batch as _batch
 from .spec import Study
@@ -29,45 +27,12 @@ class Evaluated:
     reason: tuple[str, ...]
 
 
-# The same settings as environment variables, for processes started by the engine (glibc reads
-# them at start-up, before any thread exists); Dask's own defaults (OMP_NUM_THREADS=1 ...) kept.
-MALLOC_ENV = {
-    "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
-    "MALLOC_MMAP_THRESHOLD_": str(256 << 20),
-    "MALLOC_ARENA_MAX": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "OPENBLAS_NUM_THREADS": "1",
-}
-
-
-@functools.cache
 def _keep_freed_memory() -> None:
-    """Let this process's allocator keep freed memory for reuse.
-
-    Dask's nanny starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, so glibc returns every
-    freed block above 64 KiB to the system and maps it afresh (page faults and all) on the next
-    allocation. The reference allocates and frees megabyte temporaries by the thousand: measured
-    here, a chunk took twice the CPU in such a worker as in a plain process. Raising the trim
-    and mmap thresholds (glibc's ``mallopt``) and keeping one arena restores the plain
-    process's speed; it only changes where memory comes from, never what is computed. It runs
-    when a worker starts (the engine's warm-up), before the worker's task thread exists.
-    """
-    if not sys.platform.startswith("linux"):
-        return
-    try:
-        libc = ctypes.CDLL("libc.so.6")
-    except OSError:  # not glibc (musl): its allocator has no such thresholds
-        return
-    m_trim_threshold, m_mmap_threshold, m_arena_max = -1, -3, -8
-    libc.mallopt(m_trim_threshold, 512 << 20)
-    libc.mallopt(m_mmap_threshold, 256 << 20)
-    # A task runs in a worker thread, and glibc gives each thread its own arena: a heap of at
-    # most 64 MiB, so the reference's larger temporaries are mapped afresh on every call there
-    # whatever the thresholds (measured: a chunk 28 % slower in a thread than in the main
-    # thread). One arena (the main one) for every thread created after this call restores the
-    # main thread's speed; a worker's tasks run one at a time, so there is no contention.
-    libc.mallopt(m_arena_max, 1)
+    """This process's allocator keeps what it frees (:mod:`mjlink.memory`), with one arena: a
+    study task runs in a worker thread, one at a time. Runs when a worker starts (the engine's
+    warm-up), before the worker's task thread exists, and at every task (a no-op then)."""
+    memory.keep_freed_memory()
+    memory.one_arena()
 
 
 def nominal_values(study: Study) -> np.ndarray:
