@@ -347,6 +347,9 @@ def _frames(
         # the pixels by more than 8/255, along the links' outlines) at these sizes.
         slices = (int(model.vis.quality.numslices), int(model.vis.quality.numstacks))
         model.vis.quality.numslices, model.vis.quality.numstacks = min(slices[0], 16), min(slices[1], 8)
+        # No shadow map either: shadows are switched off below, and MuJoCo would still
+        # allocate the 4096^2 map with the context (0.07 s of a software context's 0.2 s).
+        model.vis.quality.shadowsize = 0
         try:
             renderer = mujoco.Renderer(model, height, width)
         except Exception as e:
