@@ -123,8 +123,8 @@ def _write_target(path: Path) -> Path:
     raise OutputError(f"{path}{via} is {what}, not a regular file: refusing to replace it")
 
 
-def write_text(path: Path | str, text: str, *, in_stage: bool = False) -> Path:
-    """Write a whole text file (UTF-8) at ``path``; returns the path.
+def write_text(path: Path | str, text: str | bytes, *, in_stage: bool = False) -> Path:
+    """Write a whole text file (UTF-8; ``bytes`` as they are) at ``path``; returns the path.
 
     A file on its own (``in_stage`` False: an MJCF from ``build -o``, a synthesized mechanism
     file) goes through :func:`atomic_path`: complete or absent, an OSError as an OutputError.
@@ -133,11 +133,12 @@ def write_text(path: Path | str, text: str, *, in_stage: bool = False) -> Path:
     output folder and the file instead of the hidden staging path.
     """
     path = Path(path)
+    data = text if isinstance(text, bytes) else text.encode("utf-8")
     if in_stage:
-        path.write_text(text, encoding="utf-8")
+        path.write_bytes(data)
         return path
     with atomic_path(path) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+        tmp.write_bytes(data)
     return path
 
 
@@ -164,9 +165,7 @@ def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
     buf.write((",".join(names) + "\n").encode())
     arrays = {f"c{i}": pa.array(row) for i, row in enumerate(table)}
     pacsv.write_csv(pa.table(arrays), buf, pacsv.WriteOptions(include_header=False, batch_size=1 << 16))
-    path = Path(path)
-    path.write_bytes(buf.getbuffer())  # ASCII already: no text round trip
-    return path
+    return write_text(path, buf.getvalue(), in_stage=True)  # bytes: no text round trip
 
 
 def write_records(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray]) -> Path:

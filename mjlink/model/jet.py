@@ -71,16 +71,6 @@ def sqrt(a: S) -> S:
     return a.chain(r, 0.5 / r, -0.25 / (r * a.v))
 
 
-def cos(a: S) -> S:
-    c, s = np.cos(a.v), np.sin(a.v)
-    return a.chain(c, -s, -c)
-
-
-def sin(a: S) -> S:
-    c, s = np.cos(a.v), np.sin(a.v)
-    return a.chain(s, c, -s)
-
-
 def _cx(x, y) -> np.ndarray:
     """Complex array x + i y without the temporaries of ``x + 1j * y``."""
     x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
@@ -207,8 +197,7 @@ def polar(length, a: S) -> V:
     per row; a rad). The derivatives turn the value by 90 deg in real arithmetic, (i a') c and
     (i a'' - a'^2) c, which is cheaper than complex products with a purely imaginary factor."""
     c = _cx(np.cos(a.v), np.sin(a.v))
-    if not isinstance(length, float) or length != 1.0:
-        c *= length
+    c *= length
     x, y, ad, add = c.real, c.imag, a.d, a.dd
     ad2 = ad * ad
     return V(c, _cx(-ad * y, ad * x), _cx(-ad2 * x - add * y, add * x - ad2 * y))
@@ -225,8 +214,7 @@ def turn(p: V, cos_a: S, sign: float) -> V:
     sd = -w * wd / s
     sdd = -(sd * sd + wd * wd + w * wdd) / s
     e, ed, edd = _cx(w, s), _cx(wd, sd), _cx(wdd, sdd)
-    pc, pcd = p.c, p.cd
-    return V(pc * e, p.cd * e + pc * ed, p.cdd * e + 2.0 * pcd * ed + pc * edd, p.z, p.zd, p.zdd)
+    return V(p.c * e, p.cd * e + p.c * ed, p.cdd * e + 2.0 * p.cd * ed + p.c * edd, p.z, p.zd, p.zdd)
 
 
 def rotate_fixed(p: V, angle) -> V:
