@@ -306,7 +306,7 @@ def bench_points(k: int) -> list[tuple[str, str, str, str]]:
     text = (ROOT / "mechanisms" / "takeup.toml").read_text()
     extra = "".join(
         f'\n[[construct]]\npoint = "Q{i}"\nblock = "attached"\norigin = "P3"\ntoward = "P2"\n'
-        f"angle = {10.0 * i:.1f}\nlength = {10.0 + i:.1f}\n"
+        f"angle = {(10.0 * i) % 360.0:.1f}\nlength = {10.0 + i:.1f}\n"
         for i in range(1, k + 1)
     )
     names = ", ".join(f'"Q{i}"' for i in range(1, k + 1))
@@ -318,7 +318,7 @@ def bench_points(k: int) -> list[tuple[str, str, str, str]]:
         base.write_text(text)
         plus.write_text(more)
         best = {}
-        for _ in range(3):
+        for _ in range(5):
             for f in (base, plus):
                 w, c = run_cli(["simulate", str(f), "--out", tmp, "--force", "--no-video", "--no-plots"])
                 best[f] = min(best.get(f, (1e9, 1e9)), (c, w))
@@ -375,7 +375,7 @@ def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="one repeat, fewer angles")
     p.add_argument("--repeat", type=int, default=2, help="runs of each simulate command (best counts)")
-    p.add_argument("--points", type=int, default=40, help="extra named points for the per-point cost")
+    p.add_argument("--points", type=int, default=60, help="extra named points for the per-point cost")
     a = p.parse_args(argv)
     from mjlink import memory
 

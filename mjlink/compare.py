@@ -192,10 +192,14 @@ def _rel(err: np.ndarray, ref: np.ndarray) -> float:
     return float(np.linalg.norm(err, axis=1).max() / scale) if scale > 0 else 0.0
 
 
-def reference_at(mech: Mechanism, mj: Trace) -> Trace:
+def reference_at(mech: Mechanism, mj: Trace, kin: reference.Kinematics | None = None) -> Trace:
     """The reference at MuJoCo's own crank angle, speed and acceleration at each of ``mj``'s
-    samples: what :func:`agreement` compares with, and what a residual panel subtracts."""
-    return reference_trace(mech, reference.Motion(mj.time, mj.phi, mj.omega, mj.eps), mj.kind)
+    samples: what :func:`agreement` compares with, and what a residual panel subtracts.
+    ``kin``: the reference solved at ``mj.phi`` if the caller has it (not solved again), as
+    :func:`unchecked_at` gives it; where it does not close, the reference is solved again with
+    the assembly check, which names the block."""
+    kin = _closing(kin)
+    return reference_trace(mech, reference.Motion(mj.time, mj.phi, mj.omega, mj.eps), mj.kind, kin=kin)
 
 
 @dataclass(frozen=True)
@@ -358,12 +362,16 @@ class Loads:
         return out
 
 
-def loads(mech: Mechanism, mj: Trace) -> Loads:
+def loads(
+    mech: Mechanism, mj: Trace, *, rx: reference.Reactions | None = None, kin: reference.Kinematics | None = None
+) -> Loads:
     """Compare a kinematic run's recorded torque and reactions with the reference kinetostatics
-    evaluated at MuJoCo's own crank state."""
+    evaluated at MuJoCo's own crank state. ``rx``: those reactions if the caller has them;
+    ``kin``: the reference at ``mj.phi`` as for :func:`reference_at` (neither computed again)."""
     if mj.torque is None:
         raise ValueError("the trace has no recorded loads (run a kinematic case)")
-    rx = reference.reactions(mech, mj.phi, mj.omega, mj.eps)
+    kin = _closing(kin)
+    rx = rx if rx is not None else reference.reactions(mech, mj.phi, mj.omega, mj.eps, kin=kin)
     tau = rx.torque
     pairs = {}
     for lab, f_ref in rx.forces.items():
@@ -382,7 +390,7 @@ def loads(mech: Mechanism, mj: Trace) -> Loads:
                 float(np.abs(m_mj - m_ref).max() / mpk) if mpk > 1e-12 else float(np.abs(m_mj).max())
             )
         pairs[lab] = entry
-    ref = frame_reference(mech, mj)
+    ref = frame_reference(mech, mj, kin)
     got = frame_mujoco(mech, mj)
     f_range = float(np.ptp(ref.force, axis=0).max())
     m_range = float(np.ptp(ref.moment))
@@ -396,10 +404,10 @@ def loads(mech: Mechanism, mj: Trace) -> Loads:
     )
 
 
-def frame_reference(mech: Mechanism, mj: Trace) -> FrameLoads:
+def frame_reference(mech: Mechanism, mj: Trace, kin: reference.Kinematics | None = None) -> FrameLoads:
     """The reference's shaking force and moment at MuJoCo's own crank states (the links' sum,
-    :func:`mjlink.reference.batch.frame_loads`)."""
-    kin = reference.solve(mech, mj.phi)
+    :func:`mjlink.reference.batch.frame_loads`); ``kin`` as for :func:`reference_at`."""
+    kin = _closing(kin) or reference.solve(mech, mj.phi)
     return frame_loads(mech, kin, mj.omega, mj.eps)
 
 
@@ -429,17 +437,33 @@ def frame_mujoco(mech: Mechanism, mj: Trace) -> FrameLoads:
 
 
 # ------------------------------------------------------------------------ branch-switch watchdog
-def branch_switch(mech: Mechanism, trace, tol_m: float = BRANCH_TOL_M) -> str | None:
+def _closing(kin: reference.Kinematics | None) -> reference.Kinematics | None:
+    """``kin`` if it closes at every angle, else None (to be solved with the check)."""
+    return kin if kin is not None and kin.assembles().all() else None
+
+
+def unchecked_at(mech: Mechanism, phi: np.ndarray) -> reference.Kinematics:
+    """The reference at the input angles ``phi`` (rad, a run's own), every point, without the
+    assembly check: where it cannot close, its values are meaningless, and the watchdog finds
+    MuJoCo away from them. The same values as the checked solve where it closes."""
+    with np.errstate(all="ignore"):
+        return reference.solve(mech, np.asarray(phi, dtype=float), check=False)
+
+
+def branch_switch(
+    mech: Mechanism, trace, tol_m: float = BRANCH_TOL_M, kin: reference.Kinematics | None = None
+) -> str | None:
     """Where a MuJoCo ``trace`` left the reference's assembly branch, as one line; None if it did not.
 
     The reference is evaluated at MuJoCo's own input angles ``trace.phi``; a moving point more
     than ``tol_m`` (m) away from it, or non-finite, has left it. The first such point in
     construction order at the first such sample is named, with the time and input angle;
     for a dyad or slider the message says whether MuJoCo follows the other branch (the mirror
-    solution, the opposite ``sign`` or ``toward``).
+    solution, the opposite ``sign`` or ``toward``). ``kin``: the reference solved at
+    ``trace.phi`` (unchecked, as here) if the caller has it.
     """
-    with np.errstate(all="ignore"):
-        kin = reference.solve(mech, np.asarray(trace.phi, dtype=float), check=False)
+    if kin is None:
+        kin = unchecked_at(mech, trace.phi)
     first, who = None, None
     for n in mech.moving_points:
         mj, ref = np.asarray(trace.points[n]), kin.position(n)

@@ -76,6 +76,18 @@ def test_takeup_matches_plain_twin(takeup, deg):
         np.testing.assert_allclose(k.position(name)[0, :2] * 1e3, want, atol=1e-10)
 
 
+def test_solve_only_gives_the_same_points_as_the_whole_solve(takeup):
+    """Solving for some points solves what they are built from, and gives them bit for bit."""
+    phi = np.radians(np.arange(0, 360, 7.5))
+    whole = R.solve(takeup, phi)
+    part = R.solve(takeup, phi, only={"P3"})
+    assert "P3" in part.points and "P5" not in part.points
+    for name, got in part.points.items():
+        for k in ("v", "d", "dd"):
+            assert np.array_equal(getattr(got, k), getattr(whole.points[name], k))
+    assert part.angles.keys() == whole.angles.keys()
+
+
 def test_derivatives_match_finite_differences(takeup):
     phi = np.radians(np.arange(0, 360, 7.5))
     h = 1e-5

@@ -797,6 +797,7 @@ class _DynamicRun:
     mujoco_trace: Trace
     reference_trace: Trace
     rk4: reference.Motion | None
+    model: builder.Built  # the run's model, built with the settings model.xml carries
 
 
 def run(
@@ -828,13 +829,16 @@ def run(
         kcase = simulate.kinematic_case(mech, speed=opts.speed, cycles=opts.cycles)
         _enough_samples(mech, kcase, "--cycles")
         kin_mj = simulate.run(mech, kcase, progress=_tell(progress, "kinematic run"))
-        _same_branch(mech, kin_mj)
+        # The reference at MuJoCo's own crank angles, solved once: the branch watchdog's, the
+        # agreement's, the residual panels' and the frame loads'.
+        at_kin = compare.unchecked_at(mech, kin_mj.phi)
+        _same_branch(mech, kin_mj, at_kin)
         clock.lap("mujoco_kinematics")
         kin_ref = reference.reference_trace(
             mech, reference.constant_speed(mech, kin_mj.time, kcase.omega0), RunKind.KINEMATICS
         )
         # The reference at MuJoCo's own crank state: the agreement's and the residual panels'.
-        kin_at = compare.reference_at(mech, kin_mj)
+        kin_at = compare.reference_at(mech, kin_mj, at_kin)
         agreements = [compare.agreement(mech, kin_mj, ref=kin_at)]
         clock.lap("reference_kinematics")
         output.write_csv(stage / "kinematics.csv", mech, kin_mj)
@@ -881,7 +885,7 @@ def run(
         queue = load_jobs if opts.plots else None
         loads_summary = steady_summary = None
         if opts.loads and _has_mass(mech):
-            loads_summary = _loads_study(mech, kin_mj, stage, queue)
+            loads_summary = _loads_study(mech, kin_mj, stage, queue, at_kin)
             clock.lap("loads")
         if opts.steady:
             steady_summary = _steady_study(mech, stage, queue)
@@ -920,7 +924,9 @@ def run(
             provenance=provenance(command, dataclasses.asdict(opts)),
         )
         output.write_json(stage / "report.json", result.as_dict())
-        output.write_text(stage / "model.xml", builder.to_xml(mech, DYNAMIC), in_stage=True)
+        # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.
+        xml = dyn.model.spec.to_xml() if dyn is not None else builder.to_xml(mech, DYNAMIC)
+        output.write_text(stage / "model.xml", xml, in_stage=True)
         from ..plotting import page
 
         written = [p.name for p in stage.iterdir()] + ["index.html"]
@@ -945,8 +951,10 @@ def _forward_dynamics(
     over the file's duration, the paper's RK4; their CSVs into ``stage``."""
     dcase = simulate.dynamic_case(mech, duration=duration)
     _enough_samples(mech, dcase, "--duration")
-    dyn_mj = simulate.run(mech, dcase, progress=_tell(progress, "dynamic run"))
-    _same_branch(mech, dyn_mj)
+    built = builder.make(mech, dcase.settings)
+    dyn_mj = simulate.run(mech, dcase, built, progress=_tell(progress, "dynamic run"))
+    at_dyn = compare.unchecked_at(mech, dyn_mj.phi)
+    _same_branch(mech, dyn_mj, at_dyn)
     clock.lap("mujoco_dynamics")
     sd = reference.SpectralDynamics(mech)
     motion = reference.forward_dynamics(mech, dyn_mj.time, sd=sd)
@@ -955,7 +963,7 @@ def _forward_dynamics(
     # Only a paper that integrated the equation of motion itself has an RK4 to show, and only
     # over its own interval (a shorter or longer run is not the paper's computation).
     rk4 = reference.rk4_dynamics(mech, steps, sd=sd) if steps and dcase.duration == mech.dynamics.duration else None
-    agreement = compare.agreement(mech, dyn_mj, motion)
+    agreement = compare.agreement(mech, dyn_mj, motion, ref=compare.reference_at(mech, dyn_mj, at_dyn))
     clock.lap("reference_dynamics")
     output.write_csv(stage / "dynamics.csv", mech, dyn_mj)
     output.write_csv(stage / "reference_dynamics.csv", mech, dyn_ref)
@@ -983,7 +991,7 @@ def _forward_dynamics(
         paper,
         motion.method,
     )
-    return _DynamicRun(summary, agreement, dyn_mj, dyn_ref, rk4)
+    return _DynamicRun(summary, agreement, dyn_mj, dyn_ref, rk4, built)
 
 
 def _video(
@@ -1024,9 +1032,10 @@ def _enough_samples(mech: Mechanism, case: Case, option: str) -> None:
     )
 
 
-def _same_branch(mech: Mechanism, trace: Trace) -> None:
-    """Stop a run whose MuJoCo linkage snapped to the other assembly branch (near a dead point)."""
-    switched = compare.branch_switch(mech, trace)
+def _same_branch(mech: Mechanism, trace: Trace, at: reference.Kinematics | None = None) -> None:
+    """Stop a run whose MuJoCo linkage snapped to the other assembly branch (near a dead point).
+    ``at``: the reference at the run's own crank angles (:func:`compare.unchecked_at`)."""
+    switched = compare.branch_switch(mech, trace, kin=at)
     if switched:
         raise SimulationError(switched)
 
@@ -1206,12 +1215,18 @@ def _on_grid(m: reference.Motion, t: np.ndarray) -> reference.Motion | None:
 
 
 # ============================================================================ loads and steady motion
-def _loads_study(mech: Mechanism, kin_mj: Trace, stage: Path, plots: list[PlotJob] | None) -> LoadsSummary:
+def _loads_study(
+    mech: Mechanism,
+    kin_mj: Trace,
+    stage: Path,
+    plots: list[PlotJob] | None,
+    at: reference.Kinematics | None = None,
+) -> LoadsSummary:
     """Driving torque and pair reactions of the constant-speed run ``kin_mj`` (which recorded
     its loads): MuJoCo's and the reference's as CSV into ``stage``; their plots appended to
     ``plots`` (None: no plots)."""
-    cmp = compare.loads(mech, kin_mj)
     rx = reference.reactions(mech, kin_mj.phi, kin_mj.omega, kin_mj.eps)
+    cmp = compare.loads(mech, kin_mj, rx=rx, kin=at)
     assert kin_mj.torque is not None  # compare.loads has refused a run without recorded loads
     output.write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
     output.write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
@@ -1220,7 +1235,7 @@ def _loads_study(mech: Mechanism, kin_mj: Trace, stage: Path, plots: list[PlotJo
 
         plots.append(functools.partial(loads_plots.torque_plot, mech, kin_mj, rx, stage))
         plots.append(functools.partial(loads_plots.reactions_plot, mech, kin_mj, rx, stage))
-        frames = compare.frame_reference(mech, kin_mj), compare.frame_mujoco(mech, kin_mj)
+        frames = compare.frame_reference(mech, kin_mj, at), compare.frame_mujoco(mech, kin_mj)
         plots.append(functools.partial(loads_plots.shaking_plot, mech, kin_mj, *frames, stage))
     # Statistics over exactly one period from the reference: the run's samples span a period
     # and its end, and counting that end twice biases means of large periodic torques.

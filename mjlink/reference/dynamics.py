@@ -36,6 +36,12 @@ class Reduced:
     Q: np.ndarray
 
 
+def load_points(mech: Mechanism) -> set[str]:
+    """The points the equation of motion reads besides the links' angles: the centres of mass
+    and the points the file's forces act at (for ``solve(..., only=...)``)."""
+    return {l.com for l in mech.links if l.com is not None} | {f.point for f in mech.dynamics.forces}
+
+
 def reduced(mech: Mechanism, kin: Kinematics, *, tables: bool = True) -> Reduced:
     """J(phi), J'(phi) and Q(phi) from the same kinematics (exact derivatives).
 
@@ -108,7 +114,7 @@ class SpectralDynamics:
         self.error = float((np.abs(approx - direct).max(axis=1) / span).max())
 
     def _direct(self, phi: np.ndarray) -> np.ndarray:
-        kin = solve(self.mech, phi)
+        kin = solve(self.mech, phi, only=load_points(self.mech))
         red = reduced(self.mech, kin, tables=False)
         rows = [red.J, red.dJ, red.Q]
         for f in self.tables:

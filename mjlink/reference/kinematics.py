@@ -12,13 +12,14 @@ All quantities SI (m, rad).
 from __future__ import annotations
 
 import itertools
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import AssemblyError, MechanismFileError
 from ..model import jet
-from ..model.blocks import Attached
+from ..model.blocks import Attached, Block
 from ..model.mechanism import COUNTERWEIGHT, Link, Mechanism
 
 
@@ -96,25 +97,47 @@ def angle_ranges(phi: np.ndarray, bad: np.ndarray) -> str:
     return ", ".join(out[:6]) + (" ..." if len(out) > 6 else "")
 
 
-def solve(mech: Mechanism, phi, *, check: bool = True) -> Kinematics:
+def solve(mech: Mechanism, phi, *, check: bool = True, only: Iterable[str] | None = None) -> Kinematics:
     """Positions and exact derivatives of every point at the input angles ``phi`` (rad).
 
     Raises AssemblyError naming the block and the angle ranges where it cannot close
     (unless ``check`` is False, when such angles give clipped, meaningless values).
+
+    ``only``: the points the caller reads (None: all of them). Then only the blocks those
+    points, the links' angles and the counterweight are built from are solved, and
+    ``points`` holds just these (the ground's always); a named point drawn or traced but
+    carrying no load costs the dynamics and kinetostatics nothing.
     """
     phi = np.atleast_1d(np.asarray(phi, dtype=float))
+    steps = mech.steps if only is None else _steps_for(mech, only)
     if not check:  # unassemblable angles are expected here and give NaN derivatives
         with np.errstate(all="ignore"):
-            return _solve(mech, phi, False)
-    return _solve(mech, phi, True)
+            return _solve(mech, phi, False, steps)
+    return _solve(mech, phi, True, steps)
 
 
-def _solve(mech: Mechanism, phi: np.ndarray, check: bool) -> Kinematics:
+def _steps_for(mech: Mechanism, only: Iterable[str]) -> tuple[Block, ...]:
+    """The blocks, in the file's order, that the points ``only`` depend on, with those the
+    links' angles and the counterweight are measured from."""
+    need = set(only)
+    for l in mech.links:
+        need.update(l.guide if l.guide else l.points[:2])
+    if mech.counterweight is not None:
+        need.update((mech.input_crank.pivot, mech.input_crank.point))
+    out = []
+    for s in reversed(mech.steps):
+        if s.point in need:
+            need.update(s.inputs)
+            out.append(s)
+    return tuple(reversed(out))
+
+
+def _solve(mech: Mechanism, phi: np.ndarray, check: bool, steps: Sequence[Block]) -> Kinematics:
     n = len(phi)
     pts: dict[str, jet.V] = {k: jet.vconst(v, n) for k, v in mech.ground.items()}
     inp = jet.S(phi, np.ones(n), np.zeros(n))
     margins: dict[str, np.ndarray] = {}
-    for s in mech.steps:
+    for s in steps:
         solved = s.solve(pts, inp, mech.phi0)
         pts[s.point] = solved.point
         if solved.margin is not None:
@@ -140,14 +163,19 @@ def check_rigidity(mech: Mechanism, samples: int = 361, rtol: float = 1e-9) -> N
     kin = solve(mech, phi)
     src = mech.path or mech.name
     for l in mech.links:
-        for i, a in enumerate(l.points):
-            for b in l.points[i + 1 :]:
-                d = np.linalg.norm(kin.points[a].v - kin.points[b].v, axis=1)
-                if d.max() - d.min() > rtol * max(d.max(), 1e-3):
-                    raise MechanismFileError(
-                        f"{src}: [links.{l.name}]: points {a} and {b} do not stay at a fixed distance "
-                        f"({d.min() * 1e3:.4f}..{d.max() * 1e3:.4f} mm): they are not on one rigid link"
-                    )
+        # Each point against all later ones at once: a link carrying many named points would
+        # otherwise cost a Python pass per pair, quadratic in its points.
+        xyz = np.stack([kin.points[a].v for a in l.points])
+        for i in range(len(xyz) - 1):
+            d = np.linalg.norm(xyz[i + 1 :] - xyz[i], axis=-1)
+            hi, lo = d.max(axis=1), d.min(axis=1)
+            loose = np.flatnonzero(hi - lo > rtol * np.maximum(hi, 1e-3))
+            if len(loose):
+                j = loose[0]
+                raise MechanismFileError(
+                    f"{src}: [links.{l.name}]: points {l.points[i]} and {l.points[i + 1 + j]} do not stay at a "
+                    f"fixed distance ({lo[j] * 1e3:.4f}..{hi[j] * 1e3:.4f} mm): they are not on one rigid link"
+                )
         if len(l.points) >= 2 and l.guide:
             own = jet.angle((kin.points[l.points[1]] - kin.points[l.points[0]]).planar()).v
             ref = kin.angles[l.name].v

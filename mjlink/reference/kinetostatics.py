@@ -13,7 +13,7 @@ from ..errors import MechanismFileError
 from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from ..model.topology import Pair, pairs
 from . import linalg as _linalg
-from .dynamics import reduced
+from .dynamics import load_points, reduced
 from .kinematics import Kinematics, solve
 
 
@@ -24,7 +24,7 @@ def driving_torque(mech: Mechanism, phi, omega, eps=0.0) -> np.ndarray:
     (the file's driving moment and motor are not counted: this is what they must supply).
     """
     phi = np.atleast_1d(np.asarray(phi, dtype=float))
-    red = reduced(mech, solve(mech, phi))
+    red = reduced(mech, solve(mech, phi, only=load_points(mech)))
     w = np.broadcast_to(np.asarray(omega, dtype=float), phi.shape)
     e = np.broadcast_to(np.asarray(eps, dtype=float), phi.shape)
     return red.J * e + 0.5 * red.dJ * w**2 + mech.dynamics.damping * w - red.Q
@@ -66,9 +66,12 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
     n = len(phi)
     w = np.broadcast_to(np.asarray(omega, dtype=float), (n,))
     e = np.broadcast_to(np.asarray(eps, dtype=float), (n,))
-    kin = kin if kin is not None else solve(mech, phi)
-    P = {k: v.v for k, v in kin.points.items()}
     prs = [p for _, p in pairs(mech)]
+    # The points read below: the pairs', the links' origins, the masses' and the forces'.
+    used = {x for pr in prs for x in ((pr.pin,) if pr.revolute else pr.rail)}
+    used |= load_points(mech) | {l.points[0] for l in mech.links}
+    kin = kin if kin is not None else solve(mech, phi, only=used)
+    P = {k: kin.points[k].v for k in used}
     links = [l.name for l in mech.links]
     row = {name: 3 * i for i, name in enumerate(links)}
     geared = mech.geared

@@ -6,12 +6,13 @@ from ..model.mechanism import Mechanism
 from ..runs import Trace
 from ..units import RunKind, Source
 from .dynamics import Motion
-from .kinematics import solve
+from .kinematics import Kinematics, solve
 
 
-def reference_trace(mech: Mechanism, motion: Motion, kind: RunKind) -> Trace:
-    """The reference's trace for a given crank motion (vectorized over all samples)."""
-    kin = solve(mech, motion.phi)
+def reference_trace(mech: Mechanism, motion: Motion, kind: RunKind, *, kin: Kinematics | None = None) -> Trace:
+    """The reference's trace for a given crank motion (vectorized over all samples). ``kin``:
+    the kinematics at ``motion.phi`` if the caller has them (not solved again)."""
+    kin = kin if kin is not None else solve(mech, motion.phi)
     names = list(mech.point_names)
     th = kin.thread_length()
     return Trace(

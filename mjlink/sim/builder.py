@@ -559,12 +559,9 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
     speed (the imposed speed, or the dynamics case's omega0).
     """
     spec, el = _spec(mech, settings)
+    key = spec.add_key(name=names.INITIAL)
     model = spec.compile()
-    omega = settings.imposed_speed if settings.imposed_speed is not None else mech.dynamics.omega0
-    dof = int(model.jnt_dofadr[el.input_joint.id])
-    qvel = consistent_velocity(model, mujoco.MjData(model), dof, omega)
-    spec.add_key(name=names.INITIAL, qpos=model.qpos0.tolist(), qvel=qvel.tolist())
-    model = spec.compile()
+    _initial_key(mech, settings, el, model, key)
     return Built(
         spec,
         model,
@@ -584,6 +581,18 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
     )
 
 
+def _initial_key(mech: Mechanism, settings: Settings, el: _Elements, model: mujoco.MjModel, key: mujoco.MjsKey) -> None:
+    """Fill the keyframe ``initial`` (added before compiling, so its qpos is qpos0) with joint
+    speeds consistent with the crank's initial speed, in the compiled ``model`` and in its
+    spec (for the MJCF). The keyframe is plain data in the model: written there, it spares a
+    second compile, which costs as much as the first."""
+    omega = settings.imposed_speed if settings.imposed_speed is not None else mech.dynamics.omega0
+    dof = int(model.jnt_dofadr[el.input_joint.id])
+    qvel = consistent_velocity(model, mujoco.MjData(model), dof, omega)
+    model.key_qvel[0] = qvel
+    key.qpos, key.qvel = model.qpos0.tolist(), qvel.tolist()
+
+
 def make_batch(mech: Mechanism, settings: Settings = KINEMATIC, times: dict[str, float] | None = None) -> Built:
     """:func:`make`'s model of ``mech`` for batched verification (:mod:`mjlink.sim.batch`), built
     for speed: the same bodies, joints, equalities, drive, sensors and keyframe ``initial``
@@ -597,17 +606,12 @@ def make_batch(mech: Mechanism, settings: Settings = KINEMATIC, times: dict[str,
     t0 = time.perf_counter()
     spec, el = _spec(mech, settings, batch=True)
     spec.delete(spec.texture("sky"))
-    key = spec.add_key(name=names.INITIAL)  # qpos defaults to qpos0, as make's
+    key = spec.add_key(name=names.INITIAL)
     t1 = time.perf_counter()
     model = spec.compile()
     t2 = time.perf_counter()
-    omega = settings.imposed_speed if settings.imposed_speed is not None else mech.dynamics.omega0
+    _initial_key(mech, settings, el, model, key)
     dof = int(model.jnt_dofadr[el.input_joint.id])
-    qvel = consistent_velocity(model, mujoco.MjData(model), dof, omega)
-    # make compiles a second time to carry the joint speeds in the keyframe; the keyframe is
-    # plain data in the compiled model, so writing it there gives the same model at half the cost.
-    model.key_qvel[0] = qvel
-    key.qpos, key.qvel = model.qpos0.tolist(), qvel.tolist()
     if times is not None:
         for k, dt in (("spec", t1 - t0), ("compile", t2 - t1), ("keyframe", time.perf_counter() - t2)):
             times[k] = times.get(k, 0.0) + dt
