@@ -17,7 +17,8 @@ Prints, on this machine, in one run so that the ratios compare like with like:
 4. the reference's equation of motion over each file's dynamic run: the default solution over
    the crank angle against LSODA and the DOP853 twin (CPU and deviation);
 5. the cost of one more named point: ``simulate --no-video --no-plots`` of the take-up file
-   with 0 and with ``--points`` extra points attached to the lever, the CPU difference per point.
+   with 0 and with ``--points`` extra points attached to the lever, the CPU difference per point
+   (best of 5 runs each, interleaved).
 
 pylinkage and numba come with ``pip install -e '.[bench]'``; without them item 3 says so.
 Run: ``python bench/bench_simulate.py`` (``--quick``: one repeat, fewer angles).

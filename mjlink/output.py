@@ -158,7 +158,7 @@ def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
 
     The numbers are formatted by orjson's shortest-round-trip writer in C, a block of rows at a
     time as a JSON array of rows that becomes CSV by replacing the row brackets: 40 ns a number
-    on the traces, written, where Arrow's CSV writer took 150 and Python's repr() 400. It counts
+    on the traces, written, where Arrow's CSV writer took 150 and Python's repr() 480. It counts
     because a traced point costs 9 columns x every sample of four files.
     """
     head = (",".join(names) + "\n").encode()
