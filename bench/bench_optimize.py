@@ -1,8 +1,9 @@
 """Optimization speed, side by side in one run (the issue's targets; figures go in the README).
 
 1. The seeds' optimizations: ``takeup_eyelets_demand`` (nominal) in this process, and
-   ``takeup_eyelets_demand_robust`` in this process and on a 2-worker Dask LocalCluster
-   (interleaved), wall and CPU seconds (the workers' CPU included).
+   ``takeup_eyelets_demand_robust`` in this process and on the engine's 2-worker Dask
+   LocalCluster, as ``study --workers 2`` starts it (interleaved), wall and CPU seconds (the
+   workers' CPU included).
 2. A peer: the same four-bar path-generation problem (a coupler point through six precision
    points, no prescribed timing; ``bench/peer_pylinkage.py`` defines it) solved by mjlink's
    optimizer and by pylinkage's, each from scratch with the same evaluation budget:
@@ -27,6 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import peer_pylinkage as peer  # noqa: E402  (the problem's single definition)
 
+from mjlink.study import engine as study_engine  # noqa: E402
 from mjlink.study import optimize  # noqa: E402
 from mjlink.study.spec import load, parse  # noqa: E402
 
@@ -107,8 +109,6 @@ def _workers_cpu(client) -> float:
 
 
 def seeds(quick: bool) -> list[str]:
-    from distributed import Client, LocalCluster
-
     rows = []
     st = load("takeup_eyelets_demand")
     c0, t0 = time.process_time(), time.perf_counter()
@@ -124,11 +124,9 @@ def seeds(quick: bool) -> list[str]:
         assert rb.optimize is not None
         rb = dataclasses.replace(rb, optimize=dataclasses.replace(rb.optimize, generations=10))
     assert rb.robust is not None
-    with (
-        LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
-        Client(cluster) as client,
-    ):
-        client.run(lambda: __import__("mjlink.study.tasks"))
+    # The engine's own local cluster, as `study --workers 2` starts it (its workers' allocator
+    # set before they start, mjlink imported and warmed).
+    with study_engine.client_for(workers=2) as (client, _):
         times = {}
         for engine in ("in process", "Dask 2 workers", "in process", "Dask 2 workers"):
             c0, w0, t0 = time.process_time(), _workers_cpu(client), time.perf_counter()

@@ -8,6 +8,7 @@ import math
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -250,12 +251,26 @@ def test_a_real_two_worker_dask_cluster_gives_the_same_bits() -> None:
     st = spec.parse(
         study_text('\n[[metric]]\nkind = "torque_peak"\n', BASE.replace("samples = 40", "samples = 300")), "s.toml"
     )
+    from distributed import get_task_stream
+
     local = engine.run(st, workers=0)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         with Client(cluster) as client:
             assert len(client.scheduler_info()["workers"]) == 2
-            remote = engine.run(st, client=client)
+            time.sleep(3.0)  # past the active memory manager's pass, which dropped scattered replicas
+            with get_task_stream(client) as ts:
+                remote = engine.run(st, client=client)
             by_address = engine.run(st, scheduler=cluster.scheduler_address)
+
+            def fails(study, values):
+                raise ValueError("no such thing")
+
+            with pytest.raises(
+                engine.EngineError, match="a study task failed on the cluster: ValueError: no such thing"
+            ):
+                engine._map(client, fails, st, np.zeros((4, 1)), [(0, 2), (2, 4)], lambda k, r: None, {})
+    # Every worker computed some of the chunks: nothing pins the tasks to one of them.
+    assert len({d["worker"] for d in ts.data}) == 2
     assert remote.chunks == local.chunks > 2
     for k in local.columns:
         assert np.array_equal(local.columns[k], remote.columns[k], equal_nan=True)

@@ -167,7 +167,6 @@ class Evaluator:
         self.client = client
         self.workers = max(1, workers)
         self.dev = deviations(study)
-        self.shared = client.scatter(study, broadcast=True, hash=False) if client is not None else study
         self.evaluations = 0
         self.seconds = 0.0
 
@@ -184,7 +183,7 @@ class Evaluator:
         parts = [(i, min(i + size, n)) for i in range(0, n, size)]
         got: dict[tuple[int, int], Evaluated] = {}
         t = time.perf_counter()
-        _map(self.client, reference_chunk, self.shared, X, parts, got.__setitem__, {})
+        _map(self.client, reference_chunk, self.study, X, parts, got.__setitem__, {})
         self.seconds += time.perf_counter() - t
         self.evaluations += n
         cols = {c.name: np.concatenate([got[k].columns[c.name] for k in parts]) for c in self.study.columns}

@@ -7,6 +7,8 @@ so that the same chunk gives the same result (bit for bit for the reference) whe
 
 from __future__ import annotations
 
+import hashlib
+import pickle
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,17 +42,19 @@ def nominal_values(study: Study) -> np.ndarray:
     return np.array([[p.nominal for p in study.params]])
 
 
-_NOMINAL: list[tuple[Study, _batch.Batch]] = []  # the last few studies' nominal batches
+_NOMINAL: list[tuple[bytes, _batch.Batch]] = []  # the last few studies' nominal batches, by content
 
 
 def _nominal(study: Study) -> _batch.Batch:
     """The nominal design's batch, solved once per study in this process (an optimization
-    evaluates many small generations of the same study)."""
-    for st, b in _NOMINAL:
-        if st is study:
+    evaluates many small generations of the same study). Found by the study's content: on a
+    cluster every task brings its own copy of the study."""
+    key = hashlib.sha256(pickle.dumps(study, protocol=pickle.HIGHEST_PROTOCOL)).digest()
+    for k, b in _NOMINAL:
+        if k == key:
             return b
     b = _batch.solve_batch(study.mechanism, study.params, nominal_values(study), study.per_turn)
-    _NOMINAL.insert(0, (study, b))
+    _NOMINAL.insert(0, (key, b))
     del _NOMINAL[4:]
     return b
 
