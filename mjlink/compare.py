@@ -363,15 +363,19 @@ class Loads:
 
 
 def loads(
-    mech: Mechanism, mj: Trace, *, rx: reference.Reactions | None = None, kin: reference.Kinematics | None = None
+    mech: Mechanism,
+    mj: Trace,
+    *,
+    rx: reference.Reactions | None = None,
+    frames: tuple[FrameLoads, FrameLoads] | None = None,
 ) -> Loads:
     """Compare a kinematic run's recorded torque and reactions with the reference kinetostatics
-    evaluated at MuJoCo's own crank state. ``rx``: those reactions if the caller has them;
-    ``kin``: the reference at ``mj.phi`` as for :func:`reference_at` (neither computed again)."""
+    evaluated at MuJoCo's own crank state. ``rx``: those reactions, and ``frames``: the
+    reference's and MuJoCo's frame loads (:func:`frame_reference`, :func:`frame_mujoco`), if
+    the caller has them (not computed again)."""
     if mj.torque is None:
         raise ValueError("the trace has no recorded loads (run a kinematic case)")
-    kin = _closing(kin)
-    rx = rx if rx is not None else reference.reactions(mech, mj.phi, mj.omega, mj.eps, kin=kin)
+    rx = rx if rx is not None else reference.reactions(mech, mj.phi, mj.omega, mj.eps)
     tau = rx.torque
     pairs = {}
     for lab, f_ref in rx.forces.items():
@@ -390,8 +394,7 @@ def loads(
                 float(np.abs(m_mj - m_ref).max() / mpk) if mpk > 1e-12 else float(np.abs(m_mj).max())
             )
         pairs[lab] = entry
-    ref = frame_reference(mech, mj, kin)
-    got = frame_mujoco(mech, mj)
+    ref, got = frames if frames is not None else (frame_reference(mech, mj), frame_mujoco(mech, mj))
     f_range = float(np.ptp(ref.force, axis=0).max())
     m_range = float(np.ptp(ref.moment))
     return Loads(
@@ -446,8 +449,7 @@ def unchecked_at(mech: Mechanism, phi: np.ndarray) -> reference.Kinematics:
     """The reference at the input angles ``phi`` (rad, a run's own), every point, without the
     assembly check: where it cannot close, its values are meaningless, and the watchdog finds
     MuJoCo away from them. The same values as the checked solve where it closes."""
-    with np.errstate(all="ignore"):
-        return reference.solve(mech, np.asarray(phi, dtype=float), check=False)
+    return reference.solve(mech, phi, check=False)  # floating-point warnings silenced there
 
 
 def branch_switch(

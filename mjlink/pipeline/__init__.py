@@ -1226,7 +1226,8 @@ def _loads_study(
     its loads): MuJoCo's and the reference's as CSV into ``stage``; their plots appended to
     ``plots`` (None: no plots)."""
     rx = reference.reactions(mech, kin_mj.phi, kin_mj.omega, kin_mj.eps)
-    cmp = compare.loads(mech, kin_mj, rx=rx, kin=at)
+    frames = compare.frame_reference(mech, kin_mj, at), compare.frame_mujoco(mech, kin_mj)
+    cmp = compare.loads(mech, kin_mj, rx=rx, frames=frames)
     assert kin_mj.torque is not None  # compare.loads has refused a run without recorded loads
     output.write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
     output.write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
@@ -1235,7 +1236,6 @@ def _loads_study(
 
         plots.append(functools.partial(loads_plots.torque_plot, mech, kin_mj, rx, stage))
         plots.append(functools.partial(loads_plots.reactions_plot, mech, kin_mj, rx, stage))
-        frames = compare.frame_reference(mech, kin_mj, at), compare.frame_mujoco(mech, kin_mj)
         plots.append(functools.partial(loads_plots.shaking_plot, mech, kin_mj, *frames, stage))
     # Statistics over exactly one period from the reference: the run's samples span a period
     # and its end, and counting that end twice biases means of large periodic torques.

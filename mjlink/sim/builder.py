@@ -561,12 +561,12 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
     spec, el = _spec(mech, settings)
     key = spec.add_key(name=names.INITIAL)
     model = spec.compile()
-    _initial_key(mech, settings, el, model, key)
+    dof = _initial_key(mech, settings, el, model, key)
     return Built(
         spec,
         model,
         el.input_joint.id,
-        int(model.jnt_dofadr[el.input_joint.id]),
+        dof,
         int(model.jnt_qposadr[el.input_joint.id]),
         el.drive.id,
         {k: v.id for k, v in el.sites.items()},
@@ -581,16 +581,17 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
     )
 
 
-def _initial_key(mech: Mechanism, settings: Settings, el: _Elements, model: mujoco.MjModel, key: mujoco.MjsKey) -> None:
+def _initial_key(mech: Mechanism, settings: Settings, el: _Elements, model: mujoco.MjModel, key: mujoco.MjsKey) -> int:
     """Fill the keyframe ``initial`` (added before compiling, so its qpos is qpos0) with joint
     speeds consistent with the crank's initial speed, in the compiled ``model`` and in its
-    spec (for the MJCF). The keyframe is plain data in the model: written there, it spares a
-    second compile, which costs as much as the first."""
+    spec (for the MJCF); returns the input joint's dof. The keyframe is plain data in the
+    model: written there, it spares a second compile, which costs as much as the first."""
     omega = settings.imposed_speed if settings.imposed_speed is not None else mech.dynamics.omega0
     dof = int(model.jnt_dofadr[el.input_joint.id])
     qvel = consistent_velocity(model, mujoco.MjData(model), dof, omega)
     model.key_qvel[0] = qvel
     key.qpos, key.qvel = model.qpos0.tolist(), qvel.tolist()
+    return dof
 
 
 def make_batch(mech: Mechanism, settings: Settings = KINEMATIC, times: dict[str, float] | None = None) -> Built:
@@ -610,8 +611,7 @@ def make_batch(mech: Mechanism, settings: Settings = KINEMATIC, times: dict[str,
     t1 = time.perf_counter()
     model = spec.compile()
     t2 = time.perf_counter()
-    _initial_key(mech, settings, el, model, key)
-    dof = int(model.jnt_dofadr[el.input_joint.id])
+    dof = _initial_key(mech, settings, el, model, key)
     if times is not None:
         for k, dt in (("spec", t1 - t0), ("compile", t2 - t1), ("keyframe", time.perf_counter() - t2)):
             times[k] = times.get(k, 0.0) + dt
