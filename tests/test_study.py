@@ -278,6 +278,35 @@ def test_a_real_two_worker_dask_cluster_gives_the_same_bits() -> None:
     assert "2 workers" in by_address.engine
 
 
+@pytest.mark.slow
+def test_the_actor_pool_on_a_real_cluster_survives_a_lost_worker() -> None:
+    """engine.Pool (an optimization's generations) on a LocalCluster of 2 processes: one actor
+    per worker, the in-process bits, a failing chunk as one line, and a batch whose worker was
+    killed run again on the workers left."""
+    import signal
+
+    from distributed import Client, LocalCluster
+
+    st = spec.parse(study_text(base=BASE.replace("samples = 40", "samples = 64")), "s.toml")
+    values = st.values()
+    parts = [(0, 16), (16, 32), (32, 48), (48, 64)]
+    local = tasks.reference_chunk(st, values)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with Client(cluster) as client, engine.Pool(client, st) as pool:
+            holders = [w for ws in client.who_has(pool._futures).values() for w in ws]
+            assert sorted(holders) == sorted(client.scheduler_info()["workers"])  # one actor on each worker
+            got: dict[tuple[int, int], tasks.Evaluated] = {}
+            pool.reference(values, parts, got.__setitem__)
+            with pytest.raises(engine.EngineError, match="a study task failed on the cluster: ValueError"):
+                pool.reference(np.zeros((4, 99)), [(0, 2), (2, 4)], lambda k, r: None)
+            os.kill(client.run(os.getpid, workers=holders[:1])[holders[0]], signal.SIGKILL)
+            again: dict[tuple[int, int], tasks.Evaluated] = {}
+            pool.reference(values, parts, again.__setitem__)
+    for run in (got, again):
+        for k in local.columns:
+            assert np.array_equal(np.concatenate([run[p].columns[k] for p in parts]), local.columns[k], equal_nan=True)
+
+
 def test_an_unreachable_scheduler_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(engine, "CONNECT_TIMEOUT_S", 1.0)
     st = spec.parse(BASE, "s.toml")

@@ -35,7 +35,7 @@ from .. import memory
 from ..errors import MjlinkError
 from ..output import atomic_path
 from .spec import Study
-from .tasks import Evaluated, Verified, mujoco_chunk, reference_chunk
+from .tasks import Evaluated, StudyWorker, Verified, mujoco_chunk, reference_chunk
 
 REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
 MUJOCO_CHUNK = (4, 128)  # variants per MuJoCo task (one rollout of that many models)
@@ -420,14 +420,89 @@ def _map(
             if fut.status == "error":
                 try:
                     fut.result()
-                except MjlinkError:
-                    raise
                 except Exception as e:
-                    raise EngineError(f"a study task failed on the cluster: {type(e).__name__}: {e}") from None
+                    raise _task_error(e) from None
             done(futures[fut], res)
     finally:
         for fut in futures:
             fut.cancel()
+
+
+def _task_error(e: Exception) -> Exception:
+    """What a failure on the cluster becomes: mjlink's own errors as they are, anything else a
+    one-line EngineError."""
+    if isinstance(e, MjlinkError):
+        return e
+    return EngineError(f"a study task failed on the cluster: {type(e).__name__}: {e}")
+
+
+class Pool:
+    """``study`` held by one :class:`~.tasks.StudyWorker` actor on every worker of ``client``,
+    for many small batches (an optimization's generations; a sampled study's few large chunks
+    go as tasks, :func:`run`, which the scheduler balances).
+
+    Use as a context manager; the actors are released on exit. Chunks go to the actors in
+    turn, so equal chunks in a multiple of the workers keep every worker equally busy. A lost
+    worker takes its actor with it: the batch then runs once more on actors made anew on the
+    workers left (a chunk's result does not depend on where it runs).
+    """
+
+    def __init__(self, client: Any, study: Study):
+        self._client, self._study = client, study
+        self._futures: list[Any] = []
+        self._actors: list[Any] = []
+        self._start()
+
+    def _start(self) -> None:
+        self.close()
+        workers = list(self._client.scheduler_info()["workers"])
+        if not workers:
+            raise EngineError("the Dask cluster has no workers")
+        # The futures keep the actors alive: an actor is released with its future. A worker
+        # that has just left may still be listed: the actor then goes to another one.
+        self._futures = [
+            self._client.submit(StudyWorker, self._study, actor=True, workers=[w], allow_other_workers=True, pure=False)
+            for w in workers
+        ]
+        try:
+            self._actors = [f.result() for f in self._futures]
+        except Exception as e:
+            self.close()
+            raise _task_error(e) from None
+
+    def __enter__(self) -> Pool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        for f in self._futures:
+            f.release()
+        self._futures, self._actors = [], []
+
+    def reference(
+        self, values: np.ndarray, todo: list[tuple[int, int]], done: Callable[[tuple[int, int], Evaluated], None]
+    ) -> None:
+        """:func:`~.tasks.reference_chunk` of ``values[a:b]`` for every chunk of ``todo``,
+        calling ``done`` with each result."""
+        for attempt in range(2):
+            calls = [
+                (key, self._actors[i % len(self._actors)].reference(values[key[0] : key[1]]))
+                for i, key in enumerate(todo)
+            ]
+            try:
+                results = [(key, call.result()) for key, call in calls]
+            except OSError as e:  # the actor's worker cannot be reached (distributed's own words)
+                if attempt:
+                    raise _task_error(e) from None
+                self._start()
+                continue
+            except Exception as e:
+                raise _task_error(e) from None
+            for key, r in results:
+                done(key, r)
+            return
 
 
 def select(study: Study, columns: dict[str, np.ndarray], feasible: np.ndarray) -> np.ndarray:

@@ -154,10 +154,14 @@ def deviations(study: Study) -> np.ndarray:
 class Evaluator:
     """Scores batches of candidates on the engine (a Dask client, or this process).
 
+    On a cluster the study is held by an actor on every worker (:class:`.engine.Pool`, made at
+    the first batch): a generation is too small a batch to pay the scheduler's round trip.
+    Use as a context manager, or call :meth:`close`, to release them.
+
     Args:
       study: an optimize study.
       client: a ``distributed.Client`` or None (this process).
-      workers: how many tasks a batch is cut into at least (the cluster's workers).
+      workers: how many chunks a batch is cut into at least (the cluster's workers).
     """
 
     def __init__(self, study: Study, client: Any = None, workers: int = 1):
@@ -169,11 +173,22 @@ class Evaluator:
         self.dev = deviations(study)
         self.evaluations = 0
         self.seconds = 0.0
+        self._pool: Any = None
+
+    def __enter__(self) -> Evaluator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Release the cluster's actors (nothing in process)."""
+        if self._pool is not None:
+            self._pool.close()
+            self._pool = None
 
     def rows(self, X: np.ndarray) -> Evaluated:
         """The reference's metrics of arbitrary rows (n, P), file units, on the engine."""
-        from .engine import _map
-
         n = len(X)
         # Equal chunks, a multiple of the workers in number, none above CHUNK_ROWS rows of
         # variants x angles (the reference's memory per task).
@@ -183,7 +198,15 @@ class Evaluator:
         parts = [(i, min(i + size, n)) for i in range(0, n, size)]
         got: dict[tuple[int, int], Evaluated] = {}
         t = time.perf_counter()
-        _map(self.client, reference_chunk, self.study, X, parts, got.__setitem__, {})
+        if self.client is None:
+            for a, b in parts:
+                got[(a, b)] = reference_chunk(self.study, X[a:b])
+        else:
+            if self._pool is None:
+                from .engine import Pool
+
+                self._pool = Pool(self.client, self.study)
+            self._pool.reference(X, parts, got.__setitem__)
         self.seconds += time.perf_counter() - t
         self.evaluations += n
         cols = {c.name: np.concatenate([got[k].columns[c.name] for k in parts]) for c in self.study.columns}
@@ -392,8 +415,14 @@ def run(
     opt = study.optimize
     if opt is None:
         raise OptimizeError(f"{study.name}: not an optimization (no [optimize] table)")
+    with Evaluator(study, client, workers) as ev:
+        return _run(study, ev, engine, progress)
+
+
+def _run(study: Study, ev: Evaluator, engine: str, progress: Progress | None) -> Result:
+    opt = study.optimize
+    assert opt is not None
     t0 = time.perf_counter()
-    ev = Evaluator(study, client, workers)
     book = _Book()
     runs: list[Run] = []
 
