@@ -425,7 +425,7 @@ def _problems(mech: Mechanism, full_turn: bool, cycle: _Cycle) -> list[MjlinkErr
     if bad:
         return [*found, bad, *_structure(mech, kin)]
     try:
-        reference.check_rigidity(mech)
+        reference.check_rigidity(mech, kin=kin)  # assembled over the whole cycle here
     except MechanismFileError as e:
         found.append(e)
     close = _almost_coincident(mech, kin)
@@ -491,15 +491,19 @@ def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError
 def _almost_coincident(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError | None:
     """Two points of one link closer than MIN_DISTINCT_M but not the same point."""
     for l in mech.links:
-        for i, a in enumerate(l.points):
-            for b in l.points[i + 1 :]:
-                d = float(np.linalg.norm(kin.points[a].v[0] - kin.points[b].v[0]))
-                if 0.0 < d < MIN_DISTINCT_M:
-                    return MechanismFileError(
-                        f"{mech.path or mech.name}: [links.{l.name}]: points {a} and {b} are only {d * 1e3:.3g} mm apart: "
-                        f"MuJoCo merges points closer than 0.0001 mm with a body's frame, so make them one point "
-                        f"(length 0) or keep them at least {MIN_DISTINCT_M * 1e3:g} mm apart"
-                    )
+        # Each point against all later ones at once: a pass per pair would be quadratic in
+        # the points a link carries.
+        xyz = np.stack([kin.points[p].v[0] for p in l.points])
+        for i, a in enumerate(l.points[:-1]):
+            d = np.linalg.norm(xyz[i + 1 :] - xyz[i], axis=1)
+            near = np.flatnonzero((d > 0.0) & (d < MIN_DISTINCT_M))
+            if len(near):
+                b, gap = l.points[i + 1 + near[0]], float(d[near[0]])
+                return MechanismFileError(
+                    f"{mech.path or mech.name}: [links.{l.name}]: points {a} and {b} are only {gap * 1e3:.3g} mm "
+                    f"apart: MuJoCo merges points closer than 0.0001 mm with a body's frame, so make them one point "
+                    f"(length 0) or keep them at least {MIN_DISTINCT_M * 1e3:g} mm apart"
+                )
     return None
 
 

@@ -157,7 +157,31 @@ def test_a_divergent_run_is_named_at_its_time(name):
     mech = validation.get(name)
     case = simulate.kinematic_case(mech)
     built = builder.make(mech, case.settings)
-    built.model.eq_solref[:, 0] = 1.0  # a loop so soft that the run pulls it apart
-    built.model.opt.timestep = 5e-4
+    built.physics.eq_solref[:, 0] = 1.0  # a loop so soft that the run pulls it apart
+    built.physics.opt.timestep = 5e-4
     with pytest.raises(simulate.SimulationError, match=r"loop constraint loop_\w+ opened to .* mm at t = "):
         simulate.run(mech, _short(case, 2.0), built=built)
+
+
+@pytest.mark.parametrize("name", ["takeup", "takeup_eyelets"])  # rollout chunks; Python steps (point forces)
+def test_a_run_steps_the_model_without_what_is_only_drawn_to_the_same_bits(name):
+    """A run steps ``Built.physics``: the model without its geoms and skybox (no mass, no
+    contact), with the same ids. Its traces equal, bit for bit, those of the drawn model."""
+    mech = validation.get(name)
+    case = _short(simulate.dynamic_case(mech), 0.05)
+    built = builder.make(mech, case.settings)
+    lean, drawn = built.physics, built.model
+    assert lean.ngeom == 0 < drawn.ngeom and lean.ntex == 0 < drawn.ntex
+    for n in ("nbody", "njnt", "nsite", "neq", "ntendon", "nu", "nsensor", "nsensordata", "nkey"):
+        assert getattr(lean, n) == getattr(drawn, n), n
+    np.testing.assert_array_equal(lean.key_qvel, drawn.key_qvel)
+    np.testing.assert_array_equal(lean.key_qpos, drawn.key_qpos)
+    import dataclasses
+
+    a = simulate.run(mech, case, built=built)
+    b = simulate.run(mech, case, built=dataclasses.replace(built, physics=drawn))
+    for key in ("time", "phi", "omega", "eps", "qpos", "torque"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
+    for p in mech.moving_points:
+        for field in ("points", "velocities", "accelerations"):
+            np.testing.assert_array_equal(getattr(a, field)[p], getattr(b, field)[p], err_msg=f"{field} {p}")

@@ -498,8 +498,7 @@ class Attached(Block):
 
     def solve(self, pts: dict[str, jet.V], phi: jet.S, phi0: float) -> Solved:
         origin = pts[self.origin]
-        d = (pts[self.toward] - origin).planar()
-        q = origin + jet.rotate_fixed(d.scale(self.length / d.norm()), self.angle)
+        q = origin + jet.rotate_fixed(jet.direction(origin, pts[self.toward]), self.angle, self.length)
         return Solved(q.with_z(self.z) if self.z is not None else q)
 
     def describe(self) -> str:

@@ -8,6 +8,9 @@ arrays of shape (N,), a vector jet arrays of shape (N, 3).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 
 import numpy as np
@@ -217,10 +220,44 @@ def turn(p: V, cos_a: S, sign: float) -> V:
     return V(p.c * e, p.cd * e + p.c * ed, p.cdd * e + 2.0 * p.cd * ed + p.c * edd, p.z, p.zd, p.zdd)
 
 
-def rotate_fixed(p: V, angle) -> V:
-    """R(angle) p about Z for a fixed angle (rad: a float, or one per row): the derivatives are
-    rotated with the vector and the angle adds none."""
-    e = np.cos(angle) + 1j * np.sin(angle)
+# Unit directions computed during the current solve (see :func:`sharing`), by the identity of
+# the two points: (a, b, unit from a to b).
+_DIRECTIONS: ContextVar[dict[tuple[int, int], tuple[V, V, V]] | None] = ContextVar("directions", default=None)
+
+
+@contextmanager
+def sharing() -> Iterator[None]:
+    """Within the block, :func:`direction` computes the unit vector between two given point
+    jets once, however many blocks ask for it (a link carrying many named points attaches them
+    all to one pair of its points), and forgets it at the end: nothing outlives the solve."""
+    token = _DIRECTIONS.set({})
+    try:
+        yield
+    finally:
+        _DIRECTIONS.reset(token)
+
+
+def direction(a: V, b: V) -> V:
+    """The in-plane unit vector from ``a`` to ``b`` with its derivatives (shared within
+    :func:`sharing`)."""
+    memo = _DIRECTIONS.get()
+    key = (id(a), id(b))
+    if memo is not None:
+        hit = memo.get(key)
+        if hit is not None and hit[0] is a and hit[1] is b:
+            return hit[2]
+    d = (b - a).planar()
+    u = d.scale(1.0 / d.norm())
+    if memo is not None:
+        memo[key] = (a, b, u)  # the points held too: their ids cannot be reused meanwhile
+    return u
+
+
+def rotate_fixed(p: V, angle, length=1.0) -> V:
+    """``length`` R(angle) p about Z for a fixed angle (rad: a float, or one per row) and
+    factor (a float, or one per row): the derivatives are rotated and scaled with the vector
+    and the angle adds none."""
+    e = length * (np.cos(angle) + 1j * np.sin(angle))
     return V(p.c * e, p.cd * e, p.cdd * e, p.z, p.zd, p.zdd)
 
 

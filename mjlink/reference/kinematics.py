@@ -137,14 +137,15 @@ def _solve(mech: Mechanism, phi: np.ndarray, check: bool, steps: Sequence[Block]
     pts: dict[str, jet.V] = {k: jet.vconst(v, n) for k, v in mech.ground.items()}
     inp = jet.S(phi, np.ones(n), np.zeros(n))
     margins: dict[str, np.ndarray] = {}
-    for s in steps:
-        solved = s.solve(pts, inp, mech.phi0)
-        pts[s.point] = solved.point
-        if solved.margin is not None:
-            margins[s.point] = solved.margin
-            bad = ~(solved.margin >= 0.0)
-            if check and bad.any():
-                raise AssemblyError(s.cannot_close(mech.name, angle_ranges(phi, bad)))
+    with jet.sharing():  # points attached to one pair of points share its direction
+        for s in steps:
+            solved = s.solve(pts, inp, mech.phi0)
+            pts[s.point] = solved.point
+            if solved.margin is not None:
+                margins[s.point] = solved.margin
+                bad = ~(solved.margin >= 0.0)
+                if check and bad.any():
+                    raise AssemblyError(s.cannot_close(mech.name, angle_ranges(phi, bad)))
     cw = mech.counterweight
     if cw is not None:  # a point mass on the input crank, placed as an attached point
         crank = mech.input_crank
@@ -154,18 +155,22 @@ def _solve(mech: Mechanism, phi: np.ndarray, check: bool, steps: Sequence[Block]
     return Kinematics(mech, phi, pts, angles, margins)
 
 
-def check_rigidity(mech: Mechanism, samples: int = 361, rtol: float = 1e-9) -> None:
-    """Every link's points must keep their distances (and a sliding link its guide's angle).
+def check_rigidity(mech: Mechanism, samples: int = 361, rtol: float = 1e-9, kin: Kinematics | None = None) -> None:
+    """Every link's points must keep their distances (and a sliding link its guide's angle),
+    at ``samples`` input angles over the period.
 
-    Catches files whose construction contradicts their link lists. Raises MechanismFileError.
+    ``kin``: the reference over the period, solved already (the file check's, at more angles:
+    every k-th of them is used), else solved here. Catches files whose construction
+    contradicts their link lists. Raises MechanismFileError.
     """
-    phi = mech.phi0 + np.linspace(0.0, mech.period, samples, endpoint=False)
-    kin = solve(mech, phi)
+    if kin is None:
+        kin = solve(mech, mech.phi0 + np.linspace(0.0, mech.period, samples, endpoint=False))
+    every = max(1, len(kin.phi) // samples)
     src = mech.path or mech.name
     for l in mech.links:
         # Each point against all later ones at once: a link carrying many named points would
         # otherwise cost a Python pass per pair, quadratic in its points.
-        xyz = np.stack([kin.points[a].v for a in l.points])
+        xyz = np.stack([kin.points[a].v[::every] for a in l.points])
         for i in range(len(xyz) - 1):
             d = np.linalg.norm(xyz[i + 1 :] - xyz[i], axis=-1)
             hi, lo = d.max(axis=1), d.min(axis=1)

@@ -190,17 +190,17 @@ def verify_timed(
             out[i] = _no_result(f"model not built: {_one_line(e)}")
             continue
         if ready:
-            _same_size(ready[0], i, mech, built.model)
+            _same_size(ready[0], i, mech, built.physics)
         t0 = time.perf_counter()
         # One scratch MjData serves every model: they have one size signature, as rollout's
         # per-thread MjData serve them all too.
         if data is None:
-            data = mujoco.MjData(built.model)
+            data = mujoco.MjData(built.physics)
         mujoco.mj_resetDataKeyframe(
-            built.model, data, mujoco.mj_name2id(built.model, mujoco.mjtObj.mjOBJ_KEY, names.INITIAL)
+            built.physics, data, mujoco.mj_name2id(built.physics, mujoco.mjtObj.mjOBJ_KEY, names.INITIAL)
         )
-        state = np.empty(mujoco.mj_stateSize(built.model, _FULL))
-        mujoco.mj_getState(built.model, data, state, _FULL)
+        state = np.empty(mujoco.mj_stateSize(built.physics, _FULL))
+        mujoco.mj_getState(built.physics, data, state, _FULL)
         times["keyframe"] = times.get("keyframe", 0.0) + time.perf_counter() - t0
         ready.append(_Variant(i, mech, built, state, case.steps))
     for k in ("spec", "compile", "keyframe"):
@@ -213,12 +213,12 @@ def verify_timed(
         t0 = time.perf_counter()
         control = None
         if any(v.mech.dynamics.forces for v in group):
-            control = np.zeros((len(group), steps + 1, 6 * group[0].built.model.nbody))
+            control = np.zeros((len(group), steps + 1, 6 * group[0].built.physics.nbody))
             for j, v in enumerate(group):
                 control[j] = external_forces(v.mech, v.built, steps + 1)
         timing.forces += time.perf_counter() - t0
         t0 = time.perf_counter()
-        models, states = [v.built.model for v in group], np.array([v.state for v in group])
+        models, states = [v.built.physics for v in group], np.array([v.state for v in group])
         sd = rollout(models, states, steps + 1, control=control, threads=threads)
         del control
         timing.rollout += time.perf_counter() - t0
@@ -297,7 +297,7 @@ def external_forces(mech: Mechanism, built: builder.Built, nstep: int) -> np.nda
       as :meth:`mjlink.sim.simulate.Forces.hold` evaluates them on MuJoCo's state half
       a step ahead and holds them through the step.
     """
-    model = built.model
+    model = built.physics
     out = np.zeros((nstep, model.nbody, 6))
     if not mech.dynamics.forces:
         return out.reshape(nstep, -1)
@@ -331,7 +331,7 @@ def judge(mech: Mechanism, built: builder.Built, rows: np.ndarray) -> Verificati
     Returns:
       Its :class:`Verification`.
     """
-    model = built.model
+    model = built.physics
 
     def col(key: tuple[str, str], dim: int = 1) -> np.ndarray:  # by the builder's sensor addresses
         a = built.sensors[key]
@@ -393,7 +393,7 @@ def _failure(c: compare.Check) -> str:
 
 def _same_size(first: _Variant, i: int, mech: Mechanism, model: mujoco.MjModel) -> None:
     """Refuse a variant whose model differs in size from the first variant's."""
-    a, b = signature(first.built.model), signature(model)
+    a, b = signature(first.built.physics), signature(model)
     if a != b:
         diff = ", ".join(f"{k} {x} against {y}" for k, x, y in zip(_SIGNATURE, b, a, strict=True) if x != y)
         raise MjlinkError(

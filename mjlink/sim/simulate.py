@@ -108,7 +108,7 @@ class Forces:
     """
 
     def __init__(self, mech: Mechanism, built: builder.Built):
-        model = built.model
+        model = built.physics
         self.mech = mech
         self.qadr = built.input_qpos
         self.items = [
@@ -180,7 +180,7 @@ def _record_rollout(
     """
     from mujoco import rollout
 
-    model = built.model
+    model = built.physics
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     ns = mujoco.mj_stateSize(model, spec)
     state0 = np.empty(ns)
@@ -224,7 +224,7 @@ def _record_stepped(
     """Step the run in Python, once per step, for a file with point forces (set per step by
     :meth:`Forces.hold`); at each sample the forces of the sample's own state are applied and
     the sensors read after ``mj_forward``."""
-    model = built.model
+    model = built.physics
     forces = Forces(mech, built)
     n = case.samples
     t = np.empty(n)
@@ -284,7 +284,7 @@ def loop_gaps(built: builder.Built, rows: np.ndarray) -> np.ndarray:
 
 def _check(built: builder.Built, t: np.ndarray, rows: np.ndarray, qpos: np.ndarray) -> None:
     """Raise SimulationError at the first sample that is not finite or whose loop opened."""
-    model = built.model
+    model = built.physics
     bad = ~(np.isfinite(rows).all(axis=1) & np.isfinite(qpos).all(axis=1))
     if bad.any():
         k = int(np.argmax(bad))
@@ -319,7 +319,7 @@ def _loop_forces(
     Solved for all loops and samples at once (least squares, exact when each loop's force
     shows in some body's balance; raises SimulationError if the loops' forces cannot be told
     apart, as when two loops join the same two links)."""
-    model = built.model
+    model = built.physics
     S = built.sensors
     rows = rec.rows
     links = [l.name for l in mech.links]
@@ -349,7 +349,7 @@ def _loop_forces(
 def decode(mech: Mechanism, case: Case, built: builder.Built, rec: Record) -> Trace:
     """The trace of a run from its raw samples: every quantity from the model's sensors
     (:func:`builder._add_sensors`), vectorized over the samples."""
-    model = built.model
+    model = built.physics
     S = built.sensors
     rows = rec.rows
     n = len(rows)
@@ -427,8 +427,8 @@ def run(
     called with the fraction done (0..1) about every PROGRESS_EVERY seconds of a long run, and
     with 1 at its end."""
     built = built or builder.make(mech, case.settings)
-    data = mujoco.MjData(built.model)
-    data.qvel[:] = builder.consistent_velocity(built.model, data, built.input_dof, case.omega0)
+    data = mujoco.MjData(built.physics)
+    data.qvel[:] = builder.consistent_velocity(built.physics, data, built.input_dof, case.omega0)
     if mech.dynamics.forces:
         rec = _record_stepped(mech, case, built, data, progress)
     else:
