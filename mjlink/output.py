@@ -146,7 +146,7 @@ def write_text(path: Path | str, text: str | bytes | Iterable[bytes | memoryview
     return path
 
 
-def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
+def write_table(path: Path, names: Sequence[str], cols: Sequence[Any], scale: Sequence[float] | None = None) -> Path:
     """Write a CSV table into a staging folder; returns ``path``.
 
     Args:
@@ -155,6 +155,8 @@ def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
         cols: arrays of N rows each, (N,) for one column or (N, m) for m columns, k columns in
             all; written at full double precision: the shortest text that reads back to the
             same double (``1e-05`` as ``0.00001``, ``-0.0``, ``nan``, ``inf``).
+        scale: a factor per array of ``cols`` (into the unit its names say), applied as the
+            rows are written (None: all 1).
 
     The numbers are formatted by orjson's shortest-round-trip writer in C, a block of rows at a
     time as a JSON array of rows that becomes CSV by replacing the row brackets: 40 ns a number
@@ -162,10 +164,10 @@ def write_table(path: Path, names: Sequence[str], cols: Sequence[Any]) -> Path:
     because a traced point costs 9 columns x every sample of four files.
     """
     head = (",".join(names) + "\n").encode()
-    return write_text(path, itertools.chain([head], _csv_rows(cols, len(names))), in_stage=True)
+    return write_text(path, itertools.chain([head], _csv_rows(cols, len(names), scale)), in_stage=True)
 
 
-def _csv_rows(cols: Sequence[Any], k: int) -> Iterator[bytes | memoryview]:
+def _csv_rows(cols: Sequence[Any], k: int, scale: Sequence[float] | None = None) -> Iterator[bytes | memoryview]:
     """The rows of the columns ``cols`` (k in all) as CSV text, a block of rows at a time:
     each block is copied from the columns into one small (rows, k) table, formatted and
     written before the next, so the table stays in cache and its memory is reused, where a
@@ -179,18 +181,25 @@ def _csv_rows(cols: Sequence[Any], k: int) -> Iterator[bytes | memoryview]:
     widths = [1 if a.ndim == 1 else a.shape[1] for a in arrays]
     if sum(widths) != k or len({len(a) for a in arrays}) > 1:
         raise ValueError(f"{k} column names for columns of widths {widths} and lengths {[len(a) for a in arrays]}")
+    factors = [1.0] * len(arrays) if scale is None else list(scale)
     n = len(arrays[0])
     block = max(1, (1 << 22) // (20 * max(k, 1)))  # rows of about 4 MB of text
     part = np.empty((min(block, n), k))
     for i in range(0, n, block):
         rows = part[: min(block, n - i)]
         j = 0
-        for a, w in zip(arrays, widths, strict=True):
-            rows[:, j : j + w] = a[i : i + len(rows)].reshape(len(rows), w)
+        for a, w, f in zip(arrays, widths, factors, strict=True):
+            src = a[i : i + len(rows)].reshape(len(rows), w)
+            if f == 1.0:
+                rows[:, j : j + w] = src
+            else:  # scaled in the copy: no scaled array of the whole column made first
+                np.multiply(src, f, out=rows[:, j : j + w])
             j += w
         raw = orjson.dumps(rows, option=orjson.OPT_SERIALIZE_NUMPY)
-        bad = ~np.isfinite(rows)
-        if bad.any():
+        # One sum, no mask, tells that every number is finite (a sum that overflows only sends
+        # a block to the exact check below).
+        if not np.isfinite(np.add.reduce(rows, axis=None)):
+            bad = ~np.isfinite(rows)
             raw = _non_finite(raw, rows[bad])
         # '[[a,b],[c,d]]' -> 'a,b\nc,d\n': each row is a view between its '[' and ']', found
         # with bytes.find (memchr speed), joined by newlines: one copy of the text. Splitting
@@ -257,6 +266,12 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[np.ndarray]]
     speed rad/s and rpm, acceleration rad/s^2, point positions mm, velocities mm/s and
     accelerations mm/s^2, link speeds rad/s and accelerations rad/s^2, thread length mm, loop
     gap um."""
+    names, blocks = _blocks(mech, trace)
+    return names, [values if factor == 1.0 else values * factor for values, factor in blocks]
+
+
+def _blocks(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.ndarray, float]]]:
+    """:func:`columns`' names, and its columns as (values in SI, factor into the column's unit)."""
     names = ["time_s", "phi1_deg", "omega1_rad_s", "eps1_rad_s2", "n1_rpm"]
     # (values (N,) or (N, 3), factor into the column's unit): a point's three axes are
     # scaled in one pass, not sliced into columns.
@@ -284,13 +299,13 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[np.ndarray]]
     if trace.loop_gap is not None:
         names.append("loop_gap_um")
         blocks.append((trace.loop_gap, _UM_PER_M))
-    return names, [values if factor == 1.0 else values * factor for values, factor in blocks]
+    return names, blocks
 
 
 def write_csv(path: Path, mech: Mechanism, trace: Trace) -> Path:
     """Write a trace as CSV (the columns of :func:`columns`) at full double precision."""
-    names, cols = columns(mech, trace)
-    return write_table(path, names, cols)
+    names, blocks = _blocks(mech, trace)
+    return write_table(path, names, [v for v, _ in blocks], [f for _, f in blocks])
 
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:
