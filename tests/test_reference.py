@@ -135,6 +135,30 @@ def test_polar_and_turn_derivatives_match_finite_differences():
         np.testing.assert_allclose(got.cdd, (fp - 2 * f0 + fm) / h**2, rtol=0, atol=1e-4)
 
 
+def test_a_shared_direction_is_the_direction_and_is_forgotten_after_the_solve():
+    """jet.direction inside jet.sharing: computed once per pair of point jets (the same object
+    for every block that asks), equal to the unit vector with finite-difference derivatives,
+    and nothing kept once the solve ends."""
+    rng = np.random.default_rng(3)
+    n, h = 32, 1e-4
+    pa, pb = ([rng.normal(size=n) + 1j * rng.normal(size=n) for _ in range(3)] for _ in range(2))
+    a, b = jet.V(*pa), jet.V(*pb)
+
+    def unit_at(t):
+        d = _quadratic(*pb, t) - _quadratic(*pa, t)
+        return d / np.abs(d)
+
+    with jet.sharing():
+        u = jet.direction(a, b)
+        assert jet.direction(a, b) is u
+        assert jet.direction(b, a) is not u
+    assert jet.direction(a, b) is not u  # outside: computed anew
+    fp, f0, fm = unit_at(h), unit_at(0.0), unit_at(-h)
+    np.testing.assert_allclose(u.c, f0, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(u.cd, (fp - fm) / (2 * h), rtol=0, atol=1e-5)
+    np.testing.assert_allclose(u.cdd, (fp - 2 * f0 + fm) / h**2, rtol=0, atol=1e-3)
+
+
 def test_velocity_and_acceleration_chain_rule(takeup):
     k = R.solve(takeup, [1.0])
     p = k.points["P5"]
