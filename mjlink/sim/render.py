@@ -247,12 +247,16 @@ class Extras:
     lines: list[list[str]]
 
 
+_ZERO3 = np.zeros(3)
+_EYE = np.eye(3).ravel()  # read only by mjv_initGeom: one array for every geom
+
+
 def _segment(scene, kind: int, a: np.ndarray, b: np.ndarray, width: float, rgba) -> None:
     """Append one connector geom (capsule, line or arrow from ``a`` to ``b``, m) to ``scene``."""
     if scene.ngeom >= scene.maxgeom:
         return
     g = scene.geoms[scene.ngeom]
-    mujoco.mjv_initGeom(g, kind, np.zeros(3), np.zeros(3), np.eye(3).ravel(), np.asarray(rgba, dtype=np.float32))
+    mujoco.mjv_initGeom(g, kind, _ZERO3, _ZERO3, _EYE, np.asarray(rgba, dtype=np.float32))
     mujoco.mjv_connector(g, kind, width, a, b)
     g.category = int(mujoco.mjtCatBit.mjCAT_DECOR)
     scene.ngeom += 1
