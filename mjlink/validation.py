@@ -459,8 +459,12 @@ def _structure(mech: Mechanism, kin: reference.Kinematics) -> list[MjlinkError]:
 def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError | None:
     """A point whose block's direction is undefined (two of its points coincide) somewhere."""
     src = mech.path or mech.name
+    seen: set[frozenset[str]] = set()  # many points attached to one pair: that pair once
     for s in mech.steps:
         for p, q, what in s.directions():
+            if frozenset((p, q)) in seen:
+                continue
+            seen.add(frozenset((p, q)))
             d = np.linalg.norm((kin.points[p].v - kin.points[q].v)[:, :2], axis=1)
             if not (d >= MIN_DIRECTION_M).all():
                 i = int(np.argmin(np.where(np.isfinite(d), d, -1.0)))
