@@ -130,6 +130,11 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
     # What is only drawn (the geoms: no mass, no contact; the skybox) is added last (see
     # :func:`make`), so that a run can step the same model without it.
     drawn: list[Callable[[], Any]] = []
+
+    def draw(body: mujoco.MjsBody, **geom: Any) -> None:
+        """A geom that is only drawn (no contact), added with the rest of what is drawn."""
+        drawn.append(functools.partial(body.add_geom, contype=0, conaffinity=0, **geom))
+
     spec.compiler.degree = False
     opt = spec.option
     opt.timestep = settings.timestep
@@ -207,16 +212,12 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         sites[name] = world.add_site(name=name, pos=p.tolist(), size=[1.0 * r_link, 0, 0], rgba=[0.15, 0.15, 0.15, 1.0])
     for pr in topo.tree + topo.loops:
         if pr.revolute and pr.parent is None:
-            drawn.append(
-                functools.partial(
-                    world.add_geom,
-                    type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                    pos=(pos[pr.pin] - [0, 0, 0.02 * size]).tolist(),
-                    size=[2.2 * r_link, 0.012 * size, 0],
-                    material="mat_ground",
-                    contype=0,
-                    conaffinity=0,
-                )
+            draw(
+                world,
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                pos=(pos[pr.pin] - [0, 0, 0.02 * size]).tolist(),
+                size=[2.2 * r_link, 0.012 * size, 0],
+                material="mat_ground",
             )
 
     # The frame (ground link) joining the input crank's pivot to every other frame pivot,
@@ -226,32 +227,24 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
     for g in dict.fromkeys(frame_pivots):
         if g != hub and hub in pos:
             a, c = (pos[q] - [0, 0, 0.035 * size] for q in (hub, g))
-            drawn.append(
-                functools.partial(
-                    world.add_geom,
-                    type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                    fromto=[*a, *c],
-                    size=[0.35 * r_link, 0, 0],
-                    material="mat_ground",
-                    rgba=list(palette.rgba(palette.GROUND, 0.55)),
-                    contype=0,
-                    conaffinity=0,
-                )
+            draw(
+                world,
+                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                fromto=[*a, *c],
+                size=[0.35 * r_link, 0, 0],
+                material="mat_ground",
+                rgba=list(palette.rgba(palette.GROUND, 0.55)),
             )
 
     for l in mech.links:  # a guide on the frame is drawn as a rail
         if l.guide and all(g in mech.ground for g in l.guide):
             a, c = (pos[g] - [0, 0, 0.03 * size] for g in l.guide)
-            drawn.append(
-                functools.partial(
-                    world.add_geom,
-                    type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                    fromto=[*a, *c],
-                    size=[0.5 * r_link, 0, 0],
-                    material="mat_ground",
-                    contype=0,
-                    conaffinity=0,
-                )
+            draw(
+                world,
+                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                fromto=[*a, *c],
+                size=[0.5 * r_link, 0, 0],
+                material="mat_ground",
             )
 
     bodies: dict[str | None, mujoco.MjsBody] = {None: world}
@@ -316,48 +309,36 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
                 continue
             a, b = pos[l.points[0]] - o + zoff, pos[p] - o + zoff
             if np.linalg.norm(b - a) > 1e-9:
-                drawn.append(
-                    functools.partial(
-                        body.add_geom,
-                        type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                        fromto=[*a, *b],
-                        size=[r_link, 0, 0],
-                        material=mat,
-                        contype=0,
-                        conaffinity=0,
-                        mass=0,
-                    )
+                draw(
+                    body,
+                    type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                    fromto=[*a, *b],
+                    size=[r_link, 0, 0],
+                    material=mat,
+                    mass=0,
                 )
         for p in l.points:
             if p == l.com:
                 continue
-            drawn.append(
-                functools.partial(
-                    body.add_geom,
-                    type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                    pos=(pos[p] - o + zoff).tolist(),
-                    size=[1.6 * r_link, 1.2 * r_link, 0],
-                    material=mat,
-                    contype=0,
-                    conaffinity=0,
-                    mass=0,
-                )
+            draw(
+                body,
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                pos=(pos[p] - o + zoff).tolist(),
+                size=[1.6 * r_link, 1.2 * r_link, 0],
+                material=mat,
+                mass=0,
             )
         if not pr.revolute:
             g = pos[pr.rail[1]] - pos[pr.rail[0]]
             u = g / np.linalg.norm(g)
-            drawn.append(
-                functools.partial(
-                    body.add_geom,
-                    type=mujoco.mjtGeom.mjGEOM_BOX,
-                    pos=zoff,
-                    size=[2.5 * r_link, 1.5 * r_link, r_link],
-                    quat=_quat_z(np.arctan2(u[1], u[0])),
-                    material=mat,
-                    contype=0,
-                    conaffinity=0,
-                    mass=0,
-                )
+            draw(
+                body,
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                pos=zoff,
+                size=[2.5 * r_link, 1.5 * r_link, r_link],
+                quat=_quat_z(np.arctan2(u[1], u[0])),
+                material=mat,
+                mass=0,
             )
     thread_pts = set(mech.thread or ())
     for p, owner in site_owner.items():
