@@ -11,6 +11,9 @@ study, run again, finds its finished chunks in the cache and skips them. Chunks 
 * or in this process (``workers=0``): one chunk after the other; MuJoCo's rollout then uses a
   thread per core itself.
 
+An optimization's generations, small batches one after the other, go to :class:`Pool`: the
+study held by an actor on every worker, called straight from the client.
+
 The reference is elementwise over variants, so its results are identical bit for bit whatever
 the engine and the chunking; MuJoCo's are within the thresholds (a rollout does not depend on
 its batch either, but the engine does not promise more than the thresholds).
