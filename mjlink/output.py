@@ -261,20 +261,14 @@ def write_parquet(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray])
     return path
 
 
-def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[np.ndarray]]:
-    """Column names and the columns, (N,) or (N, 3) each, of a trace of N samples: time s, crank angle deg,
-    speed rad/s and rpm, acceleration rad/s^2, point positions mm, velocities mm/s and
-    accelerations mm/s^2, link speeds rad/s and accelerations rad/s^2, thread length mm, loop
-    gap um."""
-    names, blocks = _blocks(mech, trace)
-    return names, [values if factor == 1.0 else values * factor for values, factor in blocks]
-
-
-def _blocks(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.ndarray, float]]]:
-    """:func:`columns`' names, and its columns as (values in SI, factor into the column's unit)."""
+def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.ndarray, float]]]:
+    """Column names of a trace of N samples, and its columns as (values (N,) or (N, 3) in SI,
+    factor into the column's unit): time s, crank angle deg, speed rad/s and rpm, acceleration
+    rad/s^2, point positions mm, velocities mm/s and accelerations mm/s^2, link speeds rad/s and
+    accelerations rad/s^2, thread length mm, loop gap um. The CSV writer scales them as it
+    copies the rows (no scaled copy of each column first)."""
     names = ["time_s", "phi1_deg", "omega1_rad_s", "eps1_rad_s2", "n1_rpm"]
-    # (values (N,) or (N, 3), factor into the column's unit): a point's three axes are
-    # scaled in one pass, not sliced into columns.
+    # A point's three axes stay one (N, 3) block, not sliced into columns.
     blocks: list[tuple[np.ndarray, float]] = [
         (trace.time, 1.0),
         (trace.phi, 180.0 / math.pi),
@@ -304,7 +298,7 @@ def _blocks(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.nda
 
 def write_csv(path: Path, mech: Mechanism, trace: Trace) -> Path:
     """Write a trace as CSV (the columns of :func:`columns`) at full double precision."""
-    names, blocks = _blocks(mech, trace)
+    names, blocks = columns(mech, trace)
     return write_table(path, names, [v for v, _ in blocks], [f for _, f in blocks])
 
 

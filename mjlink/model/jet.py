@@ -242,10 +242,8 @@ def direction(a: V, b: V) -> V:
     :func:`sharing`)."""
     memo = _DIRECTIONS.get()
     key = (id(a), id(b))
-    if memo is not None:
-        hit = memo.get(key)
-        if hit is not None and hit[0] is a and hit[1] is b:
-            return hit[2]
+    if memo is not None and key in memo:
+        return memo[key][2]
     d = (b - a).planar()
     u = d.scale(1.0 / d.norm())
     if memo is not None:

@@ -586,6 +586,11 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
     model = spec.compile()
     dof = _initial_key(mech, settings, el, model, key)
     physics.key_qvel[0] = model.key_qvel[0]
+    return _built(spec, el, model, physics, dof)
+
+
+def _built(spec: mujoco.MjSpec, el: _Elements, model: mujoco.MjModel, physics: mujoco.MjModel, dof: int) -> Built:
+    """The :class:`Built` of compiled ``model`` and ``physics``: the ids of the elements ``el``."""
     return Built(
         spec,
         model,
@@ -640,24 +645,7 @@ def make_batch(mech: Mechanism, settings: Settings = KINEMATIC, times: dict[str,
     if times is not None:
         for k, dt in (("spec", t1 - t0), ("compile", t2 - t1), ("keyframe", time.perf_counter() - t2)):
             times[k] = times.get(k, 0.0) + dt
-    return Built(
-        spec,
-        model,
-        model,
-        el.input_joint.id,
-        dof,
-        int(model.jnt_qposadr[el.input_joint.id]),
-        el.drive.id,
-        {k: v.id for k, v in el.sites.items()},
-        {k: v.id for k, v in el.bodies.items()},
-        tuple((p, j.id) for p, j in el.tree),
-        tuple((p, e.id) for p, e in el.loops),
-        tuple(e.id for e in el.gears),
-        -1 if el.thread is None else el.thread.id,
-        el.front.id,
-        el.oblique.id,
-        {k: int(model.sensor_adr[v.id]) for k, v in el.sensors.items()},
-    )
+    return _built(spec, el, model, model, dof)
 
 
 def build(mech: Mechanism, settings: Settings = KINEMATIC) -> mujoco.MjModel:

@@ -198,13 +198,12 @@ class Evaluator:
         parts = [(i, min(i + size, n)) for i in range(0, n, size)]
         got: dict[tuple[int, int], Evaluated] = {}
         t = time.perf_counter()
+        from .engine import Pool, _map
+
         if self.client is None:
-            for a, b in parts:
-                got[(a, b)] = reference_chunk(self.study, X[a:b])
+            _map(None, reference_chunk, self.study, X, parts, got.__setitem__, {})
         else:
             if self._pool is None:
-                from .engine import Pool
-
                 self._pool = Pool(self.client, self.study)
             self._pool.reference(X, parts, got.__setitem__)
         self.seconds += time.perf_counter() - t
