@@ -85,6 +85,43 @@ def test_overwrite_is_atomic(traces, tmp_path):
     assert [f.name for f in tmp_path.iterdir()] == ["positions.png"]
 
 
+def test_png_writer_against_matplotlibs(traces, tmp_path):
+    """style.save's own PNG encoder and its renderer that keeps text metrics between figures,
+    against matplotlib's plain Agg PNG (through Pillow) of the same figure: the same pixels,
+    size and resolution, and the same metrics for every text drawn."""
+    import io
+
+    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
+    from PIL import Image
+
+    m = traces[0]
+    with style.keep_figures() as figs:
+        plots.positions_plot(m, tmp_path, n=6)  # mathtext in its title
+    ((name, fig),) = figs
+    try:
+        ours = Image.open(tmp_path / name)
+        canvas = FigureCanvasAgg(fig)
+        plain = io.BytesIO()
+        fig.savefig(plain, format="png", dpi=style.DPI, **style.TIGHT)  # positions.png is cropped
+        theirs = Image.open(plain)
+        assert (ours.size, ours.mode, ours.info["dpi"]) == (theirs.size, theirs.mode, theirs.info["dpi"])
+        assert np.array_equal(np.asarray(ours), np.asarray(theirs))
+        texts = [t for t in fig.findobj(lambda a: hasattr(a, "get_fontproperties")) if t.get_text()]
+        assert any("$" in t.get_text() for t in texts)
+        kept = style._Canvas(fig).get_renderer()
+        plain_renderer = canvas.get_renderer()
+        assert isinstance(kept, style._Renderer) and type(plain_renderer) is RendererAgg
+        for t in texts:
+            for line in t.get_text().split("\n"):  # Text measures line by line
+                text, ismath = t._preprocess_math(line)
+                want = plain_renderer.get_text_width_height_descent(text, t.get_fontproperties(), ismath)
+                for _ in range(2):  # measured, then from what was kept
+                    assert kept.get_text_width_height_descent(text, t.get_fontproperties(), ismath) == want, text
+    finally:
+        plt.close(fig)
+
+
 # ----------------------------------------------------------------------------- every mechanism
 @functools.cache
 def _kinematics(name: str):

@@ -16,16 +16,22 @@ runs left to right with time.
 from __future__ import annotations
 
 import math
+import struct
+import zlib
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
+import matplotlib
 import matplotlib.colors
 import matplotlib.pyplot as plt
 import matplotlib.text
 import numpy as np
 from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
 from matplotlib.figure import Figure
+from matplotlib.font_manager import FontProperties
+from matplotlib.mathtext import MathTextParser
 from matplotlib.typing import ColorType
 
 from .. import palette
@@ -35,6 +41,7 @@ from ..output import atomic_path
 from ..runs import Trace
 
 DPI = 120
+TIGHT: dict[str, Any] = dict(bbox_inches="tight", pad_inches=0.12)  # savefig's cropping for save(tight=True)
 
 MJ_STYLE: dict[str, Any] = dict(lw=2.0, ls=(0, (3.0, 2.4)), alpha=0.95, dash_capstyle="butt", zorder=3)
 REF_STYLE: dict[str, Any] = dict(lw=1.0, color=palette.REFERENCE, zorder=2.5)
@@ -74,8 +81,95 @@ def warm() -> None:
     ax.plot([0.0, 1.0], [0.0, 1.0])
     ax.set_title("crank $\\omega_1$ [rad/s$^2$]", fontsize=9)
     ax.set_xlabel("$\\varphi$ [deg]")
-    fig.savefig(io.BytesIO(), format="png", dpi=DPI, pil_kwargs={"compress_level": 1})
+    _Canvas(fig)
+    fig.savefig(io.BytesIO(), format="png", dpi=DPI)
     plt.close(fig)
+
+
+def png_bytes(rgba: np.ndarray, dpi: float) -> bytes:
+    """A PNG file of the 8-bit RGBA image ``rgba`` (shape (height, width, 4)) at ``dpi``.
+
+    Rows unfiltered and deflated at zlib level 1. A figure is mostly flat background, where
+    deflate alone does what a filter would: the files come within a few percent of Pillow's
+    adaptively filtered level 1 (and smaller on some), written in 40 % of its time (about 15
+    ms instead of 35 for a 1560x1128 figure), with the same pixels.
+    """
+    h, w, _ = rgba.shape
+    rows = np.empty((h, 4 * w + 1), np.uint8)
+    rows[:, 0] = 0  # filter type None
+    rows[:, 1:] = rgba.reshape(h, 4 * w)
+    ppm = round(dpi / 0.0254)  # pixels per metre, as matplotlib (Pillow) writes it
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    software = f"Software\0Matplotlib version{matplotlib.__version__}, https://matplotlib.org/".encode("latin-1")
+    return b"".join(
+        (
+            b"\x89PNG\r\n\x1a\n",
+            chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0)),  # 8-bit RGBA
+            chunk(b"tEXt", software),
+            chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1)),
+            chunk(b"IDAT", zlib.compress(rows.data, 1)),
+            chunk(b"IEND", b""),
+        )
+    )
+
+
+class _Renderer(RendererAgg):
+    """The Agg renderer with text metrics and mathtext layouts kept from one figure to the next.
+
+    matplotlib keeps both per renderer, and every figure has its own: the same tick labels,
+    axis labels and formulas would be measured and laid out again in each (a third of a
+    figure set's text measuring). Both depend on the text, its font properties and the dpi
+    alone, which is the key here."""
+
+    # One mathtext parser for every renderer: matplotlib's cache of layouts (50) has the
+    # parser in its key. The first renderer's, so that its kind is this matplotlib's own.
+    _parser: ClassVar[MathTextParser | None] = None
+    _metrics: ClassVar[dict[tuple[Any, ...], tuple[float, float, float]]] = {}
+    _MAX_METRICS = 4096
+
+    def __init__(self, width: int, height: int, dpi: float) -> None:
+        super().__init__(width, height, dpi)
+        if _Renderer._parser is None:
+            _Renderer._parser = self.mathtext_parser
+        self.mathtext_parser = _Renderer._parser
+
+    def get_text_width_height_descent(self, s: str, prop: FontProperties, ismath: Any) -> tuple[float, float, float]:
+        # A copy in the key: FontProperties hashes its mutable state. The hinting settings
+        # change the metrics too (matplotlib reads them at each measurement).
+        rc = matplotlib.rcParams
+        key = (s, prop.copy(), ismath, self.dpi, rc["text.hinting"], rc["text.hinting_factor"])
+        found = self._metrics.get(key)
+        if found is None:
+            if len(self._metrics) >= self._MAX_METRICS:
+                self._metrics.clear()
+            found = self._metrics[key] = super().get_text_width_height_descent(s, prop, ismath)
+        return found
+
+
+class _Canvas(FigureCanvasAgg):
+    """The Agg canvas with its PNG written by :func:`png_bytes` (savefig finds the format's
+    ``print_png`` on the figure's canvas: layout, cropping and drawing stay matplotlib's). The
+    keywords print_figure passes every backend (facecolor, edgecolor, orientation: already set on
+    the figure) mean nothing to a raster written here."""
+
+    def get_renderer(self) -> _Renderer:
+        w, h = self.get_width_height(physical=True)
+        key = (w, h, self.figure.dpi)
+        if getattr(self, "_size", None) != key:
+            self.renderer, self._size = _Renderer(w, h, self.figure.dpi), key
+        return self.renderer
+
+    def print_png(self, filename_or_obj: Any, **_: Any) -> None:
+        FigureCanvasAgg.draw(self)
+        data = png_bytes(np.asarray(self.buffer_rgba()), self.figure.dpi)
+        if hasattr(filename_or_obj, "write"):
+            filename_or_obj.write(data)
+        else:
+            with open(filename_or_obj, "wb") as f:
+                f.write(data)
 
 
 def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Path:
@@ -91,11 +185,10 @@ def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Pa
             out.mkdir(parents=True, exist_ok=True)
         except OSError as e:
             raise OutputError(f"{path}: cannot write plot: {e.strerror or e}") from None
-        crop: dict[str, Any] = dict(bbox_inches="tight", pad_inches=0.12) if tight else {}
+        crop = TIGHT if tight else {}
         with atomic_path(path, suffix=".png") as tmp:
-            # zlib level 1: a figure's PNG is ~25 % larger than at the default 6 and encodes in
-            # a fifth of the time (70 -> 15 ms a figure; the same pixels).
-            fig.savefig(tmp, format="png", dpi=DPI, pil_kwargs={"compress_level": 1}, **crop)
+            _Canvas(fig)  # the figure's PNG encoded by png_bytes
+            fig.savefig(tmp, format="png", dpi=DPI, **crop)
     finally:
         if _KEEP is not None:
             _KEEP.append((name, fig))
