@@ -291,3 +291,34 @@ def test_trail_follows_the_key_point(mech, trace):
     assert key == "P5"
     assert trail.shape == (7, render.TRAIL_SAMPLES, 3)
     np.testing.assert_allclose(trail[:, -1], now, atol=1e-12)  # the trail ends at the point
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="needs CPU affinity (Linux)")
+def test_video_file_is_the_same_on_one_core_or_all():
+    """The encoder's output depends on the frames alone: x264 decides differently with the
+    number of threads it runs, so mjlink runs one, and a machine's core count does not change
+    the MP4 (encoded here with this process on one core, then on all of them)."""
+    import tempfile
+
+    cpus = os.sched_getaffinity(0)
+    if len(cpus) < 2:
+        pytest.skip("one core: nothing to compare")
+    rng = np.random.default_rng(3)
+    base = rng.integers(0, 255, size=(240, 320, 3), dtype=np.uint8)
+    frames = [np.roll(base, 4 * i, axis=1) for i in range(30)]
+
+    def encode(path: Path) -> bytes:
+        w = render._open_writer(path, 30)
+        for f in frames:
+            w.append_data(f)
+        w.close()
+        return path.read_bytes()
+
+    with tempfile.TemporaryDirectory() as tmp:
+        everywhere = encode(Path(tmp) / "all.mp4")
+        os.sched_setaffinity(0, {min(cpus)})
+        try:
+            one = encode(Path(tmp) / "one.mp4")
+        finally:
+            os.sched_setaffinity(0, cpus)
+    assert one == everywhere
