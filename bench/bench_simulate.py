@@ -4,7 +4,9 @@ Prints, on this machine, in one run so that the ratios compare like with like:
 
 1. CPU and wall seconds of ``python -m mjlink simulate NAME`` (a fresh process: imports,
    the GL choice, runs, reference, loads, plots, video, CSVs) for every shipped mechanism,
-   with and without the video (best of ``--repeat`` runs each, interleaved);
+   with and without the video (the fastest of ``--repeat`` runs each by wall time, with its CPU, interleaved; the medians beside it),
+   each run between two timings of a fixed CPU loop (:func:`host_loop`) that show how fast
+   the shared machine ran then;
 2. the project's sampling loop (:func:`mjlink.sim.simulate.run` on a compiled model, traces
    and loads decoded from the sensors included) against a plain C loop ``mj_step(m, d, nstep)`` on the same model: steps per second and their ratio,
    for the kinematic and the dynamic case of the take-up;
@@ -18,7 +20,7 @@ Prints, on this machine, in one run so that the ratios compare like with like:
    the crank angle against LSODA and the DOP853 twin (CPU and deviation);
 5. the cost of one more named point: ``simulate --no-video --no-plots`` of the take-up file
    with 0 and with ``--points`` extra points attached to the lever, the CPU difference per point
-   (best of 5 runs each, interleaved).
+   (best of 7 runs each, interleaved; the difference of the medians beside it).
 
 pylinkage and numba come with ``pip install -e '.[bench]'``; without them item 3 says so.
 Run: ``python bench/bench_simulate.py`` (``--quick``: one repeat, fewer angles).
@@ -82,25 +84,62 @@ def run_cli(args: list[str]) -> tuple[float, float]:
     return wall, _children_cpu() - c0
 
 
+def host_loop() -> float:
+    """CPU seconds of a fixed workload (pure Python, then numpy; about 60 ms at this machine's
+    fastest). Timed beside each measured command, it tells how fast the shared machine ran
+    then: its speed drifts by up to 1.8x within minutes, with the load average unchanged."""
+    t = time.process_time()
+    s = 0
+    for i in range(400_000):
+        s += i * i
+    np.sort(np.random.default_rng(0).random(300_000))
+    return time.process_time() - t
+
+
 def bench_simulate(repeat: int) -> list[tuple[str, str, str, str]]:
     rows = []
+    loops: list[float] = []
+    host_loop()  # its first call pays for numpy's generator: not counted
     with tempfile.TemporaryDirectory() as tmp:
-        best: dict[tuple[str, bool], tuple[float, float]] = {}
+        # (wall s, CPU s, the host loop's CPU s around the run)
+        runs: dict[tuple[str, bool], list[tuple[float, float, float]]] = {}
         for name in MECHANISMS:  # fills the bytecode cache: not counted
             run_cli(["simulate", name, "--out", tmp, "--force"])
         for _ in range(repeat):
             for name in MECHANISMS:
                 for video in (True, False):
                     args = ["simulate", name, "--out", tmp, "--force"] + ([] if video else ["--no-video"])
+                    before = host_loop()
                     w, c = run_cli(args)
-                    key = (name, video)
-                    if key not in best or w < best[key][0]:
-                        best[key] = (w, c)
+                    loop = 0.5 * (before + host_loop())
+                    loops.append(loop)
+                    runs.setdefault((name, video), []).append((w, c, loop))
+        fastest = min(loops)
         for name in MECHANISMS:
             for video in (True, False):
-                w, c = best[(name, video)]
+                got = runs[(name, video)]
+                w, c, loop = min(got)  # the fastest run, by wall time, with its CPU
                 target = "4 s wall, 6 s CPU" if (name == "takeup" and video) else ("6 s wall" if video else "-")
-                rows.append((f"simulate {name}" + ("" if video else " --no-video"), f"{w:.2f}", f"{c:.2f}", target))
+                spread = (
+                    f"median of {len(got)}: {np.median([g[0] for g in got]):.2f} s wall, "
+                    f"{np.median([g[1] for g in got]):.2f} s CPU; host loop {loop / fastest:.2f} x its fastest"
+                )
+                rows.append(
+                    (
+                        f"simulate {name}" + ("" if video else " --no-video"),
+                        f"{w:.2f}",
+                        f"{c:.2f}",
+                        f"{target}; {spread}",
+                    )
+                )
+    rows.append(
+        (
+            "host loop beside the simulate runs (the machine's speed then)",
+            "",
+            f"{fastest:.3f}",
+            f"fastest; median {np.median(loops) / fastest:.2f} x, slowest {max(loops) / fastest:.2f} x that",
+        )
+    )
     return rows
 
 
@@ -303,7 +342,7 @@ def bench_reference(n: int, repeat: int = 7) -> list[tuple[str, str, str, str]]:
     return rows
 
 
-def bench_points(k: int) -> list[tuple[str, str, str, str]]:
+def bench_points(k: int, rounds: int = 7) -> list[tuple[str, str, str, str]]:
     text = (ROOT / "mechanisms" / "takeup.toml").read_text()
     extra = "".join(
         f'\n[[construct]]\npoint = "Q{i}"\nblock = "attached"\norigin = "P3"\ntoward = "P2"\n'
@@ -318,18 +357,18 @@ def bench_points(k: int) -> list[tuple[str, str, str, str]]:
         base, plus = Path(tmp) / "takeup.toml", Path(tmp) / "takeup_more.toml"
         base.write_text(text)
         plus.write_text(more)
-        best = {}
-        for _ in range(5):
+        cpu: dict[Path, list[float]] = {base: [], plus: []}
+        for _ in range(rounds):
             for f in (base, plus):
-                w, c = run_cli(["simulate", str(f), "--out", tmp, "--force", "--no-video", "--no-plots"])
-                best[f] = min(best.get(f, (1e9, 1e9)), (c, w))
-        per = (best[plus][0] - best[base][0]) / k
+                cpu[f].append(run_cli(["simulate", str(f), "--out", tmp, "--force", "--no-video", "--no-plots"])[1])
+        per = (min(cpu[plus]) - min(cpu[base])) / k
+        per_median = (float(np.median(cpu[plus])) - float(np.median(cpu[base]))) / k
     return [
         (
             f"one more named point (take-up, {k} extra on the lever, --no-video --no-plots)",
             "",
             f"{1e3 * per:.1f} ms",
-            "CPU per extra point (target <= 10 ms)",
+            f"CPU per extra point, best of {rounds} each (target <= 10 ms); from the medians {1e3 * per_median:.1f} ms",
         )
     ]
 
@@ -375,7 +414,7 @@ def bench_dynamics() -> list[tuple[str, str, str, str]]:
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="one repeat, fewer angles")
-    p.add_argument("--repeat", type=int, default=2, help="runs of each simulate command (best counts)")
+    p.add_argument("--repeat", type=int, default=3, help="runs of each simulate command (best counts)")
     p.add_argument("--points", type=int, default=60, help="extra named points for the per-point cost")
     a = p.parse_args(argv)
     from mjlink import memory
@@ -388,7 +427,7 @@ def main(argv: list[str] | None = None) -> None:
     rows += bench_sampling()
     rows += bench_reference(3600 if a.quick else 36000)
     rows += bench_dynamics()
-    rows += bench_points(a.points)
+    rows += bench_points(a.points, 3 if a.quick else 7)
     width = max(len(r[0]) for r in rows)
     print(f"{'':{width}}  {'wall s':>8}  {'CPU s':>8}  note")
     for name, wall, cpu, note in rows:
