@@ -358,8 +358,11 @@ def bench_points(k: int, rounds: int = 7) -> list[tuple[str, str, str, str]]:
         base.write_text(text)
         plus.write_text(more)
         cpu: dict[Path, list[float]] = {base: [], plus: []}
+        loops: list[float] = []
+        host_loop()
         for _ in range(rounds):
             for f in (base, plus):
+                loops.append(host_loop())
                 cpu[f].append(run_cli(["simulate", str(f), "--out", tmp, "--force", "--no-video", "--no-plots"])[1])
         per = (min(cpu[plus]) - min(cpu[base])) / k
         per_median = (float(np.median(cpu[plus])) - float(np.median(cpu[base]))) / k
@@ -368,7 +371,8 @@ def bench_points(k: int, rounds: int = 7) -> list[tuple[str, str, str, str]]:
             f"one more named point (take-up, {k} extra on the lever, --no-video --no-plots)",
             "",
             f"{1e3 * per:.1f} ms",
-            f"CPU per extra point, best of {rounds} each (target <= 10 ms); from the medians {1e3 * per_median:.1f} ms",
+            f"CPU per extra point, best of {rounds} each (target <= 10 ms); from the medians {1e3 * per_median:.1f} ms; "
+            f"host loop {min(loops):.3f} to {max(loops):.3f} s meanwhile",
         )
     ]
 
