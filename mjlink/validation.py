@@ -462,9 +462,10 @@ def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError
     seen: set[frozenset[str]] = set()  # many points attached to one pair: that pair once
     for s in mech.steps:
         for p, q, what in s.directions():
-            if frozenset((p, q)) in seen:
+            pair = frozenset((p, q))
+            if pair in seen:
                 continue
-            seen.add(frozenset((p, q)))
+            seen.add(pair)
             d = np.linalg.norm((kin.points[p].v - kin.points[q].v)[:, :2], axis=1)
             if not (d >= MIN_DIRECTION_M).all():
                 i = int(np.argmin(np.where(np.isfinite(d), d, -1.0)))

@@ -581,11 +581,10 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
     spec, el = _spec(mech, settings)
     key = spec.add_key(name=names.INITIAL)
     physics = spec.compile()  # before what is only drawn is added: cheap without the skybox
+    dof = _initial_key(mech, settings, el, physics, key)
     for add in el.drawn:
         add()
-    model = spec.compile()
-    dof = _initial_key(mech, settings, el, model, key)
-    physics.key_qvel[0] = model.key_qvel[0]
+    model = spec.compile()  # the keyframe comes with the spec
     return _built(spec, el, model, physics, dof)
 
 

@@ -274,7 +274,7 @@ def _decorate(scene, extras: Extras, i: int) -> None:
             mujoco.mjtGeom.mjGEOM_BOX,
             np.array([40.0 * extras.size, 40.0 * extras.size, 1e-3 * extras.size]),
             np.array([c[0], c[1], extras.lo[2] - 0.25 * extras.size]),
-            np.eye(3).ravel(),
+            _EYE,
             np.array([0.86, 0.87, 0.9, 1.0], dtype=np.float32),
         )
         g.category = int(mujoco.mjtCatBit.mjCAT_DECOR)
