@@ -197,8 +197,10 @@ def _csv_rows(cols: Sequence[Any], k: int, scale: Sequence[float] | None = None)
             j += w
         raw = orjson.dumps(rows, option=orjson.OPT_SERIALIZE_NUMPY)
         # One sum, no mask, tells that every number is finite (a sum that overflows only sends
-        # a block to the exact check below).
-        if not np.isfinite(np.add.reduce(rows, axis=None)):
+        # a block to the exact check below, without a warning).
+        with np.errstate(over="ignore", invalid="ignore"):
+            total = np.add.reduce(rows, axis=None)
+        if not np.isfinite(total):
             bad = ~np.isfinite(rows)
             raw = _non_finite(raw, rows[bad])
         # '[[a,b],[c,d]]' -> 'a,b\nc,d\n': each row is a view between its '[' and ']', found
