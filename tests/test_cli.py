@@ -183,3 +183,18 @@ def test_simulate_dynamics_flag(tmp_path):
     rep = json.loads((tmp_path / "crank_slider" / "report.json").read_text())
     assert rep["failures"] == [] and "steady" in rep and "loads" in rep
     assert (tmp_path / "crank_slider" / "loads.csv").is_file()
+
+
+def test_command_line_runs_openblas_on_one_thread():
+    """Importing the command line before numpy leaves numpy's OpenBLAS with one thread (its
+    idle threads spun on a core the plot workers need), unless the user set a number."""
+    code = (
+        "import os, mjlink.cli, numpy as np; a = np.ones((600, 600)); a @ a; "
+        "print(os.environ['OPENBLAS_NUM_THREADS'], len(os.listdir('/proc/self/task')))"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["1", "1"]
+    env["OPENBLAS_NUM_THREADS"] = "2"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.split()[0] == "2"

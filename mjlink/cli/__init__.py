@@ -21,6 +21,7 @@ import sys
 from typing import Any, NoReturn
 
 from ..errors import MjlinkError
+from . import _threads  # noqa: F401  (first: before .commands loads numpy)
 from .commands import COMMANDS, EXAMPLES
 from .text import error_line, format_report
 
