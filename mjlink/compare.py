@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from . import reference
+from .model.jet import norms
 from .model.mechanism import Mechanism
 from .model.topology import pairs
 from .reference import reference_trace
@@ -188,8 +189,8 @@ class Agreement:
 
 
 def _rel(err: np.ndarray, ref: np.ndarray) -> float:
-    scale = float(np.linalg.norm(ref, axis=1).max())
-    return float(np.linalg.norm(err, axis=1).max() / scale) if scale > 0 else 0.0
+    scale = float(norms(ref).max())
+    return float(norms(err).max() / scale) if scale > 0 else 0.0
 
 
 def reference_at(mech: Mechanism, mj: Trace, kin: reference.Kinematics | None = None) -> Trace:
@@ -217,8 +218,8 @@ def point_limits(ref: Trace, point: str) -> PointLimits:
     """The thresholds of ``point`` (see :class:`PointLimits`) for the reference trace ``ref``."""
     return PointLimits(
         POSITION_UM * 1e-6,
-        VELOCITY_REL * float(np.linalg.norm(ref.velocities[point], axis=1).max()),
-        ACCELERATION_REL * float(np.linalg.norm(ref.accelerations[point], axis=1).max()),
+        VELOCITY_REL * float(norms(ref.velocities[point]).max()),
+        ACCELERATION_REL * float(norms(ref.accelerations[point]).max()),
     )
 
 
@@ -234,7 +235,7 @@ def torque_limit(ref_torque: np.ndarray) -> float:
 
 def force_limit(ref_force: np.ndarray) -> float:
     """A pair reaction's threshold, N: FORCE_REL of the pair's largest reference force."""
-    return FORCE_REL * float(np.linalg.norm(ref_force, axis=1).max())
+    return FORCE_REL * float(norms(ref_force).max())
 
 
 def shaking_force_limit(ref_force: np.ndarray) -> float:
@@ -256,7 +257,7 @@ def agreement(
     for n in mech.point_names:
         if n in mech.ground:
             continue
-        pos = float(np.linalg.norm(mj.points[n] - ref.points[n], axis=1).max())
+        pos = float(norms(mj.points[n] - ref.points[n]).max())
         pts.append(
             PointError(
                 n,
@@ -380,11 +381,11 @@ def loads(
     pairs = {}
     for lab, f_ref in rx.forces.items():
         f_mj = mj.reactions[lab]
-        peak = float(np.linalg.norm(f_ref, axis=1).max())
+        peak = float(norms(f_ref).max())
         entry = {
             "max_force_N": peak,
-            "max_force_mujoco_N": float(np.linalg.norm(f_mj, axis=1).max()),
-            "error_rel": float(np.linalg.norm(f_mj - f_ref, axis=1).max() / peak) if peak > 0 else 0.0,
+            "max_force_mujoco_N": float(norms(f_mj).max()),
+            "error_rel": float(norms(f_mj - f_ref).max() / peak) if peak > 0 else 0.0,
         }
         if lab in rx.moments:
             m_ref, m_mj = rx.moments[lab], mj.moments[lab]
@@ -402,7 +403,7 @@ def loads(
         float(np.abs(mj.torque - tau).max() / np.ptp(tau)) if np.ptp(tau) > 0 else 0.0,
         pairs,
         max((p["error_rel"] for p in pairs.values()), default=0.0),
-        float(np.linalg.norm(got.force - ref.force, axis=1).max() / f_range) if f_range > 0 else 0.0,
+        float(norms(got.force - ref.force).max() / f_range) if f_range > 0 else 0.0,
         None if mech.geared else float(np.abs(got.moment - ref.moment).max() / m_range) if m_range > 0 else 0.0,
     )
 
@@ -469,7 +470,7 @@ def branch_switch(
     first, who = None, None
     for n in mech.moving_points:
         mj, ref = np.asarray(trace.points[n]), kin.position(n)
-        dev = np.linalg.norm(mj - ref, axis=1)
+        dev = norms(mj - ref)
         bad = ~(dev <= tol_m)
         if bad.any():
             i = int(np.argmax(bad))
@@ -481,7 +482,7 @@ def branch_switch(
     assert n is not None
     t, phi = float(trace.time[i]), math.degrees(float(trace.phi[i]))
     mj = np.asarray(trace.points[n])
-    dev = np.linalg.norm(mj - kin.position(n), axis=1)
+    dev = norms(mj - kin.position(n))
     step = next(s for s in mech.steps if s.point == n)
     where = f"at t = {t:.6g} s, input angle {phi:.2f} deg"
     src = mech.path or mech.name

@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .errors import OutputError
+from .model.jet import norms
 from .model.mechanism import Mechanism
 from .runs import Trace
 from .units import MM, UM, to_rpm
@@ -798,7 +799,7 @@ def write_loads_csv(
     for lab, f in forces.items():
         s = _label(lab)
         names += [f"{s}_Fx_N", f"{s}_Fy_N", f"{s}_F_N"]
-        cols += [f[:, 0], f[:, 1], np.linalg.norm(f, axis=1)]
+        cols += [f[:, 0], f[:, 1], norms(f)]
         if lab in moments:
             names.append(f"{s}_M_N_m")
             cols.append(moments[lab])

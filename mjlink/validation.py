@@ -28,6 +28,7 @@ from . import reference
 from .errors import AssemblyError, MechanismFileError, MjlinkError, SimulationError, UnknownMechanismError
 from .model import catalogue
 from .model.blocks import BlockAngle
+from .model.jet import norms
 from .model.limits import (
     MAX_ANGLE_DEG,
     MIN_DIRECTION_M,
@@ -278,7 +279,7 @@ def _constraint_jacobian(
             else:
                 g1, g2 = pr.rail
                 u = world(Q, pr.parent, g2) - world(Q, pr.parent, g1)
-                nrm = np.column_stack([-u[:, 1], u[:, 0]]) / np.linalg.norm(u, axis=1, keepdims=True)
+                nrm = np.column_stack([-u[:, 1], u[:, 0]]) / norms(u)[:, None]
                 o = mech.link(pr.child).points[0]
                 off = world(Q, pr.child, o) - world(Q, pr.parent, g1)
                 out += [np.einsum("ij,ij->i", nrm, off), angle(Q, pr.child) - angle(Q, pr.parent)]
@@ -466,7 +467,7 @@ def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError
             if pair in seen:
                 continue
             seen.add(pair)
-            d = np.linalg.norm((kin.points[p].v - kin.points[q].v)[:, :2], axis=1)
+            d = norms((kin.points[p].v - kin.points[q].v)[:, :2])
             if not (d >= MIN_DIRECTION_M).all():
                 i = int(np.argmin(np.where(np.isfinite(d), d, -1.0)))
                 return MechanismFileError(
@@ -477,7 +478,7 @@ def _undefined(mech: Mechanism, kin: reference.Kinematics) -> MechanismFileError
     for l in mech.links:
         if l.guide:
             p, q = l.guide
-            d = np.linalg.norm((kin.points[p].v - kin.points[q].v)[:, :2], axis=1)
+            d = norms((kin.points[p].v - kin.points[q].v)[:, :2])
             if not (d >= MIN_DIRECTION_M).all():
                 return MechanismFileError(
                     f"{src}: [links.{l.name}] guide: points {p} and {q} coincide "
@@ -500,7 +501,7 @@ def _almost_coincident(mech: Mechanism, kin: reference.Kinematics) -> MechanismF
         # the points a link carries.
         xyz = np.stack([kin.points[p].v[0] for p in l.points])
         for i, a in enumerate(l.points[:-1]):
-            d = np.linalg.norm(xyz[i + 1 :] - xyz[i], axis=1)
+            d = norms(xyz[i + 1 :] - xyz[i])
             near = np.flatnonzero((d > 0.0) & (d < MIN_DISTINCT_M))
             if len(near):
                 b, gap = l.points[i + 1 + near[0]], float(d[near[0]])

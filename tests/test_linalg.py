@@ -1,4 +1,5 @@
-"""The block-triangular batched solve against its plain twin, numpy.linalg.solve."""
+"""The block-triangular batched solve against its plain twin, numpy.linalg.solve; the vector
+lengths against theirs, numpy.linalg.norm."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import numpy as np
 import pytest
 
 from mjlink import validation
+from mjlink.model import jet
 from mjlink.reference import kinetostatics, linalg
 
 
@@ -78,3 +80,22 @@ def test_block_plan_equals_scipy_sparse_graph_searches():
             used = {int(c) for r in rows for c in np.flatnonzero(pattern[r])}
             assert used <= solved | set(cols)
             solved |= set(cols)
+
+
+@pytest.mark.parametrize("shape", [(2000, 3), (2000, 2), (6, 400, 3), (0, 3), (3,), (50, 4), (1, 2)])
+def test_norms_equal_numpy_norm_bit_for_bit(shape):
+    """Every shape the agreement, loop gaps and checks use (and others, which fall back), with
+    lengths from 1e-200 to 1e200, zeros and non-finite entries: the same doubles, NaN where
+    numpy gives NaN, and numpy's overflow to inf."""
+    rng = np.random.default_rng(3)
+    v = rng.standard_normal(shape) * 10.0 ** rng.uniform(-200, 200, shape)
+    flat = v.reshape(-1)
+    flat[::17], flat[::23], flat[::29], flat[::31] = np.inf, np.nan, 0.0, -np.inf
+    with np.errstate(over="ignore", invalid="ignore"):
+        want = np.linalg.norm(v, axis=-1)
+        got = jet.norms(v)
+        assert got.shape == want.shape
+        assert np.array_equal(got, want, equal_nan=True)
+        w = v[..., ::-1]  # a strided view, as a column slice of a trace is
+        assert np.array_equal(jet.norms(w), np.linalg.norm(w, axis=-1), equal_nan=True)
+    assert np.array_equal(jet.norms(np.array([[3, 4]])), [5.0])  # integers as numpy takes them

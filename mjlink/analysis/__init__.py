@@ -23,6 +23,7 @@ import numpy as np
 from .. import reference
 from ..model import blocks
 from ..model.blocks import Crank, Slider
+from ..model.jet import norms
 from ..model.mechanism import Mechanism
 from ..runs import Trace
 
@@ -35,7 +36,7 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def magnitude(vectors: np.ndarray) -> np.ndarray:
     """Length of every row of ``vectors`` (N, 3), in the vectors' unit (a point's speed |v| in
     m/s from its velocities, a pair's force |F| in N from its forces): (N,)."""
-    return np.linalg.norm(vectors, axis=1)
+    return norms(vectors)
 
 
 def angle_turned(phi: np.ndarray) -> np.ndarray:
@@ -55,7 +56,7 @@ def thread_length(mech: Mechanism, trace: Trace) -> np.ndarray:
         return np.asarray(trace.thread_length)
     total = np.zeros(len(trace.time))
     for a, b in pairwise(mech.thread or ()):
-        total = total + np.linalg.norm(trace.points[b] - trace.points[a], axis=1)
+        total = total + norms(trace.points[b] - trace.points[a])
     return total
 
 
@@ -95,7 +96,7 @@ def slider_motion(trace: Trace, slider: Slider) -> tuple[np.ndarray, np.ndarray,
     n1, n2 = slider.guide
     P, V, A = trace.points, trace.velocities, trace.accelerations
     g = P[n2][:, :2] - P[n1][:, :2]
-    L = np.linalg.norm(g, axis=1, keepdims=True)
+    L = norms(g)[:, None]
     u = g / L
     ud = (V[n2][:, :2] - V[n1][:, :2]) / L
     udd = (A[n2][:, :2] - A[n1][:, :2]) / L
@@ -119,7 +120,7 @@ def pressure_angle(trace: Trace, slider: Slider) -> np.ndarray:
     n1, n2 = slider.guide
     g = trace.points[n2][:, :2] - trace.points[n1][:, :2]
     d = trace.points[slider.point][:, :2] - trace.points[slider.start][:, :2]
-    c = np.abs(_dot(d, g)) / (np.linalg.norm(d, axis=1) * np.linalg.norm(g, axis=1))
+    c = np.abs(_dot(d, g)) / (norms(d) * norms(g))
     return np.arccos(np.clip(c, 0.0, 1.0))
 
 

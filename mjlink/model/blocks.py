@@ -404,7 +404,7 @@ class Dyad(Block):
         )
 
     def dead_point(self, P: Points) -> DeadPoint:
-        d = np.linalg.norm((P[self.a] - P[self.b])[:, :2], axis=1)
+        d = jet.norms((P[self.a] - P[self.b])[:, :2])
         cos_mu = (self.length_a**2 + self.length_b**2 - d**2) / (2 * self.length_a * self.length_b)
         mu = np.degrees(np.arccos(np.clip(cos_mu, -1.0, 1.0)))
         return DeadPoint(
@@ -583,9 +583,9 @@ class Slider(Block):
         n1, n2 = (P[g][:, :2] for g in self.guide)
         g = n2 - n1
         with np.errstate(all="ignore"):
-            u = g / np.linalg.norm(g, axis=1, keepdims=True)
+            u = g / jet.norms(g)[:, None]
             off = (a - n1) - np.einsum("ij,ij->i", a - n1, u)[:, None] * u
-            ratio = np.linalg.norm(off, axis=1) / self.length  # sin of the pressure angle
+            ratio = jet.norms(off) / self.length  # sin of the pressure angle
         value = np.degrees(np.arcsin(np.clip(ratio, 0.0, 1.0)))
         return DeadPoint("pressure angle", value, 90.0 - value, ratio <= 1.0, 90.0 - MAX_PRESSURE_DEG, MAX_PRESSURE_DEG)
 

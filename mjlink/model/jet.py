@@ -16,6 +16,29 @@ from dataclasses import dataclass
 import numpy as np
 
 
+def norms(v: np.ndarray) -> np.ndarray:
+    """Euclidean length of every vector along the last axis of the array ``v`` (..., k), in
+    ``v``'s unit: (...). Bit for bit ``np.linalg.norm(v, axis=-1)``, at a sixth of its time for
+    k = 2 or 3.
+
+    norm squares ``v`` into a temporary and reduces it along the short last axis, which numpy
+    does an element at a time (0.39 ms for 20 000 vectors of 3); the same sum written out
+    column by column, ((x*x + y*y) + z*z) rounded at every step as the reduction does, is three
+    whole-array multiplications and two additions (0.07 ms). The agreement's errors, the loop
+    gaps and the rigidity check are such lengths, several per named point and run. The plain
+    twin is the numpy call (tested on ordinary, huge, tiny and non-finite values).
+    """
+    v = np.asarray(v, dtype=float)
+    if v.ndim < 2 or v.shape[-1] not in (2, 3):
+        return np.linalg.norm(v, axis=-1)
+    x = v[..., 0]
+    s = x * x
+    for k in range(1, v.shape[-1]):
+        c = v[..., k]
+        s += c * c
+    return np.sqrt(s, out=s)
+
+
 @dataclass(frozen=True)
 class S:
     """Scalar jet: ``v`` value, ``d`` = dv/dphi, ``dd`` = d2v/dphi2; arrays of shape (N,)."""

@@ -172,7 +172,7 @@ def check_rigidity(mech: Mechanism, samples: int = 361, rtol: float = 1e-9, kin:
         # otherwise cost a Python pass per pair, quadratic in its points.
         xyz = np.stack([kin.points[a].v[::every] for a in l.points])
         for i in range(len(xyz) - 1):
-            d = np.linalg.norm(xyz[i + 1 :] - xyz[i], axis=-1)
+            d = jet.norms(xyz[i + 1 :] - xyz[i])
             hi, lo = d.max(axis=1), d.min(axis=1)
             loose = np.flatnonzero(hi - lo > rtol * np.maximum(hi, 1e-3))
             if len(loose):

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MechanismFileError
+from ..model.jet import norms
 from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from ..model.topology import Pair, pairs
 from . import linalg as _linalg
@@ -102,7 +103,7 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
                 A[r0 + 2, col + 1] += sgn * d[:, 0]  # moment of (0, Fy): dx Fy
         else:
             g = (P[pr.rail[1]] - P[pr.rail[0]])[:, :2]
-            u = g / np.linalg.norm(g, axis=1, keepdims=True)
+            u = g / norms(g)[:, None]
             nrm = np.column_stack([-u[:, 1], u[:, 0]])
             at = origin[pr.child]
             for link, sgn in ((pr.child, 1.0), (pr.parent, -1.0)):
@@ -175,7 +176,7 @@ def reactions(mech: Mechanism, phi, omega, eps=0.0, *, kin: Kinematics | None = 
             forces[lab] = np.column_stack([x[col], x[col + 1], np.zeros(n)])
         else:
             g = (P[pr.rail[1]] - P[pr.rail[0]])[:, :2]
-            u = g / np.linalg.norm(g, axis=1, keepdims=True)
+            u = g / norms(g)[:, None]
             forces[lab] = np.column_stack([-u[:, 1] * x[col], u[:, 0] * x[col], np.zeros(n)])
             moments[lab] = x[col + 1]
         col += 2

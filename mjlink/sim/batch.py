@@ -49,6 +49,7 @@ import numpy as np
 from .. import compare, reference
 from ..errors import MjlinkError
 from ..model import names
+from ..model.jet import norms
 from ..model.mechanism import Mechanism
 from ..runs import Settings
 from ..units import RunKind
@@ -360,11 +361,11 @@ def judge(mech: Mechanism, built: builder.Built, rows: np.ndarray) -> Verificati
         return _no_result(f"reference: {_one_line(e)}")
     pos = vel = 0.0
     for p in mech.moving_points:
-        pos = max(pos, float(np.linalg.norm(col(("pos", p), 3) - kin.position(p), axis=1).max()))
+        pos = max(pos, float(norms(col(("pos", p), 3) - kin.position(p)).max()))
         v_ref = kin.velocity(p, omega)
-        scale = float(np.linalg.norm(v_ref, axis=1).max())
+        scale = float(norms(v_ref).max())
         if scale > 0:  # compare's rule: a point that never moves has no velocity error
-            err = np.linalg.norm(col(("vel", p), 3) - v_ref, axis=1).max()
+            err = norms(col(("vel", p), 3) - v_ref).max()
             vel = max(vel, float(err) / scale)
     thread = math.nan
     lf = kin.thread_length()

@@ -32,6 +32,7 @@ import numpy as np
 from .. import reference
 from ..errors import SimulationError
 from ..model import names
+from ..model.jet import norms
 from ..model.mechanism import Mechanism
 from ..runs import DYNAMIC, KINEMATIC, Case, Settings, SteadyRun, Trace
 from ..units import RunKind, Source
@@ -278,7 +279,7 @@ def loop_gaps(built: builder.Built, rows: np.ndarray) -> np.ndarray:
     out = np.zeros((len(rows), len(built.loops)))
     for i, (pr, _) in enumerate(built.loops):
         a, b = (S[("pos", names.loop_anchor(pr.pin, link))] for link in (pr.child, pr.parent))
-        out[:, i] = np.linalg.norm(rows[:, a : a + 3] - rows[:, b : b + 3], axis=1)
+        out[:, i] = norms(rows[:, a : a + 3] - rows[:, b : b + 3])
     return out
 
 
