@@ -122,6 +122,95 @@ def test_png_writer_against_matplotlibs(traces, tmp_path):
         plt.close(fig)
 
 
+def _tick_figure(make):
+    """A figure exercising ticks: shared x, many major ticks, minor ticks on one axis, tick
+    parameters set before and after the first ticks exist, rotated labels, mathtext, a grid."""
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import AutoMinorLocator
+
+    fig, (a, b) = make(2, 1, figsize=(5.0, 4.0), sharex=True)
+    x = np.linspace(0.0, 720.0, 200)
+    a.plot(x, np.sin(np.radians(x)))
+    b.plot(x, 1e3 * np.cos(np.radians(x)))
+    a.grid(True, lw=0.4)
+    a.set_xticks(np.arange(0.0, 721.0, 45.0))
+    b.yaxis.set_minor_locator(AutoMinorLocator(4))
+    b.tick_params(axis="y", which="both", direction="in", labelsize=7, colors="tab:red")
+    b.tick_params(axis="x", labelrotation=30)
+    a.set_ylabel("$\\omega_1$ [rad/s]")
+    fig.canvas.draw()
+    return plt, fig, (a, b)
+
+
+def _comparable(v):
+    """A property value as something == can compare across two figures."""
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.markers import MarkerStyle
+    from matplotlib.transforms import Bbox, Transform
+
+    if isinstance(v, np.ndarray):
+        return ("array", v.tolist())
+    if isinstance(v, FontProperties):
+        return ("font", hash(v))
+    if isinstance(v, Transform):
+        return ("transform", v.transform(np.array([[0.0, 0.0], [1.0, 2.0]])).tolist())
+    if isinstance(v, MarkerStyle):
+        return ("marker", v.get_marker(), v.get_fillstyle())
+    if isinstance(v, Bbox):
+        return ("bbox", v.bounds)
+    if isinstance(v, (Figure, Axes)):  # style's own subclasses: compared as what they are
+        return (Figure if isinstance(v, Figure) else Axes).__name__
+    if v is None or isinstance(v, (str, int, float, bool, np.number)):
+        return v
+    if isinstance(v, (tuple, list)) and all(isinstance(e, (int, float, np.number)) for e in v):
+        return tuple(v)
+    return type(v).__name__
+
+
+def test_copied_ticks_against_matplotlibs():
+    """style's axes make a new tick by copying the axis's first: the same pixels as
+    matplotlib's own ticks, every property of every tick and tick part the same, and nothing
+    mutable shared between a copy and the tick it was copied from."""
+    import matplotlib.pyplot as plt
+
+    plt_, ours, axes = _tick_figure(style.subplots)
+    _, theirs, plain = _tick_figure(plt.subplots)
+    try:
+        assert all(type(ax.xaxis) is style._XAxis and type(ax.yaxis) is style._YAxis for ax in axes)
+        assert not any(isinstance(ax.xaxis, style._CopiedTicks) for ax in plain)
+        assert np.array_equal(np.asarray(ours.canvas.buffer_rgba()), np.asarray(theirs.canvas.buffer_rgba()))
+        copied = 0
+        for ax, ax0 in zip(axes, plain, strict=True):
+            for axis, axis0 in ((ax.xaxis, ax0.xaxis), (ax.yaxis, ax0.yaxis)):
+                for mine, plain_ticks in ((axis.majorTicks, axis0.majorTicks), (axis.minorTicks, axis0.minorTicks)):
+                    assert len(mine) == len(plain_ticks)
+                    copied += len(mine) - 1
+                    for t, t0 in zip(mine, plain_ticks, strict=True):
+                        for part, part0 in zip(
+                            [t, *(getattr(t, p) for p in style._TICK_PARTS)],
+                            [t0, *(getattr(t0, p) for p in style._TICK_PARTS)],
+                            strict=True,
+                        ):
+                            got = {k: _comparable(v) for k, v in part.properties().items()}
+                            want = {k: _comparable(v) for k, v in part0.properties().items()}
+                            assert got == want, (type(part).__name__, {k for k in got if got[k] != want.get(k)})
+        assert copied > 40  # the copies were made (and drawn) here
+        first, copy = axes[0].xaxis.majorTicks[0], axes[0].xaxis.majorTicks[3]
+        copy.label1.set_fontsize(21)
+        assert first.label1.get_fontsize() != 21
+        seen = []
+        copy.add_callback(seen.append)
+        first.pchanged()
+        assert seen == []
+        copy.tick1line.sticky_edges.x.append(1.0)
+        assert first.tick1line.sticky_edges.x == []
+    finally:
+        plt_.close(ours)
+        plt_.close(theirs)
+
+
 # ----------------------------------------------------------------------------- every mechanism
 @functools.cache
 def _kinematics(name: str):

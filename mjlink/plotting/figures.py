@@ -46,11 +46,13 @@ from .style import (
     crank_x,
     darker,
     direction,
+    figure,
     finish_x,
     pair,
     place,
     residual,
     save,
+    subplots,
     title,
 )
 
@@ -97,7 +99,7 @@ def speed_plots(
         ("speed_vs_time.png", "time t [s]", True),
         ("speed_vs_angle.png", angle_label + " (unwrapped)", False),
     ):
-        fig = plt.figure(figsize=(13.0, 9.4))
+        fig = figure(figsize=(13.0, 9.4))
         gs = fig.add_gridspec(3, 2, width_ratios=(1.75, 1.0), height_ratios=(1.0, 1.0, 0.72))
         place(fig, gs, left=1.05, right=0.4, top=0.95 if by_time else 1.25, bottom=0.6, hgap=0.62, wgap=1.05)
         a_n = fig.add_subplot(gs[0, 0])
@@ -436,7 +438,7 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
     # A key path much smaller than the drawing (warp knitting's needle: 10 x 26 mm in 300 mm)
     # would be a squiggle under the ghost positions: it gets an enlarged panel of its own.
     enlarge = key_xy is not None and float(np.max(np.ptp(key_xy, axis=0))) < 0.25 * float(max(hi - lo))
-    fig = plt.figure(figsize=(max(7.6, box_w + 3.4), max(box_h + 1.3, 7.4 if enlarge else 0.0)), layout="constrained")
+    fig = figure(figsize=(max(7.6, box_w + 3.4), max(box_h + 1.3, 7.4 if enlarge else 0.0)), layout="constrained")
     gs = fig.add_gridspec(2, 2, width_ratios=(box_w, 3.2), height_ratios=(1.0, 1.0))
     ax = fig.add_subplot(gs[:, 0])
     side = fig.add_subplot(gs[1, 1]) if enlarge else None
@@ -587,7 +589,7 @@ def thread_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> Path
         return None
     Lm, Lr = analysis.thread_length(mech, kin_mj), analysis.thread_length(mech, kin_ref)
     (xm, xr), xlabel = crank_x(mech, kin_mj, kin_ref)
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8.0, 6.2), sharex=True, gridspec_kw=dict(height_ratios=(2.2, 1)))
+    fig, (a1, a2) = subplots(2, 1, figsize=(8.0, 6.2), sharex=True, gridspec_kw=dict(height_ratios=(2.2, 1)))
     place(fig, a1.get_gridspec(), left=1.05, top=0.75, bottom=0.6, hgap=0.2)
     a1.plot(xr, to_mm(Lr), label=REF_LABEL, **REF_STYLE)
     a1.plot(xm, to_mm(Lm), color=palette.THREAD, label=MJ_LABEL + ", spatial tendon", **MJ_STYLE)
@@ -635,7 +637,7 @@ def kinematics_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, poi
         j for j in range(3) if np.ptp(kin_ref.points[point][:, j]) > 1e-9 or np.ptp(kin_mj.points[point][:, j]) > 1e-9
     ]
     rows = len(comps) + 2
-    fig, axs = plt.subplots(
+    fig, axs = subplots(
         rows,
         3,
         figsize=(14.0, 2.05 * rows + 1.2),
@@ -710,7 +712,7 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         guide = ("relative to its moving guide " if moving else "on guide ") + f"{n1}→{n2}"
 
         # --- s, ds/dt, d2s/dt2 and MuJoCo's error in s
-        fig, axs = plt.subplots(4, 1, figsize=(8.0, 9.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7)))
+        fig, axs = subplots(4, 1, figsize=(8.0, 9.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7)))
         place(fig, axs[0].get_gridspec(), left=1.05, top=0.75, bottom=0.6, hgap=0.2)
         # Velocity and acceleration reverse within a stroke: a zero line shows where.
         panels = (
@@ -742,7 +744,7 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         # --- harmonic content of the acceleration
         am, ar = analysis.harmonics(mech, kin_mj, sm[2]), analysis.harmonics(mech, kin_ref, sr[2])
         if am is not None and ar is not None:
-            fig, ax = plt.subplots(figsize=(8.0, 5.0))
+            fig, ax = subplots(figsize=(8.0, 5.0))
             place(fig, ax.get_gridspec(), left=1.0, right=0.25, top=0.75, bottom=0.6)  # one draw
             k = np.arange(1, len(ar) + 1)
             ax.bar(k - 0.2, am, width=0.4, color="tab:red", alpha=0.75, label=MJ_LABEL)
@@ -786,7 +788,7 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
 
         # --- pressure angle
         gm, gr = np.degrees(analysis.pressure_angle(kin_mj, sl)), np.degrees(analysis.pressure_angle(kin_ref, sl))
-        fig, (ax, rax) = plt.subplots(2, 1, figsize=(8.0, 6.0), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.4)))
+        fig, (ax, rax) = subplots(2, 1, figsize=(8.0, 6.0), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.4)))
         place(fig, ax.get_gridspec(), left=1.15, top=0.75, bottom=0.6, hgap=0.2)
         residual(rax, xm, gm - gr, "deg", None, color="tab:green", what="MuJoCo − ref.")
         pair(ax, xm, gm, xr, gr, "tab:green")
@@ -831,7 +833,7 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
     Lm, dm, fm = analysis.thread_feed(mech, kin_mj)
     Lr, dr, fr = analysis.thread_feed(mech, kin_ref)
     xm, xr = xm[: len(Lm)], xr[: len(Lr)]  # the axis is cut at one turn
-    fig, axs = plt.subplots(4, 1, figsize=(8.0, 9.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7)))
+    fig, axs = subplots(4, 1, figsize=(8.0, 9.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 1, 1, 0.7)))
     place(fig, axs[0].get_gridspec(), left=1.15, top=0.75, bottom=0.6, hgap=0.2)
     n = min(len(fm), len(fr))
     residual(
@@ -903,7 +905,7 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
     allp = np.concatenate([P[p] for p in P] + [to_mm(path.position(e)) for e in eyelets])
     lo, hi = allp.min(axis=0), allp.max(axis=0)
     pad = 0.07 * float(max(hi - lo))
-    fig = plt.figure(figsize=(13.0, 6.8))
+    fig = figure(figsize=(13.0, 6.8))
     gs = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.0), height_ratios=(0.42, 0.58))
     # Fixed margins (one draw, then the crop): the suptitle and the panels' titles above, the
     # top view's x label and y label between the panels; equal axes shrink inside their cells.
@@ -1022,7 +1024,7 @@ def phase_study_plot(
     phi = mech.phi0 + math.copysign(mech.period, mech.speed) * np.linspace(0.0, 1.0, 721)
     cmap = plt.get_cmap("coolwarm")
     span = max(1.0, max(abs(o) for o in offsets_deg))
-    fig, ax = plt.subplots(figsize=(9.0, 7.6))
+    fig, ax = subplots(figsize=(9.0, 7.6))
     # Fixed margins (one draw, then the crop): room for three title lines above, the legend
     # to the right; the equal-aspect axes shrink inside, and saving crops the rest.
     place(fig, ax.get_gridspec(), left=0.85, right=3.6, top=0.95, bottom=0.6)
@@ -1078,7 +1080,7 @@ def link_motion_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, li
     ``link`` about z against crank angle, MuJoCo (its body's) vs reference, each with MuJoCo's
     error beneath (informational: link rates are held to no threshold)."""
     (xm, xr), xlabel = crank_x(mech, kin_mj, kin_ref)
-    fig, axs = plt.subplots(4, 1, figsize=(8.0, 9.0), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.55, 1, 0.55)))
+    fig, axs = subplots(4, 1, figsize=(8.0, 9.0), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.55, 1, 0.55)))
     place(fig, axs[0].get_gridspec(), left=1.05, right=0.25, top=0.75, bottom=0.6, hgap=0.2)
     for ax, rax, mj, ref, lab, c, unit in (
         (

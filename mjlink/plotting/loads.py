@@ -28,10 +28,12 @@ from .style import (
     crank_axis,
     crank_x,
     direction,
+    figure,
     finish_x,
     place,
     residual,
     save,
+    subplots,
     title,
 )
 
@@ -50,7 +52,7 @@ def torque_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_dir
     f_angle, _ = crank_axis(mech, kin_mj.phi)
     w = float(np.mean(kin_mj.omega))
     cycle = analysis.torque_cycle(mech, w)
-    fig, (a1, ar, a2, a3) = plt.subplots(
+    fig, (a1, ar, a2, a3) = subplots(
         4,
         1,
         figsize=(11.5, 10.8),
@@ -126,7 +128,7 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
     n = len(labels)
     cols = 2 if n > 1 else 1
     rows = math.ceil(n / cols)
-    fig = plt.figure(figsize=(12.0, 3.1 * rows + 1.1))
+    fig = figure(figsize=(12.0, 3.1 * rows + 1.1))
     gs = fig.add_gridspec(2 * rows, cols, height_ratios=[1.0, 0.42] * rows)
     place(fig, gs, left=0.85, right=0.2, top=1.0, bottom=0.85, hgap=0.32, wgap=0.85)
     first = None
@@ -178,7 +180,7 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
     if loads:
         cols = min(4, len(loads))
         rows = math.ceil(len(loads) / cols)
-        fig, axs = plt.subplots(rows, cols, figsize=(3.4 * cols + 0.6, 3.6 * rows + 0.9), squeeze=False)
+        fig, axs = subplots(rows, cols, figsize=(3.4 * cols + 0.6, 3.6 * rows + 0.9), squeeze=False)
         # Fixed margins (one draw): three lines of suptitle, two of each panel's title, the
         # force ticks and labels; equal axes shrink to a square inside each cell.
         place(fig, axs[0, 0].get_gridspec(), left=0.95, right=0.15, top=1.25, bottom=0.55, hgap=1.05, wgap=0.75)
@@ -225,7 +227,7 @@ def steady_plot(
     """``steady.png``: crank speed (rpm, magnitude) over one period of steady motion, without
     and with the flywheel, MuJoCo's last period vs the reference's orbit; beneath, MuJoCo minus
     the reference at the same angle turned (rpm; the rule is on delta, not on this curve)."""
-    fig, (ax, rax) = plt.subplots(2, 1, figsize=(8, 6.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.45)))
+    fig, (ax, rax) = subplots(2, 1, figsize=(8, 6.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.45)))
     place(fig, ax.get_gridspec(), left=1.05, top=0.75, bottom=0.6, hgap=0.2)
     for st, run, color, what in (
         (plain, runs[0], "tab:blue", "no flywheel"),
@@ -261,7 +263,7 @@ def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoad
     the start marked) and the shaking moment about the input crank's pivot (N*m) against crank
     angle; the reference as a line, MuJoCo as markers (they coincide where they agree)."""
     (x,), label = crank_x(mech, kin_mj)
-    fig = plt.figure(figsize=(11, 6.4))
+    fig = figure(figsize=(11, 6.4))
     gs = fig.add_gridspec(2, 2, width_ratios=(1, 1.4), height_ratios=(1, 0.45))
     place(fig, gs, left=0.85, right=0.2, top=0.75, bottom=0.6, hgap=0.2, wgap=1.2)
     a1 = fig.add_subplot(gs[:, 0])

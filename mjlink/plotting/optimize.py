@@ -8,11 +8,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import matplotlib.pyplot as plt
 import numpy as np
 
 from .figures import _segments
-from .style import save, user_text
+from .style import figure, save, subplots, user_text
 
 if TYPE_CHECKING:
     from ..analysis.metrics import Curve
@@ -44,7 +43,7 @@ def convergence(title: str, res: Result, out_dir: Path) -> Path:
     opt = st.optimize
     assert opt is not None
     many = len(res.runs) > 1
-    fig, ax = plt.subplots(figsize=(8.4, 5.2 if many else 4.6), layout="constrained")
+    fig, ax = subplots(figsize=(8.4, 5.2 if many else 4.6), layout="constrained")
     sign = -1.0 if (opt.sense == "max" and not opt.pareto) else 1.0
     positive = True
     for k, r in enumerate(res.runs):
@@ -108,10 +107,10 @@ def before_after(
         traced = [next(s.point for s in reversed(mech.steps) if s.point not in coms)]
     n = max(1, len(curves))
     if curves:
-        fig = plt.figure(figsize=(12.0, max(5.0, 2.6 * n)), layout="constrained")
+        fig = figure(figsize=(12.0, max(5.0, 2.6 * n)), layout="constrained")
         gs = fig.add_gridspec(n, 2, width_ratios=[1.0, 1.25])
     else:
-        fig = plt.figure(figsize=(7.5, 6.0), layout="constrained")
+        fig = figure(figsize=(7.5, 6.0), layout="constrained")
         gs = fig.add_gridspec(1, 1)
     ax0 = fig.add_subplot(gs[:, 0])
     if feasible[0]:
@@ -157,7 +156,7 @@ def pareto(title: str, res: Result, ver: Verified, out_dir: Path) -> Path | None
     cols = {c.name: c for c in st.columns}
     a = res.archive
     ok = a.violation <= 0
-    fig, ax = plt.subplots(figsize=(8.0, 5.6), layout="constrained")
+    fig, ax = subplots(figsize=(8.0, 5.6), layout="constrained")
     ax.plot(a.columns[c1][ok], a.columns[c2][ok], ".", color="0.75", ms=2.5, label=f"feasible candidates ({ok.sum()})")
     f1, f2 = res.front_columns[c1], res.front_columns[c2]
     ax.plot(f1, f2, "-o", color="tab:blue", ms=5, lw=1.4, label=f"Pareto front ({len(f1)} designs)")

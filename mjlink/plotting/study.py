@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.axis import Axis
@@ -31,7 +30,7 @@ from matplotlib.path import Path as MplPath
 from matplotlib.ticker import MaxNLocator, ScalarFormatter
 from scipy import ndimage
 
-from .style import save, user_text
+from .style import figure, save, subplots, user_text
 
 MAX_PANELS = 6  # parameters and metrics each, in the scatter matrix: more become unreadable
 MAX_RINGED = 100  # variants that passed the MuJoCo check ringed (or 5 % of them, if more)
@@ -299,7 +298,7 @@ def scatter_matrix(
 
     # The layout is computed here rather than by matplotlib's layout engine, which measures
     # every tick of 36 panels twice and would double the drawing time. Sizes in inches.
-    fig = plt.figure()
+    fig = figure()
     gs = fig.add_gridspec(M, P)
     axs = np.empty((M, P), dtype=object)
     for i in range(M):
@@ -496,7 +495,7 @@ def histograms(
     rows, cols = _grid(n, 3 if n <= 9 else 4)
     panel_w, panel_h = 3.7, 2.7
     fig_w = max(7.0, panel_w * cols + 0.5)
-    fig, axs = plt.subplots(rows, cols, figsize=(fig_w, 1.0 + panel_h * rows), squeeze=False, layout="constrained")
+    fig, axs = subplots(rows, cols, figsize=(fig_w, 1.0 + panel_h * rows), squeeze=False, layout="constrained")
     _hide_unused(axs, n)
     n_feas = int(feas.sum())
     for k, (col, v) in enumerate(zip(metrics, vals)):
@@ -652,7 +651,7 @@ def feasible_region(
     rows, cols = _grid(panels, 3)
     panel_w, panel_h = 3.9, 3.1
     fig_w = max(7.5, panel_w * cols + 0.4)
-    fig, axs = plt.subplots(
+    fig, axs = subplots(
         rows,
         cols,
         figsize=(fig_w, 1.3 + panel_h * rows),
