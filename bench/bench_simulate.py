@@ -40,6 +40,10 @@ import tempfile
 import time
 from pathlib import Path
 
+# As the command line runs (mjlink.cli._threads): the in-process contenders, mjlink's and the
+# peers' alike, with numpy's OpenBLAS on one thread. Set before numpy is loaded.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]

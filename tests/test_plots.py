@@ -180,6 +180,7 @@ def test_copied_ticks_against_matplotlibs():
     try:
         assert all(type(ax.xaxis) is style._XAxis and type(ax.yaxis) is style._YAxis for ax in axes)
         assert not any(isinstance(ax.xaxis, style._CopiedTicks) for ax in plain)
+        assert all(style._copyable(a.majorTicks[0]) for ax in axes for a in (ax.xaxis, ax.yaxis))
         assert np.array_equal(np.asarray(ours.canvas.buffer_rgba()), np.asarray(theirs.canvas.buffer_rgba()))
         copied = 0
         for ax, ax0 in zip(axes, plain, strict=True):

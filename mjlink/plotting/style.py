@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import matplotlib
+import matplotlib.artist
 import matplotlib.axis
 import matplotlib.cbook
 import matplotlib.colors
@@ -179,9 +180,9 @@ class _Canvas(FigureCanvasAgg):
 # from scratch (three Line2D and two Text, every property through rcParams and validation)
 # and then copies the first tick's properties onto it, deep-copying each line's marker: 0.9 ms
 # a tick, some 800 ticks and a quarter of the CPU of a take-up figure set. Copying the first
-# tick's state directly gives a tick in the same state for a twentieth of that. The twin test
-# (tests/test_plots.py) compares every property of such a tick with matplotlib's own and a
-# whole figure's pixels.
+# tick's state directly gives a tick in the same state for a twelfth of that (measured: 611
+# copies in 0.05 s). The twin test (tests/test_plots.py) compares every property of such a
+# tick with matplotlib's own, and a whole figure's pixels.
 _TICK_PARTS = ("tick1line", "tick2line", "gridline", "label1", "label2")
 
 
@@ -209,13 +210,24 @@ def _copy_artist(a: Any) -> Any:
     return new
 
 
+_SHARED_ARTISTS = {"_axes", "_parent_figure", "figure"}  # what a tick and its parts belong to
+
+
 def _copyable(tick: Any) -> bool:
     """Whether ``tick`` holds only what :func:`_copy_artist` knows how to copy: the parts of a
-    plain tick, no text box (a patch of its own), nothing of another kind."""
+    plain tick, no text box (a patch of its own), no other artist of its own in the tick or a
+    part (one a later matplotlib might add, which a copy would share)."""
     parts: list[Any] = [getattr(tick, p, None) for p in _TICK_PARTS]
     kinds = (matplotlib.lines.Line2D,) * 3 + (matplotlib.text.Text,) * 2
-    return all(type(p) is k for p, k in zip(parts, kinds, strict=True)) and all(
-        p._bbox_patch is None for p in parts[3:]
+    if not all(type(p) is k for p, k in zip(parts, kinds, strict=True)):
+        return False
+    if any(p._bbox_patch is not None for p in parts[3:]):
+        return False
+    own = {k for k, v in vars(tick).items() if isinstance(v, matplotlib.artist.Artist)}
+    if own - _SHARED_ARTISTS != set(_TICK_PARTS):
+        return False
+    return not any(
+        isinstance(v, matplotlib.artist.Artist) and k not in _SHARED_ARTISTS for p in parts for k, v in vars(p).items()
     )
 
 
