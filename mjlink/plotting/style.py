@@ -241,22 +241,22 @@ class _CopiedTicks:
     def get_major_ticks(self, numticks: int | None = None) -> list[Any]:
         if numticks is None:
             numticks = len(self.get_majorticklocs())  # type: ignore[attr-defined]
-        ticks = self.majorTicks
-        if len(ticks) < numticks and not _copyable(ticks[0]):
-            return super().get_major_ticks(numticks)  # type: ignore[misc]
-        while len(ticks) < numticks:
-            ticks.append(_copy_artist(ticks[0]))
-        return ticks[:numticks]
+        return _more_ticks(self.majorTicks, numticks, super().get_major_ticks)  # type: ignore[misc]
 
     def get_minor_ticks(self, numticks: int | None = None) -> list[Any]:
         if numticks is None:
             numticks = len(self.get_minorticklocs())  # type: ignore[attr-defined]
-        ticks = self.minorTicks
-        if len(ticks) < numticks and not _copyable(ticks[0]):
-            return super().get_minor_ticks(numticks)  # type: ignore[misc]
-        while len(ticks) < numticks:
-            ticks.append(_copy_artist(ticks[0]))
-        return ticks[:numticks]
+        return _more_ticks(self.minorTicks, numticks, super().get_minor_ticks)  # type: ignore[misc]
+
+
+def _more_ticks(ticks: list[Any], numticks: int, plain: Callable[[int], list[Any]]) -> list[Any]:
+    """The first ``numticks`` of the axis's ``ticks``, copies of the first added as needed;
+    ``plain`` (matplotlib's own method) where the first cannot be copied."""
+    if len(ticks) < numticks and not _copyable(ticks[0]):
+        return plain(numticks)
+    while len(ticks) < numticks:
+        ticks.append(_copy_artist(ticks[0]))
+    return ticks[:numticks]
 
 
 class _XAxis(_CopiedTicks, matplotlib.axis.XAxis):
