@@ -14,27 +14,35 @@ the price is that up to :data:`TRIM_BYTES` of freed memory stays with the proces
 The command line calls :func:`keep_freed_memory` once at start; a study's worker processes get
 :data:`MALLOC_ENV` at start and call it with :func:`one_arena` when they are warmed up. A
 program using mjlink's Python API on large batches can call :func:`keep_freed_memory` itself.
+
+The other process-wide setting both get the same way lives here too: one BLAS thread
+(:data:`BLAS_ENV`, :func:`one_blas_thread`), from the environment before numpy loads.
 """
 
 from __future__ import annotations
 
 import ctypes
 import functools
+import os
 import sys
 
 TRIM_BYTES = 512 << 20  # freed memory at the heap's top kept for reuse, bytes
 MMAP_BYTES = 256 << 20  # blocks below this come from the heap, not from a mapping of their own, bytes
 
-# The same settings as environment variables, for processes started by the study engine (glibc
-# reads them at start-up, before any thread exists); Dask's own defaults (OMP_NUM_THREADS=1 ...)
-# kept.
+# One thread for numpy's BLAS (OpenBLAS in numpy's wheels; MKL and OpenMP builds alike): it
+# starts a thread per core and, after a product large enough to split, keeps them spinning.
+# mjlink's parallelism is its own (forked plot workers, MuJoCo's rollout threads, Dask
+# processes) and its products are small. Read when numpy loads: the command line sets them
+# first (:func:`one_blas_thread`), Dask's defaults for its workers are the same.
+BLAS_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+# The allocator settings as environment variables, for processes started by the study engine
+# (glibc reads them at start-up, before any thread exists), with BLAS_ENV.
 MALLOC_ENV = {
     "MALLOC_TRIM_THRESHOLD_": str(TRIM_BYTES),
     "MALLOC_MMAP_THRESHOLD_": str(MMAP_BYTES),
     "MALLOC_ARENA_MAX": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "OPENBLAS_NUM_THREADS": "1",
+    **BLAS_ENV,
 }
 
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD, _M_ARENA_MAX = -1, -3, -8  # glibc's mallopt parameters
@@ -72,3 +80,11 @@ def one_arena() -> None:
     libc = _libc()
     if libc is not None:
         libc.mallopt(_M_ARENA_MAX, 1)
+
+
+def one_blas_thread() -> None:
+    """Set :data:`BLAS_ENV` in ``os.environ`` where the user has not set them: effective only
+    before numpy is first imported (measured: OpenBLAS's spinning threads took 0.3 s of the
+    CPU of a ``simulate takeup`` of about 6 s, on the core the plot workers need)."""
+    for k, v in BLAS_ENV.items():
+        os.environ.setdefault(k, v)

@@ -1,14 +1,7 @@
-"""The command line's process before numpy is loaded: one OpenBLAS thread (imported first by
-:mod:`mjlink.cli`, before anything that imports numpy).
+"""Imported first by :mod:`mjlink.cli`, before anything loads numpy: the command line's process
+with one BLAS thread (:func:`mjlink.memory.one_blas_thread`; a value the user set is kept, and a
+program that imported numpy before mjlink keeps whatever it has)."""
 
-numpy's OpenBLAS starts a thread per core when it is loaded, and after a call large enough to
-split it keeps them spinning for a while, waiting for the next: measured with a sampling
-profiler, 0.3 s of CPU in a ``simulate takeup`` of about 6 s went to those threads. mjlink's own
-parallelism is elsewhere (the forked plot workers, MuJoCo's rollout thread pool, the study's
-Dask processes, which get the same setting) and its matrix products are small. A value the
-user set is kept; a program that imported numpy before mjlink keeps whatever it has.
-"""
+from .. import memory
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+memory.one_blas_thread()
