@@ -8,11 +8,27 @@ from __future__ import annotations
 
 
 class MjlinkError(Exception):
-    """Base class of every error mjlink raises on purpose."""
+    """Base class of every error mjlink raises on purpose. ``exit_status``: what the command line
+    exits with when it ends a command (1; 2 for input refused before any work)."""
+
+    exit_status = 1
+
+
+class InputError(MjlinkError):
+    """Input refused before any work began because it is beyond a limit or cannot be used: a
+    study file too large or too deep, a number too large, an output location that is a file, a
+    scheduler that cannot be reached, a study too large for this machine. Exit status 2, as the
+    command line's usage errors: nothing ran and nothing was written."""
+
+    exit_status = 2
 
 
 class MechanismFileError(MjlinkError):
     """A mechanism file is unreadable, malformed, or describes an impossible mechanism."""
+
+
+class FileTooLargeError(MechanismFileError, InputError):
+    """A mechanism file larger than mechanism files are (refused by its size, before reading)."""
 
 
 class UnknownMechanismError(MjlinkError):

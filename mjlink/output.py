@@ -1,330 +1,95 @@
-"""Output: the one atomic writer, CSV tables with units in the column names, JSON.
+"""Output folders: written whole or not at all, only where mjlink may write, one run at a time.
 
-Every file mjlink writes is complete or absent: a file on its own is written to a temporary
-name beside it and renamed into place (:func:`atomic_path`, :func:`write_text`); a run writes
-into a hidden staging folder beside its destination and renames it into place only when
-everything is written (:func:`staged_dir`). The files of a staging folder are written in place
-(``write_text(..., in_stage=True)``): the folder is what is published atomically. CSV files are
-written by :func:`write_table` alone, report files by :func:`write_json`.
+A run writes into a hidden staging folder beside its destination and renames it into place only
+when everything is written (:func:`staged_dir`); single files are written atomically by
+:mod:`mjlink.files` (re-exported here: :func:`write_text`, :func:`write_table`, :func:`write_json`
+and the CSV writers).
 
-mjlink replaces only what it wrote itself: a single file only if it is a regular file (a FIFO, a
-device or a folder is refused; a symbolic link is written through, its target replaced), an
-output folder only if its marker (:data:`MARKER`) says mjlink wrote it for the same command and
-mechanism, and then only the files the marker lists; anything else in it is kept. A run ends
-cleanly on SIGINT and SIGTERM (:func:`interruptible`, :class:`Terminated`), and the staging
-folders of runs that were killed are removed by the next run into the same folder.
+What mjlink may touch in an output folder, and when it checks:
 
-CSV columns carry their unit in their name (``P5_x_mm``, ``omega1_rad_s``, ``torque_N_m``) and
-are written at full double precision.
+* **Before any work** (:func:`check_destination`, called by :func:`staged_dir` on entry and by
+  commands that compute before they stage): the destination is absent or a folder (a regular
+  file, a FIFO, a device is refused), its nearest existing parent is a folder mjlink can write
+  into, and an existing destination is mjlink's own output of the same command and mechanism
+  (its :data:`MARKER`), empty, or ``force`` is given. A refusal creates nothing.
+* **One run per destination**: a run holds the folder's lock from before its work until it has
+  published; a second run into the same folder is refused at once with a line naming the
+  first (its process, command and start). On Linux the lock is an abstract-namespace socket
+  name (nothing on disk; the kernel releases it when the run ends, however it ends).
+* **Only what mjlink created and marked is ever removed**: a staging folder carries a marker
+  naming itself from the moment it is made; the tidying of what killed runs left behind
+  (:func:`remove_stale`) removes a staging folder only if it carries that marker and its
+  process is gone, and never touches an entry without it (a user's folder, file or link whose
+  name merely looks like one). The previous output is replaced only in the files its marker
+  lists; everything else in the folder is kept.
+* **A replaced output is said so**, in one line (:mod:`mjlink.notes`): when it was written,
+  by which command, and which of its files this run did not write again (gone now).
+
+A run ends cleanly on SIGINT and SIGTERM (:func:`interruptible`, :class:`Terminated`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import ctypes
+import datetime
 import errno
 import functools
-import itertools
+import hashlib
 import json
-import math
 import os
 import re
 import secrets
 import shutil
 import signal
+import socket
 import stat
 import sys
 import tempfile
 import threading
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
-
-import numpy as np
+from typing import Any
 
 from .errors import OutputError
-from .model.jet import norms
-from .model.mechanism import Mechanism
-from .runs import Trace
-from .units import MM, UM, to_rpm
-
-if TYPE_CHECKING:
-    from .reference import Steady
-
-# Exactly 1000.0 and 1e6: multiplying by them writes the same digits the CSVs have always had
-# (x / MM, i.e. units.to_mm, can differ from x * 1e3 in the last bit).
-_MM_PER_M = 1.0 / MM
-_UM_PER_M = 1.0 / UM
-
-
-@contextmanager
-def atomic_path(path: Path | str, suffix: str = ".tmp") -> Iterator[Path]:
-    """A fresh, empty temporary file beside ``path`` for the body to fill; renamed onto ``path``
-    when the body returns, removed if it raises (``path`` is then untouched).
-
-    ``suffix`` keeps the extension a writer may need (ffmpeg picks its format from it). The
-    temporary is created with mode 0666 less the umask (mkstemp's 0600 would survive the
-    rename). An OSError becomes a one-line OutputError.
-
-    Only a regular file is ever replaced. ``path`` may be absent or a regular file; a FIFO, a
-    device, a socket or a folder there is refused with a one-line OutputError before the body
-    runs (``build -o /dev/null`` must not replace /dev/null with a file). A symbolic link is
-    written through: the file it points to (which must be absent or regular) is replaced
-    atomically in its own folder and the link is kept.
-    """
-    path = _write_target(Path(path))
-    tmp = None
-    for _ in range(100):
-        cand = path.with_name(f".{path.name}.{secrets.token_hex(4)}{suffix}")
-        try:
-            os.close(os.open(cand, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-            tmp = cand
-            break
-        except FileExistsError:
-            continue
-        except OSError as e:
-            raise OutputError(f"{path}: cannot write in {path.parent}: {e.strerror or e}") from None
-    if tmp is None:
-        raise OutputError(f"{path}: cannot find a free temporary name in {path.parent}")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    except OSError as e:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise OutputError(f"{path}: cannot write: {e.strerror or e}") from None
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
-
-
-_FILE_KINDS = (
-    (stat.S_ISDIR, "a folder"),
-    (stat.S_ISFIFO, "a FIFO (named pipe)"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
+from .files import (
+    atomic_path,
+    columns,
+    read_csv,
+    write_csv,
+    write_json,
+    write_loads_csv,
+    write_parquet,
+    write_records,
+    write_steady_csv,
+    write_table,
+    write_text,
 )
+from .notes import note
 
-
-def _write_target(path: Path) -> Path:
-    """The file a whole-file write to ``path`` replaces: ``path``, or for a symbolic link the
-    file it finally points to; OutputError if that exists and is not a regular file."""
-    target = Path(os.path.realpath(path)) if path.is_symlink() else path
-    try:
-        mode = os.stat(target).st_mode
-    except FileNotFoundError:
-        return target
-    except OSError as e:
-        raise OutputError(f"{path}: cannot write: {e.strerror or e}") from None
-    if stat.S_ISREG(mode):
-        return target
-    what = next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
-    via = f" (a link to {target})" if target != path else ""
-    raise OutputError(f"{path}{via} is {what}, not a regular file: refusing to replace it")
-
-
-def write_text(path: Path | str, text: str | bytes | Iterable[bytes | memoryview], *, in_stage: bool = False) -> Path:
-    """Write a whole text file (UTF-8; ``bytes`` as they are; byte strings from an iterable one
-    after the other, as it yields them) at ``path``; returns the path.
-
-    A file on its own (``in_stage`` False: an MJCF from ``build -o``, a synthesized mechanism
-    file) goes through :func:`atomic_path`: complete or absent, an OSError as an OutputError.
-    A file inside a :func:`staged_dir` folder (``in_stage`` True) is written in place: the
-    folder is published whole, and an OSError reaches ``staged_dir``, whose message names the
-    output folder and the file instead of the hidden staging path.
-    """
-    path = Path(path)
-    parts = [text.encode("utf-8")] if isinstance(text, str) else [text] if isinstance(text, bytes) else text
-    if in_stage:
-        with open(path, "wb") as f:
-            f.writelines(parts)
-        return path
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        f.writelines(parts)
-    return path
-
-
-def write_table(path: Path, names: Sequence[str], cols: Sequence[Any], scale: Sequence[float] | None = None) -> Path:
-    """Write a CSV table into a staging folder; returns ``path``.
-
-    Args:
-        path: the file, inside a :func:`staged_dir` folder.
-        names: the k column names (header), units in the names.
-        cols: arrays of N rows each, (N,) for one column or (N, m) for m columns, k columns in
-            all; written at full double precision: the shortest text that reads back to the
-            same double (``1e-05`` as ``0.00001``, ``-0.0``, ``nan``, ``inf``).
-        scale: a factor per array of ``cols`` (into the unit its names say), applied as the
-            rows are written (None: all 1).
-
-    The numbers are formatted by orjson's shortest-round-trip writer in C, a block of rows at a
-    time as a JSON array of rows that becomes CSV by replacing the row brackets: 40 ns a number
-    on the traces, written, where Arrow's CSV writer took 150 and Python's repr() 480. It counts
-    because a traced point costs 9 columns x every sample of four files.
-    """
-    head = (",".join(names) + "\n").encode()
-    return write_text(path, itertools.chain([head], _csv_rows(cols, len(names), scale)), in_stage=True)
-
-
-def _csv_rows(cols: Sequence[Any], k: int, scale: Sequence[float] | None = None) -> Iterator[bytes | memoryview]:
-    """The rows of the columns ``cols`` (k in all) as CSV text, a block of rows at a time:
-    each block is copied from the columns into one small (rows, k) table, formatted and
-    written before the next, so the table stays in cache and its memory is reused, where a
-    whole (N, k) table is fresh memory written a column at a time (a traced point adds 1.5
-    MB of text)."""
-    import orjson
-
-    arrays = [np.asarray(c, dtype=float) for c in cols]
-    if not arrays:
-        return
-    widths = [1 if a.ndim == 1 else a.shape[1] for a in arrays]
-    if sum(widths) != k or len({len(a) for a in arrays}) > 1:
-        raise ValueError(f"{k} column names for columns of widths {widths} and lengths {[len(a) for a in arrays]}")
-    factors = [1.0] * len(arrays) if scale is None else list(scale)
-    n = len(arrays[0])
-    block = max(1, (1 << 22) // (20 * max(k, 1)))  # rows of about 4 MB of text
-    part = np.empty((min(block, n), k))
-    for i in range(0, n, block):
-        rows = part[: min(block, n - i)]
-        j = 0
-        for a, w, f in zip(arrays, widths, factors, strict=True):
-            src = a[i : i + len(rows)].reshape(len(rows), w)
-            if f == 1.0:
-                rows[:, j : j + w] = src
-            else:  # scaled in the copy: no scaled array of the whole column made first
-                np.multiply(src, f, out=rows[:, j : j + w])
-            j += w
-        raw = orjson.dumps(rows, option=orjson.OPT_SERIALIZE_NUMPY)
-        # One sum, no mask, tells that every number is finite (a sum that overflows only sends
-        # a block to the exact check below, without a warning).
-        with np.errstate(over="ignore", invalid="ignore"):
-            total = np.add.reduce(rows, axis=None)
-        if not np.isfinite(total):
-            bad = ~np.isfinite(rows)
-            raw = _non_finite(raw, rows[bad])
-        # '[[a,b],[c,d]]' -> 'a,b\nc,d\n': each row is a view between its '[' and ']', found
-        # with bytes.find (memchr speed), joined by newlines: one copy of the text. Splitting
-        # at ']' copied it twice (half the cost of this whole step with wide rows), and
-        # bytes.replace(b'],[', b'\n') searches three bytes, as slow as orjson's formatting.
-        view, find, stop = memoryview(raw), raw.find, len(raw) - 2
-        lines = []
-        a, b = 2, find(b"]", 2)
-        while b < stop:
-            lines.append(view[a:b])
-            a = b + 3
-            b = find(b"]", a)
-        lines.append(view[a:b])
-        yield b"\n".join(lines)
-        yield b"\n"
-
-
-def _non_finite(rows: bytes, values: np.ndarray) -> bytes:
-    """orjson writes every NaN and infinity as ``null``; put back each one's own text, in row
-    order (``values``: the table's non-finite entries, row by row, as boolean indexing gives
-    them)."""
-    pieces = rows.split(b"null")
-    text = [b"nan" if np.isnan(v) else b"inf" if v > 0 else b"-inf" for v in values]
-    out = [pieces[0]]
-    for t, p in zip(text, pieces[1:], strict=True):
-        out += [t, p]
-    return b"".join(out)
-
-
-def write_records(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray]) -> Path:
-    """Write a CSV of mixed columns (numbers and text) into a staging folder; returns ``path``.
-
-    Args:
-        path: the file, inside a :func:`staged_dir` folder.
-        columns: name (unit in the name) -> N values each; floats at full double precision
-            (NaN as ``nan``), text quoted where it must be (RFC 4180).
-    """
-    import csv
-    import io
-
-    names = list(columns)
-    cols = [np.asarray(c).tolist() if isinstance(c, np.ndarray) else list(c) for c in columns.values()]
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(names)
-    for row in zip(*cols, strict=True):
-        w.writerow([repr(x) if isinstance(x, float) else x for x in row])
-    return write_text(path, buf.getvalue(), in_stage=True)
-
-
-def write_parquet(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray]) -> Path:
-    """Write the same columns as :func:`write_records` as a Parquet table into a staging folder."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    table = pa.table({k: (np.asarray(v) if isinstance(v, np.ndarray) else list(v)) for k, v in columns.items()})
-    with atomic_path(path, suffix=".parquet") as tmp:
-        pq.write_table(table, tmp)
-    return path
-
-
-def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.ndarray, float]]]:
-    """Column names of a trace of N samples, and its columns as (values (N,) or (N, 3) in SI,
-    factor into the column's unit): time s, crank angle deg, speed rad/s and rpm, acceleration
-    rad/s^2, point positions mm, velocities mm/s and accelerations mm/s^2, link speeds rad/s and
-    accelerations rad/s^2, thread length mm, loop gap um. The CSV writer scales them as it
-    copies the rows (no scaled copy of each column first)."""
-    names = ["time_s", "phi1_deg", "omega1_rad_s", "eps1_rad_s2", "n1_rpm"]
-    # A point's three axes stay one (N, 3) block, not sliced into columns.
-    blocks: list[tuple[np.ndarray, float]] = [
-        (trace.time, 1.0),
-        (trace.phi, 180.0 / math.pi),
-        (trace.omega, 1.0),
-        (trace.eps, 1.0),
-        (to_rpm(trace.omega), 1.0),
-    ]
-    for n in mech.point_names:
-        names += [f"{n}_{ax}_mm" for ax in "xyz"]
-        blocks.append((trace.points[n], _MM_PER_M))
-    for n in mech.moving_points:
-        names += [f"{n}_v{ax}_mm_s" for ax in "xyz"]
-        names += [f"{n}_a{ax}_mm_s2" for ax in "xyz"]
-        blocks += [(trace.velocities[n], _MM_PER_M), (trace.accelerations[n], _MM_PER_M)]
-    for l in mech.links:
-        if l.name in trace.link_omega:
-            names += [f"{l.name}_omega_rad_s", f"{l.name}_eps_rad_s2"]
-            blocks += [(trace.link_omega[l.name], 1.0), (trace.link_eps[l.name], 1.0)]
-    if trace.thread_length is not None:
-        names.append("thread_length_mm")
-        blocks.append((trace.thread_length, _MM_PER_M))
-    if trace.loop_gap is not None:
-        names.append("loop_gap_um")
-        blocks.append((trace.loop_gap, _UM_PER_M))
-    return names, blocks
-
-
-def write_csv(path: Path, mech: Mechanism, trace: Trace) -> Path:
-    """Write a trace as CSV (the columns of :func:`columns`) at full double precision."""
-    names, blocks = columns(mech, trace)
-    return write_table(path, names, [v for v, _ in blocks], [f for _, f in blocks])
-
-
-def read_csv(path: Path) -> dict[str, np.ndarray]:
-    """Read a CSV written here back into its columns by name, each (N,) in the unit its name says."""
-    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
-    return {n: np.asarray(data[n]) for n in data.dtype.names or ()}
-
-
-def write_json(path: Path, obj: Mapping[str, Any]) -> Path:
-    """Write ``obj`` as indented JSON into a staging folder; numpy numbers and arrays become
-    JSON numbers and lists, paths strings. Returns ``path``."""
-    return write_text(path, json.dumps(obj, indent=2, default=_jsonable) + "\n", in_stage=True)
-
-
-def _jsonable(o: object) -> object:
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"not JSON serializable: {type(o).__name__}")
+__all__ = [
+    "MARKER",
+    "Terminated",
+    "atomic_path",
+    "check_destination",
+    "columns",
+    "interruptible",
+    "on_discard",
+    "read_csv",
+    "read_marker",
+    "remove_stale",
+    "staged_dir",
+    "uninterrupted",
+    "write_csv",
+    "write_json",
+    "write_loads_csv",
+    "write_parquet",
+    "write_records",
+    "write_steady_csv",
+    "write_table",
+    "write_text",
+]
 
 
 # ============================================================================ interruption
@@ -435,8 +200,11 @@ def uninterrupted() -> Iterator[None]:
 # ============================================================================ output folders
 MARKER = ".mjlink-output.json"
 """The file every output folder carries: ``written_by`` "mjlink", ``kind`` and ``command`` (what
-wrote it), ``mechanism`` and ``files`` (the names mjlink wrote there; the marker itself is not
-listed). It is what allows a later run to replace those files and only those."""
+wrote it), ``mechanism``, ``files`` (the names mjlink wrote there; the marker itself is not
+listed), ``written`` (when, ISO 8601) and ``command_line``; ``previous`` names where the output
+it replaced went while it was being removed. It is what allows a later run to replace those
+files and only those. A staging folder carries one from its creation, with ``stage`` = its own
+name, ``pid`` and ``host``: what lets a later run recognise it as mjlink's."""
 
 # The command that writes each kind of output folder, for markers and messages.
 COMMANDS = {"simulate": "simulate", "loads": "torque/reactions", "steady": "steady", "study": "study"}
@@ -473,9 +241,65 @@ def _stop(hooks: list[Callable[[], None]]) -> None:
             hooks.pop()()
 
 
+_FILE_KINDS = (
+    (stat.S_ISREG, "a regular file"),
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _kind_of(mode: int) -> str:
+    return next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
+
+
+def check_destination(
+    dest: Path | str, *, kind: str = "output", mechanism: str | None = None, force: bool = False
+) -> Path:
+    """Refuse, before any work, an output folder mjlink cannot or may not write; returns it
+    (a symbolic link to a folder resolved).
+
+    ``dest`` must be absent or a folder (not a regular file, a FIFO, a device); its nearest
+    existing parent must be a folder this process can write into; an existing ``dest`` must be
+    mjlink's output of ``kind`` for ``mechanism``, or empty, or ``force`` given (see
+    :func:`staged_dir`). Creates nothing. Raises a one-line OutputError.
+    """
+    dest = Path(dest)
+    if dest.is_symlink():
+        dest = Path(os.path.realpath(dest))
+    anc = dest.parent
+    while not os.path.lexists(anc) and anc != anc.parent:
+        anc = anc.parent
+    try:
+        mode = os.stat(anc).st_mode
+    except OSError as e:
+        raise OutputError(f"cannot write to output folder {dest.parent}: {_why(e)}") from None
+    if not stat.S_ISDIR(mode):
+        raise OutputError(f"cannot write to output folder {dest.parent}: {anc} is {_kind_of(mode)}, not a folder")
+    if os.path.lexists(dest):
+        try:
+            mode = os.stat(dest).st_mode
+        except OSError as e:
+            raise OutputError(f"cannot write outputs to {dest}: {_why(e)}") from None
+        if not stat.S_ISDIR(mode):
+            raise OutputError(f"output path {dest} exists and is not a folder ({_kind_of(mode)})")
+        _owned(dest, kind, mechanism, force)
+        anc = dest
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise OutputError(f"cannot write to output folder {dest.parent}: permission denied ({anc})")
+    return dest
+
+
 @contextmanager
 def staged_dir(
-    dest: Path | str, *, kind: str = "output", force: bool = False, mechanism: str | None = None
+    dest: Path | str,
+    *,
+    kind: str = "output",
+    force: bool = False,
+    mechanism: str | None = None,
+    command: str | Sequence[str] | None = None,
 ) -> Iterator[Path]:
     """Yield a staging folder; on success its files are published at ``dest``, on failure it is
     removed.
@@ -483,36 +307,37 @@ def staged_dir(
     Args:
         dest: the output folder (a symbolic link to a folder is followed).
         kind: what writes it (``"simulate"``, ``"loads"`` for torque and reactions,
-            ``"steady"``; the default ``"output"`` is no command's): recorded in the folder's
-            :data:`MARKER`, and an existing ``dest`` is only published into if its marker has
-            the same kind.
+            ``"steady"``, ``"study"``; the default ``"output"`` is no command's): recorded in
+            the folder's :data:`MARKER`, and an existing ``dest`` is only published into if its
+            marker has the same kind.
         force: publish into an existing ``dest`` that mjlink did not write for this ``kind``
             and ``mechanism``: the files of the new output replace entries of the same name,
             every other entry is kept.
         mechanism: the mechanism's name, recorded in the marker and compared like ``kind``.
+        command: the command line, recorded in the marker (and named when this output is
+            replaced by a later run, or when a second run finds this one holding the lock).
 
-    * The stage is a hidden ``.NAME.partial-<pid>-<random>`` beside ``dest`` (same file system,
-      so publishing is a rename, never a copy). Stages of runs whose process is gone (killed)
-      and ``.NAME.old-<pid>`` folders of the fallback below are removed when a run stages into
-      the same folder (:func:`remove_stale`).
+    * On entry, before the body runs: :func:`check_destination`; the folder's lock (a second
+      run into the same folder is refused, :class:`_Lock`); the tidying of what killed runs left
+      (:func:`remove_stale`); the stage, a hidden ``.NAME.partial-<pid>-<random>`` beside
+      ``dest`` (same file system, so publishing is a rename, never a copy), marked as mjlink's
+      at once.
     * Publishing writes the marker listing the new files into the stage. A ``dest`` that does
       not exist is then simply renamed into place. An existing ``dest`` is published into only
-      if its marker says mjlink wrote it with the same ``kind`` and ``mechanism``; then the files
-      that marker lists are mjlink's and are replaced (or removed, if this run did not write
-      them again); every other entry (a user's notes, a folder) is kept, and one with the name
-      of a new file makes the run refuse. Without such a marker (a user's folder, another
-      command's output: ``torque`` writes ``x_loads``, which a ``simulate`` of a mechanism named
-      ``x_loads`` must not replace) the run refuses, unless the folder is empty: a one-line
-      OutputError naming the folder and ``--force``. The check is made when publishing (the
-      folder may change during the run), so a refused run has done its work in vain but has
-      changed nothing.
+      if its marker says mjlink wrote it with the same ``kind`` and ``mechanism`` (checked again:
+      the folder may have changed during the run); then the files that marker lists are
+      mjlink's and are replaced (or removed, if this run did not write them again: a note says
+      which); every other entry (a user's notes, a folder) is kept, and one with the name of a
+      new file makes the run refuse. Without such a marker the run refuses, unless the folder is
+      empty or ``force`` is given: a one-line OutputError naming the folder and ``--force``.
     * The kept entries are hard-linked into the stage (a folder as a tree of hard links), then
       the stage and ``dest`` are exchanged atomically (Linux ``renameat2(RENAME_EXCHANGE)``): at
       every instant ``dest`` is the complete old output or the complete new one, and every kept
       file is in it. Elsewhere (or on file systems without the exchange) by two renames, ``dest``
-      -> ``.NAME.old-<pid>`` then stage -> ``dest``, putting the old one back if the second
-      fails. The old folder is then deleted (an entry that appeared in it meanwhile is moved
-      over first).
+      -> ``.NAME.old-<pid>-<random>`` then stage -> ``dest``, putting the old one back if the
+      second fails. The old output is then deleted (an entry that appeared in it meanwhile is
+      moved over first); the new marker's ``previous`` names where it was, so that a run killed
+      in between leaves something the next run recognises.
     * If the body raises, helpers registered with :func:`on_discard` are stopped, the stage is
       deleted and ``dest`` is left as it was (absent, or the previous complete output): a failed
       run never leaves a folder that looks complete. An OSError (disk full, permission, ...)
@@ -521,28 +346,25 @@ def staged_dir(
       like an interrupted one, and a run that received SIGINT or SIGTERM publishes nothing even
       if some code swallowed the exception; the clean-up and the publication are not cut short
       by a second signal (:func:`uninterrupted`). Only SIGKILL or a power loss leaves a stage
-      behind, and the next run removes it.
-    * An output path that exists and is not a folder, or a parent that cannot be created or
-      written (a path under a regular file, a read-only file system), is an OutputError before
-      the body runs.
+      behind, and the next run into the same folder removes it.
     """
-    dest = Path(dest)
-    if dest.is_symlink():
-        dest = Path(os.path.realpath(dest))
+    dest = check_destination(dest, kind=kind, mechanism=mechanism, force=force)
     parent = dest.parent
-    if dest.exists() and not dest.is_dir():
-        raise OutputError(f"output path {dest} exists and is not a folder")
+    line = command if isinstance(command, str) or command is None else " ".join(command)
     stack: list[list[Callable[[], None]]] = _stages.__dict__.setdefault("hooks", [])
     hooks: list[Callable[[], None]] = []
     stage: Path | None = None
+    lock: _Lock | None = None
     with interruptible():
         stack.append(hooks)
         try:
             try:
                 parent.mkdir(parents=True, exist_ok=True)
+                lock = _Lock(dest, kind, line)
                 remove_stale(parent)
                 stage = Path(tempfile.mkdtemp(prefix=f".{dest.name}.partial-{os.getpid()}-", dir=parent))
                 stage.chmod(0o755)  # mkdtemp's 0700 would make the published folder private
+                _write_marker(stage, _stage_marker(stage, kind, mechanism, line))
             except OSError as e:
                 raise OutputError(f"cannot write to output folder {parent}: {_why(e)}") from None
             yield stage
@@ -550,7 +372,7 @@ def staged_dir(
                 raise _interruption(_signalled[0])
             with uninterrupted():
                 _stop(hooks)
-                _publish(stage, dest, kind, mechanism, force)
+                _publish(stage, dest, kind, mechanism, force, line)
         except OSError as e:
             _discard(stage, hooks)
             raise OutputError(f"cannot write outputs to {dest}: {_why(e)}") from None
@@ -558,6 +380,8 @@ def staged_dir(
             _discard(stage, hooks)
             raise
         finally:
+            if lock is not None:
+                lock.release()
             stack[:] = [h for h in stack if h is not hooks]  # by identity: empty lists are all equal
 
 
@@ -573,6 +397,28 @@ def _why(e: OSError) -> str:
     """An OSError as a short cause: 'No space left on device (kinematics.csv)'."""
     what = e.strerror or str(e) or type(e).__name__
     return f"{what} ({Path(e.filename).name})" if e.filename else what
+
+
+def _now() -> str:
+    return datetime.datetime.now().astimezone().isoformat(timespec="seconds")
+
+
+def _stage_marker(stage: Path, kind: str, mechanism: str | None, line: str | None) -> dict[str, Any]:
+    return {
+        "written_by": "mjlink",
+        "kind": kind,
+        "mechanism": mechanism,
+        "files": [],
+        "stage": stage.name,
+        "pid": os.getpid(),
+        "host": socket.gethostname(),
+        "command_line": line,
+        "written": _now(),
+    }
+
+
+def _write_marker(folder: Path, data: dict[str, Any]) -> None:
+    (folder / MARKER).write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
 
 
 def read_marker(folder: Path | str) -> dict[str, Any] | None:
@@ -628,27 +474,29 @@ def _owned(dest: Path, kind: str, mechanism: str | None, force: bool) -> set[str
     )
 
 
-def _publish(stage: Path, dest: Path, kind: str, mechanism: str | None, force: bool) -> None:
+def _publish(stage: Path, dest: Path, kind: str, mechanism: str | None, force: bool, line: str | None = None) -> None:
     """Put the complete ``stage`` at ``dest`` with its marker, keeping every entry of an existing
     ``dest`` that mjlink did not write (see :func:`staged_dir`)."""
     new = sorted(e for e in os.listdir(stage) if e != MARKER)
-    write_json(
-        stage / MARKER,
-        {
-            "written_by": "mjlink",
-            "kind": kind,
-            "command": f"mjlink {COMMANDS.get(kind, kind)}",
-            "mechanism": mechanism,
-            "files": new,
-        },
-    )
+    marker = {
+        "written_by": "mjlink",
+        "kind": kind,
+        "command": f"mjlink {COMMANDS.get(kind, kind)}",
+        "mechanism": mechanism,
+        "files": new,
+        "written": _now(),
+        "command_line": line,
+    }
     if not os.path.lexists(dest):
+        _write_marker(stage, marker)
         os.replace(stage, dest)
         return
     if not dest.is_dir():
         raise OutputError(f"output path {dest} exists and is not a folder")
+    before = read_marker(dest)
     owned = _owned(dest, kind, mechanism, force)
-    keep = sorted(e for e in os.listdir(dest) if e != MARKER and e not in owned)
+    present = set(os.listdir(dest))
+    keep = sorted(e for e in present if e != MARKER and e not in owned)
     clash = [e for e in keep if e in new]
     if clash and not force:
         them = "it" if len(clash) == 1 else "them"
@@ -661,11 +509,14 @@ def _publish(stage: Path, dest: Path, kind: str, mechanism: str | None, force: b
             _keep(dest / name, stage / name, dest)
     with contextlib.suppress(OSError):
         os.chmod(stage, stat.S_IMODE(os.stat(dest).st_mode))  # the folder keeps its permissions
+    # Where the previous output waits until it is deleted, in the marker: a run killed in that
+    # instant leaves it under a name the next run can check against this marker (remove_stale).
+    _write_marker(stage, {**marker, "previous": stage.name})
     if _exchange(stage, dest):
         old = stage  # now holds the previous output
     else:
-        old = dest.parent / f".{dest.name}.old-{os.getpid()}"
-        shutil.rmtree(old, ignore_errors=True)
+        old = _free_name(dest.parent, f".{dest.name}.old-{os.getpid()}-")
+        _write_marker(stage, {**marker, "previous": old.name})
         os.replace(dest, old)
         try:
             os.replace(stage, dest)
@@ -677,6 +528,32 @@ def _publish(stage: Path, dest: Path, kind: str, mechanism: str | None, force: b
             with contextlib.suppress(OSError):
                 os.rename(old / name, dest / name)
     shutil.rmtree(old, ignore_errors=True)
+    _replaced(dest, before, owned & present, set(new), clash)
+
+
+def _replaced(dest: Path, before: dict[str, Any] | None, owned: set[str], new: set[str], clash: list[str]) -> None:
+    """Say in one line what this publication replaced (nothing when the folder held no output)."""
+    if owned:
+        when = before.get("written") if before else None
+        by = before.get("command_line") or before.get("command") if before else None
+        what = ", ".join(x for x in ((when or "").replace("T", " ")[:16], by and f"'{by}'") if x)
+        gone = sorted(owned - new)
+        note(
+            f"replaced the previous output in {dest}"
+            + (f" ({what})" if what else "")
+            + (f"; not written this time, so removed: {_shown(gone)}" if gone else "")
+        )
+    if clash:
+        note(f"replaced in {dest} (--force): {_shown(clash)}")
+
+
+def _free_name(folder: Path, prefix: str) -> Path:
+    """A name in ``folder`` starting with ``prefix`` that nothing has (never an existing entry:
+    a rename onto an empty folder would replace it)."""
+    while True:
+        p = folder / f"{prefix}{secrets.token_hex(4)}"
+        if not os.path.lexists(p):
+            return p
 
 
 def _keep(src: Path, dst: Path, dest: Path) -> None:
@@ -700,23 +577,29 @@ def _hard_link(src: str | Path, dst: str | Path) -> str | Path:
     return dst
 
 
-_STALE = re.compile(r"\.(?P<name>.+)\.(?:partial-(?P<pid>[0-9]+)-[^.]+|old-(?P<old>[0-9]+))", re.S)
+# ------------------------------------------------------------------------------ what killed runs left
+_STALE = re.compile(r"\.(?P<name>.+)\.(?:partial-(?P<pid>[0-9]+)-[^.]+|old-(?P<old>[0-9]+)(?:-[0-9a-f]+)?)", re.S)
 
 
 def remove_stale(folder: Path | str) -> list[str]:
-    """Remove what killed runs left in ``folder``; returns the names removed.
+    """Remove what killed runs left in ``folder``; returns the names removed or put back.
 
-    A staging folder ``.NAME.partial-<pid>-<random>`` or a fallback's ``.NAME.old-<pid>`` is left
-    only when its process was killed; if that process is gone (or a zombie), the folder is
-    deleted, except that an ``.old`` folder whose ``NAME`` is missing is the previous output
-    cut off in mid-publication and is renamed back. Folders of live processes, and anything
-    else, are left alone; errors are ignored (this is tidying, not the run's work).
+    Only folders mjlink created and marked are touched, and only once their process is gone (or
+    a zombie): a staging folder ``.NAME.partial-<pid>-<random>`` whose marker names it as a
+    stage made on this host, or that the marker of ``NAME`` names as its previous output (the
+    old output, exchanged into the stage's place, not yet deleted), is deleted; an old output
+    ``.NAME.old-<pid>[-<random>]`` with mjlink's marker is renamed back to ``NAME`` if ``NAME``
+    is missing (the previous output cut off in mid-publication), or deleted if ``NAME``'s marker
+    names it as its previous output. Anything else, whatever its name (a user's folder, file or
+    link that looks like one of these), is left alone; errors are ignored (this is tidying,
+    not the run's work).
     """
     removed: list[str] = []
     try:
         entries = list(os.scandir(folder))
     except OSError:
         return removed
+    host = socket.gethostname()
     for entry in entries:
         m = _STALE.fullmatch(entry.name)
         if m is None:
@@ -725,10 +608,21 @@ def remove_stale(folder: Path | str) -> list[str]:
             if not entry.is_dir(follow_symlinks=False) or _alive(int(m["pid"] or m["old"])):
                 continue
             path, dest = Path(entry.path), Path(folder) / m["name"]
-            if m["old"] and not os.path.lexists(dest):
-                os.rename(path, dest)
-            else:
+            marker = read_marker(path)
+            if marker is None:
+                continue  # not mjlink's, whatever its name says
+            previous = (read_marker(dest) or {}).get("previous") if os.path.isdir(dest) else None
+            if m["pid"]:
+                ours = marker.get("stage") == entry.name and marker.get("host") == host
+                if not (ours or previous == entry.name):
+                    continue
                 shutil.rmtree(path)
+            elif not os.path.lexists(dest):
+                os.rename(path, dest)
+            elif previous == entry.name:
+                shutil.rmtree(path)
+            else:
+                continue
             removed.append(entry.name)
         except OSError:
             continue
@@ -777,41 +671,51 @@ def _exchange(a: Path, b: Path) -> bool:
     raise OSError(err, os.strerror(err), str(b))
 
 
-def _label(lab: str) -> str:
-    """A pair label as a column-name stem: ``P3:lever-rocker`` -> ``P3_lever_rocker``."""
-    return lab.replace(":", "_").replace("-", "_")
-
-
-def write_loads_csv(
-    path: Path, trace: Trace, torque: np.ndarray, forces: Mapping[str, np.ndarray], moments: Mapping[str, np.ndarray]
-) -> Path:
-    """Driving torque and pair forces against time and crank angle, as CSV.
-
-    Args:
-        path: the file, inside a staging folder.
-        trace: the run of N samples whose time (s), crank angle and speed (rad/s) head the table.
-        torque: (N,) driving torque on the input crank, N*m.
-        forces: per pair label, (N, 3) force in the pair, N (columns Fx, Fy and |F|).
-        moments: per prismatic pair label, (N,) its moment, N*m.
+# ------------------------------------------------------------------------------ one run per folder
+class _Lock:
+    """The lock of output folder ``dest`` while a run writes it: on Linux an abstract-namespace
+    Unix socket bound to a name derived from the folder's real path. Binding fails while
+    another process holds the name, and the kernel releases it when the holder ends, however
+    it ends: a killed run never blocks the next one, and nothing is left on disk. The holder is
+    named from its staging folder's marker. Elsewhere (no abstract namespace) there is no lock:
+    two runs into one folder then each publish whole, the later one replacing the earlier.
     """
-    names = ["time_s", "phi1_deg", "omega1_rad_s", "torque_N_m"]
-    cols = [trace.time, np.degrees(trace.phi), trace.omega, torque]
-    for lab, f in forces.items():
-        s = _label(lab)
-        names += [f"{s}_Fx_N", f"{s}_Fy_N", f"{s}_F_N"]
-        cols += [f[:, 0], f[:, 1], norms(f)]
-        if lab in moments:
-            names.append(f"{s}_M_N_m")
-            cols.append(moments[lab])
-    return write_table(path, names, cols)
 
+    def __init__(self, dest: Path, kind: str, line: str | None):
+        self.dest = dest
+        self.sock: socket.socket | None = None
+        if not sys.platform.startswith("linux"):
+            return
+        where = os.path.join(os.path.realpath(dest.parent), dest.name)
+        name = "\0mjlink-output:" + hashlib.sha256(os.fsencode(where)).hexdigest()
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)  # close-on-exec, as Python makes it
+        try:
+            sock.bind(name)
+        except OSError as e:
+            sock.close()
+            if e.errno != errno.EADDRINUSE:
+                return  # no abstract namespace here: run without the lock
+            raise OutputError(
+                f"cannot write outputs to {dest}: another mjlink run is writing there{self._holder()}; "
+                "wait for it to end, or give another --out"
+            ) from None
+        self.sock = sock
 
-def write_steady_csv(path: Path, plain: Steady, fly: Steady) -> Path:
-    """Steady motion over one period, without and with the flywheel, as CSV: crank angle deg
-    (``plain``'s grid), crank speed rad/s and time s of each orbit (``plain.phi``,
-    ``plain.omega``, ``plain.t``, ``fly.omega``, ``fly.t``: (N,) each)."""
-    return write_table(
-        path,
-        ["phi1_deg", "omega_rad_s", "t_s", "omega_flywheel_rad_s", "t_flywheel_s"],
-        [np.degrees(plain.phi), plain.omega, plain.t, fly.omega, fly.t],
-    )
+    def _holder(self) -> str:
+        """' (process N, 'COMMAND', since TIME)' from the live run's staging folder, if found."""
+        with contextlib.suppress(OSError):
+            for entry in os.scandir(self.dest.parent):
+                m = _STALE.fullmatch(entry.name)
+                if m is None or not m["pid"] or m["name"] != self.dest.name or not _alive(int(m["pid"])):
+                    continue
+                marker = read_marker(entry.path)
+                if marker is not None and marker.get("stage") == entry.name:
+                    since = str(marker.get("written", "")).replace("T", " ")[:19]
+                    who = marker.get("command_line") or f"mjlink {COMMANDS.get(marker['kind'], marker['kind'])}"
+                    return f" (process {marker.get('pid')}, '{who}', since {since})"
+        return ""
+
+    def release(self) -> None:
+        if self.sock is not None:
+            self.sock.close()
+            self.sock = None

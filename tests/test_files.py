@@ -368,12 +368,21 @@ def test_sigkill_takes_the_worker_along_and_the_next_run_removes_the_stage(tmp_p
     (stale,) = hidden(out)  # only a SIGKILL leaves a stage behind ...
     assert stale.startswith(f".takeup.partial-{run.p.pid}-")
     dead = dead_pid()
-    (out / f".takeup.partial-{dead}-x").mkdir()
-    (out / f".takeup.partial-{dead}-x" / "kinematics.csv").write_text("half")
+    # Another killed run's stage, marked as mjlink marks a stage (a copy of the real one's marker
+    # with its own name), and a look-alike of the user's without mjlink's marker.
+    killed = out / f".takeup.partial-{dead}-x"
+    killed.mkdir()
+    (killed / "kinematics.csv").write_text("half")
+    marker = json.loads((out / stale / output.MARKER).read_text())
+    (killed / output.MARKER).write_text(json.dumps({**marker, "stage": killed.name, "pid": dead}))
+    mine = out / f".takeup.partial-{dead}-z"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("the user's")
     live = out / f".takeup.partial-{os.getpid()}-y"  # a run still going (this process)
     live.mkdir()
-    pipeline.run(mech, out, FAST)  # ... and the next run into the same folder removes it
-    assert hidden(out) == [live.name] and names(out) == [live.name, "crank_rocker"]
+    pipeline.run(mech, out, FAST)  # ... and the next run into the same folder removes them
+    assert hidden(out) == sorted([live.name, mine.name]) and names(out) == sorted([live.name, mine.name, "crank_rocker"])
+    assert (mine / "notes.txt").read_text() == "the user's"
 
 
 def test_an_interrupted_publication_is_put_back_by_the_next_run(tmp_path, mech):

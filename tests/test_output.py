@@ -118,7 +118,7 @@ def test_simulation_failure_keeps_the_previous_output(tmp_path, mech, previous, 
 
 def test_interrupt_mid_run_leaves_nothing(tmp_path, previous):
     with pytest.raises(KeyboardInterrupt):
-        with output.staged_dir(previous) as stage:
+        with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
             (stage / "kinematics.csv").write_text("half")
             raise KeyboardInterrupt
     assert leftovers(tmp_path) == [] and files(previous) == ["report.json", "stale.png"]

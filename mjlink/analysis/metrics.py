@@ -27,9 +27,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import MjlinkError
-from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
+from ..errors import InputError, MjlinkError
+from ..model.limits import MAX_LENGTH_MM, MAX_PRESSURE_DEG, MAX_SPEED, MIN_SPEED, MIN_TRANSMISSION_DEG
 from ..model.mechanism import Mechanism
+from ..model.reader import shown
 from ..model.topology import pairs
 from ..reference import kinetostatics
 from ..reference.batch import Batch
@@ -39,6 +40,10 @@ from ..reference.kinematics import angle_ranges
 
 class MetricError(MjlinkError):
     """A study file's metric is unknown or badly specified."""
+
+
+class MetricLimitError(MetricError, InputError):
+    """A metric's option beyond one of mjlink's limits (exit status 2)."""
 
 
 @dataclass(frozen=True)
@@ -128,8 +133,19 @@ class Metric(ABC):
 
     def _speed(self, raw: dict[str, Any]) -> float:
         w = raw.get("speed", self.mech.speed)
-        if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w == 0:
-            raise MetricError(f"{self.where}: speed must be a non-zero number (rad/s), got {w!r}")
+        try:
+            ok = not isinstance(w, bool) and isinstance(w, int | float) and math.isfinite(w) and w != 0
+        except OverflowError:  # an integer too large for a float
+            raise MetricLimitError(
+                f"{self.where}: speed must be {MIN_SPEED:g} to {MAX_SPEED:g} rad/s, got {shown(w)}"
+            ) from None
+        if not ok:
+            raise MetricError(f"{self.where}: speed must be a non-zero number (rad/s), got {shown(w)}")
+        if not MIN_SPEED <= abs(w) <= MAX_SPEED:
+            raise MetricLimitError(
+                f"{self.where}: speed must be {MIN_SPEED:g} to {MAX_SPEED:g} rad/s in magnitude (the limits of a "
+                f"file's [input] speed), got {float(w):g}"
+            )
         return float(w)
 
 
@@ -138,7 +154,7 @@ def _axis(raw: dict[str, Any], where: str) -> int | None:
     if a is None:
         return None
     if a not in ("x", "y", "z"):
-        raise MetricError(f"{where}: axis must be 'x', 'y' or 'z', got {a!r}")
+        raise MetricError(f"{where}: axis must be 'x', 'y' or 'z', got {shown(a)}")
     return "xyz".index(a)
 
 
@@ -313,7 +329,7 @@ class FeedDeviation(Metric):
         try:
             self.angles = np.radians(np.array(a, dtype=float))
             self.values = np.array(v, dtype=float) * 1e-3
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise MetricError(f"{self.where}: 'angles' and 'values' must be numbers") from None
         if not (np.all(np.isfinite(self.angles)) and np.all(np.isfinite(self.values))):
             raise MetricError(f"{self.where}: 'angles' and 'values' must be finite")
@@ -626,12 +642,14 @@ class Dwell(Metric):
         self.axis = _axis(raw, self.where)
         self.ax = self.axis if self.axis is not None else _main_axis(self.mech, self.point)
         w = raw.get("within")
-        if isinstance(w, bool) or not isinstance(w, int | float) or not 0 < w < math.inf:
-            raise MetricError(f"{self.where}: needs 'within', the band in mm (> 0), got {w!r}")
+        if isinstance(w, bool) or not isinstance(w, int | float) or not 0 < w <= MAX_LENGTH_MM:
+            raise MetricError(
+                f"{self.where}: needs 'within', the band in mm (> 0, at most {MAX_LENGTH_MM:g}), got {shown(w)}"
+            )
         self.within = float(w) * 1e-3
         self.at = raw.get("at", "max")
         if self.at not in ("max", "min"):
-            raise MetricError(f"{self.where}: 'at' must be 'max' or 'min', got {self.at!r}")
+            raise MetricError(f"{self.where}: 'at' must be 'max' or 'min', got {shown(self.at)}")
 
     def columns(self) -> list[Column]:
         return [
@@ -684,7 +702,7 @@ class PathError(Metric):
         t = raw.get("targets")
         try:
             arr = np.array(t, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             arr = np.zeros((0,))
         if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) < 1 or not np.all(np.isfinite(arr)):
             raise MetricError(f"{self.where}: 'targets' must be a list of [x, y] points, mm")

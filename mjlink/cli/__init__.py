@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     SIGINT ends a command with ``mjlink: interrupted`` and status 130, SIGTERM with ``mjlink:
     terminated`` and 143 (128 + the signal), both after the run has cleaned up (no staging
     folder, no worker process left)."""
-    from .. import memory
+    from .. import memory, notes
     from ..output import Terminated, interruptible
 
     args = _parser().parse_args(argv)
@@ -124,13 +124,14 @@ def main(argv: list[str] | None = None) -> int:
     args.command_line = ("python", "-m", "mjlink", *(sys.argv[1:] if argv is None else argv))
     run = next(c.run for c in COMMANDS if c.name == args.command)
     try:
-        with interruptible():  # SIGTERM unwinds like Ctrl-C instead of killing mid-run
+        # SIGTERM unwinds like Ctrl-C instead of killing mid-run; notes go to stderr.
+        with notes.to_stderr(), interruptible():
             return run(args)
     except MjlinkError as e:
         if args.debug:
             raise
         print(f"mjlink: error: {error_line(e)}", file=sys.stderr)
-        return 1
+        return e.exit_status
     except KeyboardInterrupt:
         print("mjlink: interrupted", file=sys.stderr)
         _interrupt_handled()

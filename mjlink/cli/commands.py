@@ -533,6 +533,30 @@ def _study_arguments(q: argparse.ArgumentParser) -> None:
     )
     q.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     q.add_argument("--strict", action="store_true", help="exit 3 if a variant MuJoCo verified missed a threshold")
+    q.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="check the study and print its plan (variants, MuJoCo steps, memory, time), then stop: nothing is written",
+    )
+    q.add_argument(
+        "--max-memory",
+        type=size_arg,
+        metavar="SIZE",
+        help="the memory a study may need before it is refused (e.g. 64GiB; default: three quarters of the memory "
+        "this machine has available)",
+    )
+
+
+def size_arg(s: str) -> float:
+    """argparse type of --max-memory: a size with its unit, 64GiB, 500MB, 2e9 (bytes)."""
+    from ..study.plan import parse_size
+
+    try:
+        return parse_size(s)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text.error_line(repr(s))} is not a memory size: write a number and its unit, e.g. 64GiB or 500MB"
+        ) from None
 
 
 def _shipped() -> str:
@@ -543,19 +567,25 @@ def _shipped() -> str:
 
 
 def _study(args: argparse.Namespace) -> int:
+    from ..errors import InputError
     from ..pipeline import study as pipeline_study
     from ..study import spec
 
     if args.workers is not None and not 0 <= args.workers <= 256:
-        raise MjlinkError(f"--workers must be from 0 to 256, got {args.workers}")
+        raise InputError(f"--workers must be from 0 to 256, got {args.workers}")
     if args.workers is not None and args.scheduler:
-        raise MjlinkError("--workers sizes a local cluster: it does not apply with --scheduler")
+        raise InputError("--workers sizes a local cluster: it does not apply with --scheduler")
     st = spec.load(args.file)
+    pre = pipeline_study.prepare(
+        st, args.out, scheduler=args.scheduler, workers=args.workers, force=args.force, max_memory=args.max_memory
+    )
+    print(f"mjlink: {pre.plan.describe()}", file=sys.stderr, flush=True)
+    pre.plan.check()
+    if args.dry_run:
+        print(f"dry run: nothing computed or written; the outputs would go to {pre.dest}/")
+        return 0
     res = pipeline_study.run(
-        st,
-        args.out,
-        scheduler=args.scheduler,
-        workers=args.workers,
+        pre,
         plots=not args.no_plots,
         force=args.force,
         command=" ".join(args.command_line),
@@ -615,7 +645,8 @@ COMMANDS: tuple[Command, ...] = (
         "examples:\n  python -m mjlink study takeup_tolerance\n"
         "  python -m mjlink study takeup_eyelets_demand                 # [optimize]: writes winner.toml\n"
         "  python -m mjlink study crank_slider_grid --workers 0          # in this process\n"
-        "  python -m mjlink study my_study.toml --scheduler tcp://10.0.0.5:8786",
+        "  python -m mjlink study my_study.toml --scheduler tcp://10.0.0.5:8786\n"
+        "  python -m mjlink study my_study.toml --dry-run                # its plan: size, memory, time",
         _study_arguments,
         _study,
     ),

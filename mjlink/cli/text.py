@@ -303,16 +303,32 @@ def optimization(res: OptimizeResult) -> str:
         f"differential evolution: {s['evaluations']} evaluations in {len(s['runs'])} run(s) of "
         f"{o['population']} per generation, seed {o['seed']}; {s['engine']}",
     ]
+    conv = s["convergence"]
+    if conv["converged"]:
+        o = s["optimizer"]
+        agree = f"; the {o['seeds']} seeds agree" if o["seeds"] > 1 and not o["pareto"] else ""
+        polish = f", then polished to {o['xtol']:g} of every range" if o["polish_evaluations"] else ""
+        lines.append(f"converged: yes (every run settled{polish}{agree}; the criterion is in summary.json)")
+    else:
+        lines.append("converged: NO: " + "; ".join(conv["not_converged"]))
     if w["objective"] is not None:
         f = s["mechanism_file_design"]["objective"]
         was = f"{f:.6g}" if f is not None else "infeasible or out of bounds"
-        lines.append(f"winner: objective {w['objective']:.6g} (the mechanism file's design: {was})")
+        lines.append(
+            f"winner: objective {w['objective']:.8g} as written, rounded to "
+            + ", ".join(f"{v:g} {u}" for u, v in s["optimizer"]["resolution"].items())
+            + f" ({w['objective_unrounded']:.8g} unrounded; the mechanism file's design: {was})"
+        )
     elif s["front"]:
-        lines.append(f"Pareto front: {len(s['front'])} designs; winner: the knee")
+        lines.append(f"Pareto front: {len(s['front'])} designs; winner: the knee ({s['optimizer']['knee']})")
     for p in s["parameters"]:
         lines.append(
-            f"  {p['path']:<32} {p['winner']:>12.6g} {p['unit']:<7} (file: {p['nominal']:.6g}, range {p['low']:g}..{p['high']:g})"
+            f"  {p['path']:<32} {p['winner']:>12.10g} {p['unit']:<7} (file: {p['nominal']:.6g}, range {p['low']:g}..{p['high']:g})"
         )
+    for c in s["caveats_text"]:
+        lines.append(f"caveat: {c}")
+    for r in s["rejected"]:
+        lines.append(f"set aside: {r['reason']}")
     lines.append(f"{'metric':<34} {'unit':>6} {'winner':>12} {'nominal dims':>13}")
     for name, m in w["metrics"].items():
         lines.append(f"{name:<34} {m['unit']:>6} {m['value']:>12.6g} {m['nominal_dimensions']:>13.6g}")

@@ -70,6 +70,8 @@ MAX_FPS = 240
 # Text a file shows in every listing, plot title and report: one line, a title not an essay
 # (a 1 MB title was written into every figure and report).
 MAX_TITLE_CHARS = 200
+# A mechanism or study file is a few kB: above this it is refused by its size, before it is read.
+MAX_FILE_BYTES = 1 << 20
 # Points in one file (ground and built): every check over a cycle solves each point at
 # SAMPLES_PER_TURN input angles per turn of the period, so its cost is points x samples; 2000
 # points took `check` 161 s, 200 about 5 s. The product is bounded too, for geared files whose

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import MechanismFileError
+from ..errors import FileTooLargeError, MechanismFileError
 from ..units import DEG, MM, G
 from . import blocks as _blocks
 from . import names as _names
@@ -29,6 +29,7 @@ from .limits import (
     MAX_CHECK_POINT_SAMPLES,
     MAX_CYCLES,
     MAX_DURATION_S,
+    MAX_FILE_BYTES,
     MAX_INERTIA,
     MAX_LENGTH_MM,
     MAX_MASS_G,
@@ -601,6 +602,11 @@ def load(path: str | Path) -> Mechanism:
     """Read and validate a mechanism file. Raises MechanismFileError with a one-line message."""
     p = Path(path)
     try:
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise FileTooLargeError(
+                f"{p}: {size} bytes; a mechanism file is at most {MAX_FILE_BYTES} bytes (1 MiB): it is read whole"
+            )
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise MechanismFileError(f"{p}: no such file") from None

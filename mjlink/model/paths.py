@@ -35,7 +35,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
@@ -303,7 +303,55 @@ def invalid(params: list[Param], values: np.ndarray) -> list[str]:
     return out
 
 
-def file_text(mech: Mechanism, values: Mapping[Param, float], header: str, name: str | None = None) -> str:
+def check_values(mech: Mechanism, values: Mapping[Param, float]) -> None:
+    """Hold values a study writes into ``mech`` to the mechanism file's own validation.
+
+    The values (file units) are written into the file ``mech`` was read from, as a user would
+    write them (a force's scale multiplies its numbers; a synthesis input is written into the
+    [synthesis] table without re-synthesizing), and that text is read by the same reader as
+    every mechanism file: a negative length, mass or inertia, an angle beyond the limits, ...
+    fail exactly as they would in a user's file. Geometry (assembly over the cycle, dead
+    points) is not judged here: that is a variant's feasibility.
+
+    Raises:
+      MechanismFileError: the reader's one-line message (it names the file's table and key).
+      PathError: ``mech`` was not read from a file (nothing to validate against).
+    """
+    import tomllib
+
+    from . import tomlio
+    from .mechanism import parse
+
+    if mech.path is None:
+        raise PathError(f"{mech.name}: has no file to validate values against")
+    raw = tomllib.loads(Path(mech.path).read_text(encoding="utf-8"))
+    for p, v in values.items():
+        parts = p.path.split(".")
+        if parts[:2] == ["dynamics", "force"]:
+            for f in raw["dynamics"]["force"]:
+                if f["point"] == parts[2]:
+                    if "value" in f:
+                        f["value"] = [float(x) * v for x in f["value"]]
+                    else:
+                        f["values"] = [[float(x) * v for x in row] for row in f["values"]]
+        elif parts[0] == "counterweight" and "counterweight" not in raw:
+            cw = catalogue(mech)
+            raw["counterweight"] = {k: cw[f"counterweight.{k}"].nominal for k in ("mass", "radius", "angle")}
+            raw["counterweight"][parts[1]] = float(v)
+        elif parts[0] == "steady" and "steady" not in raw:
+            continue  # the file's [dynamics.motor] serves as its steady motor: no such table to write
+        else:
+            _set(raw, p.path, float(v))
+    parse(tomlio.dumps(raw, ""), mech.path)
+
+
+def file_text(
+    mech: Mechanism,
+    values: Mapping[Param, float],
+    header: str,
+    name: str | None = None,
+    rounding: Callable[[Param, float], float] | None = None,
+) -> str:
     """A mechanism file (TOML text) for ``mech`` with the given parameters replaced.
 
     The file ``mech`` was read from gives the structure; every number that the change moves
@@ -317,8 +365,11 @@ def file_text(mech: Mechanism, values: Mapping[Param, float], header: str, name:
       values: parameter -> value, file units (scalars).
       header: lines for the leading comment (say what produced the file).
       name: the new file's ``[mechanism] name`` (default: unchanged).
+      rounding: applied to every number the change moves as it is written (a manufacturing
+        resolution); None writes them to the last digit.
     Returns:
-      The text; reading it gives ``apply(mech, values)`` (to the last digit of each number).
+      The text; reading it gives ``apply(mech, values)`` (to the last digit of each number,
+      or as ``rounding`` rounds them).
     """
     import tomllib
 
@@ -333,7 +384,7 @@ def file_text(mech: Mechanism, values: Mapping[Param, float], header: str, name:
         old = before.get(path)
         if old is None or old.nominal == p.nominal or (math.isnan(old.nominal) and math.isnan(p.nominal)):
             continue
-        _set(raw, path, p.nominal)
+        _set(raw, path, p.nominal if rounding is None else rounding(p, p.nominal))
     if "counterweight" in raw:  # a [counterweight] table is whole (mass and radius required)
         for key in ("mass", "radius", "angle"):
             raw["counterweight"].setdefault(key, after[f"counterweight.{key}"].nominal)

@@ -825,7 +825,7 @@ def run(
     estimate(mech, opts)  # the absurd is refused before anything starts, whoever calls
     clock = _Clock()
     out_dir = Path(out_root) / mech.name
-    with output.staged_dir(out_dir, kind="simulate", force=force, mechanism=mech.name) as stage:
+    with output.staged_dir(out_dir, kind="simulate", force=force, mechanism=mech.name, command=command) as stage:
         kcase = simulate.kinematic_case(mech, speed=opts.speed, cycles=opts.cycles)
         _enough_samples(mech, kcase, "--cycles")
         kin_mj = simulate.run(mech, kcase, progress=_tell(progress, "kinematic run"))
@@ -929,9 +929,9 @@ def run(
         output.write_text(stage / "model.xml", xml, in_stage=True)
         from ..plotting import page
 
-        written = [p.name for p in stage.iterdir()] + ["index.html"]
+        written = [p.name for p in stage.iterdir() if p.name != output.MARKER] + ["index.html"]
         output.write_text(stage / "index.html", page.index_html(result, written), in_stage=True)
-        files = tuple(sorted(p.name for p in stage.iterdir()))
+        files = tuple(sorted(p.name for p in stage.iterdir() if p.name != output.MARKER))
     return dataclasses.replace(result, files=files)
 
 
@@ -1316,9 +1316,9 @@ def loads(
     speed = mech.speed if speed is None else speed
     case = simulate.kinematic_case(mech, speed=speed)
     _enough_samples(mech, case, "[input] cycles")
-    kin = simulate.run(mech, case)
     out_dir = Path(out_root) / f"{mech.name}_loads"
-    with output.staged_dir(out_dir, kind="loads", force=force, mechanism=mech.name) as stage:
+    with output.staged_dir(out_dir, kind="loads", force=force, mechanism=mech.name, command=command) as stage:
+        kin = simulate.run(mech, case)
         jobs: list[PlotJob] = []
         result = LoadsResult(
             mech.name,
@@ -1358,7 +1358,7 @@ def steady(
         )
     estimate(mech, Options(dynamics=False, video=False, steady=True), kinematic=False)
     out_dir = Path(out_root) / f"{mech.name}_steady"
-    with output.staged_dir(out_dir, kind="steady", force=force, mechanism=mech.name) as stage:
+    with output.staged_dir(out_dir, kind="steady", force=force, mechanism=mech.name, command=command) as stage:
         jobs: list[PlotJob] = []
         result = SteadyResult(
             mech.name,

@@ -1,24 +1,33 @@
-"""The ``study`` job for an ``[optimize]`` study: search, verify in MuJoCo, write the winner.
+"""The ``study`` job for an ``[optimize]`` study: search, write the winner as a checked file.
 
 ``<out>/NAME-study/``:
 
-* ``winner.toml``: the optimum as a mechanism file (``check`` accepts it, ``simulate`` runs it),
-  its leading comment saying which study produced it, with what objective and verdict;
-  for a Pareto study also ``pareto-NN.toml``, one per front design (01 = lowest first column);
+* ``winner.toml``: the winner as a mechanism file, its numbers rounded to the study's
+  manufacturing resolution, and only after the design *as written* passed ``check``, the
+  study's feasibility and bounds and MuJoCo's verification (:mod:`.winner`; a candidate that
+  fails is set aside with the reason and the next-best is written); its leading comment says
+  which study produced it, with what objective, whether the search converged, the caveats and
+  the verdict; for a Pareto study also ``pareto-NN.toml``, one per front design (01 = lowest
+  first column) that passes the same;
 * ``results.csv`` / ``results.parquet``: every candidate evaluated (run, generation, the
-  parameters, every metric, the objective, the constraint violation and its reason);
+  parameters, the metrics the search needs (the others are empty but for the designs
+  reported), the objective, the constraint violation and its reason);
 * ``front.csv`` (Pareto): the front's designs, their metrics and MuJoCo's verdict;
-* ``summary.json``: the study, the optimizer's settings, the winner (parameters, objective,
-  metrics at nominal dimensions and, robust, mean + k std), MuJoCo's figures, the flywheel,
-  runs, evaluations, timings and versions;
+* ``summary.json``: the study, the optimizer's settings, ``converged`` with its ``criterion``
+  and what kept it from converging, the ``caveats``, the winner as written (parameters,
+  objective, metrics at nominal dimensions and, robust, mean + k std; MuJoCo's figures) and
+  the unrounded optimum it came from, the candidates set aside, the flywheel, the runs,
+  evaluations, timings and versions;
+* ``index.html``: the summary as a page (converged or not, the caveats, the winner, the figures);
 * ``convergence.png``, ``before_after.png`` and (Pareto) ``pareto.png``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
-import os
-import sys
+import html
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,11 +35,15 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, compare, output
-from ..model import paths
+from ..reference import batch
+from ..reference.dynamics import flywheel_for, steady_motion, steady_variant
 from ..study import engine
 from ..study import optimize as _opt
 from ..study.spec import Study
-from ..study.tasks import Verified, mujoco_chunk
+from ..study.tasks import Verified
+from . import winner as _winner
+from .columns import column_name, versions
+from .progress import optimize_progress
 
 
 @dataclass(frozen=True)
@@ -48,9 +61,11 @@ class Flywheel:
 
 @dataclass(frozen=True)
 class OptimizeResult:
-    """A finished optimization: the optimizer's :class:`~mjlink.study.optimize.Result`, the
-    MuJoCo check of the winner (``verified``; row 0) and of the front (rows 1..F), the flywheel,
-    the folder and files written, and the summary (as in ``summary.json``)."""
+    """A finished optimization: the optimizer's :class:`~mjlink.study.optimize.Result` (its
+    ``winner`` and ``front`` the designs as written), the MuJoCo check of the winner
+    (``verified``; row 0) and of the front (rows 1..F), the flywheel, the folder and files
+    written, and the summary (as in ``summary.json``); ``optimum`` the unrounded winner the
+    search found, ``rejected`` the candidates set aside before the winner (values, reason)."""
 
     result: _opt.Result
     verified: Verified
@@ -59,37 +74,14 @@ class OptimizeResult:
     winner_file: Path
     files: list[Path] = field(default_factory=list)
     summary: dict[str, Any] = field(default_factory=dict)
+    optimum: np.ndarray | None = None
+    rejected: tuple[_winner.Rejected, ...] = ()
 
     @property
     def failures(self) -> list[str]:
         """Designs MuJoCo verified that missed a threshold, one line each."""
         names = ["winner"] + [f"pareto-{i + 1:02d}" for i in range(len(self.verified.passed) - 1)]
         return [f"{n}: {r}" for n, p, r in zip(names, self.verified.passed, self.verified.reason, strict=True) if not p]
-
-
-def _progress_bar(st: Study) -> tuple[_opt.Progress, Any]:
-    """One terminal bar per run (generations), with the best feasible value so far."""
-    from tqdm import tqdm
-
-    bars: dict[str, Any] = {}
-    opt = st.optimize
-    assert opt is not None
-    sign = -1.0 if opt.sense == "max" and not opt.pareto else 1.0
-
-    def update(name: str, gen: int, total: int, best: float) -> None:
-        bar = bars.get(name)
-        if bar is None:
-            for b in bars.values():
-                b.close()
-            bar = bars[name] = tqdm(total=total, desc=name[:40], unit="gen", file=sys.stderr, leave=True, disable=None)
-        bar.update(max(0, min(gen, total) - bar.n))
-        bar.set_postfix_str(f"best {sign * best:.6g}" if np.isfinite(best) else "no feasible design yet")
-
-    def close() -> None:
-        for b in bars.values():
-            b.close()
-
-    return update, close
 
 
 def run(
@@ -104,63 +96,128 @@ def run(
     progress: bool = True,
     command: str | None = None,
 ) -> OptimizeResult:
-    """Run an ``[optimize]`` study and write its outputs (arguments as
-    :func:`mjlink.pipeline.study.run`)."""
+    """Run an ``[optimize]`` study and write its outputs into ``out_root/NAME-study/``
+    (arguments as :func:`mjlink.pipeline.study.run`, which checks them before any work)."""
     opt = st.optimize
     assert opt is not None
     dest = Path(out_root) / f"{st.name}-study"
-    update, close = _progress_bar(st) if progress else (None, lambda: None)
+    sign = -1.0 if opt.sense == "max" and not opt.pareto else 1.0
+    update, close = optimize_progress(f"study {st.name}", sign) if progress else (None, lambda: None)
     try:
         if client is not None:
-            res, ver = _search(st, client, "the given Dask client", update)
-        else:
-            with engine.client_for(scheduler, workers) as (c, what):
-                res, ver = _search(st, c, what, update)
+            with output.staged_dir(dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
+                return _run(st, dest, stage, client, "the given Dask client", update, plots, command)
+        with engine.client_for(scheduler, workers) as (c, what):
+            with output.staged_dir(dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
+                return _run(st, dest, stage, c, what, update, plots, command)
     finally:
         close()
-    fly = _flywheel(st, res.winner) if opt.flywheel_delta > 0 else None
-    summ = summary(res, ver, fly, command)
-    files: list[Path] = []
-    with output.staged_dir(dest, kind="study", mechanism=st.name, force=force) as stage:
-        files.append(
-            output.write_text(stage / "winner.toml", winner_text(st, res, res.winner, ver, 0, fly), in_stage=True)
-        )
+
+
+def _run(
+    st: Study,
+    dest: Path,
+    stage: Path,
+    client: Any,
+    what: str,
+    update: Any,
+    plots: bool,
+    command: str | None,
+) -> OptimizeResult:
+    opt = st.optimize
+    assert opt is not None
+    workers = max(1, len(client.scheduler_info()["workers"])) if client is not None else 1
+    res = _opt.run(st, client=client, workers=workers, engine=what, progress=update)
+    with _opt.Evaluator(st) as here:
+        won, rejected = _winner.choose(st, res, here, _name(st, 0), _candidates(st, res), dest / "winner.toml")
+        if won is None:
+            reasons = "; ".join(f"{_values_text(st, r.values)}: {r.reason}" for r in rejected[:3])
+            raise _opt.OptimizeError(
+                f"{st.name}: no candidate passes as written (rounded to the resolution, check, MuJoCo): {reasons}"
+            )
+        front: list[_winner.Written] = []
         if res.front is not None:
             for i, x in enumerate(res.front):
-                files.append(
-                    output.write_text(
-                        stage / f"pareto-{i + 1:02d}.toml", winner_text(st, res, x, ver, i + 1, None), in_stage=True
-                    )
-                )
-            files.append(output.write_records(stage / "front.csv", front_table(res, ver)))
-        cols = archive_table(res)
-        files.append(output.write_records(stage / "results.csv", cols))
-        files.append(output.write_parquet(stage / "results.parquet", cols))
-        files.append(output.write_json(stage / "summary.json", summ))
-        if plots:
-            files += _plots(res, ver, stage)
-    return OptimizeResult(res, ver, fly, dest, dest / "winner.toml", [dest / f.name for f in files], summ)
+                w, _ = _winner.choose(st, res, here, _name(st, i + 1), [x], dest / f"pareto-{i + 1:02d}.toml")
+                if w is not None:
+                    front.append(w)
+    fly = _flywheel(st, won) if opt.flywheel_delta > 0 else None
+    written = _as_result(res, won, front)
+    ver = _verified([won, *front])
+    summ = summary(written, ver, fly, command, won, rejected, res)
+    files: list[Path] = []
+    files.append(output.write_text(stage / "winner.toml", _file(st, written, won, 0, ver, fly, summ), in_stage=True))
+    for i, w in enumerate(front):
+        files.append(
+            output.write_text(
+                stage / f"pareto-{i + 1:02d}.toml", _file(st, written, w, i + 1, ver, None, summ), in_stage=True
+            )
+        )
+    if front:
+        files.append(output.write_records(stage / "front.csv", front_table(written, ver)))
+    cols = archive_table(res)
+    files.append(output.write_records(stage / "results.csv", cols))
+    files.append(output.write_parquet(stage / "results.parquet", cols))
+    files.append(output.write_json(stage / "summary.json", summ))
+    if plots:
+        files += _plots(written, ver, stage)
+    names = [f.name for f in files] + ["index.html"]
+    files.append(output.write_text(stage / "index.html", page(summ, names), in_stage=True))
+    return OptimizeResult(
+        written, ver, fly, dest, dest / "winner.toml", [dest / f.name for f in files], summ, res.winner, tuple(rejected)
+    )
 
 
-def _search(st: Study, client: Any, what: str, update: _opt.Progress | None) -> tuple[_opt.Result, Verified]:
-    workers = 1
-    if client is not None:
-        workers = max(1, len(client.scheduler_info()["workers"]))
-    res = _opt.run(st, client=client, workers=workers, engine=what, progress=update)
-    designs = res.winner[None] if res.front is None else np.vstack([res.winner[None], res.front])
-    threads = os.cpu_count() or 1
-    if client is not None:
-        ver = client.submit(mujoco_chunk, st, designs, threads=1, pure=False).result()
-    else:
-        ver = mujoco_chunk(st, designs, threads=threads)
-    return res, ver
+def _name(st: Study, row: int) -> str:
+    """The written file's mechanism name (at most 32 characters: the study's name is cut)."""
+    tail = "_winner" if row == 0 else f"_pareto_{row:02d}"
+    return st.name[: 32 - len(tail)].rstrip("_") + tail
 
 
-def _file_mechanism(st: Study) -> Any:
-    from ..validation import get
+def _candidates(st: Study, res: _opt.Result) -> list[np.ndarray]:
+    """The winner, then what stands in for it if it is refused: the next-best feasible
+    candidates (one objective), or the front's designs nearest the knee (Pareto)."""
+    if res.front is None:
+        return _winner.next_best(res, res.winner)
+    order = np.argsort([np.linalg.norm(x - res.winner) for x in res.front], kind="stable")
+    return [res.winner] + [res.front[i] for i in order if not np.array_equal(res.front[i], res.winner)]
 
-    assert st.mechanism.path is not None
-    return get(st.mechanism.path)
+
+def _as_result(res: _opt.Result, won: _winner.Written, front: list[_winner.Written]) -> _opt.Result:
+    """The optimizer's result with the designs as written in place of the unrounded ones."""
+    opt = res.study.optimize
+    assert opt is not None
+    fr = fc = None
+    if res.front is not None:
+        fr = np.array([w.values for w in front]) if front else np.zeros((0, len(res.winner)))
+        fc = {c: np.array([w.columns[c] for w in front]) for c in won.columns}
+    return dataclasses.replace(
+        res,
+        winner=won.values,
+        objective=won.objective if opt.pareto is None else math.nan,
+        columns=_robust_columns(res, won),
+        nominal_columns=dict(won.columns),
+        front=fr,
+        front_columns=fc,
+    )
+
+
+def _robust_columns(res: _opt.Result, won: _winner.Written) -> dict[str, float]:
+    """The written winner's columns as the optimizer scores them (robust: over the samples)."""
+    with _opt.Evaluator(res.study) as here:
+        s = here.score(won.values[None], full=True)
+    return {c: float(v[0]) for c, v in s.columns.items()}
+
+
+def _verified(designs: list[_winner.Written]) -> Verified:
+    rows = [d.verified for d in designs]
+    return Verified(
+        np.concatenate([r.passed for r in rows]),
+        np.concatenate([r.position_error for r in rows]),
+        np.concatenate([r.loop_gap for r in rows]),
+        np.concatenate([r.thread_error for r in rows]),
+        tuple(x for r in rows for x in r.reason),
+    )
 
 
 def _crank_link(mech: Any) -> str:
@@ -168,13 +225,10 @@ def _crank_link(mech: Any) -> str:
     return next(l.name for l in mech.links if c.pivot in l.points and c.point in l.points)
 
 
-def _flywheel(st: Study, x: np.ndarray) -> Flywheel:
-    from ..reference import batch
-    from ..reference.dynamics import flywheel_for, steady_motion, steady_variant
-
+def _flywheel(st: Study, won: _winner.Written) -> Flywheel:
     opt = st.optimize
     assert opt is not None
-    mech = batch.variant(st.mechanism, st.params, [float(v) for v in x])
+    mech = won.mech
     if mech.steady is not None:  # its [steady] motor, as the speed_fluctuation metric uses
         mech = steady_variant(mech)
     before = steady_motion(mech)
@@ -182,40 +236,70 @@ def _flywheel(st: Study, x: np.ndarray) -> Flywheel:
     return Flywheel(_crank_link(mech), float(J), opt.flywheel_delta, before.delta, after.delta, after.omega_mean)
 
 
-def winner_text(st: Study, res: _opt.Result, x: np.ndarray, ver: Verified, row: int, fly: Flywheel | None) -> str:
-    """The mechanism file of design ``x`` (the winner, or a front design), with a header
-    saying which study produced it and how it fared."""
+def _values_text(st: Study, x: np.ndarray) -> str:
+    return ", ".join(f"{p.path} = {v:g}" for p, v in zip(st.params, x, strict=True))
+
+
+def _file(
+    st: Study,
+    res: _opt.Result,
+    w: _winner.Written,
+    row: int,
+    ver: Verified,
+    fly: Flywheel | None,
+    summ: dict[str, Any],
+) -> str:
+    """The mechanism file of a written design with its header (and the flywheel, for the winner)."""
+    text = w.text
+    if fly is not None and fly.inertia > 0:
+        inertia = f"links.{fly.link}.inertia"
+        base = float(w.mech.link(fly.link).inertia)
+        text = _winner.design_text(st, w.values, _name(st, row), {inertia: base + fly.inertia})
+        _winner.as_written(st, text, "winner.toml")  # the flywheel changes no check; held to it all the same
+    return _header(st, res, w, row, ver, fly, summ) + "\n" + text
+
+
+def _header(
+    st: Study,
+    res: _opt.Result,
+    w: _winner.Written,
+    row: int,
+    ver: Verified,
+    fly: Flywheel | None,
+    summ: dict[str, Any],
+) -> str:
     opt = st.optimize
     assert opt is not None
-    base = _file_mechanism(st)
-    values: dict[paths.Param, float] = {paths.resolve(base, p): v for p, v in st.fixed}
-    for p, v in zip(st.params, x, strict=True):
-        values[paths.resolve(base, p.path)] = float(v)
-    if fly is not None and fly.inertia > 0:
-        inertia = paths.resolve(base, f"links.{fly.link}.inertia")
-        values[inertia] = values.get(inertia, inertia.nominal) + fly.inertia
     what = "winner" if row == 0 else f"Pareto design {row} of {len(res.front) if res.front is not None else 0}"
     verdict = (
         f"MuJoCo agrees (position {ver.position_error[row]:.3g} um, loop gap {ver.loop_gap[row]:.3g} um)"
         if ver.passed[row]
         else f"MuJoCo check FAILED: {ver.reason[row]}"
     )
+    conv = summ["convergence"]
     lines = [
         f"{what} of the optimization study '{st.name}' ({st.path or 'Python API'}, digest {st.digest}),",
         f"written by mjlink {__version__} on {datetime.date.today().isoformat()} from {st.mechanism.path}.",
         f"Objective: {opt.label}"
         + (f" (robust: mean + {st.robust.k:g} std over {st.robust.samples} tolerance samples)" if st.robust else "")
         + ".",
+        "Search: " + ("converged" if conv["converged"] else "NOT CONVERGED: " + "; ".join(conv["not_converged"])) + ".",
+        "Metrics as written: "
+        + ", ".join(f"{c.name} = {w.columns[c.name]:.6g} {c.unit}".rstrip() for c in st.columns)
+        + ".",
     ]
-    sc = _columns_of(res, x)
-    lines.append("Metrics: " + ", ".join(f"{c.name} = {sc[c.name]:.6g} {c.unit}".rstrip() for c in st.columns) + ".")
     if st.fixed:
         lines.append("Set by the study: " + ", ".join(f"{p} = {v:g}" for p, v in st.fixed) + ".")
+    res_text = ", ".join(f"{u} {s:g}" for u, s in opt.resolution)
     lines.append(
-        "Optimized: "
-        + ", ".join(f"{p.path} = {v:.6g} {p.unit}".rstrip() for p, v in zip(st.params, x, strict=True))
+        "Optimized (rounded to "
+        + res_text
+        + "): "
+        + ", ".join(f"{p.path} = {v:.10g} {p.unit}".rstrip() for p, v in zip(st.params, w.values, strict=True))
         + "."
     )
+    for c in summ["caveats_text"] if row == 0 else ():
+        lines.append(f"Caveat: {c}.")
     if fly is not None:
         lines.append(
             f"Flywheel for delta = {fly.target:g}: {fly.inertia:.4g} kg*m^2 added to links.{fly.link}.inertia "
@@ -224,25 +308,11 @@ def winner_text(st: Study, res: _opt.Result, x: np.ndarray, ver: Verified, row: 
     lines.append(verdict + ".")
     lines.append("Units: lengths mm, angles deg, masses g, inertias kg*m^2, speeds rad/s. The base file's comments")
     lines.append("are not carried over: see it for the [choice]s behind each number.")
-    # A mechanism name has at most 32 characters: the study's name is cut to leave room.
-    tail = "_winner" if row == 0 else f"_pareto_{row:02d}"
-    name = st.name[: 32 - len(tail)].rstrip("_") + tail
-    return paths.file_text(base, values, "\n".join(lines), name=name)
-
-
-def _columns_of(res: _opt.Result, x: np.ndarray) -> dict[str, float]:
-    """The metric columns of a design the optimizer evaluated (the winner's are at hand)."""
-    if np.array_equal(x, res.winner):
-        return res.columns
-    assert res.front is not None and res.front_columns is not None
-    i = int(np.flatnonzero((res.front == x).all(axis=1))[0])
-    return {c: float(v[i]) for c, v in res.front_columns.items()}
+    return "\n".join(f"# {x}" for x in lines)
 
 
 def archive_table(res: _opt.Result) -> dict[str, Any]:
     """The results table: every candidate evaluated, in order."""
-    from .study import column_name
-
     st, a = res.study, res.archive
     cols: dict[str, Any] = {"run": a.run, "generation": a.generation}
     for j, p in enumerate(st.params):
@@ -257,9 +327,7 @@ def archive_table(res: _opt.Result) -> dict[str, Any]:
 
 
 def front_table(res: _opt.Result, ver: Verified) -> dict[str, Any]:
-    """The Pareto front's designs with MuJoCo's verdicts."""
-    from .study import column_name
-
+    """The Pareto front's designs (as written) with MuJoCo's verdicts."""
     st = res.study
     assert res.front is not None and res.front_columns is not None
     cols: dict[str, Any] = {"design": [f"pareto-{i + 1:02d}" for i in range(len(res.front))]}
@@ -275,13 +343,21 @@ def front_table(res: _opt.Result, ver: Verified) -> dict[str, Any]:
     return cols
 
 
-def summary(res: _opt.Result, ver: Verified, fly: Flywheel | None, command: str | None = None) -> dict[str, Any]:
-    """What ``summary.json`` holds (see the module docstring)."""
-    from .study import _versions
-
+def summary(
+    res: _opt.Result,
+    ver: Verified,
+    fly: Flywheel | None,
+    command: str | None = None,
+    won: _winner.Written | None = None,
+    rejected: list[_winner.Rejected] | tuple[_winner.Rejected, ...] = (),
+    found: _opt.Result | None = None,
+) -> dict[str, Any]:
+    """What ``summary.json`` holds (see the module docstring). ``res`` holds the designs as
+    written, ``found`` the optimizer's own (unrounded) result."""
     st = res.study
     opt = st.optimize
     assert opt is not None
+    found = found or res
     th = compare.thresholds()
 
     def mj(i: int) -> dict[str, Any]:
@@ -294,6 +370,7 @@ def summary(res: _opt.Result, ver: Verified, fly: Flywheel | None, command: str 
         }
 
     nominal = np.array([p.nominal for p in st.params])
+    caveats = found.caveats
     return {
         "study": st.name,
         "title": st.title,
@@ -302,17 +379,54 @@ def summary(res: _opt.Result, ver: Verified, fly: Flywheel | None, command: str 
         "mechanism_file": str(st.mechanism.path) if st.mechanism.path else None,
         "digest": st.digest,
         "method": "optimize",
+        "converged": found.converged,
+        "convergence": {
+            "converged": found.converged,
+            "criterion": found.criterion,
+            "not_converged": list(found.not_converged),
+            "runs": [
+                {
+                    "name": r.name,
+                    "seed": r.seed,
+                    "generations": r.search_generations,
+                    "stopped_by": r.stopped_by,
+                    "best_before_polish": r.polish.f0 if r.polish else r.f,
+                    "polish": None
+                    if r.polish is None
+                    else {
+                        "evaluations": r.polish.evaluations,
+                        "converged": r.polish.converged,
+                        "stopped_by": r.polish.stopped_by,
+                        "step_of_range": r.polish.step,
+                    },
+                    "converged": r.converged,
+                    "best_minimized": r.f,
+                }
+                for r in found.runs
+            ],
+        },
+        "caveats": caveats.as_dict(),
+        "caveats_text": caveats.lines(),
         "optimizer": {
-            "algorithm": "scipy.optimize.differential_evolution (vectorized, deferred updating, no polish)",
+            "algorithm": "scipy.optimize.differential_evolution (vectorized, deferred updating), then a local CMA-ES polish",
             "objective": opt.label,
             "pareto": list(opt.pareto) if opt.pareto else None,
             "pareto_points": opt.points if opt.pareto else None,
+            "knee": "the front design nearest the ideal point on the front normalized by its ends (its own run)"
+            if opt.pareto
+            else None,
             "population": opt.population,
             "max_generations": opt.generations,
             "seed": opt.seed,
+            "seeds": opt.seeds,
+            "stall": opt.stall,
             "tol": opt.tol,
             "atol": opt.atol,
+            "ftol": opt.ftol,
+            "xtol": opt.xtol,
+            "polish_evaluations": opt.polish_evaluations,
             "init": opt.init,
+            "resolution": dict(opt.resolution),
         },
         "robust": {"samples": st.robust.samples, "k": st.robust.k, "seed": st.robust.seed} if st.robust else None,
         "set": dict(st.fixed),
@@ -326,18 +440,20 @@ def summary(res: _opt.Result, ver: Verified, fly: Flywheel | None, command: str 
                 "nominal": v.param.nominal,
                 "tolerance": v.tolerance if st.robust else None,
                 "winner": float(x),
+                "optimum": float(y),
             }
-            for v, x in zip(st.varied, res.winner, strict=True)
+            for v, x, y in zip(st.varied, res.winner, found.winner, strict=True)
         ],
         "nominal_in_range": bool(
             np.all((nominal >= [v.low for v in st.varied]) & (nominal <= [v.high for v in st.varied]))
         ),
         "mechanism_file_design": {
-            "objective": None if opt.pareto or not np.isfinite(res.file_objective) else res.file_objective,
-            "metrics": {c.name: res.file_columns[c.name] for c in st.columns},
+            "objective": None if opt.pareto or not np.isfinite(found.file_objective) else found.file_objective,
+            "metrics": {c.name: found.file_columns[c.name] for c in st.columns},
         },
         "winner": {
             "objective": None if opt.pareto else res.objective,
+            "objective_unrounded": None if opt.pareto else found.objective,
             "metrics": {
                 c.name: {
                     "unit": c.unit,
@@ -348,6 +464,13 @@ def summary(res: _opt.Result, ver: Verified, fly: Flywheel | None, command: str 
             },
             "mujoco": mj(0),
         },
+        "rejected": [
+            {
+                "parameters": dict(zip([p.path for p in st.params], map(float, r.values), strict=True)),
+                "reason": r.reason,
+            }
+            for r in rejected
+        ],
         "front": None
         if res.front is None or res.front_columns is None
         else [
@@ -377,25 +500,64 @@ def summary(res: _opt.Result, ver: Verified, fly: Flywheel | None, command: str 
                 "converged": r.converged,
                 "best_minimized": r.f,
             }
-            for r in res.runs
+            for r in found.runs
         ],
-        "evaluations": res.evaluations,
+        "evaluations": found.evaluations,
         "mujoco_thresholds_um": {
             "position_error": th["position_um"],
             "loop_gap": th["loop_um"],
             "thread_error": th["thread_um"],
         },
-        "engine": res.engine,
-        "timing_s": res.timing,
+        "engine": found.engine,
+        "timing_s": found.timing,
         "command": command,
-        "versions": {"mjlink": __version__, **_versions()},
+        "versions": {"mjlink": __version__, **versions()},
     }
+
+
+def page(summ: dict[str, Any], files: list[str]) -> str:
+    """``index.html``: the optimization's summary as a page: whether it converged (and why
+    not), the caveats, the winner as written, the candidates set aside, the figures."""
+    e = html.escape
+    conv = summ["convergence"]
+    ok = conv["converged"]
+    w = summ["winner"]
+    head = (
+        "<p class='ok'>Converged.</p>"
+        if ok
+        else "<p class='bad'>NOT CONVERGED: " + "; ".join(e(x) for x in conv["not_converged"]) + "</p>"
+    )
+    rows = "".join(
+        f"<tr><td>{e(p['path'])}</td><td>{p['winner']:.10g} {e(p['unit'])}</td><td>{p['optimum']:.10g}</td>"
+        f"<td>{p['low']:g} .. {p['high']:g}</td><td>{p['nominal']:.6g}</td></tr>"
+        for p in summ["parameters"]
+    )
+    mets = "".join(f"<tr><td>{e(k)}</td><td>{m['value']:.6g} {e(m['unit'])}</td></tr>" for k, m in w["metrics"].items())
+    caveats = "".join(f"<li>{e(c)}</li>" for c in summ["caveats_text"]) or "<li>none</li>"
+    rejected = "".join(f"<li>{e(r['reason'])}</li>" for r in summ["rejected"])
+    figs = "".join(f"<figure><img src='{e(f)}' alt='{e(f)}'></figure>" for f in files if f.endswith(".png"))
+    links = " ".join(f"<a href='{e(f)}'>{e(f)}</a>" for f in files if not f.endswith(".png") and f != "index.html")
+    objective = "" if w["objective"] is None else f"<p>Objective as written: <b>{w['objective']:.8g}</b></p>"
+    return (
+        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+        f"<title>{e(summ['study'])}</title><style>body{{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}}"
+        ".ok{color:#1a7f37;font-weight:bold}.bad{color:#b42318;font-weight:bold}"
+        "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px}img{max-width:100%}</style>"
+        f"</head><body><h1>{e(summ['study'])}: {e(summ['title'] or summ['mechanism'])}</h1>"
+        f"<p>{e(summ['optimizer']['objective'])}</p>{head}"
+        f"<p class='criterion'>Criterion: {e(conv['criterion'])}</p>{objective}"
+        f"<h2>Caveats</h2><ul>{caveats}</ul>"
+        "<h2>Winner (rounded to the resolution, as written in winner.toml)</h2><table><tr><th>parameter</th>"
+        f"<th>winner</th><th>optimum found</th><th>range</th><th>file</th></tr>{rows}</table>"
+        f"<table><tr><th>metric</th><th>as written</th></tr>{mets}</table>"
+        + (f"<h2>Candidates set aside</h2><ul>{rejected}</ul>" if rejected else "")
+        + f"<h2>Files</h2><p>{links}</p>{figs}</body></html>"
+    )
 
 
 def _plots(res: _opt.Result, ver: Verified, stage: Path) -> list[Path]:
     from ..analysis import metrics as _metrics
     from ..plotting import optimize as po
-    from ..reference import batch
 
     st = res.study
     opt = st.optimize
@@ -420,6 +582,6 @@ def _plots(res: _opt.Result, ver: Verified, stage: Path) -> list[Path]:
         po.convergence(title, res, stage),
         po.before_after(title, st, b, feas, curves, targets, traced, res, stage),
     ]
-    if res.front is not None:
+    if res.front is not None and len(res.front):
         out.append(po.pareto(title, res, ver, stage))
     return [p for p in out if p is not None]

@@ -10,30 +10,32 @@ outputs are published, so an interrupted study resumes where it stopped.
 
 from __future__ import annotations
 
+import dataclasses
+import os
 import platform
-import shutil
-import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import __version__, compare, output
-from ..study import engine
+from ..errors import InputError, OutputError
+from ..notes import note
+from ..study import cache, engine, plan
+from ..study.plan import Plan
 from ..study.spec import Study, load
+from . import optimize
+from .columns import column_name, versions
+from .progress import study_progress
+
+if TYPE_CHECKING:
+    from .optimize import OptimizeResult
 
 PERCENTILES = (1, 5, 50, 95, 99)
-
-
-def unit_slug(unit: str) -> str:
-    """A unit as a column-name suffix: 'N*m' -> 'N_m', 'kg*m^2' -> 'kg_m2', '' -> ''."""
-    return unit.replace("*", "_").replace("/", "_").replace("^", "")
-
-
-def column_name(name: str, unit: str) -> str:
-    """'position_error_P5' + 'um' -> 'position_error_P5_um' (the CSV convention: unit last)."""
-    return f"{name}_{unit_slug(unit)}" if unit else name
 
 
 @dataclass(frozen=True)
@@ -130,41 +132,69 @@ def summary(o: engine.Outcome, command: str | None = None) -> dict[str, Any]:
         "resumed_chunks": o.resumed,
         "timing_s": o.timing,
         "command": command,
-        "versions": {"mjlink": __version__, "python": platform.python_version(), **_versions()},
+        "versions": {"mjlink": __version__, "python": platform.python_version(), **versions()},
     }
 
 
-def _versions() -> dict[str, str]:
-    out = {"numpy": np.__version__}
-    for mod in ("mujoco", "dask", "distributed", "scipy"):
-        m = sys.modules.get(mod)
-        if m is not None:
-            out[mod] = str(getattr(m, "__version__", ""))
-    return out
+@dataclass(frozen=True)
+class Prepared:
+    """A study checked and sized before any work: the ``study``, where its outputs go
+    (``dest``) and its resume cache (``cache_dir``), the local cluster's ``workers`` (0: in
+    this process; None: an existing cluster's), the scheduler's address, and the ``plan``."""
+
+    study: Study
+    dest: Path
+    cache_dir: Path
+    workers: int | None
+    scheduler: str | None
+    plan: Plan
 
 
-def _progress_bar() -> tuple[engine.Progress, Any]:
-    """A terminal progress bar per stage (rate and ETA in variants), closed by the second value."""
-    from tqdm import tqdm
-
-    bars: dict[str, Any] = {}
-
-    def update(stage: str, done: int, total: int) -> None:
-        bar = bars.get(stage)
-        if bar is None:
-            label = "reference" if stage == "reference" else "MuJoCo   "
-            bar = bars[stage] = tqdm(total=total, desc=label, unit="variant", file=sys.stderr, leave=True, disable=None)
-        bar.update(done - bar.n)
-
-    def close() -> None:
-        for b in bars.values():
-            b.close()
-
-    return update, close
+def prepare(
+    study: Study | str | Path,
+    out_root: Path | str = Path("renders"),
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    client: Any = None,
+    force: bool = False,
+    max_memory: float | None = None,
+) -> Prepared:
+    """Everything checked before any work (each a one-line error, exit status 2 for input
+    beyond a limit or that cannot be used; nothing is created): the study file; the output
+    folder (absent, or mjlink's output of this study, or ``force``; not a file, FIFO or device;
+    writable); the resume cache's place (absent or mjlink's); the scheduler's address; the
+    workers (more than the cores are clamped, with a note); the cost (:mod:`mjlink.study.plan`:
+    refused past the memory bound, ``max_memory`` bytes or the machine's)."""
+    st = study if isinstance(study, Study) else load(study)
+    out_root = Path(out_root)
+    dest = out_root / f"{st.name}-study"
+    cache_dir = out_root / f".{st.name}-study.chunks"
+    try:
+        output.check_destination(dest, kind="study", mechanism=st.name, force=force)
+    except OutputError as e:
+        raise InputError(str(e)) from None
+    if st.optimize is None:
+        cache.check(cache_dir)
+    address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS") if client is None else None
+    if address:
+        engine.check_address(address)
+    if workers is not None and workers < 0:
+        raise InputError(f"--workers must be 0 or more, got {workers}")
+    local: int | None
+    if client is not None or address:
+        local = None
+    elif workers == 0:
+        local = 0
+    else:
+        local = engine.local_workers(workers)
+    lanes = local if local is not None else (len(client.scheduler_info()["workers"]) if client is not None else 1)
+    p = plan.estimate(st, workers=lanes, limit=max_memory, cluster=bool(local))
+    return Prepared(st, dest, cache_dir, local, address, p)
 
 
 def run(
-    study: Study | str | Path,
+    study: Study | str | Path | Prepared,
     out_root: Path | str = Path("renders"),
     *,
     scheduler: str | None = None,
@@ -174,56 +204,91 @@ def run(
     force: bool = False,
     progress: bool = True,
     command: str | None = None,
-) -> StudyResult:
-    """Run a study (a :class:`Study` or its file) and write its outputs.
+    max_memory: float | None = None,
+) -> StudyResult | OptimizeResult:
+    """Run a study (a :class:`Study`, its file, or what :func:`prepare` made of it) and write its
+    outputs; an ``[optimize]`` study returns an :class:`~.optimize.OptimizeResult`.
 
     Args:
-      study: the study, or a study file's path or shipped name.
+      study: the study, a study file's path or shipped name, or a :class:`Prepared` one.
       out_root: outputs go to ``out_root/NAME-study/``.
-      scheduler: an existing Dask scheduler's address (see :func:`mjlink.study.engine.run`).
+      scheduler: an existing Dask scheduler's address (see :func:`mjlink.study.engine.client_for`).
       workers: local cluster worker processes (default one per core; 0: in this process).
       client: a ``distributed.Client`` to use instead.
       plots: write the PNG plots.
       force: publish into an existing folder mjlink did not write for this study.
-      progress: show progress bars on stderr (when it is a terminal).
-      command: the command line, recorded in the summary.
+      progress: show progress on stderr (a bar on a terminal, else a line every 10 s).
+      command: the command line, recorded in the summary and the folder's marker.
+      max_memory: the memory bound in bytes (default: the machine's, :mod:`mjlink.study.plan`).
     Returns:
-      The :class:`StudyResult`.
+      The :class:`StudyResult` (or OptimizeResult).
+    Raises:
+      InputError: the study refused before any work (:func:`prepare`).
     """
-    st = study if isinstance(study, Study) else load(study)
+    pre = (
+        study
+        if isinstance(study, Prepared)
+        else prepare(
+            study, out_root, scheduler=scheduler, workers=workers, client=client, force=force, max_memory=max_memory
+        )
+    )
+    pre.plan.check()
+    st = pre.study
     if st.optimize is not None:
-        from . import optimize
-
-        return optimize.run(  # type: ignore[return-value]
+        return optimize.run(
             st,
-            out_root,
-            scheduler=scheduler,
-            workers=workers,
+            pre.dest.parent,
+            scheduler=pre.scheduler,
+            workers=pre.workers,
             client=client,
             plots=plots,
             force=force,
             progress=progress,
             command=command,
         )
-    out_root = Path(out_root)
-    dest = out_root / f"{st.name}-study"
-    cache_dir = out_root / f".{st.name}-study.chunks"
-    update, close = _progress_bar() if progress else (None, lambda: None)
+    update, close = study_progress(f"study {st.name}") if progress else (None, lambda: None)
+    t = time.perf_counter()
     try:
-        o = engine.run(st, client=client, scheduler=scheduler, workers=workers, cache_dir=cache_dir, progress=update)
+        with _client(client, pre.scheduler, pre.workers) as (c, what):
+            started = time.perf_counter() - t
+            with output.staged_dir(pre.dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
+                try:
+                    o = engine.run(st, client=c, cache_dir=pre.cache_dir, progress=update)
+                except KeyboardInterrupt:
+                    _kept(pre.cache_dir)
+                    raise
+                o = dataclasses.replace(o, engine=what if client is None else o.engine)
+                if client is None and pre.workers != 0:
+                    o.timing["cluster start"] = started
+                summ = summary(o, command)
+                files: list[Path] = []
+                cols = table(o)
+                files.append(output.write_records(stage / "results.csv", cols))
+                files.append(output.write_parquet(stage / "results.parquet", cols))
+                files.append(output.write_json(stage / "summary.json", summ))
+                if plots:
+                    files += _plots(o, stage)
     finally:
         close()
-    summ = summary(o, command)
-    files: list[Path] = []
-    with output.staged_dir(dest, kind="study", mechanism=st.name, force=force) as stage:
-        cols = table(o)
-        files.append(output.write_records(stage / "results.csv", cols))
-        files.append(output.write_parquet(stage / "results.parquet", cols))
-        files.append(output.write_json(stage / "summary.json", summ))
-        if plots:
-            files += _plots(o, stage)
-    shutil.rmtree(cache_dir, ignore_errors=True)  # the outputs are published: the chunks served
-    return StudyResult(o, dest, [dest / f.name for f in files], summ)
+    cache.Cache(pre.cache_dir, st).remove()  # the outputs are published: the chunks served
+    return StudyResult(o, pre.dest, [pre.dest / f.name for f in files], summ)
+
+
+def _kept(cache_dir: Path) -> None:
+    """Say where an interrupted study's finished chunks wait (one line)."""
+    n = sum(1 for _ in cache_dir.glob("*.npz")) if cache_dir.is_dir() else 0
+    if n:
+        note(f"{n} finished chunk(s) kept in {cache_dir}: the same command resumes from them")
+
+
+@contextmanager
+def _client(client: Any, scheduler: str | None, workers: int | None) -> Iterator[tuple[Any, str]]:
+    """The given client, or one for the scheduler, a local cluster or this process."""
+    if client is not None:
+        yield client, "the given Dask client"
+        return
+    with engine.client_for(scheduler, workers) as got:
+        yield got
 
 
 def _plots(o: engine.Outcome, stage: Path) -> list[Path]:

@@ -21,10 +21,12 @@ its batch either, but the engine does not promise more than the thresholds).
 
 from __future__ import annotations
 
-import json
+import contextlib
+import functools
 import logging
 import os
-import shutil
+import re
+import sys
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -35,19 +37,51 @@ from typing import Any
 import numpy as np
 
 from .. import memory
-from ..errors import MjlinkError
-from ..output import atomic_path
+from ..errors import InputError, MjlinkError
+from ..model.reader import shown
+from ..notes import note
+from .cache import Cache
 from .spec import Study
 from .tasks import Evaluated, StudyWorker, Verified, mujoco_chunk, reference_chunk
 
 REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
 MUJOCO_CHUNK = (4, 128)  # variants per MuJoCo task (one rollout of that many models)
-CACHE_VERSION = 1
 CONNECT_TIMEOUT_S = 10.0  # to an existing scheduler, before a one-line error
+WORKERS_TIMEOUT_S = 10.0  # for a connected cluster's first worker, before a one-line error
+PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx", "inproc")  # Dask's address schemes
 
 
 class EngineError(MjlinkError):
     """The Dask cluster cannot be reached or a task failed."""
+
+
+class SchedulerError(EngineError, InputError):
+    """A scheduler address that is not one, cannot be reached, or a cluster without workers:
+    refused before any work (exit status 2)."""
+
+
+def chunking() -> dict[str, list[int]]:
+    """How variants are cut (the cache records it: another cut makes other chunks)."""
+    return {"reference": list(REFERENCE_CHUNK), "mujoco": list(MUJOCO_CHUNK)}
+
+
+_ADDRESS = re.compile(
+    r"(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+)(?::(?P<port>[0-9]+))?/?"
+)
+
+
+def check_address(address: str) -> str:
+    """A Dask scheduler address as given (``tcp://HOST:PORT``, ``HOST:PORT``, ``tls://...``), or
+    a one-line SchedulerError saying how to write one. Nothing is contacted."""
+    m = _ADDRESS.fullmatch(address.strip()) if isinstance(address, str) else None
+    scheme = (m["scheme"] or "tcp").lower() if m else ""
+    port = int(m["port"]) if m and m["port"] and len(m["port"]) <= 5 else None
+    if m is None or scheme not in PROTOCOLS or (m["port"] and (port is None or not 0 < port < 65536)):
+        raise SchedulerError(
+            f"{shown(address)} is not a Dask scheduler address: write tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786; "
+            f"schemes {', '.join(PROTOCOLS)}; ports 1..65535)"
+        )
+    return address.strip()
 
 
 def chunks(n: int, bounds: tuple[int, int], parts: int = 16) -> list[tuple[int, int]]:
@@ -99,54 +133,9 @@ class Outcome:
     timing: dict[str, float]
 
 
-# -------------------------------------------------------------------------------- cache
-class Cache:
-    """Finished chunks of one study on disk, valid while the study's digest is unchanged.
-
-    Files are plain ``.npz`` (no pickles: a cache file is data, never code), each written
-    atomically, so an interrupted run leaves only complete chunks.
-    """
-
-    def __init__(self, folder: Path | None, study: Study):
-        self.folder = folder
-        if folder is None:
-            return
-        manifest = folder / "cache.json"
-        want = {"study": study.name, "digest": study.digest, "version": CACHE_VERSION}
-        try:
-            have = json.loads(manifest.read_text())
-        except (OSError, ValueError):
-            have = None
-        if have != want:
-            if folder.exists() and have is not None:
-                shutil.rmtree(folder, ignore_errors=True)  # ours (manifest), for another study text
-            folder.mkdir(parents=True, exist_ok=True)
-            with atomic_path(manifest) as tmp:
-                tmp.write_text(json.dumps(want))
-
-    def _file(self, kind: str, start: int, stop: int) -> Path | None:
-        return None if self.folder is None else self.folder / f"{kind}-{start:08d}-{stop:08d}.npz"
-
-    def load(self, kind: str, start: int, stop: int) -> dict[str, np.ndarray] | None:
-        f = self._file(kind, start, stop)
-        if f is None or not f.is_file():
-            return None
-        try:
-            with np.load(f, allow_pickle=False) as z:
-                return {k: z[k] for k in z.files}
-        except (OSError, ValueError):
-            return None
-
-    def save(self, kind: str, start: int, stop: int, arrays: dict[str, Any]) -> None:
-        f = self._file(kind, start, stop)
-        if f is None:
-            return
-        with atomic_path(f, suffix=".npz") as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
-
-    def remove(self) -> None:
-        if self.folder is not None:
-            shutil.rmtree(self.folder, ignore_errors=True)
+def _holds(keys: set[str], rows: int, z: dict[str, np.ndarray]) -> bool:
+    """Whether a cached chunk's arrays are the ones expected, one value per variant each."""
+    return set(z) == keys and all(a.shape == (rows,) for a in z.values())
 
 
 def _pack_ref(e: Evaluated) -> dict[str, np.ndarray]:
@@ -198,9 +187,15 @@ def _connect(client_class: Any, address: str) -> Any:
 def client_for(scheduler: str | None = None, workers: int | None = None) -> Iterator[tuple[Any, str]]:
     """A Dask client and a description of it (None and 'in process' for ``workers=0``).
 
-    ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) connects to an existing cluster; otherwise a
-    LocalCluster of ``workers`` single-threaded processes (default: one per core) is started
-    and closed on exit.
+    ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) connects to an existing cluster: an address
+    that is not one, a scheduler that does not answer within :data:`CONNECT_TIMEOUT_S` and a
+    cluster that has no worker within :data:`WORKERS_TIMEOUT_S` are one-line SchedulerErrors.
+    Otherwise a LocalCluster of ``workers`` single-threaded processes (default: one per core)
+    is started and closed on exit. Its scheduler's HTTP server listens on a free port of
+    localhost (never Dask's 8787: a second study at the same time finds it taken); its worker
+    processes write to /dev/null, not to this terminal (``MJLINK_WORKER_LOGS=1`` keeps their
+    stderr), and each leaves the terminal's process group once started, so that a Ctrl-C
+    reaches this process alone, which stops them cleanly.
     """
     address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS")
     if workers == 0 and not scheduler:
@@ -211,16 +206,31 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
     except ImportError as e:  # pragma: no cover - a dependency
         raise EngineError(f"Dask distributed is not installed ({e}): pip install 'dask[distributed]'") from None
     if address:
+        address = check_address(address)
         try:
             client = _connect(Client, address)
-        except (OSError, TimeoutError) as e:
-            raise EngineError(f"cannot reach the Dask scheduler at {address}: {e}") from None
+        except Exception as e:
+            raise SchedulerError(
+                f"cannot reach the Dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {_one_line(e)}"
+            ) from None
         try:
-            client.run(_warm)  # mjlink importable on every worker, its allocator settings made
+            try:
+                client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
+            except Exception:
+                raise SchedulerError(
+                    f"the Dask cluster at {address} has no workers (none joined within {WORKERS_TIMEOUT_S:g} s): "
+                    f"start some (dask worker {address}) or give another --scheduler"
+                ) from None
+            try:
+                client.run(_warm)  # mjlink importable on every worker, its allocator settings made
+            except Exception as e:
+                raise EngineError(
+                    f"the workers of the Dask cluster at {address} cannot run mjlink: {_one_line(e)}"
+                ) from None
             n = len(client.scheduler_info()["workers"])
             yield client, f"Dask cluster at {address} ({n} workers)"
         finally:
-            client.close()
+            _close_quietly(client)
         return
     n = workers or os.cpu_count() or 1
     import dask
@@ -229,21 +239,77 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
     # pre-spawn environment is the only place to set them before a worker exists.
     # A worker never renders: it imports mujoco without probing OpenGL.
     environ = {**memory.MALLOC_ENV, "MJLINK_NO_GL": "1"}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), _workers_stderr():
         cluster = LocalCluster(
             n_workers=n,
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
             silence_logs=logging.ERROR,
         )
     client = Client(cluster)
     try:
-        client.run(_warm)  # imports on every worker now, not inside the first timed task
+        client.run(_warm_local)  # imports on every worker now, not inside the first timed task
         yield client, f"Dask LocalCluster ({n} worker processes x 1 thread)"
     finally:
-        client.close()
-        cluster.close()
+        _close_quietly(client, cluster)
+
+
+def local_workers(workers: int | None) -> int:
+    """The worker processes of a local cluster for ``--workers``: one per core by default; more
+    than the cores is clamped to them, with a note (a study's tasks are CPU-bound: more
+    processes than cores only share them)."""
+    cores = os.cpu_count() or 1
+    if workers is None:
+        return cores
+    if workers > cores:
+        note(f"--workers {workers} is more than this machine's {cores} cores: using {cores}")
+        return cores
+    return workers
+
+
+@contextmanager
+def _workers_stderr() -> Iterator[None]:
+    """While the body starts worker processes, their inherited stderr is /dev/null (unless
+    ``MJLINK_WORKER_LOGS`` is set): a worker interrupted or stopped must not write Dask's
+    tracebacks into the user's terminal. This process's stderr is back when the body ends."""
+    if os.environ.get("MJLINK_WORKER_LOGS"):
+        yield
+        return
+    sys.stderr.flush()
+    saved = os.dup(2)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
+def _close_quietly(client: Any, cluster: Any = None) -> None:
+    """Close the client (and the local cluster) without Dask's log lines about connections
+    closed under it (an interrupted run closes in the middle of its tasks)."""
+    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        with contextlib.suppress(Exception):
+            client.close()
+        if cluster is not None:
+            with contextlib.suppress(Exception):
+                cluster.close()
+    finally:
+        for lg, level in zip(loggers, levels, strict=True):
+            lg.setLevel(level)
+
+
+def _one_line(e: BaseException) -> str:
+    text = " ".join(str(e).split()) or type(e).__name__
+    return text if len(text) <= 200 else text[:197] + "..."
 
 
 def _warm() -> None:
@@ -251,6 +317,14 @@ def _warm() -> None:
     import mjlink.study.tasks
 
     mjlink.study.tasks._keep_freed_memory()
+
+
+def _warm_local() -> None:
+    """:func:`_warm`, and out of the terminal's process group: a worker of the local cluster is
+    stopped by this process, not by the terminal's Ctrl-C (which would make it print)."""
+    _warm()
+    with contextlib.suppress(OSError):
+        os.setpgrp()
 
 
 # --------------------------------------------------------------------------------- running
@@ -275,16 +349,16 @@ def run(
       scheduler: address of an existing Dask scheduler.
       workers: worker processes of the local cluster (default one per core); 0 runs in this
         process without Dask.
-      cache_dir: where finished chunks are kept (None: no cache); the caller removes it
-        (:meth:`Cache.remove`) once the study's outputs are safely written.
+      cache_dir: where finished chunks are kept (None: no cache; :mod:`.cache`); the caller
+        removes it (:meth:`.cache.Cache.remove`) once the study's outputs are safely written.
       progress: called with (stage, variants done, variants in the stage) as chunks finish.
     Returns:
       The :class:`Outcome`.
     """
     timing = Timing()
-    cache = Cache(cache_dir, study)
     with timing.stage("sampling"):
         values = study.values()
+    cache = Cache(cache_dir, study, len(values), chunking())
     if client is not None:
         out = _run(study, values, client, "the given Dask client", cache, progress, timing)
     else:
@@ -309,8 +383,9 @@ def _run(
     resumed = 0
     results: dict[tuple[int, int], Evaluated] = {}
     todo = []
+    ref_keys = {f"col:{c.name}" for c in study.columns} | {"feasible", "reason"}
     for a, b in ref_chunks:
-        z = cache.load("ref", a, b)
+        z = cache.load("ref", a, b, functools.partial(_holds, ref_keys, b - a))
         if z is not None:
             results[(a, b)] = _unpack_ref(z)
             resumed += 1
@@ -343,8 +418,9 @@ def _run(
         mj_chunks = chunks(len(chosen), MUJOCO_CHUNK, parts=8)
         got: dict[tuple[int, int], Verified] = {}
         todo = []
+        mj_keys = {"passed", "position_error", "loop_gap", "thread_error", "reason"}
         for a, b in mj_chunks:
-            z = cache.load("mujoco", a, b)
+            z = cache.load("mujoco", a, b, functools.partial(_holds, mj_keys, b - a))
             if z is not None:
                 got[(a, b)] = _unpack_mj(z)
                 resumed += 1

@@ -1,28 +1,37 @@
-"""Optimal synthesis on the study engine: differential evolution over batches of variants.
+"""Optimal synthesis on the study engine: differential evolution, then a local polish.
 
 An ``[optimize]`` study searches the [[parameter]] ranges for the design that minimizes (or
 maximizes) a metric or a weighted sum of metric columns, subject to feasibility (assembly over
 the whole period, the dead-point limits of ``check``) and the study's [[bound]]s; or, with
 ``pareto = [a, b]``, for a Pareto front of two metric columns (both minimized).
 
-The optimizer is scipy's ``differential_evolution`` with ``vectorized=True`` and deferred
-updating: each generation's candidates reach the evaluation as one (S, P) array, which the
-engine cuts into chunks and runs on the Dask cluster (or in this process) exactly as a
-sampled study's variants. Constraints go in as scipy's feasibility rules (Lampinen's: a
-feasible candidate beats an infeasible one, two infeasible ones compare by their violation,
-two feasible ones by the objective), so no penalty constant can let an infeasible design
-win. Why DE: it needs no gradients (metrics such as a peak or a dwell are not smooth in the
-parameters), it treats a whole generation as one batch, it is deterministic for a seed, and
-scipy (already a dependency) keeps it well tested; CMA-ES would add a dependency and needs
-more care with constraints, NSGA-II gives a front of approximate points.
+Each run (:mod:`.search`) is scipy's ``differential_evolution`` with ``vectorized=True`` and
+deferred updating, each generation's candidates one (S, P) batch that the engine cuts into
+chunks and runs on the Dask cluster (or in this process) as a sampled study's variants; then,
+once the population has settled, a local CMA-ES polish from its best point (:mod:`.polish`), in
+this process (its generations are small batches; the reference gives the same bits wherever it
+runs). Constraints go in as the feasibility rules (Lampinen's: a feasible candidate beats an
+infeasible one, two infeasible ones compare by their violation, two feasible ones by the
+objective), so no penalty constant can let an infeasible design win. Why DE: it needs no
+gradients (metrics such as a peak or a dwell are not smooth in the parameters), it treats a
+whole generation as one batch, it is deterministic for a seed, and scipy keeps it well tested.
 
-Two objectives: the epsilon-constraint method on the same optimizer. One run minimizes each
-column; ``points - 2`` more runs minimize the first column subject to the second staying
-below levels spaced evenly between the two runs' values. Each front point is then a
-constrained optimum in its own right (not a survivor of a population), and the spacing along
-the second objective is even. The winner of a Pareto study is the front's knee: the point
-nearest the ideal point (both columns at their front minimum) after scaling each column by
-its range on the front.
+**Convergence.** A run is converged when its global search settled (scipy's spread test, or no
+improvement of the best feasible value beyond ``ftol`` over ``stall`` generations) and its polish
+then converged (its step below ``xtol`` of every range, or its values unchanging); a run that
+used its generations or its polish budget first is not. A single objective is searched from
+``seeds`` seeds (``seed``, ``seed + 1``, ...): the winner is the best, and the result is
+converged only if every seed's run converged and their optima agree within ``ftol`` (relative,
+plus ``atol``); how far they differ is reported either way (:class:`SeedSpread`).
+
+Two objectives: the epsilon-constraint method. One run minimizes each column (the front's
+ends); ``points - 2`` more minimize the first column subject to the second staying below levels
+spaced evenly between the ends (each run's first generation holds the optima found so far).
+Each front point is a constrained optimum in its own right. The winner is the front's **knee**,
+defined on the front normalized by its ends: with each column scaled to 0 at its best end and 1
+at its worst, the knee is the design nearest the ideal point (0, 0). It is found by a run of
+its own, minimizing that distance over all feasible designs from the two ends, so it depends
+on the ends alone, not on how many other front points were computed.
 
 Robust mode (``[robust]``): a candidate is evaluated on ``samples`` tolerance deviations of
 its parameters (each [[parameter]]'s ``tolerance``: uniform over +-tolerance, or normal with
@@ -31,13 +40,14 @@ objective is a deterministic, comparable function of the candidate). Each object
 becomes its mean plus ``k`` standard deviations over the samples; the candidate is feasible
 only if every sample is, and a bound must hold for every sample.
 
-Reproducible: the seed fixes the initial population (scrambled Sobol or Latin hypercube) and
-scipy's random stream; the reference is elementwise, so the result does not depend on the
-engine, the workers or the chunking (tested).
+Reproducible: the seeds fix the initial populations (scrambled Sobol or Latin hypercube),
+scipy's random streams and the polish's; the reference is elementwise, so the result does not
+depend on the engine, the workers or the chunking (tested).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import warnings
@@ -48,8 +58,14 @@ from typing import Any
 import numpy as np
 
 from ..errors import MjlinkError
+from . import sampling
+from .caveats import SAME_POINT, Caveats, SeedSpread, caveats, seed_spread
+from .engine import Pool, _map
+from .search import COLLAPSED, Progress, Run, search
 from .spec import Study
 from .tasks import Evaluated, reference_chunk
+
+__all__ = ["Archive", "Evaluator", "OptimizeError", "Result", "Run", "Scores", "budget", "deviations", "run"]
 
 INFEASIBLE = 1.0e6  # the violation of a candidate that does not assemble (bounds add relative excesses)
 CHUNK_ROWS = 100_000  # variants x crank angles per reference task, at most
@@ -71,23 +87,6 @@ class Scores:
     columns: dict[str, np.ndarray]
     violation: np.ndarray
     reason: tuple[str, ...]
-
-
-@dataclass
-class Run:
-    """One differential-evolution run: its best feasible candidate ``x`` (P,) and objective
-    ``f`` (what was minimized), generations and evaluations, whether scipy's convergence test
-    stopped it, and ``history``: (generation, evaluations so far, best feasible objective so
-    far, wall seconds since the run started) per generation (NaN until a feasible candidate
-    appears)."""
-
-    name: str
-    x: np.ndarray
-    f: float
-    generations: int
-    evaluations: int
-    converged: bool
-    history: list[tuple[int, int, float, float]] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -113,8 +112,11 @@ class Result:
     ``nominal_columns`` the same design's columns without deviations; ``front`` (F, P) the
     Pareto designs with ``front_columns`` (F,) each (None for one objective), sorted by the
     first column; ``file_objective`` and ``file_columns`` the mechanism file's own design,
-    scored the same way (NaN where it is infeasible or outside a bound); ``runs``; ``archive``; ``evaluations`` variants evaluated (a robust
-    candidate counts its samples); ``engine``; ``timing`` wall seconds per stage.
+    scored the same way (NaN where it is infeasible or outside a bound); ``runs``; ``archive``;
+    ``evaluations`` variants evaluated (a robust candidate counts its samples); ``engine``;
+    ``timing`` wall seconds per stage; ``converged`` (see the module docstring) with
+    ``criterion`` (the test, in words) and ``not_converged`` (why not, one line per run or the
+    seeds' disagreement); ``caveats`` on the winner (:class:`.caveats.Caveats`).
     """
 
     study: Study
@@ -131,24 +133,24 @@ class Result:
     evaluations: int
     engine: str
     timing: dict[str, float]
-
-
-Progress = Callable[[str, int, int, float], None]  # (run name, generation, generations, best so far)
+    converged: bool = False
+    criterion: str = ""
+    not_converged: tuple[str, ...] = ()
+    caveats: Caveats = field(default_factory=Caveats)
 
 
 def deviations(study: Study) -> np.ndarray:
-    """(R, P) the robust mode's tolerance deviations (file units; one row of zeros without
-    ``[robust]``), drawn once from the robust seed (numpy's PCG64)."""
-    P = len(study.varied)
-    rb = study.robust
-    if rb is None:
-        return np.zeros((1, P))
-    rng = np.random.Generator(np.random.PCG64(rb.seed))
-    tol = np.array([v.tolerance for v in study.varied])
-    uniform = np.array([v.distribution == "uniform" for v in study.varied])
-    u = rng.uniform(-1.0, 1.0, size=(rb.samples, P))
-    z = rng.standard_normal(size=(rb.samples, P))
-    return np.where(uniform, u * tol, z * tol / 3.0)
+    """(R, P) the robust mode's tolerance deviations (:func:`.sampling.robust_deviations`)."""
+    return sampling.robust_deviations(study)
+
+
+def needed(study: Study) -> tuple[Any, ...]:
+    """The study's metrics whose columns the search uses: the objective's (or the Pareto
+    columns) and the [[bound]]s'."""
+    opt = study.optimize
+    assert opt is not None
+    used = {c for c, _ in opt.objective} | set(opt.pareto or ()) | {b.column for b in study.bounds}
+    return tuple(m for m in study.metrics if any(c.name in used for c in m.columns()))
 
 
 class Evaluator:
@@ -157,6 +159,11 @@ class Evaluator:
     On a cluster the study is held by an actor on every worker (:class:`.engine.Pool`, made at
     the first batch): a generation is too small a batch to pay the scheduler's round trip.
     Use as a context manager, or call :meth:`close`, to release them.
+
+    The search computes only the metrics it needs (those of the objective or the Pareto
+    columns and of the [[bound]]s, :func:`needed`); ``full=True`` computes every metric of the
+    study (for the designs reported: the winner, the front, the file's design), in this process.
+    A metric the search does not need is NaN in the search's scores.
 
     Args:
       study: an optimize study.
@@ -168,6 +175,7 @@ class Evaluator:
         if study.optimize is None:
             raise OptimizeError(f"{study.name}: not an optimization (no [optimize] table)")
         self.study = study
+        self.search = dataclasses.replace(study, metrics=needed(study))
         self.client = client
         self.workers = max(1, workers)
         self.dev = deviations(study)
@@ -187,8 +195,10 @@ class Evaluator:
             self._pool.close()
             self._pool = None
 
-    def rows(self, X: np.ndarray) -> Evaluated:
-        """The reference's metrics of arbitrary rows (n, P), file units, on the engine."""
+    def rows(self, X: np.ndarray, full: bool = False) -> Evaluated:
+        """The reference's metrics of arbitrary rows (n, P), file units, on the engine (those
+        the search needs; ``full``: every metric, in this process)."""
+        study = self.study if full else self.search
         n = len(X)
         # Equal chunks, a multiple of the workers in number, none above CHUNK_ROWS rows of
         # variants x angles (the reference's memory per task).
@@ -198,33 +208,37 @@ class Evaluator:
         parts = [(i, min(i + size, n)) for i in range(0, n, size)]
         got: dict[tuple[int, int], Evaluated] = {}
         t = time.perf_counter()
-        from .engine import Pool, _map
-
-        if self.client is None:
-            _map(None, reference_chunk, self.study, X, parts, got.__setitem__, {})
+        if self.client is None or full:
+            _map(None, reference_chunk, study, X, parts, got.__setitem__, {})
         else:
             if self._pool is None:
-                self._pool = Pool(self.client, self.study)
+                self._pool = Pool(self.client, self.search)
             self._pool.reference(X, parts, got.__setitem__)
         self.seconds += time.perf_counter() - t
         self.evaluations += n
-        cols = {c.name: np.concatenate([got[k].columns[c.name] for k in parts]) for c in self.study.columns}
+        computed = {c.name for c in study.columns}
+        cols = {
+            c.name: np.concatenate([got[k].columns[c.name] for k in parts])
+            if c.name in computed
+            else np.full(n, np.nan)
+            for c in self.study.columns
+        }
         return Evaluated(
             cols,
             np.concatenate([got[k].feasible for k in parts]),
             tuple(r for k in parts for r in got[k].reason),
         )
 
-    def score(self, X: np.ndarray, robust: bool = True) -> Scores:
+    def score(self, X: np.ndarray, robust: bool = True, full: bool = False) -> Scores:
         """Scores of candidates X (S, P), file units (``robust=False``: at nominal dimensions
-        even in robust mode)."""
+        even in robust mode; ``full``: every metric, see :meth:`rows`)."""
         st = self.study
         opt = st.optimize
         assert opt is not None
         S, P = X.shape
         dev = self.dev if robust else np.zeros((1, P))
         R = len(dev)
-        ev = self.rows((X[:, None, :] + dev[None]).reshape(S * R, P))
+        ev = self.rows((X[:, None, :] + dev[None]).reshape(S * R, P), full)
         feasible = ev.feasible.reshape(S, R).all(axis=1)
         k = st.robust.k if (st.robust is not None and robust) else 0.0
 
@@ -306,88 +320,52 @@ class _Book:
 Objective = Callable[[Scores], tuple[np.ndarray, np.ndarray]]  # -> (minimized value, violation)
 
 
-def _de(
-    ev: Evaluator,
-    book: _Book,
-    index: int,
-    name: str,
-    objective: Objective,
-    init: np.ndarray | None,
-    progress: Progress | None,
-) -> Run:
-    """One scipy differential-evolution run, every generation one batch on the engine."""
-    from scipy.optimize import NonlinearConstraint, differential_evolution
+@dataclass(frozen=True)
+class Budget:
+    """An optimization's size at most: ``runs`` of at most ``generations`` generations of
+    ``population`` candidates and a polish of ``polish`` evaluations each, every candidate
+    evaluated at ``samples`` tolerance samples (1 without [robust]); ``verified`` designs
+    checked in MuJoCo at the end."""
 
-    st = ev.study
-    opt = st.optimize
+    runs: int
+    population: int
+    generations: int
+    polish: int
+    samples: int
+    verified: int
+
+    @property
+    def candidates(self) -> int:
+        return self.runs * (self.population * (self.generations + 1) + self.polish)
+
+    @property
+    def evaluations(self) -> int:
+        """Variants evaluated by the reference at most (a candidate counts its samples)."""
+        return self.candidates * self.samples
+
+    @property
+    def per_generation(self) -> int:
+        """Variants of the largest batch (a generation's candidates x samples)."""
+        return self.population * self.samples
+
+    def describe(self) -> str:
+        robust = f" x {self.samples} tolerance samples" if self.samples > 1 else ""
+        polish = f" + a polish of {self.polish:,}" if self.polish else ""
+        return (
+            f"optimization of {self.runs} run(s) x (population {self.population} x at most {self.generations} "
+            f"generations{polish}){robust}"
+        )
+
+
+def budget(study: Study) -> Budget:
+    """What ``study``'s optimization costs at most (for the plan, :mod:`.plan`)."""
+    opt = study.optimize
     assert opt is not None
-    lo = np.array([v.low for v in st.varied])
-    hi = np.array([v.high for v in st.varied])
-    P = len(lo)
-    cache: dict[bytes, tuple[float, float]] = {}
-    t0 = time.perf_counter()
-    run = Run(name, np.full(P, np.nan), math.inf, 0, 0, False)
-    gen = -1
-
-    def evaluate(xT: np.ndarray) -> list[bytes]:
-        nonlocal gen
-        X = np.atleast_2d(np.asarray(xT, dtype=float).T if np.ndim(xT) == 2 else xT)
-        keys = [x.tobytes() for x in X]
-        todo = [i for i, k in enumerate(keys) if k not in cache]
-        if todo:
-            gen += 1
-            Xn = X[todo]
-            s = ev.score(Xn)
-            f, viol = objective(s)
-            book.add(index, gen, Xn, s, f, viol)
-            run.evaluations += len(Xn)
-            for i, fi, vi in zip(todo, f, viol, strict=True):
-                cache[keys[i]] = (float(fi), float(vi))
-            ok = np.flatnonzero(viol <= 0)
-            if len(ok):
-                j = ok[np.argmin(f[ok])]
-                if f[j] < run.f:
-                    run.f, run.x = float(f[j]), Xn[j].copy()
-            best = run.f if math.isfinite(run.f) else math.nan
-            run.history.append((gen, run.evaluations, best, time.perf_counter() - t0))
-            run.generations = gen
-            if progress:
-                progress(name, gen, opt.generations, run.f)
-        return keys
-
-    def violation(xT: np.ndarray) -> np.ndarray:
-        return np.array([[cache[k][1] for k in evaluate(xT)]])
-
-    def func(xT: np.ndarray) -> np.ndarray:
-        return np.array([cache[k][0] for k in evaluate(xT)])
-
-    if init is None:
-        from scipy.stats import qmc
-
-        engine: qmc.QMCEngine = (
-            qmc.Sobol(P, scramble=True, seed=opt.seed) if opt.init == "sobol" else qmc.LatinHypercube(P, seed=opt.seed)
-        )
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # Sobol warns for counts that are no power of 2
-            init = qmc.scale(engine.random(opt.population), lo, hi)
-    with warnings.catch_warnings():
-        # scipy warns when it cannot polish (we do not) or finds nothing feasible (we say so).
-        warnings.simplefilter("ignore", UserWarning)
-        res = differential_evolution(
-            func,
-            list(zip(lo, hi, strict=True)),
-            maxiter=opt.generations,
-            tol=opt.tol,
-            atol=opt.atol,
-            init=init,
-            rng=np.random.default_rng(opt.seed + index),
-            polish=False,
-            vectorized=True,
-            updating="deferred",
-            constraints=NonlinearConstraint(violation, -np.inf, 0.0),
-        )
-    run.converged = bool(res.success)
-    return run
+    runs = opt.points + 1 if opt.pareto else opt.seeds
+    R = study.robust.samples if study.robust else 1
+    return Budget(
+        runs, opt.population, opt.generations, opt.polish_evaluations, R, 1 + (opt.points + 1 if opt.pareto else 0)
+    )
 
 
 def run(
@@ -414,76 +392,97 @@ def run(
     opt = study.optimize
     if opt is None:
         raise OptimizeError(f"{study.name}: not an optimization (no [optimize] table)")
-    with Evaluator(study, client, workers) as ev:
-        return _run(study, ev, engine, progress)
+    with Evaluator(study, client, workers) as ev, Evaluator(study, None, 1) as here:
+        return _run(study, ev, here, engine, progress)
 
 
-def _run(study: Study, ev: Evaluator, engine: str, progress: Progress | None) -> Result:
+def _run(study: Study, ev: Evaluator, here: Evaluator, engine: str, progress: Progress | None) -> Result:
     opt = study.optimize
     assert opt is not None
     t0 = time.perf_counter()
     book = _Book()
     runs: list[Run] = []
 
+    def one(index: int, name: str, objective: Objective, init: np.ndarray | None, seed: int) -> Run:
+        r = search(study, ev.score, book.add, index, name, objective, init, seed, progress, polish_score=here.score)
+        runs.append(r)
+        return r
+
     def weighted(s: Scores) -> tuple[np.ndarray, np.ndarray]:
         return s.objective, s.violation
 
+    spread: SeedSpread | None = None
     if opt.pareto is None:
-        runs.append(_de(ev, book, 0, "optimum", weighted, None, progress))
-        _feasible_or_fail(study, runs, book)
-        winner = runs[0].x
+        for k in range(opt.seeds):
+            one(k, f"seed {opt.seed + k}" if opt.seeds > 1 else "optimum", weighted, None, opt.seed + k)
+        _feasible_or_fail(study, runs, book, every=False)
+        best = min(runs, key=lambda r: r.f)
+        winner = best.x
         front = None
+        if opt.seeds > 1:
+            spread = seed_spread(study, runs)
+        objective: Objective = weighted
     else:
         c1, c2 = opt.pareto
 
         def single(c: str) -> Objective:
             return lambda s: (s.columns[c], s.violation)
 
-        runs.append(_de(ev, book, 0, f"min {c1}", single(c1), None, progress))
-        runs.append(_de(ev, book, 1, f"min {c2}", single(c2), None, progress))
+        one(0, f"min {c1}", single(c1), None, opt.seed)
+        one(1, f"min {c2}", single(c2), None, opt.seed)
         _feasible_or_fail(study, runs, book)
         ends = ev.score(np.stack([runs[0].x, runs[1].x]))
         hi2, lo2 = float(ends.columns[c2][0]), float(ends.columns[c2][1])
-        span = max(hi2 - lo2, 1e-12 * max(abs(hi2), 1.0))
-        warm = [runs[0].x, runs[1].x]
+        hi1, lo1 = float(ends.columns[c1][1]), float(ends.columns[c1][0])
+        span2 = max(hi2 - lo2, 1e-12 * max(abs(hi2), 1.0))
+        span1 = max(hi1 - lo1, 1e-12 * max(abs(hi1), 1.0))
+        anchors = [runs[0].x, runs[1].x]
+        warm = list(anchors)
         for j, eps in enumerate(np.linspace(lo2, hi2, opt.points)[1:-1]):
 
             def capped(s: Scores, eps: float = float(eps)) -> tuple[np.ndarray, np.ndarray]:
-                over = np.where(np.isfinite(s.columns[c2]), np.maximum(s.columns[c2] - eps, 0.0) / span, INFEASIBLE)
+                over = np.where(np.isfinite(s.columns[c2]), np.maximum(s.columns[c2] - eps, 0.0) / span2, INFEASIBLE)
                 return s.columns[c1], s.violation + over
 
-            init = _warm_init(study, warm, j + 2)
-            r = _de(ev, book, j + 2, f"min {c1} with {c2} <= {eps:.6g}", capped, init, progress)
-            runs.append(r)
+            r = one(j + 2, f"min {c1} with {c2} <= {eps:.6g}", capped, _warm_init(study, warm, j + 2), opt.seed)
             if np.all(np.isfinite(r.x)):
                 warm.append(r.x)
+
+        def knee(s: Scores) -> tuple[np.ndarray, np.ndarray]:
+            n1 = (s.columns[c1] - lo1) / span1
+            n2 = (s.columns[c2] - lo2) / span2
+            d = np.hypot(np.maximum(n1, 0.0), np.maximum(n2, 0.0))
+            return np.where(np.isfinite(d), d, np.inf), s.violation
+
+        # From the two ends only: the knee depends on them, not on the points between.
+        k = one(opt.points, "knee", knee, _warm_init(study, anchors, opt.points), opt.seed)
+        objective = knee
         cand = np.stack([r.x for r in runs if np.all(np.isfinite(r.x))])
         sc = ev.score(cand)
         keep = _nondominated(sc.columns[c1], sc.columns[c2]) & (sc.violation <= 0)
         front = cand[keep][np.argsort(sc.columns[c1][keep], kind="stable")]
-        fc = ev.score(front)
-        f1, f2 = fc.columns[c1], fc.columns[c2]
-        n1 = (f1 - f1.min()) / max(np.ptp(f1), 1e-300)
-        n2 = (f2 - f2.min()) / max(np.ptp(f2), 1e-300)
-        winner = front[int(np.argmin(np.hypot(n1, n2)))]
+        winner = k.x if np.all(np.isfinite(k.x)) else front[len(front) // 2]
+        if not any(np.array_equal(winner, x) for x in front):  # a knee a front point dominates (within rounding)
+            winner = front[int(np.argmin([np.linalg.norm(x - winner) for x in front]))]
     t_search = time.perf_counter() - t0
-    final = ev.score(winner[None])
-    nominal = ev.score(winner[None], robust=False)
+    final = here.score(winner[None], full=True)
+    nominal = here.score(winner[None], robust=False, full=True)
     if final.violation[0] > 0:  # pragma: no cover - the winner was chosen among feasible candidates
         raise OptimizeError(f"{study.name}: the winner is infeasible: {final.reason[0]}")
-    if opt.pareto is None:
-        value = float(final.objective[0]) * (-1.0 if opt.sense == "max" else 1.0)
-    else:
-        value = math.nan
+    value = float(final.objective[0]) * (-1.0 if opt.sense == "max" else 1.0) if opt.pareto is None else math.nan
     file_values = np.array([[p.nominal for p in study.params]])
-    fs0 = ev.score(file_values)
+    fs0 = here.score(file_values, full=True)
     file_value = math.nan
     if opt.pareto is None and fs0.violation[0] <= 0:
         file_value = float(fs0.objective[0]) * (-1.0 if opt.sense == "max" else 1.0)
     front_cols = None
     if front is not None:
-        fs = ev.score(front)
+        fs = here.score(front, full=True)
         front_cols = {c: v.copy() for c, v in fs.columns.items()}
+    why = tuple(r.why_not() for r in runs if not r.converged)
+    if spread is not None and not spread.agree:
+        why += (spread.text(),)
+    notes = caveats(study, here, winner, objective, spread)
     return Result(
         study,
         winner,
@@ -496,16 +495,44 @@ def _run(study: Study, ev: Evaluator, engine: str, progress: Progress | None) ->
         {c: float(v[0]) for c, v in fs0.columns.items()},
         runs,
         book.archive(study),
-        ev.evaluations,
+        ev.evaluations + here.evaluations,
         engine,
-        {"search": t_search, "reference": ev.seconds, "total": time.perf_counter() - t0},
+        {"search": t_search, "reference": ev.seconds + here.seconds, "total": time.perf_counter() - t0},
+        not why,
+        criterion(study),
+        why,
+        notes,
     )
+
+
+def criterion(study: Study) -> str:
+    """The convergence test of ``study``'s optimization, in words."""
+    opt = study.optimize
+    assert opt is not None
+    settle = (
+        f"each run's differential evolution settles (scipy's spread test, tol {opt.tol:g}, atol {opt.atol:g}; or "
+        f"no improvement of the best feasible value by more than {opt.ftol:g} of it over {opt.stall} generations; or "
+        f"its population within {COLLAPSED:g} of every range) "
+        f"within {opt.generations} generations"
+    )
+    polish = (
+        f", then a local CMA-ES polish from its best point reaches a step below {opt.xtol:g} of every range, or values "
+        f"unchanged to 1e-12 of them, within {opt.polish_evaluations:,} evaluations"
+        if opt.polish_evaluations
+        else " (no polish)"
+    )
+    seeds = (
+        f"; the {opt.seeds} seeds' optima agree (objectives within {opt.ftol:g} of their value plus atol, or "
+        f"parameters within {SAME_POINT:g} of every range)"
+        if opt.pareto is None and opt.seeds > 1
+        else ""
+    )
+    return settle + polish + seeds
 
 
 def _warm_init(study: Study, warm: list[np.ndarray], index: int) -> np.ndarray:
     """An initial population for a front run: a fresh scrambled Sobol sample (seeded by the
-    run) with the previous runs' optima in place of its first rows, so each run starts from
-    the front found so far."""
+    run) with the given optima in place of its first rows, so each run starts from them."""
     from scipy.stats import qmc
 
     opt = study.optimize
@@ -531,8 +558,10 @@ def _nondominated(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return keep
 
 
-def _feasible_or_fail(study: Study, runs: list[Run], book: _Book) -> None:
-    if all(np.all(np.isfinite(r.x)) for r in runs):
+def _feasible_or_fail(study: Study, runs: list[Run], book: _Book, *, every: bool = True) -> None:
+    """Fail (one line) unless every run (``every``; else at least one) found a feasible design."""
+    found = [bool(np.all(np.isfinite(r.x))) for r in runs]
+    if all(found) if every else any(found):
         return
     reasons = [r for r in book.reason if r]
     common = max(set(reasons), key=reasons.count) if reasons else "no candidate met the bounds"

@@ -14,12 +14,13 @@ Values are in the file's units; the same study file gives the same variants on a
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 if TYPE_CHECKING:
-    from .spec import Study
+    from .spec import Study, Varied
 
 
 def sample(study: Study) -> np.ndarray:
@@ -46,11 +47,32 @@ def sample(study: Study) -> np.ndarray:
         lo = np.array([v.low for v in study.varied])
         hi = np.array([v.high for v in study.varied])
         return np.asarray(qmc.scale(u, lo, hi), dtype=float)
-    rng = np.random.Generator(np.random.PCG64(study.seed))
-    nominal = np.array([v.param.nominal for v in study.varied])
-    tol = np.array([v.tolerance for v in study.varied])
-    uniform = np.array([v.distribution == "uniform" for v in study.varied])
-    u = rng.uniform(-1.0, 1.0, size=(study.samples, P))
-    z = rng.standard_normal(size=(study.samples, P))
-    dev = np.where(uniform, u * tol, z * tol / 3.0)
-    return nominal + dev
+    return tolerance(study.varied, study.samples, study.seed)
+
+
+def deviations(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:
+    """(samples, P) deviations of the parameters from their values, file units: uniform over
+    +-tolerance, or normal with sigma = tolerance / 3, drawn independently per parameter with
+    numpy's PCG64 from ``seed`` (all the uniform draws first, then the normal ones)."""
+    P = len(varied)
+    rng = np.random.Generator(np.random.PCG64(seed))
+    tol = np.array([v.tolerance for v in varied])
+    uniform = np.array([v.distribution == "uniform" for v in varied])
+    u = rng.uniform(-1.0, 1.0, size=(samples, P))
+    z = rng.standard_normal(size=(samples, P))
+    return np.asarray(np.where(uniform, u * tol, z * tol / 3.0))
+
+
+def tolerance(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:
+    """(samples, P) a tolerance study's variants: nominal + :func:`deviations`."""
+    nominal = np.array([v.param.nominal for v in varied])
+    return nominal + deviations(varied, samples, seed)
+
+
+def robust_deviations(study: Study) -> np.ndarray:
+    """(R, P) a robust optimization's tolerance deviations (file units; one row of zeros without
+    ``[robust]``), drawn once from the robust seed: the same for every candidate."""
+    rb = study.robust
+    if rb is None:
+        return np.zeros((1, len(study.varied)))
+    return deviations(study.varied, rb.samples, rb.seed)

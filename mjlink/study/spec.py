@@ -13,6 +13,8 @@ from __future__ import annotations
 import difflib
 import hashlib
 import math
+import os
+import sys
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,10 +24,13 @@ import numpy as np
 
 from .. import validation
 from ..analysis import metrics as _metrics
-from ..errors import MjlinkError
+from ..errors import InputError, MjlinkError
 from ..model import catalogue, paths
 from ..model import names as _names
+from ..model.limits import MAX_FILE_BYTES, MAX_TITLE_CHARS
 from ..model.mechanism import Mechanism
+from ..model.reader import digits, shown
+from . import sampling
 
 METHODS = ("grid", "random", "tolerance")  # sampling; an [optimize] table makes the method "optimize"
 SEQUENCES = ("sobol", "lhs")
@@ -35,11 +40,22 @@ SENSES = ("min", "max")
 INITS = ("sobol", "lhs")
 MAX_VARIANTS = 10_000_000
 MAX_PER_TURN = 3600
+# Tolerance samples held against the mechanism file's validation one by one up to this many
+# values; beyond, the band is bounded instead (uniform: +-tolerance; normal: +-2 tolerance, six
+# standard deviations).
+MAX_CHECKED_SAMPLES = 20_000_000
 STUDIES_DIR = catalogue.STUDIES_DIR
 
 
 class StudyFileError(MjlinkError):
     """A study file is unreadable or asks for something that cannot be done."""
+
+
+class StudyLimitError(StudyFileError, InputError):
+    """A study file (or its path) beyond one of mjlink's limits: too large, nested too deeply,
+    a number of too many digits or too large, more variants than allowed. Refused before any
+    work, exit status 2 on the command line (as a usage error: nothing ran, nothing was
+    written)."""
 
 
 @dataclass(frozen=True)
@@ -80,6 +96,13 @@ class Bound:
         return f"{self.column} >= {self.low:g}" if self.low is not None else f"{self.column} <= {self.high:g}"
 
 
+# The manufacturing resolution a winner's numbers are rounded to, by unit (file units), unless
+# the study file's [optimize] resolution says otherwise; numbers of other units are written to
+# RESOLUTION_DIGITS significant digits.
+RESOLUTION = {"mm": 0.01, "deg": 0.01}
+RESOLUTION_DIGITS = 8
+
+
 @dataclass(frozen=True)
 class Optimize:
     """An optimization's ``[optimize]`` table (see :mod:`mjlink.study.optimize`).
@@ -87,9 +110,16 @@ class Optimize:
     ``objective`` column -> weight of a weighted sum (one column: that metric); ``sense``
     'min' or 'max'; ``pareto`` two columns (both minimized) for a Pareto front of ``points``
     designs instead; ``population`` candidates per generation; ``generations`` the most
-    generations per run; ``tol``/``atol`` scipy's convergence test (relative, and absolute in
-    the objective's unit); ``flywheel_delta`` size a flywheel for the winner (the inertia on
-    the input crank that brings the steady-motion delta down to it; 0: none).
+    generations per run; ``tol``/``atol`` scipy's spread test (relative, and absolute in the
+    objective's unit); ``flywheel_delta`` size a flywheel for the winner (the inertia on the
+    input crank that brings the steady-motion delta down to it; 0: none).
+
+    The convergence criterion's settings: ``stall`` generations without improvement of the best
+    feasible value (by more than ``ftol`` of it) end a run as settled; ``seeds`` independent runs
+    of a single objective (seeds ``seed``, ``seed + 1``, ...), whose agreement is reported;
+    ``polish_evaluations`` the local polish's budget per run (0: no polish); ``xtol`` the
+    polish's step, a fraction of each range, at which a run is converged. ``resolution`` unit ->
+    the manufacturing resolution the winner file's numbers are rounded to.
     """
 
     objective: tuple[tuple[str, float], ...]
@@ -103,6 +133,12 @@ class Optimize:
     atol: float
     init: str
     flywheel_delta: float
+    seeds: int = 1
+    stall: int = 30
+    ftol: float = 1e-9
+    polish_evaluations: int = 0
+    xtol: float = 1e-9
+    resolution: tuple[tuple[str, float], ...] = tuple(RESOLUTION.items())
 
     @property
     def label(self) -> str:
@@ -111,6 +147,10 @@ class Optimize:
             return f"minimize {self.pareto[0]} and {self.pareto[1]}"
         text = " + ".join(c if w == 1 else f"{w:g} * {c}" for c, w in self.objective)
         return f"{'maximize' if self.sense == 'max' else 'minimize'} {text}"
+
+    def step_of(self, unit: str) -> float | None:
+        """The resolution of numbers in ``unit`` (None: RESOLUTION_DIGITS significant digits)."""
+        return dict(self.resolution).get(unit)
 
 
 @dataclass(frozen=True)
@@ -149,6 +189,8 @@ class Study:
     optimize: Optimize | None = None
     robust: Robust | None = None
     fixed: tuple[tuple[str, float], ...] = ()  # [set]: path -> value (file units), applied first
+    definition_digest: str = ""  # of the study file's text alone
+    mechanism_digest: str = ""  # of the mechanism file's text alone
 
     @property
     def params(self) -> list[paths.Param]:
@@ -166,9 +208,7 @@ class Study:
     def values(self) -> np.ndarray:
         """(V, P) every variant's parameter values, file units, in a fixed order (the seed
         fixes random and tolerance samples)."""
-        from .sampling import sample
-
-        return sample(self)
+        return sampling.sample(self)
 
 
 def _fail(src: object, where: str, what: str) -> StudyFileError:
@@ -181,7 +221,7 @@ def _keys(src: object, raw: dict, where: str, required: list[str], optional: lis
         if k not in allowed:
             near = difflib.get_close_matches(k, allowed, n=1)
             hint = f"did you mean '{near[0]}'? " if near else ""
-            raise _fail(src, where, f"unknown key '{k}' ({hint}valid: {', '.join(allowed)})")
+            raise _fail(src, where, f"unknown key {shown(k)} ({hint}valid: {', '.join(allowed)})")
     for k in required:
         if k not in raw:
             raise _fail(src, where, f"missing key '{k}'")
@@ -189,21 +229,38 @@ def _keys(src: object, raw: dict, where: str, required: list[str], optional: lis
 
 def _number(src: object, raw: dict, key: str, where: str, *, default: float | None = None) -> float:
     v = raw.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-        raise _fail(src, f"{where} {key}", f"must be a finite number, got {v!r}")
-    return float(v)
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise _fail(src, f"{where} {key}", f"must be a finite number, got {shown(v)}")
+    try:
+        x = float(v)
+    except OverflowError:  # an integer of hundreds of digits
+        raise _limit(src, f"{where} {key}", f"must be a finite number, got an integer of {digits(v)} digits") from None
+    if not math.isfinite(x):
+        raise _fail(src, f"{where} {key}", f"must be a finite number, got {shown(v)}")
+    return x
 
 
 def _integer(src: object, raw: dict, key: str, where: str, lo: int, hi: int, default: int | None = None) -> int:
     v = raw.get(key, default)
     if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise _fail(src, f"{where} {key}", f"must be an integer from {lo} to {hi}, got {v!r}")
+        error = _limit if isinstance(v, int) and not isinstance(v, bool) else _fail
+        raise error(src, f"{where} {key}", f"must be an integer from {lo} to {hi}, got {shown(v)}")
     return int(v)
+
+
+def _limit(src: object, where: str, what: str) -> StudyLimitError:
+    return StudyLimitError(f"{src}: {where}: {what}" if where else f"{src}: {what}")
 
 
 def find(name_or_path: str | Path) -> Path:
     """A study file by path, or by name among the shipped ``studies/*.toml``."""
-    p = Path(name_or_path).expanduser()
+    try:
+        p = Path(name_or_path).expanduser()
+    except RuntimeError:  # ~user of no such user, or no home folder
+        head = str(name_or_path).split("/")[0]
+        raise StudyLimitError(
+            f"{shown(str(name_or_path))}: cannot expand {shown(head)}: no such user or home folder"
+        ) from None
     if p.is_file():
         return p
     shipped = STUDIES_DIR / f"{name_or_path}.toml"
@@ -211,16 +268,23 @@ def find(name_or_path: str | Path) -> Path:
         return shipped
     if p.is_dir():
         raise StudyFileError(f"{p}: is a folder, not a study file")
+    if os.path.lexists(p):
+        raise StudyLimitError(f"{p}: is not a regular file (a FIFO or a device?): give a study file")
     known = sorted(q.stem for q in STUDIES_DIR.glob("*.toml"))
     near = difflib.get_close_matches(str(name_or_path), known, n=1)
     hint = f"did you mean '{near[0]}'? " if near else ""
-    raise StudyFileError(f"{name_or_path}: no such study file ({hint}shipped: {', '.join(known)})")
+    raise StudyFileError(f"{shown(str(name_or_path))}: no such study file ({hint}shipped: {', '.join(known)})")
 
 
 def load(name_or_path: str | Path) -> Study:
     """Read and validate a study file (a path, or the name of a shipped one)."""
     p = find(name_or_path)
     try:
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise StudyLimitError(
+                f"{p}: {size} bytes; a study file is at most {MAX_FILE_BYTES} bytes (1 MiB): it is read whole"
+            )
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise StudyFileError(f"{p}: cannot read: {e}") from None
@@ -230,10 +294,20 @@ def load(name_or_path: str | Path) -> Study:
 def parse(text: str, path: Path | str = "<string>") -> Study:
     """Parse and validate a study file's text; the mechanism path is relative to the file."""
     src = path
+    if len(text) > MAX_FILE_BYTES:
+        raise _limit(src, "", f"{len(text)} characters; a study file is at most {MAX_FILE_BYTES} (1 MiB)")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise StudyFileError(f"{src}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise _limit(src, "", "TOML nested too deeply (arrays or inline tables within each other)") from None
+    except ValueError:  # an integer literal beyond Python's limit for str -> int
+        raise _limit(
+            src,
+            "",
+            f"TOML: an integer of more than {sys.get_int_max_str_digits() or 4300} digits: write a plain number",
+        ) from None
     _keys(src, data, "", ["study", "parameter"], ["sampling", "metric", "bound", "verify", "optimize", "robust", "set"])
     st = data["study"]
     if not isinstance(st, dict):
@@ -242,10 +316,10 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
     default = Path(path).stem if path != "<string>" else "study"
     name = st.get("name", default)
     if not isinstance(name, str) or not _names.is_valid(name):
-        raise _fail(src, "[study] name", f"must be a name of letters, digits and _ (got {name!r})")
+        raise _fail(src, "[study] name", f"must be a name of letters, digits and _ (got {shown(name)})")
     title = st.get("title", "")
-    if not isinstance(title, str):
-        raise _fail(src, "[study] title", "must be a string")
+    if not isinstance(title, str) or len(title) > MAX_TITLE_CHARS or not title.isprintable():
+        raise _fail(src, "[study] title", f"must be one line of printable text of at most {MAX_TITLE_CHARS} characters")
     mref = st["mechanism"]
     if not isinstance(mref, str) or not mref:
         raise _fail(src, "[study] mechanism", "must be a mechanism name or a path to its file")
@@ -255,8 +329,11 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         mech = validation.get(target)
         mtext = Path(mech.path).read_bytes() if mech.path else b""
     except MjlinkError as e:
-        raise _fail(src, "[study] mechanism", str(e)) from None
+        error = _limit if isinstance(e, InputError) else _fail
+        raise error(src, "[study] mechanism", str(e)) from None
+    base = mech
     fixed = _fixed(src, mech, data.get("set", {}))
+    _check_set(src, text, base, fixed)
     if fixed:
         try:
             mech = paths.apply(mech, {paths.resolve(mech, k): v for k, v in fixed})
@@ -277,7 +354,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
     _keys(src, sampling, "[sampling]", ["method"], ["samples", "seed", "sequence"])
     method = sampling["method"]
     if method not in METHODS:
-        raise _fail(src, "[sampling] method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+        raise _fail(src, "[sampling] method", f"must be one of {', '.join(METHODS)}, got {shown(method)}")
     if optimizing:
         method = "optimize"
     if method == "grid" and ("samples" in sampling or "sequence" in sampling):
@@ -288,7 +365,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
     seed = _integer(src, sampling, "seed", "[sampling]", 0, 2**63 - 1, default=0)
     sequence = sampling.get("sequence", "sobol")
     if sequence not in SEQUENCES:
-        raise _fail(src, "[sampling] sequence", f"must be one of {', '.join(SEQUENCES)}, got {sequence!r}")
+        raise _fail(src, "[sampling] sequence", f"must be one of {', '.join(SEQUENCES)}, got {shown(sequence)}")
 
     raw_params = data["parameter"]
     if not isinstance(raw_params, list) or not raw_params:
@@ -305,9 +382,9 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
             raise _fail(src, "[[parameter]]", f"'{v.param.path}' is varied twice")
         seen.add(v.param.path)
     if method == "grid":
-        samples = int(np.prod([len(v.values) for v in varied]))
+        samples = math.prod(len(v.values) for v in varied)  # Python's integers: no wrap-around
         if samples > MAX_VARIANTS:
-            raise _fail(src, "[[parameter]]", f"the grid has {samples} variants, at most {MAX_VARIANTS}")
+            raise _limit(src, "[[parameter]]", f"the grid has {samples} variants, at most {MAX_VARIANTS}")
 
     raw_metrics = data.get("metric", [])
     if not isinstance(raw_metrics, list) or not raw_metrics:
@@ -316,7 +393,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         mets = tuple(_metrics.read(mech, m, i) for i, m in enumerate(raw_metrics))
         cols = _metrics.columns(mets)
     except MjlinkError as e:
-        raise StudyFileError(f"{src}: {e}") from None
+        raise (StudyLimitError if isinstance(e, InputError) else StudyFileError)(f"{src}: {e}") from None
     names = [c.name for c in cols]
 
     bounds = []
@@ -350,7 +427,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
     _keys(src, ver, "[verify]", ["mujoco"], ["count", "by"])
     mode = ver["mujoco"]
     if mode not in VERIFY:
-        raise _fail(src, "[verify] mujoco", f"must be one of {', '.join(VERIFY)}, got {mode!r}")
+        raise _fail(src, "[verify] mujoco", f"must be one of {', '.join(VERIFY)}, got {shown(mode)}")
     count, by = 0, ""
     if mode in ("best", "worst"):
         count = _integer(src, ver, "count", "[verify]", 1, MAX_VARIANTS)
@@ -359,6 +436,15 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         by = _column(src, ver["by"], names, "[verify] by")
     elif "count" in ver or "by" in ver:
         raise _fail(src, "[verify]", f"'count' and 'by' apply to 'best' and 'worst', not '{mode}'")
+
+    if optimize is not None and optimize.flywheel_delta > 0 and mech.steady is None and mech.dynamics.motor is None:
+        raise _fail(
+            src,
+            "[optimize] flywheel_delta",
+            f"sizing a flywheel needs a drive characteristic: {mech.name} has neither [steady] nor "
+            "[dynamics.motor] (give one in the mechanism file, or set steady.* in [set])",
+        )
+    _check_varied(src, text, base, fixed, varied, method, samples, seed, robust)
 
     digest = hashlib.sha256(text.encode() + b"\0" + mtext).hexdigest()[:16]
     return Study(
@@ -381,6 +467,8 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         optimize,
         robust,
         fixed,
+        hashlib.sha256(text.encode()).hexdigest()[:16],
+        hashlib.sha256(mtext).hexdigest()[:16],
     )
 
 
@@ -426,9 +514,13 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
                 step = _number(src, rp, "step", where)
                 if step <= 0:
                     raise _fail(src, f"{where} step", f"must be positive, got {step:g}")
-                n = math.floor((hi - lo) / step * (1 + 1e-12)) + 1
-                if n > MAX_VARIANTS:
-                    raise _fail(src, f"{where} step", f"gives {n} values, at most {MAX_VARIANTS}")
+                with np.errstate(all="ignore"):
+                    count = (hi - lo) / step * (1 + 1e-12)  # may overflow to inf: compared first
+                if not count < MAX_VARIANTS:
+                    raise _limit(
+                        src, f"{where} step", f"{step:g} over [{lo:g}, {hi:g}] gives more than {MAX_VARIANTS} values"
+                    )
+                n = math.floor(count) + 1
                 hi = lo + (n - 1) * step
             out = tuple(np.linspace(lo, hi, n).tolist()) if n > 1 else (lo,)
         return Varied(p, values=out)
@@ -455,7 +547,7 @@ def _tolerance(src: object, rp: dict, where: str) -> tuple[float, str]:
         raise _fail(src, f"{where} tolerance", f"must be >= 0, got {tol:g}")
     dist = rp.get("distribution", "uniform")
     if dist not in DISTRIBUTIONS:
-        raise _fail(src, f"{where} distribution", f"must be one of {', '.join(DISTRIBUTIONS)}, got {dist!r}")
+        raise _fail(src, f"{where} distribution", f"must be one of {', '.join(DISTRIBUTIONS)}, got {shown(dist)}")
     return tol, dist
 
 
@@ -494,6 +586,12 @@ def _optimize(src: object, raw: Any, names: list[str], n_params: int) -> Optimiz
             "atol",
             "init",
             "flywheel_delta",
+            "seeds",
+            "stall",
+            "ftol",
+            "polish_evaluations",
+            "xtol",
+            "resolution",
         ],
     )
     if ("objective" in raw) == ("pareto" in raw):
@@ -524,15 +622,30 @@ def _optimize(src: object, raw: Any, names: list[str], n_params: int) -> Optimiz
         pareto = (c1, c2)
     sense = raw.get("sense", "min")
     if sense not in SENSES or (pareto and "sense" in raw):
-        raise _fail(src, f"{where} sense", f"must be 'min' or 'max' (with 'objective'), got {sense!r}")
+        raise _fail(src, f"{where} sense", f"must be 'min' or 'max' (with 'objective'), got {shown(sense)}")
     init = raw.get("init", "sobol")
     if init not in INITS:
-        raise _fail(src, f"{where} init", f"must be one of {', '.join(INITS)}, got {init!r}")
+        raise _fail(src, f"{where} init", f"must be one of {', '.join(INITS)}, got {shown(init)}")
     tol = _number(src, raw, "tol", where, default=1e-3)
     atol = _number(src, raw, "atol", where, default=0.0)
     delta = _number(src, raw, "flywheel_delta", where, default=0.0)
     if tol < 0 or atol < 0 or not 0 <= delta < 1:
         raise _fail(src, where, "tol and atol must be >= 0 and flywheel_delta within [0, 1)")
+    ftol = _number(src, raw, "ftol", where, default=1e-9)
+    xtol = _number(src, raw, "xtol", where, default=1e-9)
+    if not (0 <= ftol < 1 and 0 < xtol < 0.1):
+        raise _fail(src, where, f"ftol must be within [0, 1) and xtol within (0, 0.1), got {ftol:g} and {xtol:g}")
+    resolution = dict(RESOLUTION)
+    if "resolution" in raw:
+        res = raw["resolution"]
+        if not isinstance(res, dict):
+            raise _fail(src, f"{where} resolution", "must be a table of unit = step, e.g. { mm = 0.01, deg = 0.01 }")
+        for unit in res:
+            step = _number(src, res, unit, f"{where} resolution")
+            if not 0 < step <= 10:
+                raise _fail(src, f"{where} resolution {unit}", f"must be a step from 0 (excluded) to 10, got {step:g}")
+            resolution[unit] = step
+    seeds_default = 1 if pareto else 3
     return Optimize(
         objective,
         sense,
@@ -540,11 +653,17 @@ def _optimize(src: object, raw: Any, names: list[str], n_params: int) -> Optimiz
         _integer(src, raw, "points", where, 3, 64, default=7),
         _integer(src, raw, "population", where, 5, 100_000, default=max(16, 10 * n_params)),
         _integer(src, raw, "generations", where, 1, 100_000, default=200),
-        _integer(src, raw, "seed", where, 0, 2**63 - 1, default=0),
+        _integer(src, raw, "seed", where, 0, 2**62, default=0),
         tol,
         atol,
         init,
         delta,
+        _integer(src, raw, "seeds", where, 1, 32, default=seeds_default),
+        _integer(src, raw, "stall", where, 2, 100_000, default=30),
+        ftol,
+        _integer(src, raw, "polish_evaluations", where, 0, 10_000_000, default=2000 * max(1, n_params)),
+        xtol,
+        tuple(sorted(resolution.items())),
     )
 
 
@@ -572,3 +691,122 @@ def _range(src: object, rp: dict, where: str) -> tuple[float, float]:
     if not lo < hi:
         raise _fail(src, f"{where} range", f"low must be below high, got [{lo:g}, {hi:g}]")
     return lo, hi
+
+
+# ------------------------------------------------------------------ values written into the mechanism
+def _line(text: str, table: str, index: int = 0, key: str | None = None) -> int | None:
+    """The 1-based line of the ``index``-th ``[table]`` (``[[table]]``) header in a study file's
+    text, or of ``key`` within that table; None if not found (the text is scanned, not parsed:
+    a line number for a message)."""
+    seen = -1
+    inside = False
+    for n, raw in enumerate(text.splitlines(), 1):
+        line = raw.strip()
+        if line.startswith("["):
+            head = line.split("#", 1)[0].strip().strip("[]").strip()
+            inside = head == table and (seen := seen + 1) == index
+            if inside and key is None:
+                return n
+            continue
+        if inside and key is not None:
+            name = line.split("=", 1)[0].strip().strip("'\"")
+            if "=" in line and name == key:
+                return n
+    return None
+
+
+def _at(src: object, line: int | None) -> str:
+    return f"{src}:{line}" if line is not None else f"{src}"
+
+
+def _values_fail(src: object, line: int | None, where: str, e: MjlinkError) -> StudyFileError:
+    why = str(e).split(": ", 1)[-1]  # the reader's message without its file's path
+    return StudyFileError(f"{_at(src, line)}: {where}: {why}")
+
+
+def _check_set(src: object, text: str, mech: Mechanism, fixed: tuple[tuple[str, float], ...]) -> None:
+    """Every ``[set]`` value through the mechanism file's own validation, one at a time (so the
+    message names its line), then all together."""
+    if mech.path is None or not fixed:
+        return
+    resolved = [(k, paths.resolve(mech, k), v) for k, v in fixed]
+    for k, p, v in resolved:
+        try:
+            paths.check_values(mech, {p: v})
+        except MjlinkError as e:
+            raise _values_fail(src, _line(text, "set", key=k), f"[set] {k} = {v:g}", e) from None
+    try:
+        paths.check_values(mech, {p: v for _, p, v in resolved})
+    except MjlinkError as e:
+        raise _values_fail(src, _line(text, "set"), "[set]", e) from None
+
+
+def _check_varied(
+    src: object,
+    text: str,
+    mech: Mechanism,
+    fixed: tuple[tuple[str, float], ...],
+    varied: list[Varied],
+    method: str,
+    samples: int,
+    seed: int,
+    robust: Robust | None,
+) -> None:
+    """Every value a study will write into the mechanism (grid values, the ends of a range, the
+    tolerance samples, a robust optimization's range widened by its deviations) held to the
+    mechanism file's own validation with the other numbers at their [set] or file values.
+
+    The rules of a mechanism file bound a value from below, from above or in magnitude, so the
+    smallest, the largest and the smallest in magnitude of the values a parameter takes (0 if
+    a range spans it) are the ones to check."""
+    if mech.path is None:
+        return
+    base = {paths.resolve(mech, k): v for k, v in fixed}
+    extremes = _extremes(varied, method, samples, seed, robust)
+    for i, (v, (what, xs)) in enumerate(zip(varied, extremes, strict=True)):
+        for x in xs:
+            try:
+                paths.check_values(mech, {**base, v.param: x})
+            except MjlinkError as e:
+                where = f"[[parameter]] #{i + 1} ({v.param.path}) {what}"
+                unit = f" {v.param.unit}" if v.param.unit else ""
+                raise _values_fail(
+                    src,
+                    _line(text, "parameter", i, "path"),
+                    f"{where}: {x:g}{unit} would make an invalid mechanism file",
+                    e,
+                ) from None
+
+
+def _extremes(
+    varied: list[Varied], method: str, samples: int, seed: int, robust: Robust | None
+) -> list[tuple[str, list[float]]]:
+    """Per parameter: what its values are called in a message, and the values to check."""
+    dev_lo = dev_hi = np.zeros(len(varied))
+    if method == "optimize" and robust is not None:
+        d = sampling.deviations(varied, robust.samples, robust.seed)
+        dev_lo, dev_hi = d.min(axis=0), d.max(axis=0)
+    sampled = None
+    if method == "tolerance" and samples * len(varied) <= MAX_CHECKED_SAMPLES:
+        sampled = sampling.tolerance(varied, samples, seed)
+    out = []
+    for j, v in enumerate(varied):
+        if method == "grid":
+            xs, what = list(v.values), "values"
+        elif method in ("random", "optimize"):
+            lo, hi = v.low + float(dev_lo[j]), v.high + float(dev_hi[j])
+            xs = [lo, hi] + ([0.0] if lo < 0 < hi else [])
+            what = "range" + (" with its tolerance" if robust is not None and v.tolerance > 0 else "")
+        elif sampled is not None:
+            col = sampled[:, j]
+            xs, what = list(col) if len(col) <= 3 else [float(col.min()), float(col.max())], "tolerance samples"
+            xs.append(float(col[np.argmin(np.abs(col))]))
+        else:
+            band = v.tolerance * (1.0 if v.distribution == "uniform" else 2.0)
+            lo, hi = v.param.nominal - band, v.param.nominal + band
+            xs, what = [lo, hi] + ([0.0] if lo < 0 < hi else []), "tolerance band"
+        if xs:
+            a = np.asarray(xs, dtype=float)
+            xs = sorted({float(a.min()), float(a.max()), float(a[np.argmin(np.abs(a))])})
+        out.append((what, xs))
+    return out

@@ -1,0 +1,214 @@
+"""The design an optimization writes: rounded to a manufacturing resolution, then held to
+everything a user's file is held to, or replaced by the next-best candidate that is.
+
+An optimum comes out of the search with every digit a float has; a drawing carries two
+decimals. The winner's numbers are rounded to the study's resolution (``[optimize] resolution``,
+default 0.01 mm and 0.01 deg; numbers of other units to
+:data:`~mjlink.study.spec.RESOLUTION_DIGITS` significant digits), the nearest value first, and
+if that design is infeasible or outside a bound, the best feasible of the designs that round one
+parameter the other way. The file is then written and read back, and the design *as written*
+must pass, like a user's file:
+
+1. the mechanism file's reader and ``check`` (:func:`mjlink.validation.check`: assembly over the
+   whole cycle at ``check``'s 3600 angles per turn, the dead-point limits, coincident points,
+   the inertia and compile checks), which a study's sampled angles can miss between samples;
+2. the study's own feasibility and bounds, evaluated by the reference on the file as read
+   (its derived numbers rounded too: a re-synthesized crank and rod);
+3. MuJoCo's verification at ``simulate``'s thresholds.
+
+A candidate that fails is set aside with the reason, and the next is tried: the next-best
+distinct feasible candidates the search evaluated, in order of their objective (up to
+:data:`TRIES`). The result says which were set aside and why.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import validation
+from ..errors import MjlinkError
+from ..model import mechanism as _mechanism
+from ..model import paths
+from ..model.mechanism import Mechanism
+from ..study import optimize as _opt
+from ..study.spec import RESOLUTION_DIGITS, Optimize, Study
+from ..study.tasks import Evaluated, Verified, mujoco_chunk, reference_chunk
+
+TRIES = 12  # candidates tried before the study gives up with the reasons
+
+
+@dataclass(frozen=True)
+class Written:
+    """A design as written: ``values`` (P,) the varied parameters rounded (file units), its
+    file ``text`` (without the header), the mechanism read back from it (``mech``), every
+    metric of the study on it (``columns``, nominal dimensions), its ``objective`` as written
+    (robust: mean + k std; NaN for a Pareto study), MuJoCo's ``verified`` row, and the
+    unrounded design it came from (``optimum``)."""
+
+    values: np.ndarray
+    optimum: np.ndarray
+    text: str
+    mech: Mechanism
+    columns: dict[str, float]
+    objective: float
+    verified: Verified
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """A candidate set aside: its values (file units, rounded) and why."""
+
+    values: np.ndarray
+    reason: str
+
+
+def rounder(opt: Optimize) -> Callable[[str, float], float]:
+    """A function rounding a number in a unit to ``opt``'s resolution."""
+
+    def to(unit: str, v: float) -> float:
+        step = opt.step_of(unit)
+        if step is None:
+            return float(f"{v:.{RESOLUTION_DIGITS}g}")
+        return float(f"{round(v / step) * step:.12g}")
+
+    return to
+
+
+def _other_way(opt: Optimize, unit: str, v: float, r: float) -> float:
+    """The value one resolution step from ``r`` on ``v``'s other side."""
+    step = opt.step_of(unit)
+    if step is None:
+        digits = RESOLUTION_DIGITS - 1 - math.floor(math.log10(abs(r))) if r else RESOLUTION_DIGITS
+        step = 10.0 ** (-digits)
+    return float(f"{(r - step if r > v else r + step):.12g}")
+
+
+def rounded_candidates(study: Study, x: np.ndarray) -> np.ndarray:
+    """(1 + P, P): ``x`` rounded to the resolution, nearest first, then each parameter rounded the
+    other way; every value kept within its range."""
+    opt = study.optimize
+    assert opt is not None
+    to = rounder(opt)
+    out = []
+    near = np.array([to(v.param.unit, float(xi)) for v, xi in zip(study.varied, x, strict=True)])
+    out.append(near)
+    for j, v in enumerate(study.varied):
+        y = near.copy()
+        y[j] = _other_way(opt, v.param.unit, float(x[j]), float(near[j]))
+        out.append(y)
+    lo = np.array([v.low for v in study.varied])
+    hi = np.array([v.high for v in study.varied])
+    X = np.array(out)
+    # Never outside the range: the inner of the two roundings there.
+    for j in range(len(study.varied)):
+        for i in range(len(X)):
+            if not lo[j] <= X[i, j] <= hi[j]:
+                X[i, j] = near[j] if lo[j] <= near[j] <= hi[j] else min(max(X[i, j], lo[j]), hi[j])
+    return X
+
+
+def _file_mechanism(st: Study) -> Mechanism:
+    assert st.mechanism.path is not None
+    return validation.get(st.mechanism.path)
+
+
+def design_text(st: Study, x: np.ndarray, name: str, extra: dict[str, float] | None = None) -> str:
+    """The mechanism file of design ``x`` (file units), without a header: the study's [set]
+    values, ``x`` and ``extra`` (path -> value) written into the base file, every number the
+    change moves rounded to the resolution."""
+    opt = st.optimize
+    assert opt is not None
+    base = _file_mechanism(st)
+    values: dict[paths.Param, float] = {paths.resolve(base, p): v for p, v in st.fixed}
+    for p, v in zip(st.params, x, strict=True):
+        values[paths.resolve(base, p.path)] = float(v)
+    for p, v in (extra or {}).items():
+        values[paths.resolve(base, p)] = v
+    to = rounder(opt)
+    return paths.file_text(base, values, "", name=name, rounding=lambda p, v: to(p.unit, v))
+
+
+def as_written(st: Study, text: str, where: str) -> Mechanism:
+    """The mechanism ``text`` describes, read and checked as ``check`` does; MjlinkError (one
+    line, its first problem) otherwise."""
+    mech = _mechanism.parse(text, where)
+    validation.check(mech).raise_if_failed()
+    return mech
+
+
+def evaluate_written(st: Study, mech: Mechanism) -> Evaluated:
+    """Every metric of the study on ``mech`` exactly as read (no parameter applied)."""
+    return reference_chunk(dataclasses.replace(st, mechanism=mech, varied=()), np.zeros((1, 0)))
+
+
+def choose(
+    st: Study,
+    res: _opt.Result,
+    here: _opt.Evaluator,
+    name: str,
+    candidates: list[np.ndarray],
+    where: Path,
+) -> tuple[Written | None, list[Rejected]]:
+    """The first of ``candidates`` (file units, best first) that, rounded, passes everything
+    (module docstring), with the candidates set aside before it."""
+    rejected: list[Rejected] = []
+    for x in candidates[:TRIES]:
+        R = rounded_candidates(st, x)
+        s = here.score(R, full=True)
+        ok = np.flatnonzero(s.violation <= 0)
+        if not len(ok):
+            rejected.append(Rejected(R[0], f"rounded to the resolution it is infeasible: {s.reason[0] or 'a bound'}"))
+            continue
+        j = int(ok[0]) if ok[0] == 0 else int(ok[np.argmin(s.objective[ok])])
+        xr = R[j]
+        text = design_text(st, xr, name)
+        try:
+            mech = as_written(st, text, str(where))
+        except MjlinkError as e:
+            rejected.append(Rejected(xr, f"check refuses it: {_one_line(e)}"))
+            continue
+        ev = evaluate_written(st, mech)
+        bad = [b.text() for b in st.bounds if not b.holds(ev.columns[b.column])[0]]
+        if not ev.feasible[0] or bad:
+            why = ev.reason[0] if not ev.feasible[0] else f"outside {bad[0]}"
+            rejected.append(Rejected(xr, f"as written (its derived numbers rounded) {why}"))
+            continue
+        ver = mujoco_chunk(dataclasses.replace(st, mechanism=mech, varied=()), np.zeros((1, 0)))
+        if not ver.passed[0]:
+            rejected.append(Rejected(xr, f"MuJoCo does not agree with the reference: {ver.reason[0]}"))
+            continue
+        opt = st.optimize
+        assert opt is not None
+        objective = math.nan
+        if opt.pareto is None:
+            objective = float(s.objective[j]) * (-1.0 if opt.sense == "max" else 1.0)
+        cols = {c: float(v[0]) for c, v in ev.columns.items()}
+        return Written(xr, np.asarray(x, dtype=float), text, mech, cols, objective, ver), rejected
+    return None, rejected
+
+
+def next_best(res: _opt.Result, first: np.ndarray) -> list[np.ndarray]:
+    """``first``, then the distinct feasible candidates of the archive by objective."""
+    a = res.archive
+    feasible = np.flatnonzero(a.violation <= 0)
+    order = feasible[np.argsort(a.objective[feasible], kind="stable")]
+    out = [np.asarray(first, dtype=float)]
+    seen = {np.asarray(first, dtype=float).tobytes()}
+    for i in order:
+        key = a.values[i].tobytes()
+        if key not in seen:
+            seen.add(key)
+            out.append(a.values[i])
+        if len(out) >= TRIES:
+            break
+    return out
+
+
+def _one_line(e: BaseException) -> str:
+    return " ".join(str(e).split())

@@ -1,0 +1,259 @@
+"""What a study will cost, estimated before it runs: variants, MuJoCo steps, memory and time.
+
+The estimate comes from a short calibration on this machine (a few variants of the study's own
+mechanism and metrics evaluated in this process, timed, their peak memory traced), scaled to
+the study's size:
+
+* time: variant-angles x the measured seconds per variant-angle, shared by the workers; MuJoCo
+  models x their steps at the measured rate (a calibration run of one model where the study
+  verifies more than a few), or at :data:`MUJOCO_STEPS_PER_S` where it verifies a handful;
+* memory: the largest of (a) the tasks running at once, each its rows x the measured peak bytes
+  per variant-angle, (b) what this process holds: the variants' values and metric columns, the
+  results table as it is written (about :data:`TABLE_BYTES_PER_VALUE` per value), an
+  optimization's archive of every candidate, and a MuJoCo chunk's recorded samples.
+
+A study whose memory estimate exceeds the bound (:func:`memory_limit`: three quarters of the
+memory this machine has available now, or the user's ``--max-memory``) is refused before it
+starts, with one line naming the estimate, the bound and what to change.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+import tracemalloc
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..reference.batch import angle_grid
+from .spec import Study
+
+MUJOCO_STEPS_PER_S = 60_000.0  # RK4 steps per second per core, measured on the take-up's kinematic run
+MUJOCO_BUILD_S = 0.03  # seconds to build and compile one model, measured on the take-up
+TABLE_BYTES_PER_VALUE = 120.0  # a results table's value as Python objects and CSV text while written
+SAMPLE_BYTES = 8.0 * 24  # MuJoCo's recorded values per model step (position, velocity of a few points)
+CLUSTER_START_S = 2.0  # a local Dask cluster's start
+CALIBRATION_VARIANTS = 16
+
+
+class PlanError(InputError):
+    """A study refused before it starts (too large for this machine): exit status 2."""
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The size and cost of a study (see the module docstring).
+
+    ``variants`` reference evaluations (an optimization: at most, its whole budget), each over
+    ``angles`` crank angles, in ``tasks`` tasks on ``workers`` workers; ``mujoco_models`` and
+    ``mujoco_steps``; ``memory`` bytes and its bound ``memory_limit``; ``seconds`` wall;
+    ``row_seconds`` and ``row_bytes`` the calibration's CPU seconds and peak bytes per
+    variant-angle; ``what`` the study's shape in words.
+    """
+
+    study: str
+    what: str
+    variants: int
+    angles: int
+    tasks: int
+    workers: int
+    mujoco_models: int
+    mujoco_steps: int
+    memory: float
+    memory_limit: float
+    seconds: float
+    row_seconds: float
+    row_bytes: float
+    mujoco_model_seconds: float
+
+    def describe(self) -> str:
+        """The plan as one line."""
+        mj = (
+            f"MuJoCo {self.mujoco_models:,} model(s), {self.mujoco_steps:,} steps"
+            if self.mujoco_models
+            else "no MuJoCo verification"
+        )
+        return (
+            f"plan: {self.what}: {self.variants:,} variants x {self.angles} crank angles in {self.tasks:,} task(s) on "
+            f"{self.workers} worker(s); {mj}; memory about {size_text(self.memory)} (bound {size_text(self.memory_limit)}); "
+            f"time about {duration_text(self.seconds)} (calibrated here: {self.row_seconds * 1e6:.2g} us and "
+            f"{self.row_bytes:.0f} bytes per variant-angle)"
+        )
+
+    def check(self) -> None:
+        """Refuse (PlanError, one line) a study whose memory estimate exceeds the bound."""
+        if self.memory > self.memory_limit:
+            raise PlanError(
+                f"{self.study}: the study would need about {size_text(self.memory)} of memory ({self.what}), more than "
+                f"the {size_text(self.memory_limit)} this machine can give it; make it smaller (fewer samples, a "
+                "smaller population or fewer [robust] samples, fewer angles), or give --max-memory to run it anyway"
+            )
+
+
+def size_text(n: float) -> str:
+    """Bytes as '74.5 GiB'."""
+    for unit, f in (("TiB", 2.0**40), ("GiB", 2.0**30), ("MiB", 2.0**20), ("KiB", 2.0**10)):
+        if n >= f:
+            return f"{n / f:.3g} {unit}"
+    return f"{n:.0f} bytes"
+
+
+def duration_text(s: float) -> str:
+    """Seconds as '45 s', '12 min', '3.2 h', '9.1 days'."""
+    if not math.isfinite(s):
+        return "forever"
+    if s < 90:
+        return f"{s:.2g} s"
+    if s < 5400:
+        return f"{s / 60:.2g} min"
+    if s < 48 * 3600:
+        return f"{s / 3600:.2g} h"
+    return f"{s / 86400:.3g} days"
+
+
+_UNITS = {"": 1.0, "b": 1.0, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb": 1e9, "t": 1e12, "tb": 1e12}
+_UNITS |= {"kib": 2.0**10, "mib": 2.0**20, "gib": 2.0**30, "tib": 2.0**40}
+
+
+def parse_size(text: str) -> float:
+    """'64GiB', '500MB', '2e9' -> bytes; ValueError for anything else."""
+    t = text.strip().lower().replace(" ", "")
+    i = len(t)
+    while i and t[i - 1].isalpha():
+        i -= 1
+    number, unit = t[:i], t[i:]
+    v = float(number)
+    if unit not in _UNITS or not math.isfinite(v) or v <= 0:
+        raise ValueError(text)
+    return v * _UNITS[unit]
+
+
+def memory_limit() -> float:
+    """Three quarters of the memory available now (Linux ``MemAvailable``; elsewhere half the
+    physical memory), bytes."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return 0.75 * float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return 0.5 * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (OSError, ValueError, AttributeError):
+        return 8.0 * 2**30
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """CPU seconds and peak traced bytes per variant-angle of the reference on this machine,
+    and MuJoCo's wall seconds per verified model (NaN where not measured)."""
+
+    row_seconds: float
+    row_bytes: float
+    model_seconds: float
+
+
+def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
+    """Evaluate :data:`CALIBRATION_VARIANTS` variants of ``study`` (all at the nominal values,
+    or the middle of the ranges of an optimization) here, timed and traced; with ``mujoco``,
+    verify one in MuJoCo, timed."""
+    from .tasks import mujoco_chunk, reference_chunk
+
+    if study.method == "optimize":
+        row = [
+            min(max(v.param.nominal, v.low), v.high) if math.isfinite(v.param.nominal) else 0.5 * (v.low + v.high)
+            for v in study.varied
+        ]
+    else:
+        row = [v.param.nominal if math.isfinite(v.param.nominal) else 0.0 for v in study.varied]
+    values = np.tile(np.array(row, dtype=float), (CALIBRATION_VARIANTS, 1))
+    angles = len(angle_grid(study.mechanism, study.per_turn))
+    reference_chunk(study, values[:1])  # the nominal batch and first-call costs, not timed
+    tracemalloc.start()
+    try:
+        t = time.process_time()
+        reference_chunk(study, values)
+        seconds = time.process_time() - t
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    rows = CALIBRATION_VARIANTS * angles
+    model = math.nan
+    if mujoco:
+        t = time.perf_counter()
+        mujoco_chunk(study, values[:1], threads=1)
+        model = time.perf_counter() - t
+    return Calibration(seconds / rows, peak / rows, model)
+
+
+def estimate(
+    study: Study,
+    *,
+    workers: int,
+    limit: float | None = None,
+    calibration: Calibration | None = None,
+    cluster: bool = False,
+) -> Plan:
+    """The :class:`Plan` of ``study`` on ``workers`` worker processes (0: this process), its
+    memory held to ``limit`` bytes (default :func:`memory_limit`); ``cluster``: a local
+    cluster is started for it."""
+    from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks
+
+    mech = study.mechanism
+    angles = len(angle_grid(mech, study.per_turn))
+    P, C = len(study.varied), len(study.columns)
+    steps_per_model = math.ceil(mech.period / abs(float(mech.speed)) / 5e-5)  # one period at the kinematic dt
+    lanes = max(1, workers)
+    client = 0.0
+    if study.optimize is None:
+        V = study.samples
+        tasks = len(chunks(V, REFERENCE_CHUNK))
+        task_rows = min(REFERENCE_CHUNK[1], max(1, V)) * angles
+        models = {"none": 0, "all": V, "best": min(study.count, V), "worst": min(study.count, V)}[study.verify]
+        mj_chunk = min(models, MUJOCO_CHUNK[1])
+        client = V * ((P + C) * 8.0 * 3 + (P + C + 6) * TABLE_BYTES_PER_VALUE + 120.0)
+        what = f"{study.method} study of {V:,} variants"
+    else:
+        from .optimize import CHUNK_ROWS, budget
+
+        b = budget(study)
+        V = b.evaluations
+        per_gen = b.per_generation
+        tasks = b.generations * max(1, math.ceil(per_gen * angles / CHUNK_ROWS))
+        task_rows = min(per_gen * angles, CHUNK_ROWS)
+        models = b.verified
+        mj_chunk = models
+        # A generation's rows (values, metrics), the archive of every candidate (values, metrics,
+        # objective, violation, reason) and its table as it is written.
+        client = per_gen * (P + C) * 8.0 * 4 + b.candidates * ((P + C + 4) * (8.0 * 2 + TABLE_BYTES_PER_VALUE) + 120.0)
+        what = b.describe()
+    cal = calibration or calibrate(study, mujoco=models > 4)
+    task_bytes = task_rows * cal.row_bytes
+    mj_bytes = mj_chunk * steps_per_model * SAMPLE_BYTES
+    memory = max(lanes * task_bytes + mj_bytes, client + (0 if workers else task_bytes + mj_bytes)) + 2**27
+    model_s = (
+        cal.model_seconds if math.isfinite(cal.model_seconds) else MUJOCO_BUILD_S + steps_per_model / MUJOCO_STEPS_PER_S
+    )
+    seconds = V * angles * cal.row_seconds * 1.2 / min(lanes, max(1, tasks)) + models * model_s / lanes
+    if cluster:
+        seconds += CLUSTER_START_S
+    return Plan(
+        study.name,
+        what,
+        V,
+        angles,
+        tasks,
+        workers,
+        models,
+        models * steps_per_model,
+        memory,
+        memory_limit() if limit is None else limit,
+        seconds,
+        cal.row_seconds,
+        cal.row_bytes,
+        model_s,
+    )
