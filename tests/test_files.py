@@ -381,7 +381,9 @@ def test_sigkill_takes_the_worker_along_and_the_next_run_removes_the_stage(tmp_p
     live = out / f".takeup.partial-{os.getpid()}-y"  # a run still going (this process)
     live.mkdir()
     pipeline.run(mech, out, FAST)  # ... and the next run into the same folder removes them
-    assert hidden(out) == sorted([live.name, mine.name]) and names(out) == sorted([live.name, mine.name, "crank_rocker"])
+    assert hidden(out) == sorted([live.name, mine.name]) and names(out) == sorted(
+        [live.name, mine.name, "crank_rocker"]
+    )
     assert (mine / "notes.txt").read_text() == "the user's"
 
 

@@ -28,6 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import InputError, MjlinkError
+from ..model.jet import norms
 from ..model.limits import MAX_LENGTH_MM, MAX_PRESSURE_DEG, MAX_SPEED, MIN_SPEED, MIN_TRANSMISSION_DEG
 from ..model.mechanism import Mechanism
 from ..model.reader import shown
@@ -516,34 +517,77 @@ class _Shaking(_AtSpeed):
 
 
 class ShakingForcePeak(_Shaking):
-    """Peak frame shaking force at constant crank speed: max over the period of |F|, F the
-    resultant the mechanism's inertia, gravity and the file's point forces put on the frame
-    through its ground pairs (:func:`mjlink.reference.batch.frame_loads`), N."""
+    """Peak shaking force at constant crank speed: max over the period of |F_s|, F_s = -sum_i
+    m_i a_Si the resultant of the links' inertia forces (the counterweight's included), N. It
+    is what balancing acts on: zero for a balanced mechanism at any speed. Gravity and the
+    file's point forces are not in it (``frame_force_peak``, ``gravity_load``;
+    :class:`mjlink.reference.batch.FrameLoads`)."""
 
     kind = "shaking_force_peak"
 
     def columns(self) -> list[Column]:
-        return [Column("shaking_force_peak" + self._tag(), "N", "peak frame shaking force")]
+        return [Column("shaking_force_peak" + self._tag(), "N", "peak shaking force (inertia)")]
+
+    def _f(self, b: Batch, loads: Loads) -> np.ndarray:
+        return b.per_variant(norms(self._loads(b, loads).inertia_force))
 
     def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
-        f = self._loads(b, loads).force
-        return {self.columns()[0].name: b.per_variant(np.sqrt((f * f).sum(axis=1))).max(axis=1)}
+        return {self.columns()[0].name: self._f(b, loads).max(axis=1)}
 
     def curve(self, b: Batch, loads: Loads) -> Curve | None:
-        f = self._loads(b, loads).force
-        return Curve(
-            f"frame shaking force |F| at {self.speed:g} rad/s", "N", b.per_variant(np.sqrt((f * f).sum(axis=1)))
-        )
+        return Curve(f"shaking force |F_s| (inertia) at {self.speed:g} rad/s", "N", self._f(b, loads))
 
 
 class ShakingMomentPeak(_Shaking):
-    """Peak frame shaking moment at constant crank speed: max over the period of |M|, M about
-    the input crank's pivot, the drive's reaction included (see ``frame_loads``), N*m."""
+    """Peak shaking moment at constant crank speed: max over the period of |M_s|, M_s = sum_i
+    [r_Si x (-m_i a_Si) - J_Si alpha_i] about the input crank's pivot (the inertia forces' and
+    moments' moment), N*m. Gravity's and the point forces' moments are in
+    ``frame_moment_peak``."""
 
     kind = "shaking_moment_peak"
 
     def columns(self) -> list[Column]:
-        return [Column("shaking_moment_peak" + self._tag(), "N*m", "peak frame shaking moment")]
+        return [Column("shaking_moment_peak" + self._tag(), "N*m", "peak shaking moment (inertia)")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        m = self._loads(b, loads).inertia_moment
+        return {self.columns()[0].name: np.abs(b.per_variant(m)).max(axis=1)}
+
+    def curve(self, b: Batch, loads: Loads) -> Curve | None:
+        m = self._loads(b, loads).inertia_moment
+        return Curve(f"shaking moment (inertia) at {self.speed:g} rad/s", "N*m", b.per_variant(m))
+
+
+class FrameForcePeak(_Shaking):
+    """Peak force on the frame at constant crank speed: max over the period of |F|, F = sum_i
+    m_i (g - a_Si) + the file's point forces, the resultant of every ground pair's reaction on
+    the frame (what its mounts carry: the shaking force, the gravity load and the point
+    forces together), N."""
+
+    kind = "frame_force_peak"
+
+    def columns(self) -> list[Column]:
+        return [Column("frame_force_peak" + self._tag(), "N", "peak force on the frame (inertia, gravity, forces)")]
+
+    def _f(self, b: Batch, loads: Loads) -> np.ndarray:
+        return b.per_variant(norms(self._loads(b, loads).force))
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        return {self.columns()[0].name: self._f(b, loads).max(axis=1)}
+
+    def curve(self, b: Batch, loads: Loads) -> Curve | None:
+        return Curve(f"force on the frame |F| at {self.speed:g} rad/s", "N", self._f(b, loads))
+
+
+class FrameMomentPeak(_Shaking):
+    """Peak moment on the frame at constant crank speed: max over the period of |M|, M about the
+    input crank's pivot from the inertia, gravity and the point forces, the drive's reaction
+    included (:class:`mjlink.reference.batch.FrameLoads`), N*m."""
+
+    kind = "frame_moment_peak"
+
+    def columns(self) -> list[Column]:
+        return [Column("frame_moment_peak" + self._tag(), "N*m", "peak moment on the frame")]
 
     def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
         m = self._loads(b, loads).moment
@@ -551,7 +595,24 @@ class ShakingMomentPeak(_Shaking):
 
     def curve(self, b: Batch, loads: Loads) -> Curve | None:
         m = self._loads(b, loads).moment
-        return Curve(f"frame shaking moment at {self.speed:g} rad/s", "N*m", b.per_variant(m))
+        return Curve(f"moment on the frame at {self.speed:g} rad/s", "N*m", b.per_variant(m))
+
+
+class GravityLoad(Metric):
+    """The gravity load on the frame, |sum_i m_i g| (the links' and counterweight's weight), N:
+    the same at every crank angle and speed."""
+
+    kind = "gravity_load"
+
+    def columns(self) -> list[Column]:
+        return [Column("gravity_load", "N", "gravity load on the frame")]
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        from ..reference.batch import frame_loads
+
+        fl = frame_loads(b.mechanism, b.kin, 0.0)
+        assert fl.gravity_force is not None
+        return {"gravity_load": b.per_variant(norms(fl.gravity_force)).max(axis=1)}
 
 
 # ------------------------------------------------------------------------ motion quality

@@ -100,7 +100,7 @@ def simulation(res: SimulateResult) -> str:
         )
         moment = "not compared (geared)" if L.shaking_moment_error is None else f"{L.shaking_moment_error:.2e} of range"
         out.append(
-            f"frame shaking (shaking.png): MuJoCo vs reference force {L.shaking_force_error:.2e}, moment {moment}"
+            f"loads on the frame (shaking.png): MuJoCo vs reference force {L.shaking_force_error:.2e}, moment {moment}"
         )
     if res.steady is not None:
         out.append(steady_line(res.steady))
@@ -327,8 +327,10 @@ def optimization(res: OptimizeResult) -> str:
         )
     for c in s["caveats_text"]:
         lines.append(f"caveat: {c}")
-    for r in s["rejected"]:
-        lines.append(f"set aside: {r['reason']}")
+    if s["rejected"]:
+        n = len(s["rejected"])
+        more = f" ({n} better candidates set aside in all: summary.json lists them)" if n > 1 else ""
+        lines.append(f"set aside: the best candidate: {s['rejected'][0]['reason']}{more}")
     lines.append(f"{'metric':<34} {'unit':>6} {'winner':>12} {'nominal dims':>13}")
     for name, m in w["metrics"].items():
         lines.append(f"{name:<34} {m['unit']:>6} {m['value']:>12.6g} {m['nominal_dimensions']:>13.6g}")

@@ -58,8 +58,8 @@ class Lines:
         if ended:
             self._print()
         with self.lock:
-            if self.state.get("stage") != stage:
-                self.state = {"stage": stage, "start": time.monotonic()}
+            if self.state.get("stage") != stage:  # what was done before (resumed) is not this run's rate
+                self.state = {"stage": stage, "start": time.monotonic(), "first": done}
             self.state.update(done=done, total=total, extra=extra)
 
     def _line(self) -> str | None:
@@ -70,11 +70,11 @@ class Lines:
         done, total = st["done"], st["total"]
         elapsed = max(time.monotonic() - st["start"], 1e-9)
         pct = f" ({done / total:.1%})" if total else ""
-        rate = done / elapsed
+        rate = (done - st["first"]) / elapsed
         extra = f"; {st['extra']}" if st.get("extra") else ""
         return (
             f"mjlink: {self.label}: {st['stage']} {done:,.0f} of {total:,.0f} {self.unit}{pct}, "
-            f"{rate:,.1f} {self.unit}/s{_left(done, total, elapsed)}{extra}"
+            f"{rate:,.1f} {self.unit}/s{_left(done - st['first'], total - st['first'], elapsed)}{extra}"
         )
 
     def _print(self) -> None:

@@ -178,7 +178,7 @@ def prepare(
         cache.check(cache_dir)
     address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS") if client is None else None
     if address:
-        engine.check_address(address)
+        engine.check_reachable(engine.check_address(address))
     if workers is not None and workers < 0:
         raise InputError(f"--workers must be 0 or more, got {workers}")
     local: int | None
@@ -190,6 +190,11 @@ def prepare(
         local = engine.local_workers(workers)
     lanes = local if local is not None else (len(client.scheduler_info()["workers"]) if client is not None else 1)
     p = plan.estimate(st, workers=lanes, limit=max_memory, cluster=bool(local))
+    if workers is None and local and plan.small(p, st):
+        # Less work than a local cluster costs to start (a sampled study) or than its round
+        # trips cost per generation (an optimization): this process is faster.
+        local = 0
+        p = plan.estimate(st, workers=0, limit=max_memory, calibration=p.calibration)
     return Prepared(st, dest, cache_dir, local, address, p)
 
 
@@ -213,7 +218,8 @@ def run(
       study: the study, a study file's path or shipped name, or a :class:`Prepared` one.
       out_root: outputs go to ``out_root/NAME-study/``.
       scheduler: an existing Dask scheduler's address (see :func:`mjlink.study.engine.client_for`).
-      workers: local cluster worker processes (default one per core; 0: in this process).
+      workers: local cluster worker processes (default: one per core, or this process for a study
+        too small to gain from a cluster, :func:`mjlink.study.plan.small`; 0: in this process).
       client: a ``distributed.Client`` to use instead.
       plots: write the PNG plots.
       force: publish into an existing folder mjlink did not write for this study.

@@ -16,9 +16,9 @@ must pass, like a user's file:
    (its derived numbers rounded too: a re-synthesized crank and rod);
 3. MuJoCo's verification at ``simulate``'s thresholds.
 
-A candidate that fails is set aside with the reason, and the next is tried: the next-best
-distinct feasible candidates the search evaluated, in order of their objective (up to
-:data:`TRIES`). The result says which were set aside and why.
+A candidate that fails is set aside with the reason, and the best that passes among the
+distinct feasible candidates the search evaluated, in order of their objective, is found
+(:func:`choose`). The result says which were set aside and why.
 """
 
 from __future__ import annotations
@@ -35,12 +35,13 @@ from .. import validation
 from ..errors import MjlinkError
 from ..model import mechanism as _mechanism
 from ..model import paths
+from ..model.limits import SAMPLES_PER_TURN
 from ..model.mechanism import Mechanism
 from ..study import optimize as _opt
 from ..study.spec import RESOLUTION_DIGITS, Optimize, Study
 from ..study.tasks import Evaluated, Verified, mujoco_chunk, reference_chunk
 
-TRIES = 12  # candidates tried before the study gives up with the reasons
+TRIES = 16  # candidates held to the checks before the study gives up with the reasons
 
 
 @dataclass(frozen=True)
@@ -147,6 +148,44 @@ def evaluate_written(st: Study, mech: Mechanism) -> Evaluated:
     return reference_chunk(dataclasses.replace(st, mechanism=mech, varied=()), np.zeros((1, 0)))
 
 
+def _attempt(
+    st: Study, here: _opt.Evaluator, name: str, x: np.ndarray, where: Path
+) -> tuple[Written | None, Rejected | None, np.ndarray]:
+    """Candidate ``x`` rounded and held to everything (module docstring): (written, None) or
+    (None, why not); and the rounded values tried."""
+    R = rounded_candidates(st, x)
+    s = here.score(R, full=True)
+    ok = np.flatnonzero(s.violation <= 0)
+    if not len(ok):
+        return None, Rejected(R[0], f"rounded to the resolution it is infeasible: {s.reason[0] or 'a bound'}"), R[0]
+    j = int(ok[0]) if ok[0] == 0 else int(ok[np.argmin(s.objective[ok])])
+    xr = R[j]
+    text = design_text(st, xr, name)
+    try:
+        mech = as_written(st, text, str(where))
+    except MjlinkError as e:
+        hint = (
+            f" (the study judges {st.per_turn} crank angles per turn, check {SAMPLES_PER_TURN}: raise [study] angles "
+            "to see this in the search)"
+        )
+        return None, Rejected(xr, f"check refuses it: {_one_line(e)}{hint}"), xr
+    ev = evaluate_written(st, mech)
+    bad = [b.text() for b in st.bounds if not b.holds(ev.columns[b.column])[0]]
+    if not ev.feasible[0] or bad:
+        why = ev.reason[0] if not ev.feasible[0] else f"outside {bad[0]}"
+        return None, Rejected(xr, f"as written (its derived numbers rounded) {why}"), xr
+    ver = mujoco_chunk(dataclasses.replace(st, mechanism=mech, varied=()), np.zeros((1, 0)))
+    if not ver.passed[0]:
+        return None, Rejected(xr, f"MuJoCo does not agree with the reference: {ver.reason[0]}"), xr
+    opt = st.optimize
+    assert opt is not None
+    objective = math.nan
+    if opt.pareto is None:
+        objective = float(s.objective[j]) * (-1.0 if opt.sense == "max" else 1.0)
+    cols = {c: float(v[0]) for c, v in ev.columns.items()}
+    return Written(xr, np.asarray(x, dtype=float), text, mech, cols, objective, ver), None, xr
+
+
 def choose(
     st: Study,
     res: _opt.Result,
@@ -155,42 +194,51 @@ def choose(
     candidates: list[np.ndarray],
     where: Path,
 ) -> tuple[Written | None, list[Rejected]]:
-    """The first of ``candidates`` (file units, best first) that, rounded, passes everything
-    (module docstring), with the candidates set aside before it."""
+    """The best of ``candidates`` (file units, best first) that, rounded, passes everything
+    (module docstring), with the better candidates set aside and why.
+
+    Candidates that round to a design already tried are skipped. The first candidate is tried,
+    then, while they fail, the 2nd, 3rd, 5th, 9th, ... (a refusal usually holds for a stretch of
+    the best candidates: a limit the search's sampling does not see); once one passes, the
+    stretch between it and the last refused is halved until the best that passes is found.
+    At most :data:`TRIES` candidates are held to the checks."""
+    distinct: list[np.ndarray] = []
+    seen: set[bytes] = set()
+    for x in candidates:
+        key = rounded_candidates(st, x)[0].tobytes()
+        if key not in seen:
+            seen.add(key)
+            distinct.append(np.asarray(x, dtype=float))
     rejected: list[Rejected] = []
-    for x in candidates[:TRIES]:
-        R = rounded_candidates(st, x)
-        s = here.score(R, full=True)
-        ok = np.flatnonzero(s.violation <= 0)
-        if not len(ok):
-            rejected.append(Rejected(R[0], f"rounded to the resolution it is infeasible: {s.reason[0] or 'a bound'}"))
-            continue
-        j = int(ok[0]) if ok[0] == 0 else int(ok[np.argmin(s.objective[ok])])
-        xr = R[j]
-        text = design_text(st, xr, name)
-        try:
-            mech = as_written(st, text, str(where))
-        except MjlinkError as e:
-            rejected.append(Rejected(xr, f"check refuses it: {_one_line(e)}"))
-            continue
-        ev = evaluate_written(st, mech)
-        bad = [b.text() for b in st.bounds if not b.holds(ev.columns[b.column])[0]]
-        if not ev.feasible[0] or bad:
-            why = ev.reason[0] if not ev.feasible[0] else f"outside {bad[0]}"
-            rejected.append(Rejected(xr, f"as written (its derived numbers rounded) {why}"))
-            continue
-        ver = mujoco_chunk(dataclasses.replace(st, mechanism=mech, varied=()), np.zeros((1, 0)))
-        if not ver.passed[0]:
-            rejected.append(Rejected(xr, f"MuJoCo does not agree with the reference: {ver.reason[0]}"))
-            continue
-        opt = st.optimize
-        assert opt is not None
-        objective = math.nan
-        if opt.pareto is None:
-            objective = float(s.objective[j]) * (-1.0 if opt.sense == "max" else 1.0)
-        cols = {c: float(v[0]) for c, v in ev.columns.items()}
-        return Written(xr, np.asarray(x, dtype=float), text, mech, cols, objective, ver), rejected
-    return None, rejected
+    tried: dict[int, Written | None] = {}
+
+    def attempt(i: int) -> Written | None:
+        if i not in tried:
+            w, why, _ = _attempt(st, here, name, distinct[i], where)
+            tried[i] = w
+            if why is not None:
+                rejected.append(why)
+        return tried[i]
+
+    if not distinct or attempt(0) is not None:
+        return tried.get(0), rejected
+    bad, step = 0, 1
+    good = None
+    while len(tried) < TRIES and bad + step < len(distinct):
+        i = bad + step
+        if attempt(i) is not None:
+            good = i
+            break
+        bad, step = i, step * 2
+    if good is None:
+        return None, rejected
+    while good - bad > 1 and len(tried) < TRIES:
+        mid = (bad + good) // 2
+        if attempt(mid) is not None:
+            good = mid
+        else:
+            bad = mid
+    return tried[good], rejected
 
 
 def next_best(res: _opt.Result, first: np.ndarray) -> list[np.ndarray]:
@@ -205,8 +253,6 @@ def next_best(res: _opt.Result, first: np.ndarray) -> list[np.ndarray]:
         if key not in seen:
             seen.add(key)
             out.append(a.values[i])
-        if len(out) >= TRIES:
-            break
     return out
 
 

@@ -259,9 +259,11 @@ def steady_plot(
 
 
 def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoads, out_dir) -> Path:
-    """``shaking.png``: the frame's shaking force as a hodograph (Fy against Fx, N, equal axes,
-    the start marked) and the shaking moment about the input crank's pivot (N*m) against crank
-    angle; the reference as a line, MuJoCo as markers (they coincide where they agree)."""
+    """``shaking.png``: the force on the frame as a hodograph (Fy against Fx, N, equal axes, the
+    start marked: the shaking force of the inertia, the gravity load and the point forces
+    together, what the ground pairs carry) and the moment on the frame about the input crank's
+    pivot (N*m) against crank angle; the reference as a line, MuJoCo as markers (they coincide
+    where they agree)."""
     (x,), label = crank_x(mech, kin_mj)
     fig = figure(figsize=(11, 6.4))
     gs = fig.add_gridspec(2, 2, width_ratios=(1, 1.4), height_ratios=(1, 0.45))
@@ -288,12 +290,12 @@ def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoad
     a1.set_ylabel("$F_y$ on the frame [N]")
     a1.legend(loc="best", fontsize=8)
     a1.grid(alpha=0.3)
-    a1.set_title("shaking force hodograph", fontsize=9)
+    a1.set_title("force on the frame: shaking (inertia) + gravity + forces", fontsize=9)
     a2.plot(x, ref.moment, label=REF_LABEL, **REF_STYLE)
     if got.moment is not None and not mech.geared:
         a2.plot(x[::every], got.moment[::every], "o", ms=3.5, mfc="none", color="tab:blue", label="MuJoCo (circles)")
     a2.axhline(0, color="0.6", lw=0.8)
-    a2.set_ylabel("shaking moment\nabout the crank pivot [N·m]")
+    a2.set_ylabel("moment on the frame\nabout the crank pivot [N·m]")
     a2.legend(loc="best", fontsize=8)
     df = analysis.magnitude(got.force - ref.force)
     residual(

@@ -57,7 +57,7 @@ def _caption(name: str) -> str:
         "torque": "driving torque, power and energy fluctuation with the flywheel estimate",
         "reactions": "force in every pair, small multiples with the peaks",
         "reaction_polar": "polar load diagrams of the bearings",
-        "shaking": "frame shaking force hodograph and moment",
+        "shaking": "loads on the frame (shaking force, gravity, forces): hodograph and moment",
         "steady": "steady motion without and with the flywheel",
         "phase_study": "paths for several settings of the geared crank",
     }

@@ -261,22 +261,33 @@ def _refined(x: np.ndarray, d: np.ndarray, dd: np.ndarray, high: bool) -> np.nda
 
 @dataclass(frozen=True)
 class FrameLoads:
-    """What the mechanism puts on the frame at constant crank speed (the shaking loads).
+    """What the mechanism puts on the frame at constant crank speed.
 
-    ``force`` (N, 2) N: F = sum_i m_i (g - a_Si) + the file's point forces, the resultant of
-    every ground pair's reaction on the frame; ``moment`` (N,) N*m about the input crank's
-    pivot, counter-clockwise positive: M = sum_i [r_Si x m_i (g - a_Si) - J_Si alpha_i] +
-    sum_k r_k x F_k, which includes the drive's reaction on the frame its motor is mounted on
-    (the moment balance of the whole moving system, so gears and guides need no special case).
+    ``force`` (N, 2) N: the resultant force on the frame, F = sum_i m_i (g - a_Si) + the file's
+    point forces: every ground pair's reaction on the frame together (what the frame's mounts
+    carry); ``moment`` (N,) N*m about the input crank's pivot, counter-clockwise positive: M =
+    sum_i [r_Si x m_i (g - a_Si) - J_Si alpha_i] + sum_k r_k x F_k, which includes the drive's
+    reaction on the frame its motor is mounted on (the moment balance of the whole moving
+    system, so gears and guides need no special case).
+
+    Their parts: ``inertia_force`` = -sum_i m_i a_Si, the **shaking force** (the inertia
+    forces' resultant: what balancing removes, zero for a balanced mechanism at any speed);
+    ``inertia_moment`` = sum_i [r_Si x (-m_i a_Si) - J_Si alpha_i], the shaking moment;
+    ``gravity_force`` = sum_i m_i g, the **gravity load** (the same at every angle for a
+    mechanism, per row for a study's variants); the point forces are the rest. (N, 2), (N,) and
+    (N, 2); None where not computed (MuJoCo's side gives the resultants only).
     """
 
     force: np.ndarray
     moment: np.ndarray
+    inertia_force: np.ndarray | None = None
+    inertia_moment: np.ndarray | None = None
+    gravity_force: np.ndarray | None = None
 
 
 def frame_loads(mech: Mechanism, kin: Kinematics, omega, eps=0.0) -> FrameLoads:
-    """Shaking force and moment over the rows of ``kin`` for the crank motion ``omega``
-    (rad/s) and ``eps`` (rad/s^2), scalars or one per row.
+    """The loads on the frame over the rows of ``kin`` for the crank motion ``omega`` (rad/s)
+    and ``eps`` (rad/s^2), scalars or one per row, with their inertial and gravity parts.
 
     Masses, inertias and gravity may be one per row (a study's variants). The links' sum here
     is checked against the ground pairs' reactions of the kinetostatic solution (tests) and
@@ -288,31 +299,34 @@ def frame_loads(mech: Mechanism, kin: Kinematics, omega, eps=0.0) -> FrameLoads:
     w2 = w * w
     g = -np.asarray(mech.dynamics.gravity)  # along Y
     pivot = kin.points[mech.input_crank.pivot].v[:, :2]
-    force = np.zeros((n, 2))
-    moment = np.zeros(n)
+    inertia = np.zeros((n, 2))
+    inertia_m = np.zeros(n)
+    weight = np.zeros((n, 2))
+    weight_m = np.zeros(n)
+    bodies = [
+        (np.asarray(l.mass), kin.points[l.com])
+        for l in mech.links
+        if l.com is not None and np.any(np.asarray(l.mass) > 0)
+    ]
     for l in mech.links:
         th = kin.angles[l.name]
-        alpha = th.dd * w2 + th.d * e
-        moment -= np.asarray(l.inertia) * alpha
-        if l.com is None or not np.any(np.asarray(l.mass) > 0):
-            continue
-        s = kin.points[l.com]
-        f = -np.asarray(l.mass)[..., None] * (s.dd[:, :2] * w2[:, None] + s.d[:, :2] * e[:, None])
-        f[:, 1] += np.asarray(l.mass) * g
-        r = s.v[:, :2] - pivot
-        force += f
-        moment += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
+        inertia_m -= np.asarray(l.inertia) * (th.dd * w2 + th.d * e)
     cw = mech.counterweight
     if cw is not None:
-        c = kin.points[COUNTERWEIGHT]
-        f = -np.asarray(cw.mass)[..., None] * (c.dd[:, :2] * w2[:, None] + c.d[:, :2] * e[:, None])
-        f[:, 1] += np.asarray(cw.mass) * g
-        r = c.v[:, :2] - pivot
-        force += f
-        moment += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
+        bodies.append((np.asarray(cw.mass), kin.points[COUNTERWEIGHT]))
+    for m, s in bodies:
+        f = -m[..., None] * (s.dd[:, :2] * w2[:, None] + s.d[:, :2] * e[:, None])
+        r = s.v[:, :2] - pivot
+        inertia += f
+        inertia_m += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
+        fy = np.broadcast_to(m * g, (n,))
+        weight[:, 1] += fy
+        weight_m += r[:, 0] * fy
+    force = inertia + weight
+    moment = inertia_m + weight_m
     for fo in mech.dynamics.forces:
         F = fo.at(kin.phi, mech.period)[:, :2]
         r = kin.points[fo.point].v[:, :2] - pivot
-        force += F
-        moment += r[:, 0] * F[:, 1] - r[:, 1] * F[:, 0]
-    return FrameLoads(force, moment)
+        force = force + F
+        moment = moment + r[:, 0] * F[:, 1] - r[:, 1] * F[:, 0]
+    return FrameLoads(force, moment, inertia, inertia_m, weight)

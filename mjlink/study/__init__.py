@@ -37,6 +37,7 @@ from .spec import Study, StudyFileError, Varied, load, parse
 from .tasks import Evaluated, Verified, reference_chunk
 
 if TYPE_CHECKING:
+    from ..pipeline.optimize import OptimizeResult
     from ..pipeline.study import StudyResult
     from ..sim.batch import Verification
 
@@ -123,7 +124,7 @@ def verify(mechs: Sequence[Mechanism], *, threads: int | None = None) -> list[Ve
     return _sim.verify(list(mechs), threads=threads or os.cpu_count() or 1)
 
 
-def run(study: Study | str | Path, out_root: Path | str = Path("renders"), **kw: Any) -> StudyResult:
+def run(study: Study | str | Path, out_root: Path | str = Path("renders"), **kw: Any) -> StudyResult | OptimizeResult:
     """Run a study (an ``[optimize]`` one returns a
     :class:`~mjlink.pipeline.optimize.OptimizeResult`) and write its outputs (see :func:`mjlink.pipeline.study.run` for the options:
     ``client``, ``scheduler``, ``workers``, ``plots``, ``force``, ``progress``)."""

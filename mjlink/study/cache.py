@@ -172,6 +172,8 @@ class Cache:
             shutil.rmtree(folder, ignore_errors=True)
         else:
             self.resumable = sum(1 for p in folder.iterdir() if p.suffix == ".npz")
+            if self.resumable:
+                note(f"resuming: {self.resumable} finished chunk(s) in {folder} are taken as they are")
 
     def _file(self, kind: str, start: int, stop: int) -> Path | None:
         return None if self.folder is None else self.folder / f"{kind}-{start:08d}-{stop:08d}.npz"
@@ -206,8 +208,9 @@ class Cache:
             return
         self._make()
         arrays = {k: np.asarray(v) for k, v in arrays.items()}
+        arrays[CHECKSUM] = np.frombuffer(_digest(arrays), dtype=np.uint8)
         with atomic_path(f, suffix=".npz") as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, **arrays, **{CHECKSUM: np.frombuffer(_digest(arrays), dtype=np.uint8)})
+            np.savez(fh, **arrays)
 
     def _make(self) -> None:
         """The folder, born with its manifest: made under a temporary name, then renamed."""

@@ -26,6 +26,7 @@ import functools
 import logging
 import os
 import re
+import socket
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -73,6 +74,8 @@ _ADDRESS = re.compile(
 def check_address(address: str) -> str:
     """A Dask scheduler address as given (``tcp://HOST:PORT``, ``HOST:PORT``, ``tls://...``), or
     a one-line SchedulerError saying how to write one. Nothing is contacted."""
+    if isinstance(address, str) and address.strip().lower().startswith("inproc://") and address.strip()[9:]:
+        return address.strip()  # an in-process scheduler's (tests, notebooks): HOST/PID/N
     m = _ADDRESS.fullmatch(address.strip()) if isinstance(address, str) else None
     scheme = (m["scheme"] or "tcp").lower() if m else ""
     port = int(m["port"]) if m and m["port"] and len(m["port"]) <= 5 else None
@@ -183,6 +186,33 @@ def _connect(client_class: Any, address: str) -> Any:
         return client_class(address, timeout=f"{CONNECT_TIMEOUT_S}s")
 
 
+def check_reachable(address: str, timeout: float | None = None) -> None:
+    """Whether anything listens at a TCP scheduler address (a plain connection, no Dask): a
+    scheduler that refuses or does not answer is a one-line SchedulerError at once, before the
+    study is sized and planned. Other schemes are left to Dask's own connection."""
+    m = _ADDRESS.fullmatch(address.strip())
+    if m is None or (m["scheme"] or "tcp").lower() not in ("tcp", "tls", "ws", "wss"):
+        return
+    host = m["host"].strip("[]")
+    port = int(m["port"] or 8786)
+    try:
+        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S if timeout is None else timeout).close()
+    except OSError as e:
+        why = "no answer" if isinstance(e, TimeoutError) else (e.strerror or type(e).__name__)
+        raise SchedulerError(
+            f"cannot reach the Dask scheduler at {address}: {why} (within {CONNECT_TIMEOUT_S:g} s); "
+            "is it running, and is the address right?"
+        ) from None
+
+
+def _not_dask(e: BaseException) -> str:
+    """What a failed connection to a scheduler says, in one line (a peer that answers in
+    another protocol makes Dask's reader fail in odd ways: a huge allocation, a decode)."""
+    if isinstance(e, MemoryError | ValueError | UnicodeError | EOFError):
+        return "something answers there, but not as a Dask scheduler"
+    return _one_line(e)
+
+
 @contextmanager
 def client_for(scheduler: str | None = None, workers: int | None = None) -> Iterator[tuple[Any, str]]:
     """A Dask client and a description of it (None and 'in process' for ``workers=0``).
@@ -211,7 +241,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
             client = _connect(Client, address)
         except Exception as e:
             raise SchedulerError(
-                f"cannot reach the Dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {_one_line(e)}"
+                f"cannot reach the Dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {_not_dask(e)}"
             ) from None
         try:
             try:

@@ -19,6 +19,7 @@ starts, with one line naming the estimate, the bound and what to change.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
@@ -29,13 +30,20 @@ import numpy as np
 
 from ..errors import InputError
 from ..reference.batch import angle_grid
+from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks
+from .optimize import CHUNK_ROWS, budget, needed
 from .spec import Study
+from .tasks import mujoco_chunk, reference_chunk
 
 MUJOCO_STEPS_PER_S = 60_000.0  # RK4 steps per second per core, measured on the take-up's kinematic run
 MUJOCO_BUILD_S = 0.03  # seconds to build and compile one model, measured on the take-up
 TABLE_BYTES_PER_VALUE = 120.0  # a results table's value as Python objects and CSV text while written
 SAMPLE_BYTES = 8.0 * 24  # MuJoCo's recorded values per model step (position, velocity of a few points)
 CLUSTER_START_S = 2.0  # a local Dask cluster's start
+# An optimization's generation below this much work runs faster in this process than on a
+# local cluster, whose calls cost milliseconds each way and whose polish runs here anyway
+# (measured: the known-answer path study 1.4 s here, 7.6 s on two workers).
+SMALL_GENERATION_S = 0.1
 CALIBRATION_VARIANTS = 16
 
 
@@ -68,6 +76,7 @@ class Plan:
     row_seconds: float
     row_bytes: float
     mujoco_model_seconds: float
+    calibration: Calibration | None = None
 
     def describe(self) -> str:
         """The plan as one line."""
@@ -77,9 +86,9 @@ class Plan:
             else "no MuJoCo verification"
         )
         return (
-            f"plan: {self.what}: {self.variants:,} variants x {self.angles} crank angles in {self.tasks:,} task(s) on "
-            f"{self.workers} worker(s); {mj}; memory about {size_text(self.memory)} (bound {size_text(self.memory_limit)}); "
-            f"time about {duration_text(self.seconds)} (calibrated here: {self.row_seconds * 1e6:.2g} us and "
+            f"plan: {self.what}: {self.variants:,} variants x {self.angles} crank angles in {self.tasks:,} task(s) "
+            f"{f'on {self.workers} worker(s)' if self.workers else 'in this process'}; {mj}; memory about {size_text(self.memory)} (bound {size_text(self.memory_limit)}); "
+            f"time {'at most ' if self.what.startswith('optimization') else ''}about {duration_text(self.seconds)} (calibrated here: {self.row_seconds * 1e6:.2g} us and "
             f"{self.row_bytes:.0f} bytes per variant-angle)"
         )
 
@@ -161,8 +170,8 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     """Evaluate :data:`CALIBRATION_VARIANTS` variants of ``study`` (all at the nominal values,
     or the middle of the ranges of an optimization) here, timed and traced; with ``mujoco``,
     verify one in MuJoCo, timed."""
-    from .tasks import mujoco_chunk, reference_chunk
-
+    if study.optimize is not None:  # what its search computes (the other metrics: a few designs at the end)
+        study = dataclasses.replace(study, metrics=needed(study))
     if study.method == "optimize":
         row = [
             min(max(v.param.nominal, v.low), v.high) if math.isfinite(v.param.nominal) else 0.5 * (v.low + v.high)
@@ -201,8 +210,6 @@ def estimate(
     """The :class:`Plan` of ``study`` on ``workers`` worker processes (0: this process), its
     memory held to ``limit`` bytes (default :func:`memory_limit`); ``cluster``: a local
     cluster is started for it."""
-    from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks
-
     mech = study.mechanism
     angles = len(angle_grid(mech, study.per_turn))
     P, C = len(study.varied), len(study.columns)
@@ -218,8 +225,6 @@ def estimate(
         client = V * ((P + C) * 8.0 * 3 + (P + C + 6) * TABLE_BYTES_PER_VALUE + 120.0)
         what = f"{study.method} study of {V:,} variants"
     else:
-        from .optimize import CHUNK_ROWS, budget
-
         b = budget(study)
         V = b.evaluations
         per_gen = b.per_generation
@@ -256,4 +261,14 @@ def estimate(
         cal.row_seconds,
         cal.row_bytes,
         model_s,
+        cal,
     )
+
+
+def small(p: Plan, study: Study) -> bool:
+    """Whether ``study`` runs faster in this process than on a local cluster: a sampled study
+    whose work is shorter than the cluster's start, an optimization whose generations are each
+    less than :data:`SMALL_GENERATION_S` of work."""
+    if study.optimize is None:
+        return p.variants * p.angles * p.row_seconds + p.mujoco_models * p.mujoco_model_seconds < CLUSTER_START_S
+    return budget(study).per_generation * p.angles * p.row_seconds < SMALL_GENERATION_S

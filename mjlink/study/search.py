@@ -182,7 +182,7 @@ def search(
         )
     if run.stopped_by == "generations" and res.nit < opt.generations:
         run.stopped_by = "spread"  # scipy's own test ended it before its last generation
-    run.search_generations = run.generations
+    run.search_generations = int(res.nit)  # scipy's generations after the first population
     if opt.polish_evaluations > 0 and math.isfinite(run.f):
         _polish(
             study, run, polish_score or score, record, index, objective, np.asarray(res.population), seed, t0, progress

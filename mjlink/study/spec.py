@@ -234,7 +234,9 @@ def _number(src: object, raw: dict, key: str, where: str, *, default: float | No
     try:
         x = float(v)
     except OverflowError:  # an integer of hundreds of digits
-        raise _limit(src, f"{where} {key}", f"must be a finite number, got an integer of {digits(v)} digits") from None
+        raise _limit(
+            src, f"{where} {key}", f"must be a finite number, got an integer of {digits(int(v))} digits"
+        ) from None
     if not math.isfinite(x):
         raise _fail(src, f"{where} {key}", f"must be a finite number, got {shown(v)}")
     return x
