@@ -86,12 +86,29 @@ def atomic_path(path: Path | str, suffix: str = ".tmp") -> Iterator[Path]:
 
 
 _FILE_KINDS = (
+    (stat.S_ISREG, "a regular file"),
     (stat.S_ISDIR, "a folder"),
     (stat.S_ISFIFO, "a FIFO (named pipe)"),
     (stat.S_ISCHR, "a character device"),
     (stat.S_ISBLK, "a block device"),
     (stat.S_ISSOCK, "a socket"),
 )
+
+
+def kind_of(mode: int) -> str:
+    """What a file of ``mode`` is, for a message: 'a FIFO (named pipe)', 'a folder', ..."""
+    return next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
+
+
+def read_json(path: Path | str) -> Any:
+    """The JSON in the regular file ``path`` (not a link, FIFO or device), or None if there is
+    none to read."""
+    try:
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            return None
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
 
 
 def _write_target(path: Path) -> Path:
@@ -106,7 +123,7 @@ def _write_target(path: Path) -> Path:
         raise OutputError(f"{path}: cannot write: {e.strerror or e}") from None
     if stat.S_ISREG(mode):
         return target
-    what = next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
+    what = kind_of(mode)
     via = f" (a link to {target})" if target != path else ""
     raise OutputError(f"{path}{via} is {what}, not a regular file: refusing to replace it")
 

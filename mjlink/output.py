@@ -56,7 +56,9 @@ from .errors import OutputError
 from .files import (
     atomic_path,
     columns,
+    kind_of,
     read_csv,
+    read_json,
     write_csv,
     write_json,
     write_loads_csv,
@@ -241,20 +243,6 @@ def _stop(hooks: list[Callable[[], None]]) -> None:
             hooks.pop()()
 
 
-_FILE_KINDS = (
-    (stat.S_ISREG, "a regular file"),
-    (stat.S_ISDIR, "a folder"),
-    (stat.S_ISFIFO, "a FIFO (named pipe)"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
-
-
-def _kind_of(mode: int) -> str:
-    return next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
-
-
 def check_destination(
     dest: Path | str, *, kind: str = "output", mechanism: str | None = None, force: bool = False
 ) -> Path:
@@ -277,14 +265,14 @@ def check_destination(
     except OSError as e:
         raise OutputError(f"cannot write to output folder {dest.parent}: {_why(e)}") from None
     if not stat.S_ISDIR(mode):
-        raise OutputError(f"cannot write to output folder {dest.parent}: {anc} is {_kind_of(mode)}, not a folder")
+        raise OutputError(f"cannot write to output folder {dest.parent}: {anc} is {kind_of(mode)}, not a folder")
     if os.path.lexists(dest):
         try:
             mode = os.stat(dest).st_mode
         except OSError as e:
             raise OutputError(f"cannot write outputs to {dest}: {_why(e)}") from None
         if not stat.S_ISDIR(mode):
-            raise OutputError(f"output path {dest} exists and is not a folder ({_kind_of(mode)})")
+            raise OutputError(f"output path {dest} exists and is not a folder ({kind_of(mode)})")
         _owned(dest, kind, mechanism, force)
         anc = dest
     if not os.access(anc, os.W_OK | os.X_OK):
@@ -403,18 +391,22 @@ def _now() -> str:
     return datetime.datetime.now().astimezone().isoformat(timespec="seconds")
 
 
-def _stage_marker(stage: Path, kind: str, mechanism: str | None, line: str | None) -> dict[str, Any]:
+def _marker(kind: str, mechanism: str | None, files: list[str], line: str | None, **more: Any) -> dict[str, Any]:
+    """A folder's :data:`MARKER` (a stage's carries ``stage``, ``pid`` and ``host`` as ``more``)."""
     return {
         "written_by": "mjlink",
         "kind": kind,
+        "command": f"mjlink {COMMANDS.get(kind, kind)}",
         "mechanism": mechanism,
-        "files": [],
-        "stage": stage.name,
-        "pid": os.getpid(),
-        "host": socket.gethostname(),
-        "command_line": line,
+        "files": files,
         "written": _now(),
+        "command_line": line,
+        **more,
     }
+
+
+def _stage_marker(stage: Path, kind: str, mechanism: str | None, line: str | None) -> dict[str, Any]:
+    return _marker(kind, mechanism, [], line, stage=stage.name, pid=os.getpid(), host=socket.gethostname())
 
 
 def _write_marker(folder: Path, data: dict[str, Any]) -> None:
@@ -424,13 +416,7 @@ def _write_marker(folder: Path, data: dict[str, Any]) -> None:
 def read_marker(folder: Path | str) -> dict[str, Any] | None:
     """The :data:`MARKER` of an output folder, or None if it has none that mjlink wrote (absent,
     not a regular file, not JSON, or without ``written_by``, ``kind`` and ``files``)."""
-    path = Path(folder) / MARKER
-    try:
-        if not stat.S_ISREG(os.lstat(path).st_mode):
-            return None
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
+    data = read_json(Path(folder) / MARKER)
     if not (
         isinstance(data, dict)
         and data.get("written_by") == "mjlink"
@@ -478,15 +464,7 @@ def _publish(stage: Path, dest: Path, kind: str, mechanism: str | None, force: b
     """Put the complete ``stage`` at ``dest`` with its marker, keeping every entry of an existing
     ``dest`` that mjlink did not write (see :func:`staged_dir`)."""
     new = sorted(e for e in os.listdir(stage) if e != MARKER)
-    marker = {
-        "written_by": "mjlink",
-        "kind": kind,
-        "command": f"mjlink {COMMANDS.get(kind, kind)}",
-        "mechanism": mechanism,
-        "files": new,
-        "written": _now(),
-        "command_line": line,
-    }
+    marker = _marker(kind, mechanism, new, line)
     if not os.path.lexists(dest):
         _write_marker(stage, marker)
         os.replace(stage, dest)

@@ -516,7 +516,30 @@ class _Shaking(_AtSpeed):
         return loads.frame[key]
 
 
-class ShakingForcePeak(_Shaking):
+class _FramePeak(_Shaking):
+    """The peak over the period of one of the frame's loads (a field of
+    :class:`mjlink.reference.batch.FrameLoads`: ``part``), a force's magnitude or a moment's
+    absolute value."""
+
+    part: ClassVar[str]
+    unit: ClassVar[str]
+    label: ClassVar[str]
+
+    def columns(self) -> list[Column]:
+        return [Column(self.kind + self._tag(), self.unit, f"peak {self.label}")]
+
+    def _q(self, b: Batch, loads: Loads) -> np.ndarray:
+        q = getattr(self._loads(b, loads), self.part)
+        return b.per_variant(norms(q) if q.ndim == 2 else q)
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        return {self.columns()[0].name: np.abs(self._q(b, loads)).max(axis=1)}
+
+    def curve(self, b: Batch, loads: Loads) -> Curve | None:
+        return Curve(f"{self.label} at {self.speed:g} rad/s", self.unit, self._q(b, loads))
+
+
+class ShakingForcePeak(_FramePeak):
     """Peak shaking force at constant crank speed: max over the period of |F_s|, F_s = -sum_i
     m_i a_Si the resultant of the links' inertia forces (the counterweight's included), N. It
     is what balancing acts on: zero for a balanced mechanism at any speed. Gravity and the
@@ -524,78 +547,36 @@ class ShakingForcePeak(_Shaking):
     :class:`mjlink.reference.batch.FrameLoads`)."""
 
     kind = "shaking_force_peak"
-
-    def columns(self) -> list[Column]:
-        return [Column("shaking_force_peak" + self._tag(), "N", "peak shaking force (inertia)")]
-
-    def _f(self, b: Batch, loads: Loads) -> np.ndarray:
-        return b.per_variant(norms(self._loads(b, loads).inertia_force))
-
-    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
-        return {self.columns()[0].name: self._f(b, loads).max(axis=1)}
-
-    def curve(self, b: Batch, loads: Loads) -> Curve | None:
-        return Curve(f"shaking force |F_s| (inertia) at {self.speed:g} rad/s", "N", self._f(b, loads))
+    part, unit, label = "inertia_force", "N", "shaking force |F_s| (inertia)"
 
 
-class ShakingMomentPeak(_Shaking):
+class ShakingMomentPeak(_FramePeak):
     """Peak shaking moment at constant crank speed: max over the period of |M_s|, M_s = sum_i
     [r_Si x (-m_i a_Si) - J_Si alpha_i] about the input crank's pivot (the inertia forces' and
     moments' moment), N*m. Gravity's and the point forces' moments are in
     ``frame_moment_peak``."""
 
     kind = "shaking_moment_peak"
-
-    def columns(self) -> list[Column]:
-        return [Column("shaking_moment_peak" + self._tag(), "N*m", "peak shaking moment (inertia)")]
-
-    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
-        m = self._loads(b, loads).inertia_moment
-        return {self.columns()[0].name: np.abs(b.per_variant(m)).max(axis=1)}
-
-    def curve(self, b: Batch, loads: Loads) -> Curve | None:
-        m = self._loads(b, loads).inertia_moment
-        return Curve(f"shaking moment (inertia) at {self.speed:g} rad/s", "N*m", b.per_variant(m))
+    part, unit, label = "inertia_moment", "N*m", "shaking moment (inertia)"
 
 
-class FrameForcePeak(_Shaking):
+class FrameForcePeak(_FramePeak):
     """Peak force on the frame at constant crank speed: max over the period of |F|, F = sum_i
     m_i (g - a_Si) + the file's point forces, the resultant of every ground pair's reaction on
     the frame (what its mounts carry: the shaking force, the gravity load and the point
     forces together), N."""
 
     kind = "frame_force_peak"
-
-    def columns(self) -> list[Column]:
-        return [Column("frame_force_peak" + self._tag(), "N", "peak force on the frame (inertia, gravity, forces)")]
-
-    def _f(self, b: Batch, loads: Loads) -> np.ndarray:
-        return b.per_variant(norms(self._loads(b, loads).force))
-
-    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
-        return {self.columns()[0].name: self._f(b, loads).max(axis=1)}
-
-    def curve(self, b: Batch, loads: Loads) -> Curve | None:
-        return Curve(f"force on the frame |F| at {self.speed:g} rad/s", "N", self._f(b, loads))
+    part, unit, label = "force", "N", "force on the frame |F| (inertia, gravity, forces)"
 
 
-class FrameMomentPeak(_Shaking):
+class FrameMomentPeak(_FramePeak):
     """Peak moment on the frame at constant crank speed: max over the period of |M|, M about the
     input crank's pivot from the inertia, gravity and the point forces, the drive's reaction
     included (:class:`mjlink.reference.batch.FrameLoads`), N*m."""
 
     kind = "frame_moment_peak"
-
-    def columns(self) -> list[Column]:
-        return [Column("frame_moment_peak" + self._tag(), "N*m", "peak moment on the frame")]
-
-    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
-        m = self._loads(b, loads).moment
-        return {self.columns()[0].name: np.abs(b.per_variant(m)).max(axis=1)}
-
-    def curve(self, b: Batch, loads: Loads) -> Curve | None:
-        m = self._loads(b, loads).moment
-        return Curve(f"moment on the frame at {self.speed:g} rad/s", "N*m", b.per_variant(m))
+    part, unit, label = "moment", "N*m", "moment on the frame"
 
 
 class GravityLoad(Metric):

@@ -328,12 +328,7 @@ def check_values(mech: Mechanism, values: Mapping[Param, float]) -> None:
     for p, v in values.items():
         parts = p.path.split(".")
         if parts[:2] == ["dynamics", "force"]:
-            for f in raw["dynamics"]["force"]:
-                if f["point"] == parts[2]:
-                    if "value" in f:
-                        f["value"] = [float(x) * v for x in f["value"]]
-                    else:
-                        f["values"] = [[float(x) * v for x in row] for row in f["values"]]
+            _scale_force(raw, parts[2], v)
         elif parts[0] == "counterweight" and "counterweight" not in raw:
             cw = catalogue(mech)
             raw["counterweight"] = {k: cw[f"counterweight.{k}"].nominal for k in ("mass", "radius", "angle")}
@@ -391,15 +386,20 @@ def file_text(
     for p, v in values.items():  # a force's scale multiplies its numbers (the catalogue keeps 1)
         parts = p.path.split(".")
         if parts[:2] == ["dynamics", "force"]:
-            for f in raw["dynamics"]["force"]:
-                if f["point"] == parts[2]:
-                    if "value" in f:
-                        f["value"] = [float(x) * v for x in f["value"]]
-                    else:
-                        f["values"] = [[float(x) * v for x in row] for row in f["values"]]
+            _scale_force(raw, parts[2], v)
     if name is not None:
         raw["mechanism"]["name"] = name
     return tomlio.dumps(raw, header)
+
+
+def _scale_force(raw: dict, point: str, v: float) -> None:
+    """Multiply the numbers of the force at ``point`` in a parsed mechanism file by ``v``."""
+    for f in raw["dynamics"]["force"]:
+        if f["point"] == point:
+            if "value" in f:
+                f["value"] = [float(x) * v for x in f["value"]]
+            else:
+                f["values"] = [[float(x) * v for x in row] for row in f["values"]]
 
 
 def _set(raw: dict, path: str, v: float) -> None:

@@ -315,14 +315,18 @@ def archive_table(res: _opt.Result) -> dict[str, Any]:
     """The results table: every candidate evaluated, in order."""
     st, a = res.study, res.archive
     cols: dict[str, Any] = {"run": a.run, "generation": a.generation}
-    for j, p in enumerate(st.params):
-        cols[column_name(p.path, p.unit)] = a.values[:, j]
-    for c in st.columns:
-        cols[column_name(c.name, c.unit)] = a.columns[c.name]
+    cols |= _design_columns(st, a.values, a.columns)
     cols["minimized"] = a.objective
     cols["violation"] = a.violation
     cols["feasible"] = (a.violation <= 0).astype(np.int8)
     cols["reason"] = list(a.reason)
+    return cols
+
+
+def _design_columns(st: Study, values: np.ndarray, metrics: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Designs as table columns: each parameter and metric, its unit in its name."""
+    cols: dict[str, Any] = {column_name(p.path, p.unit): values[:, j] for j, p in enumerate(st.params)}
+    cols |= {column_name(c.name, c.unit): metrics[c.name] for c in st.columns}
     return cols
 
 
@@ -331,10 +335,7 @@ def front_table(res: _opt.Result, ver: Verified) -> dict[str, Any]:
     st = res.study
     assert res.front is not None and res.front_columns is not None
     cols: dict[str, Any] = {"design": [f"pareto-{i + 1:02d}" for i in range(len(res.front))]}
-    for j, p in enumerate(st.params):
-        cols[column_name(p.path, p.unit)] = res.front[:, j]
-    for c in st.columns:
-        cols[column_name(c.name, c.unit)] = res.front_columns[c.name]
+    cols |= _design_columns(st, res.front, res.front_columns)
     cols["winner"] = [int(np.array_equal(x, res.winner)) for x in res.front]
     cols["mujoco"] = ["pass" if p else "FAIL" for p in ver.passed[1:]]
     cols["mujoco_position_error_um"] = ver.position_error[1:]

@@ -32,7 +32,6 @@ import importlib.metadata
 import json
 import os
 import shutil
-import stat
 import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -42,6 +41,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError
+from ..files import read_json
 from ..notes import note
 from ..output import atomic_path
 from .spec import Study
@@ -110,13 +110,7 @@ def manifest(study: Study, variants: int, chunking: Mapping[str, Any]) -> dict[s
 
 def _read_manifest(folder: Path) -> dict[str, Any] | None:
     """The folder's manifest if mjlink wrote it (this format or the first), else None."""
-    path = folder / MANIFEST
-    try:
-        if not stat.S_ISREG(os.lstat(path).st_mode):
-            return None
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
+    data = read_json(folder / MANIFEST)
     if not isinstance(data, dict):
         return None
     if data.get("written_by") == "mjlink" and data.get("kind") == "study-cache":
