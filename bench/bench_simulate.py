@@ -425,11 +425,6 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--repeat", type=int, default=3, help="runs of each simulate command (best counts)")
     p.add_argument("--points", type=int, default=60, help="extra named points for the per-point cost")
     a = p.parse_args(argv)
-    from mjlink import memory
-
-    # As the command line does at start: the in-process contenders (mjlink's and pylinkage's
-    # alike) run with the allocator keeping what it frees.
-    memory.keep_freed_memory()
     print(f"load average before the runs: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     rows = bench_simulate(1 if a.quick else a.repeat)
     rows += bench_sampling()

@@ -15,6 +15,8 @@ are written at full double precision.
 from __future__ import annotations
 
 import contextlib
+import csv
+import io
 import itertools
 import json
 import math
@@ -27,6 +29,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import orjson
 
 from .errors import OutputError
 from .model.jet import norms
@@ -176,7 +179,6 @@ def _csv_rows(cols: Sequence[Any], k: int, scale: Sequence[float] | None = None)
     written before the next, so the table stays in cache and its memory is reused, where a
     whole (N, k) table is fresh memory written a column at a time (a traced point adds 1.5
     MB of text)."""
-    import orjson
 
     arrays = [np.asarray(c, dtype=float) for c in cols]
     if not arrays:
@@ -242,8 +244,6 @@ def write_records(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray])
         columns: name (unit in the name) -> N values each; floats at full double precision
             (NaN as ``nan``), text quoted where it must be (RFC 4180).
     """
-    import csv
-    import io
 
     names = list(columns)
     cols = [np.asarray(c).tolist() if isinstance(c, np.ndarray) else list(c) for c in columns.values()]
@@ -257,7 +257,7 @@ def write_records(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray])
 
 def write_parquet(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray]) -> Path:
     """Write the same columns as :func:`write_records` as a Parquet table into a staging folder."""
-    import pyarrow as pa
+    import pyarrow as pa  # here: 0.1 s of import, only for a study's table
     import pyarrow.parquet as pq
 
     table = pa.table({k: (np.asarray(v) if isinstance(v, np.ndarray) else list(v)) for k, v in columns.items()})

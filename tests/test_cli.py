@@ -186,10 +186,11 @@ def test_simulate_dynamics_flag(tmp_path):
 
 
 def test_command_line_runs_openblas_on_one_thread():
-    """Importing the command line before numpy leaves numpy's OpenBLAS with one thread (its
-    idle threads spun on a core the plot workers need), unless the user set a number."""
+    """The command line's entry point, before it imports numpy, leaves numpy's OpenBLAS with one
+    thread (its idle threads spun on a core the plot workers need), unless the user set a number."""
     code = (
-        "import os, mjlink.cli, numpy as np; a = np.ones((600, 600)); a @ a; "
+        "import os, mjlink.__main__, mjlink.memory; mjlink.memory.one_blas_thread(); import mjlink.cli; "
+        "import numpy as np; a = np.ones((600, 600)); a @ a; "
         "print(os.environ['OPENBLAS_NUM_THREADS'], len(os.listdir('/proc/self/task')))"
     )
     env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}

@@ -31,7 +31,6 @@ from mjlink.errors import MechanismFileError, MjlinkError
 from mjlink.model import catalogue, limits
 from mjlink.model.mechanism import parse
 from mjlink.model.reader import shown
-from mjlink.sim import gl
 
 matplotlib.use("Agg")
 
@@ -268,20 +267,6 @@ def test_paths_expand_the_users_home():
 
 
 # ============================================================================ 12. GL backends
-def test_unusable_mujoco_gl_values_are_recognised():
-    assert gl.preset_problem("bogus", "Linux")[1] is True
-    assert "no backend mujoco knows" in gl.preset_problem("bogus", "Linux")[0]
-    assert gl.preset_problem("off", "Linux") == ("MUJOCO_GL=off turns OpenGL off", False)
-    assert gl.preset_problem("glfw", "Linux") is None
-    if ctypes.util.find_library("OSMesa") is None:
-        assert gl.preset_problem("osmesa", "Linux") == (
-            "MUJOCO_GL=osmesa needs libOSMesa, which is not installed",
-            True,
-        )
-    else:
-        assert gl.preset_problem("OSMesa ", "Linux") is None
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "value",

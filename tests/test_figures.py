@@ -17,6 +17,7 @@ from conftest import ROOT
 
 from mjlink import pipeline
 from mjlink.model import catalogue, mechanism
+from mjlink.pipeline import workers
 from mjlink.plotting import figures, style
 
 MECHS = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting"]
@@ -43,7 +44,7 @@ def run_figures(request, tmp_path_factory):
     out = tmp_path_factory.mktemp(request.param)
     # Drawn in this process (no forked plot workers), so that the figures can be kept and read.
     mp = pytest.MonkeyPatch()
-    mp.setattr(pipeline, "_start", lambda jobs: None)
+    mp.setattr(workers, "start", lambda jobs: None)
     try:
         with style.keep_figures() as figs:
             pipeline.run(mech, out, pipeline.Options(video=False))

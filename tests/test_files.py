@@ -32,6 +32,7 @@ from mjlink.cli import main
 from mjlink.errors import OutputError
 from mjlink.model import catalogue
 from mjlink.model.mechanism import parse
+from mjlink.pipeline import workers
 
 EXAMPLE_PATH = catalogue.MECHANISMS_DIR / "examples" / "crank_rocker.toml"
 EXAMPLE = EXAMPLE_PATH.read_text()
@@ -441,7 +442,7 @@ def test_a_failing_run_stops_its_worker_before_removing_the_stage(tmp_path):
     out = tmp_path / "out"
     with pytest.raises(RuntimeError, match="the video failed"):
         with output.staged_dir(out / "x", kind="simulate") as stage:
-            worker = pipeline._start([functools.partial(_slow_plot, stage, pidfile, 1.0)])
+            worker = workers.start([functools.partial(_slow_plot, stage, pidfile, 1.0)])
             assert worker is not None and _until(pidfile.exists, timeout=30)
             raise RuntimeError("the video failed")
     pid = int(pidfile.read_text())
@@ -452,12 +453,12 @@ def test_a_failing_run_stops_its_worker_before_removing_the_stage(tmp_path):
 @linux_only
 def test_the_workers_error_and_success_reach_the_run(tmp_path):
     with output.staged_dir(tmp_path / "ok", kind="simulate") as stage:
-        worker = pipeline._start([functools.partial(_slow_plot, stage, tmp_path / "pid", 0.0)])
-        pipeline._finish(worker)
+        worker = workers.start([functools.partial(_slow_plot, stage, tmp_path / "pid", 0.0)])
+        workers.finish(worker)
     assert (tmp_path / "ok" / "late.png").is_file() and _stat(worker.pid) is None
     with pytest.raises(OutputError, match=r"positions\.png: cannot write plot: No space left on device$"):
         with output.staged_dir(tmp_path / "bad", kind="simulate") as stage:
-            pipeline._finish(pipeline._start([functools.partial(_failing_plot, stage)]))
+            workers.finish(workers.start([functools.partial(_failing_plot, stage)]))
     assert names(tmp_path) == ["ok", "pid"]
 
 

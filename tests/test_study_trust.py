@@ -743,7 +743,9 @@ def test_the_plan_measures_and_scales():
     assert big.memory > 1e8 and big.tasks == 3907
     with pytest.raises(plan.PlanError, match="more than the 1 bytes"):
         plan.estimate(st, workers=1, calibration=cal, limit=1.0).check()
-    assert plan.parse_size("64GiB") == 64 * 2**30 and plan.parse_size("500MB") == 5e8
+    from mjlink.cli.commands import parse_size
+
+    assert parse_size("64GiB") == 64 * 2**30 and parse_size("500MB") == 5e8
 
 
 def test_a_cluster_without_workers_fails_within_a_timeout(monkeypatch):

@@ -25,6 +25,8 @@ from ..model import blocks
 from ..model.blocks import Crank, Slider
 from ..model.jet import norms
 from ..model.mechanism import Mechanism
+from ..model.names import GROUND
+from ..model.topology import pairs
 from ..runs import Trace
 
 
@@ -360,8 +362,6 @@ def pair_loads(mech: Mechanism, rx: reference.Reactions) -> list[PairLoad]:
     """Every revolute pair's reaction in the frame of the link that carries its bearing (see
     :class:`PairLoad`): the polar load diagram of a bearing. Prismatic pairs are left out (their
     load is a normal force and a moment along the guide, not a vector turning in a bearing)."""
-    from ..model.names import GROUND
-    from ..model.topology import pairs
 
     kin = reference.solve(mech, rx.phi)
     out = []

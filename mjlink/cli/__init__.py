@@ -12,16 +12,16 @@ MuJoCo's and Python's versions.
 from __future__ import annotations
 
 import argparse
-import contextlib
-import ctypes
 import difflib
 import os
 import re
 import sys
+from importlib import metadata
 from typing import Any, NoReturn
 
+from .. import __version__, notes
 from ..errors import MjlinkError
-from . import _threads  # noqa: F401  (first: before .commands loads numpy)
+from ..output import Terminated, interruptible
 from .commands import COMMANDS, EXAMPLES
 from .text import error_line, format_report
 
@@ -59,9 +59,6 @@ class _Version(argparse.Action):
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
 
     def __call__(self, parser: argparse.ArgumentParser, *args: Any, **kwargs: Any) -> NoReturn:
-        from importlib import metadata
-
-        from .. import __version__
 
         try:
             mujoco = metadata.version("mujoco")
@@ -95,27 +92,14 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _interrupt_handled() -> None:
-    """Tell CPython the KeyboardInterrupt was handled. A Ctrl-C that lands while a C extension
-    evaluates Python through ``PyRun_*`` (pybind11's ``py::exec``) sets the interpreter's
-    "unhandled KeyboardInterrupt" flag even when mjlink catches the exception later, and the
-    interpreter then ends by re-raising SIGINT on itself (status -2, not the documented 130):
-    seen when the interruption reaches the run in MuJoCo's bindings."""
-    with contextlib.suppress(Exception):  # another interpreter, or a CPython without the flag
-        ctypes.c_int.in_dll(ctypes.pythonapi, "_Py_UnhandledKeyboardInterrupt").value = 0
-
-
 def main(argv: list[str] | None = None) -> int:
     """Parse ``argv`` (default: ``sys.argv[1:]``), run the command; returns the exit status.
 
     SIGINT ends a command with ``mjlink: interrupted`` and status 130, SIGTERM with ``mjlink:
     terminated`` and 143 (128 + the signal), both after the run has cleaned up (no staging
     folder, no worker process left)."""
-    from .. import memory, notes
-    from ..output import Terminated, interruptible
 
     args = _parser().parse_args(argv)
-    memory.keep_freed_memory()  # the reference's temporaries reused, not faulted in anew
     if not (args.command == "simulate" and not args.no_video):
         # Only simulate's video renders: every other command (and its Dask workers, which
         # inherit the environment) imports mujoco without probing OpenGL first.
@@ -134,7 +118,6 @@ def main(argv: list[str] | None = None) -> int:
         return e.exit_status
     except KeyboardInterrupt:
         print("mjlink: interrupted", file=sys.stderr)
-        _interrupt_handled()
         return 130
     except Terminated:
         print("mjlink: terminated", file=sys.stderr)

@@ -22,8 +22,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .. import validation
-from ..errors import MjlinkError
+from ..errors import InputError, MjlinkError
+from ..model import catalogue
+from ..model.catalogue import STUDIES_DIR
 from ..model.limits import MAX_CYCLES, MAX_FPS
+from ..model.mechanism import load
 from ..units import from_rpm
 from . import text
 
@@ -199,7 +202,7 @@ def _drive_options(p: argparse.ArgumentParser) -> None:
 def _drive(args: argparse.Namespace) -> Drive:
     """The drive options a command has (the others None), speeds in rad/s;
     :func:`pipeline.with_drive` checks them."""
-    from ..pipeline import Drive
+    from ..pipeline import Drive  # here: the pipeline loads MuJoCo (0.4 s) that list, check and --help do without
 
     return Drive(
         moment=getattr(args, "moment", None),
@@ -238,16 +241,12 @@ def _verdict(failures: Sequence[str], strict: bool) -> int:
 
 # ----------------------------------------------------------------------------- list, check
 def _list(args: argparse.Namespace) -> int:
-    from ..model import catalogue
-    from ..model.mechanism import load
 
     print(text.catalogue_listing([load(catalogue.path_of(n)) for n in catalogue.names()]))
     return 0
 
 
 def _check(args: argparse.Namespace) -> int:
-    from ..model import catalogue
-    from ..model.mechanism import load
 
     mech = load(catalogue.path_of(args.mechanism))  # an unreadable file raises: nothing to report
     report = validation.check(mech)
@@ -268,7 +267,7 @@ def _build_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _build(args: argparse.Namespace) -> int:
-    from .. import pipeline
+    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
 
     mech = validation.get(args.mechanism)
     res = pipeline.build(mech, kinematic=args.kinematic, path=args.output)
@@ -340,7 +339,7 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
 
 def _simulate(args: argparse.Namespace) -> int:
     w, h = _size(args.size)
-    from .. import pipeline
+    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
 
     if args.speed is not None:
         pipeline.check_speed("--speed", args.speed.rad_s, str(args.speed))
@@ -383,9 +382,9 @@ def _simulate(args: argparse.Namespace) -> int:
     )
     estimate = pipeline.estimate(mech, opts)  # the absurd is refused here, before anything runs
     if not args.no_video:
-        from ..sim.gl import ensure_gl_backend
+        from ..sim.render import check_backend  # here: MuJoCo (0.4 s), only for a video
 
-        ensure_gl_backend()  # no OpenGL: fail now, not after the runs
+        check_backend()  # no OpenGL: fail now, not after the runs
     _notes(mech, args, (("--speed", "speed"), ("--omega0", "omega0"), ("--no-load-speed", "no_load_speed")))
     print(f"mjlink: simulating {mech.name} ({mech.title})", file=sys.stderr)
     _long_run(estimate)
@@ -421,7 +420,7 @@ def _loads_arguments(q: argparse.ArgumentParser) -> None:
 
 
 def _loads(args: argparse.Namespace, *, torque: bool) -> int:
-    from .. import pipeline
+    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
 
     mech = validation.get(args.mechanism)
     speed = _rad_s(args.speed)
@@ -466,7 +465,7 @@ def _steady_arguments(q: argparse.ArgumentParser) -> None:
 
 
 def _steady(args: argparse.Namespace) -> int:
-    from .. import pipeline
+    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
 
     mech = validation.get(args.mechanism)
     drive = _drive(args)
@@ -494,7 +493,7 @@ def _synth_arguments(y: argparse.ArgumentParser) -> None:
 
 
 def _synth(args: argparse.Namespace) -> int:
-    from .. import pipeline
+    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
 
     res = pipeline.synthesize(
         args.problem,
@@ -547,9 +546,25 @@ def _study_arguments(q: argparse.ArgumentParser) -> None:
     )
 
 
+_SIZES = {"": 1.0, "b": 1.0, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb": 1e9, "t": 1e12, "tb": 1e12}
+_SIZES |= {"kib": 2.0**10, "mib": 2.0**20, "gib": 2.0**30, "tib": 2.0**40}
+
+
+def parse_size(text: str) -> float:
+    """'64GiB', '500MB', '2e9' -> bytes; ValueError for anything else."""
+    t = text.strip().lower().replace(" ", "")
+    i = len(t)
+    while i and t[i - 1].isalpha():
+        i -= 1
+    number, unit = t[:i], t[i:]
+    v = float(number)
+    if unit not in _SIZES or not math.isfinite(v) or v <= 0:
+        raise ValueError(text)
+    return v * _SIZES[unit]
+
+
 def size_arg(s: str) -> float:
     """argparse type of --max-memory: a size with its unit, 64GiB, 500MB, 2e9 (bytes)."""
-    from ..study.plan import parse_size
 
     try:
         return parse_size(s)
@@ -561,15 +576,13 @@ def size_arg(s: str) -> float:
 
 def _shipped() -> str:
     # The folder from the catalogue, not mjlink.study (whose import every command would pay).
-    from ..model.catalogue import STUDIES_DIR
 
     return ", ".join(sorted(p.stem for p in STUDIES_DIR.glob("*.toml")))
 
 
 def _study(args: argparse.Namespace) -> int:
-    from ..errors import InputError
-    from ..pipeline import study as pipeline_study
-    from ..study import spec
+    from ..pipeline import study as pipeline_study  # here: scipy, Dask (1 s of imports) only for a study
+    from ..study import spec  # here: as the line above
 
     if args.workers is not None and not 0 <= args.workers <= 256:
         raise InputError(f"--workers must be from 0 to 256, got {args.workers}")

@@ -14,6 +14,7 @@ Units: SI (m, rad) on the objects; the file's mm and deg only in :meth:`Block.re
 
 from __future__ import annotations
 
+import difflib
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Iterable
@@ -637,7 +638,6 @@ def sliders(steps: Iterable[Block]) -> tuple[Slider, ...]:
 
 def read(r: Reader, raw: Any, i: int) -> Block:
     """One ``[[construct]]`` table (the ``i``-th) as its block, or a one-line error."""
-    import difflib
 
     where = f"[[construct]] #{i + 1}"
     raw = r.table(raw, where)

@@ -12,6 +12,7 @@ are in SI (m, rad, kg, kg*m^2, N, N*m, N*m*s, rad/s, s).
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -108,7 +109,6 @@ class Force:
         :meth:`at` (tested)."""
         if self.angles is None:
             return self.value
-        import bisect
 
         a, vals = self.angles, self.values
         assert vals is not None  # a table has both angles and values (parse)

@@ -35,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,7 +45,9 @@ import numpy as np
 
 from ..errors import MjlinkError
 from ..units import DEG, MM, G
-from .mechanism import Counterweight, Force, Mechanism
+from . import synthesis as synth
+from . import tomlio
+from .mechanism import Counterweight, Force, Mechanism, parse
 
 _AXES = ("x", "y", "z")
 # section -> key -> (SI per file unit, file unit, must be positive)
@@ -268,8 +271,6 @@ def _scaled(f: Force, scale: Any) -> Force:
 def _synthesized(mech: Mechanism, changed: Mapping[str, Any]) -> Mechanism:
     """The crank-slider re-synthesized for new synthesis inputs (one variant: floats); no
     admissible design raises PathError (the study records the variant as infeasible)."""
-    from ..reference import synthesis as synth
-
     sy = mech.synthesis
     assert sy is not None
     if any(np.ndim(v) for v in changed.values()):
@@ -317,10 +318,6 @@ def check_values(mech: Mechanism, values: Mapping[Param, float]) -> None:
       MechanismFileError: the reader's one-line message (it names the file's table and key).
       PathError: ``mech`` was not read from a file (nothing to validate against).
     """
-    import tomllib
-
-    from . import tomlio
-    from .mechanism import parse
 
     if mech.path is None:
         raise PathError(f"{mech.name}: has no file to validate values against")
@@ -366,9 +363,6 @@ def file_text(
       The text; reading it gives ``apply(mech, values)`` (to the last digit of each number,
       or as ``rounding`` rounds them).
     """
-    import tomllib
-
-    from . import tomlio
 
     if mech.path is None:
         raise PathError(f"{mech.name}: has no file to derive a new one from")

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from .. import __version__, compare, output
+from ..analysis import metrics as _metrics
 from ..reference import batch
 from ..reference.dynamics import flywheel_for, steady_motion, steady_variant
 from ..study import engine
@@ -557,8 +558,7 @@ def page(summ: dict[str, Any], files: list[str]) -> str:
 
 
 def _plots(res: _opt.Result, ver: Verified, stage: Path) -> list[Path]:
-    from ..analysis import metrics as _metrics
-    from ..plotting import optimize as po
+    from ..plotting import optimize as po  # here: matplotlib (0.4 s), not for --no-plots
 
     st = res.study
     opt = st.optimize

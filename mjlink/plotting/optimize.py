@@ -5,12 +5,13 @@ Drawing only: every number comes computed from :mod:`mjlink.pipeline.optimize`.
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .figures import _segments
+from .drawing import segments
 from .style import figure, save, subplots, user_text
 
 if TYPE_CHECKING:
@@ -30,7 +31,6 @@ def _unit(u: str) -> str:
 
 
 def _title(title: str, what: str, width: int = 90) -> str:
-    import textwrap
 
     return "\n".join([*textwrap.wrap(user_text(title), width), *textwrap.wrap(user_text(what), width)])
 
@@ -76,7 +76,7 @@ def convergence(title: str, res: Result, out_dir: Path) -> Path:
 def _drawing(ax: Any, st: Study, b: Batch, row: int, style: dict[str, Any], label: str, traced: list[str]) -> None:
     mech = st.mechanism
     pos = {name: b.per_variant(b.kin.position(name))[row, :, :2] * 1e3 for name in mech.point_names}
-    for k, (a, c) in enumerate(_segments(mech)):
+    for k, (a, c) in enumerate(segments(mech)):
         ax.plot([pos[a][0, 0], pos[c][0, 0]], [pos[a][0, 1], pos[c][0, 1]], **style, label=label if k == 0 else None)
     for g in mech.ground:
         ax.plot(*pos[g][0], "^", color=style["color"], ms=6, mfc="none")

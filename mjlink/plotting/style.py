@@ -15,12 +15,11 @@ runs left to right with time.
 
 from __future__ import annotations
 
+import io
 import math
-import struct
-import zlib
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import matplotlib
 import matplotlib.artist
@@ -32,10 +31,7 @@ import matplotlib.pyplot as plt
 import matplotlib.text
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
 from matplotlib.figure import Figure
-from matplotlib.font_manager import FontProperties
-from matplotlib.mathtext import MathTextParser
 from matplotlib.typing import ColorType
 
 from .. import palette
@@ -79,221 +75,29 @@ def warm() -> None:
     forked afterwards to draw the real figures inherit matplotlib's loaded fonts, glyph
     caches and mathtext parser rather than each paying for them at its first figure (60 ms
     of CPU a worker)."""
-    import io
 
     fig, ax = subplots(figsize=(2.0, 1.5))
     ax.plot([0.0, 1.0], [0.0, 1.0])
     ax.set_title("crank $\\omega_1$ [rad/s$^2$]", fontsize=9)
     ax.set_xlabel("$\\varphi$ [deg]")
-    _Canvas(fig)
-    fig.savefig(io.BytesIO(), format="png", dpi=DPI)
+    fig.savefig(io.BytesIO(), format="png", dpi=DPI, pil_kwargs=PNG_OPTIONS)
     plt.close(fig)
 
 
-def png_bytes(rgba: np.ndarray, dpi: float) -> bytes:
-    """A PNG file of the 8-bit RGBA image ``rgba`` (shape (height, width, 4)) at ``dpi``.
-
-    Rows unfiltered and deflated at zlib level 1. A figure is mostly flat background, where
-    deflate alone does what a filter would: the files come within a few percent of Pillow's
-    adaptively filtered level 1 (and smaller on some), written in a third of its time (about
-    20 ms instead of 47 for a 1560x1128 figure), with the same pixels.
-    """
-    h, w, _ = rgba.shape
-    rows = np.empty((h, 4 * w + 1), np.uint8)
-    rows[:, 0] = 0  # filter type None
-    rows[:, 1:] = rgba.reshape(h, 4 * w)
-    ppm = round(dpi / 0.0254)  # pixels per metre, as matplotlib (Pillow) writes it
-
-    def chunk(kind: bytes, body: bytes) -> bytes:
-        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
-
-    software = f"Software\0Matplotlib version{matplotlib.__version__}, https://matplotlib.org/".encode("latin-1")
-    return b"".join(
-        (
-            b"\x89PNG\r\n\x1a\n",
-            chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0)),  # 8-bit RGBA
-            chunk(b"tEXt", software),
-            chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1)),
-            chunk(b"IDAT", zlib.compress(rows.data, 1)),
-            chunk(b"IEND", b""),
-        )
-    )
-
-
-class _Renderer(RendererAgg):
-    """The Agg renderer with text metrics and mathtext layouts kept from one figure to the next.
-
-    matplotlib keeps both per renderer, and every figure has its own: the same tick labels,
-    axis labels and formulas would be measured and laid out again in each (a third of a
-    figure set's text measuring). Both depend on the text, its font properties and the dpi
-    alone, which is the key here."""
-
-    # One mathtext parser for every renderer: matplotlib's cache of layouts (50) has the
-    # parser in its key. The first renderer's, so that its kind is this matplotlib's own.
-    _parser: ClassVar[MathTextParser | None] = None
-    _metrics: ClassVar[dict[tuple[Any, ...], tuple[float, float, float]]] = {}
-    _MAX_METRICS = 4096
-
-    def __init__(self, width: int, height: int, dpi: float) -> None:
-        super().__init__(width, height, dpi)
-        if _Renderer._parser is None:
-            _Renderer._parser = self.mathtext_parser
-        self.mathtext_parser = _Renderer._parser
-
-    def get_text_width_height_descent(self, s: str, prop: FontProperties, ismath: Any) -> tuple[float, float, float]:
-        # A copy in the key: FontProperties hashes its mutable state. The hinting settings
-        # change the metrics too (matplotlib reads them at each measurement).
-        rc = matplotlib.rcParams
-        key = (s, prop.copy(), ismath, self.dpi, rc["text.hinting"], rc["text.hinting_factor"])
-        found = self._metrics.get(key)
-        if found is None:
-            if len(self._metrics) >= self._MAX_METRICS:
-                self._metrics.clear()
-            found = self._metrics[key] = super().get_text_width_height_descent(s, prop, ismath)
-        return found
-
-
-class _Canvas(FigureCanvasAgg):
-    """The Agg canvas with its PNG written by :func:`png_bytes` (savefig finds the format's
-    ``print_png`` on the figure's canvas: layout, cropping and drawing stay matplotlib's). The
-    keywords print_figure passes every backend (facecolor, edgecolor, orientation: already set on
-    the figure) mean nothing to a raster written here."""
-
-    def get_renderer(self) -> _Renderer:
-        w, h = self.get_width_height(physical=True)
-        key = (w, h, self.figure.dpi)
-        if getattr(self, "_size", None) != key:
-            self.renderer, self._size = _Renderer(w, h, self.figure.dpi), key
-        return self.renderer
-
-    def print_png(self, filename_or_obj: Any, **_: Any) -> None:
-        FigureCanvasAgg.draw(self)
-        data = png_bytes(np.asarray(self.buffer_rgba()), self.figure.dpi)
-        if hasattr(filename_or_obj, "write"):
-            filename_or_obj.write(data)
-        else:
-            with open(filename_or_obj, "wb") as f:
-                f.write(data)
-
-
-# A new tick is a copy of its axis's first, as matplotlib makes it: matplotlib builds each one
-# from scratch (three Line2D and two Text, every property through rcParams and validation)
-# and then copies the first tick's properties onto it, deep-copying each line's marker: 0.9 ms
-# a tick, some 800 ticks and a quarter of the CPU of a take-up figure set. Copying the first
-# tick's state directly gives a tick in the same state for a twelfth of that (measured: 611
-# copies in 0.05 s). The twin test (tests/test_plots.py) compares every property of such a
-# tick with matplotlib's own, and a whole figure's pixels.
-_TICK_PARTS = ("tick1line", "tick2line", "gridline", "label1", "label2")
-
-
-def _copy_artist(a: Any) -> Any:
-    """A copy of the tick or tick part ``a`` sharing nothing mutable with it: its own callback
-    registry, lists, dicts and font properties; the immutable (marker styles, transforms,
-    arrays that setters replace) shared. Data caches are marked stale, as after a setter."""
-    new = object.__new__(type(a))
-    d = {k: (v.copy() if type(v) in (list, dict) else v) for k, v in a.__dict__.items()}
-    d["_callbacks"] = matplotlib.cbook.CallbackRegistry(signals=["pchanged"])
-    d["_remove_method"] = None
-    edges = d.get("_sticky_edges")
-    if edges is not None:
-        d["_sticky_edges"] = type(edges)(list(edges.x), list(edges.y))
-    if isinstance(a, matplotlib.text.Text):
-        d["_fontproperties"] = a.get_fontproperties().copy()
-        d["_renderer"] = None
-    elif isinstance(a, matplotlib.lines.Line2D):
-        d["_invalidx"] = d["_invalidy"] = True
-        d["_transformed_path"] = None
-    else:
-        for part in _TICK_PARTS:
-            d[part] = _copy_artist(getattr(a, part))
-    new.__dict__ = d
-    return new
-
-
-_SHARED_ARTISTS = {"_axes", "_parent_figure", "figure"}  # what a tick and its parts belong to
-
-
-def _copyable(tick: Any) -> bool:
-    """Whether ``tick`` holds only what :func:`_copy_artist` knows how to copy: the parts of a
-    plain tick, no text box (a patch of its own), no other artist of its own in the tick or a
-    part (one a later matplotlib might add, which a copy would share)."""
-    parts: list[Any] = [getattr(tick, p, None) for p in _TICK_PARTS]
-    kinds = (matplotlib.lines.Line2D,) * 3 + (matplotlib.text.Text,) * 2
-    if not all(type(p) is k for p, k in zip(parts, kinds, strict=True)):
-        return False
-    if any(p._bbox_patch is not None for p in parts[3:]):
-        return False
-    own = {k for k, v in vars(tick).items() if isinstance(v, matplotlib.artist.Artist)}
-    if own - _SHARED_ARTISTS != set(_TICK_PARTS):
-        return False
-    return not any(
-        isinstance(v, matplotlib.artist.Artist) and k not in _SHARED_ARTISTS for p in parts for k, v in vars(p).items()
-    )
-
-
-class _CopiedTicks:
-    """An Axis whose new ticks are copies of its first (:func:`_copy_artist`); matplotlib's
-    own way where the first tick holds anything else."""
-
-    majorTicks: list[Any]
-    minorTicks: list[Any]
-
-    def get_major_ticks(self, numticks: int | None = None) -> list[Any]:
-        if numticks is None:
-            numticks = len(self.get_majorticklocs())  # type: ignore[attr-defined]
-        return _more_ticks(self.majorTicks, numticks, super().get_major_ticks)  # type: ignore[misc]
-
-    def get_minor_ticks(self, numticks: int | None = None) -> list[Any]:
-        if numticks is None:
-            numticks = len(self.get_minorticklocs())  # type: ignore[attr-defined]
-        return _more_ticks(self.minorTicks, numticks, super().get_minor_ticks)  # type: ignore[misc]
-
-
-def _more_ticks(ticks: list[Any], numticks: int, plain: Callable[[int], list[Any]]) -> list[Any]:
-    """The first ``numticks`` of the axis's ``ticks``, copies of the first added as needed;
-    ``plain`` (matplotlib's own method) where the first cannot be copied."""
-    if len(ticks) < numticks and not _copyable(ticks[0]):
-        return plain(numticks)
-    while len(ticks) < numticks:
-        ticks.append(_copy_artist(ticks[0]))
-    return ticks[:numticks]
-
-
-class _XAxis(_CopiedTicks, matplotlib.axis.XAxis):
-    pass
-
-
-class _YAxis(_CopiedTicks, matplotlib.axis.YAxis):
-    pass
-
-
-class _Axes(Axes):
-    """Cartesian axes whose ticks are made by copying (:class:`_CopiedTicks`)."""
-
-    def _init_axis(self) -> None:
-        super()._init_axis()  # type: ignore[misc]
-        # The axes matplotlib made, given the subclass (which adds methods, no state).
-        self.xaxis.__class__, self.yaxis.__class__ = _XAxis, _YAxis
-
-
-class _Figure(Figure):
-    """A figure whose plain (Cartesian) axes are :class:`_Axes`; a projection or axes class
-    asked for is made as asked."""
-
-    def add_subplot(self, *args: Any, **kwargs: Any) -> Any:
-        if not {"projection", "polar", "axes_class"} & kwargs.keys():
-            kwargs["axes_class"] = _Axes
-        return super().add_subplot(*args, **kwargs)
-
-
 def figure(**kwargs: Any) -> Figure:
-    """``plt.figure`` for mjlink's figures (their axes' ticks made by copying)."""
-    return plt.figure(FigureClass=_Figure, **kwargs)
+    """``plt.figure`` for mjlink's figures."""
+    return plt.figure(**kwargs)
 
 
 def subplots(*args: Any, **kwargs: Any) -> Any:
-    """``plt.subplots`` for mjlink's figures (their axes' ticks made by copying)."""
-    return plt.subplots(*args, FigureClass=_Figure, **kwargs)
+    """``plt.subplots`` for mjlink's figures."""
+    return plt.subplots(*args, **kwargs)
+
+
+# PNGs are deflated at zlib level 1 (Pillow's ``compress_level``, through savefig's public
+# ``pil_kwargs``): a figure is mostly flat background, where the files come within a few
+# percent of the default level's size in a fraction of its time.
+PNG_OPTIONS: dict[str, Any] = {"compress_level": 1}
 
 
 def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Path:
@@ -311,8 +115,7 @@ def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Pa
             raise OutputError(f"{path}: cannot write plot: {e.strerror or e}") from None
         crop = TIGHT if tight else {}
         with atomic_path(path, suffix=".png") as tmp:
-            _Canvas(fig)  # the figure's PNG encoded by png_bytes
-            fig.savefig(tmp, format="png", dpi=DPI, **crop)
+            fig.savefig(tmp, format="png", dpi=DPI, pil_kwargs=PNG_OPTIONS, **crop)
     finally:
         if _KEEP is not None:
             _KEEP.append((name, fig))

@@ -3,9 +3,10 @@
 :mod:`.kinematics` (positions with exact derivatives, assembly), :mod:`.dynamics` (reduced
 inertia, the equation of motion, steady motion and flywheel; :mod:`.energy` its solution over
 the crank angle), :mod:`.kinetostatics` (driving
-torque, forces in every pair), :mod:`.synthesis` (crank-slider metric synthesis).
+torque, forces in every pair), :mod:`mjlink.model.synthesis` (crank-slider metric synthesis, here as ``synthesis``).
 """
 
+from ..model import synthesis  # the crank-slider's metric synthesis, a design of the model's numbers
 from . import energy
 from .dynamics import (
     TIGHT_RTOL,
@@ -49,4 +50,5 @@ __all__ = [
     "solve",
     "steady_motion",
     "steady_variant",
+    "synthesis",
 ]

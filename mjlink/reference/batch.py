@@ -20,6 +20,7 @@ import numpy as np
 
 from ..model import paths
 from ..model.mechanism import COUNTERWEIGHT, Mechanism
+from .dynamics import reduced
 from .kinematics import Kinematics, solve
 
 
@@ -163,8 +164,6 @@ def steady_delta(b: Batch, iterations: int = 12) -> np.ndarray:
     Returns:
       (V,) delta, dimensionless.
     """
-    from .dynamics import reduced
-
     mech = b.mechanism
     motor = mech.steady.motor if mech.steady is not None else mech.dynamics.motor
     if motor is None:

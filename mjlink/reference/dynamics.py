@@ -323,7 +323,7 @@ def steady_motion(
     ``start`` rad/s: a first guess (default: where the motor balances the damping).
     """
     from scipy.integrate import solve_ivp  # see forward_dynamics
-    from scipy.optimize import brentq
+    from scipy.optimize import brentq  # as solve_ivp: here, not at the top
 
     dyn = mech.dynamics
     motor = dyn.motor

@@ -31,14 +31,28 @@ returns None. Units SI (rad, s, kg*m^2, N*m, J).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.polynomial import chebyshev as C
 
-if TYPE_CHECKING:  # dynamics imports this module
-    from .dynamics import SpectralDynamics
+
+class SpectralDynamics(Protocol):
+    """What the solver needs of the mechanism's reduced dynamics
+    (:class:`mjlink.reference.dynamics.SpectralDynamics` is one): the ``period`` (rad), the
+    ``tables`` of forces given as tables (their ``angles``, rad) and ``evaluate``, the rows J,
+    J', Q at input angles."""
+
+    @property
+    def period(self) -> float: ...
+
+    @property
+    def tables(self) -> Sequence[Any]: ...
+
+    def evaluate(self, phi: Any) -> np.ndarray: ...
+
 
 NODES = 24  # Chebyshev-Lobatto nodes per panel
 GRADED = 36  # geometric panels towards s = 0 for a start from rest (down to 2^-36 of a panel)

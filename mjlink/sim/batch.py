@@ -42,8 +42,6 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import mujoco
-import mujoco.rollout
 import numpy as np
 
 from .. import compare, reference
@@ -54,6 +52,7 @@ from ..model.mechanism import Mechanism
 from ..runs import Settings
 from ..units import RunKind
 from . import builder, simulate
+from ._mujoco import mujoco
 
 _RUN = str(RunKind.KINEMATICS)
 _FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS

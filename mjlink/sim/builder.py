@@ -27,7 +27,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from .. import palette, reference
@@ -36,6 +35,7 @@ from ..model.mechanism import COUNTERWEIGHT, Mechanism
 from ..model.topology import Pair, topology
 from ..runs import KINEMATIC, Settings
 from ..units import Integrator
+from ._mujoco import mujoco
 
 SERVO_STEPS = 100  # the kinematic drive's speed servo: time constant in timesteps
 

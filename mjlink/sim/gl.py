@@ -1,21 +1,21 @@
-"""Choosing MuJoCo's offscreen OpenGL backend, before MuJoCo is imported.
+"""Choosing MuJoCo's offscreen OpenGL backend, before MuJoCo is imported, through its documented
+``MUJOCO_GL`` (and PyOpenGL's ``PYOPENGL_PLATFORM``, which MuJoCo's EGL and OSMesa backends set).
 
 MuJoCo reads ``MUJOCO_GL`` once, when it is first imported. Every module that imports mujoco
-lives in :mod:`mjlink.sim`, whose ``__init__`` calls :func:`choose` first: the ordering holds
-by construction. This module never imports mujoco itself.
+lives in :mod:`mjlink.sim`, whose ``__init__`` calls :func:`choose` and then
+:func:`import_mujoco` first: the ordering holds by construction.
 
-Only rendering needs OpenGL. A ``MUJOCO_GL`` that would make ``import mujoco`` itself fail (a
-value mujoco does not know, or a backend whose library is not installed) is found by
-:func:`choose` before the import, kept as the render failure and taken out of the environment
-when mujoco is imported, so ``check``, ``build`` and ``simulate --no-video`` work; rendering then
-fails with one line naming the backend tried and how to install one.
+Only rendering needs OpenGL. A ``MUJOCO_GL`` value mujoco does not accept makes ``import
+mujoco`` itself fail (its RuntimeError naming the variable): :func:`import_mujoco` then keeps
+mujoco's message as the render failure, takes the value out of the environment and imports
+again, so ``check``, ``build`` and ``simulate --no-video`` work; rendering then fails with one
+line naming the backend tried and how to install one. A backend whose library is missing and
+``MUJOCO_GL=off`` import fine and fail at the first render, in the same words.
 """
 
 from __future__ import annotations
 
 import ctypes.util
-import importlib.abc
-import importlib.machinery
 import os
 import platform
 import subprocess
@@ -38,14 +38,6 @@ ctx.free()
 
 # Shared library each probed backend needs (ctypes.util.find_library names).
 _LIBRARY = {"egl": "EGL", "osmesa": "OSMesa"}
-# What importing mujoco with MUJOCO_GL=egl or osmesa loads (through PyOpenGL): without these
-# the import itself fails. Each entry is a list of alternatives, every entry is needed.
-_NEEDS = {"egl": (("EGL",), ("OpenGL", "GL")), "osmesa": (("OSMesa",),)}
-# MUJOCO_GL values mujoco accepts (mujoco.rendering.classic.gl_context), lower-cased and
-# stripped as it does; the first group turns OpenGL off, the others pick a backend.
-_OFF = ("disable", "disabled", "off", "false", "0")
-_ANY_SYSTEM = ("enable", "enabled", "on", "true", "1", "glfw", "")
-_PER_SYSTEM = {"Linux": ("glx", "egl", "osmesa"), "Windows": ("wgl",), "Darwin": ("cgl",)}
 
 INSTALL_HINT = (
     "install one (Debian/Ubuntu: apt-get install libegl1 libosmesa6, or libgl1-mesa-dri), set "
@@ -54,16 +46,14 @@ INSTALL_HINT = (
 )
 
 _backend: str | None = None
-_failure: RenderError | None = None  # why rendering cannot work, found before mujoco was imported
-_pending: str | None = None  # an unusable MUJOCO_GL still to take out of os.environ at mujoco's import
+_failure: RenderError | None = None  # why rendering cannot work, found when mujoco was imported
 
 
 def ensure_gl_backend() -> str:
     """Choose MuJoCo's offscreen OpenGL backend and return its name (e.g. ``'egl'``).
 
     * ``MUJOCO_GL`` already set in the environment: respected and returned as is; one that
-      :func:`choose` found unusable is the render failure, raised once mujoco was imported
-      without it (until then it is returned as set: nothing has been decided yet).
+      mujoco refused at its import (:func:`import_mujoco`) is the render failure.
     * mujoco already imported in this process with ``MUJOCO_GL`` unset: it is too late to
       choose, so the backend mujoco picked at import is returned (the module of
       ``mujoco.GLContext``: ``'glfw'`` on Linux and Windows, ``'cgl'`` or ``'glfw'`` on macOS;
@@ -77,18 +67,16 @@ def ensure_gl_backend() -> str:
       and OSMesa are Linux-only there.
 
     The answer is cached for the life of the process. Never imports mujoco itself.
-    Raises :class:`RenderError` if no backend works, or (once mujoco is imported) if
-    :func:`choose` found ``MUJOCO_GL`` unusable; before that the preset is returned as set.
+    Raises :class:`RenderError` if no backend works, or if mujoco refused ``MUJOCO_GL``.
     """
     global _backend
     if _backend is not None:
         return _backend
-    if _failure is not None and _pending is None:
+    if _failure is not None:
         raise _failure
     preset = os.environ.get("MUJOCO_GL")
     if preset:
-        if _failure is None:
-            _backend = preset
+        _backend = preset
         return preset
     if "mujoco" in sys.modules:
         _backend = _imported_backend()
@@ -224,61 +212,6 @@ def _clip(msg: object, limit: int = 160) -> str:
     return msg if len(msg) <= limit else msg[: limit - 3] + "..."
 
 
-def _missing(backend: str) -> str | None:
-    """The library ``backend`` loads at mujoco's import that is not installed, or None."""
-    for alternatives in _NEEDS.get(backend, ()):
-        if not any(ctypes.util.find_library(lib) for lib in alternatives):
-            return "lib" + alternatives[0]
-    return None
-
-
-def preset_problem(value: str, system: str | None = None) -> tuple[str, bool] | None:
-    """Why ``MUJOCO_GL=value`` cannot render on ``system`` (default: this one), and whether it
-    also breaks ``import mujoco`` (then it must leave the environment first); None if usable."""
-    system = system or platform.system()
-    v = value.lower().strip()
-    shown = ascii(value)[1:-1]  # no control characters from the environment in a message
-    if v in _OFF:
-        return f"MUJOCO_GL={shown} turns OpenGL off", False
-    valid = _ANY_SYSTEM + _PER_SYSTEM.get(system, ())
-    if v not in valid:
-        known = ", ".join((*_PER_SYSTEM.get(system, ()), "glfw"))
-        return f"MUJOCO_GL={shown} is no backend mujoco knows (on {system}: {known})", True
-    lib = _missing(v) if system == "Linux" else None
-    if lib:
-        return f"MUJOCO_GL={shown} needs {lib}, which is not installed", True
-    return None
-
-
-class _DropAtImport(importlib.abc.MetaPathFinder):
-    """Takes the unusable ``MUJOCO_GL`` out of ``os.environ`` when mujoco is first imported."""
-
-    def find_spec(
-        self, fullname: str, path: object = None, target: object = None
-    ) -> importlib.machinery.ModuleSpec | None:
-        if fullname == "mujoco":
-            _drop_pending()
-        return None  # the ordinary finders import it
-
-
-_hook = _DropAtImport()
-
-
-def _drop_pending() -> None:
-    global _pending
-    if _pending is not None and os.environ.get("MUJOCO_GL") == _pending:
-        del os.environ["MUJOCO_GL"]
-    _pending = None
-    if _hook in sys.meta_path:
-        sys.meta_path.remove(_hook)
-
-
-def _available() -> str:
-    """The probed backends whose libraries are installed here, for a message."""
-    found = [b for b in PROBE_ORDER if _missing(b) is None] if platform.system() == "Linux" else []
-    return ", ".join(found) or "none"
-
-
 NO_GL_ENV = "MJLINK_NO_GL"  # "1": the process will not render, so choose() probes nothing
 
 
@@ -286,26 +219,13 @@ def choose() -> None:
     """Choose the backend if it can be chosen; a failure is kept for the first render to raise.
 
     Only rendering needs OpenGL: ``check`` and ``build`` must work where none does. A preset
-    ``MUJOCO_GL`` that would make ``import mujoco`` fail is remembered as the render failure
-    and removed from ``os.environ`` as mujoco is imported (an import hook; a process that never
-    imports mujoco keeps its environment as it was).
+    ``MUJOCO_GL`` is left to mujoco (:func:`import_mujoco` deals with one it refuses); a process
+    that will not render (``MJLINK_NO_GL=1``) probes nothing.
     """
-    global _failure, _pending
-    preset = os.environ.get("MUJOCO_GL")
-    if preset and "mujoco" not in sys.modules:
-        problem = preset_problem(preset)
-        if problem is not None:
-            why, breaks_import = problem
-            _failure = RenderError(
-                f"cannot render: {why} (backend tried: {ascii(preset)[1:-1]}; libraries found here for: "
-                f"{_available()}); {INSTALL_HINT}"
-            )
-            if breaks_import:
-                _pending = preset
-                if _hook not in sys.meta_path:
-                    sys.meta_path.insert(0, _hook)
-            return
-    if os.environ.get(NO_GL_ENV) == "1" and not preset:
+    global _failure
+    if os.environ.get("MUJOCO_GL") or "mujoco" in sys.modules:
+        return
+    if os.environ.get(NO_GL_ENV) == "1":
         # This process will not render (a command without video): mujoco is imported without
         # probing OpenGL, which costs 0.1 to 0.5 s (a library load or a subprocess) for nothing.
         return
@@ -313,3 +233,48 @@ def choose() -> None:
         ensure_gl_backend()
     except RenderError as e:
         _failure = e
+
+
+def import_mujoco() -> None:
+    """Import mujoco with the chosen ``MUJOCO_GL``. If that import fails while ``MUJOCO_GL`` is set
+    (a value mujoco refuses: its RuntimeError; a backend whose library is missing: PyOpenGL's
+    error), mujoco is imported again without it (and without the ``PYOPENGL_PLATFORM`` that
+    attempt set); if that works, the first failure is kept, in one line, for the first render."""
+    global _failure
+    platform_before = os.environ.get("PYOPENGL_PLATFORM")
+    try:
+        import mujoco  # here: after choose() set MUJOCO_GL, which mujoco reads when it is imported
+    except Exception as e:
+        value = os.environ.get("MUJOCO_GL")
+        if value is None:
+            raise
+        del os.environ["MUJOCO_GL"]
+        if platform_before is None:
+            os.environ.pop("PYOPENGL_PLATFORM", None)
+        try:
+            import mujoco  # noqa: F401  (the modules loaded before the failure are reused)
+        except Exception:
+            os.environ["MUJOCO_GL"] = value
+            raise e from None
+        shown = ascii(value)[1:-1]  # no control characters from the environment in a message
+        if isinstance(e, RuntimeError) and "MUJOCO_GL" in str(e):
+            why = f"MUJOCO_GL={shown} is no backend mujoco knows (mujoco: {_clip(e)})"
+        else:
+            lib = _LIBRARY.get(value.lower().strip())
+            missing = f"lib{lib} not found: " if lib and ctypes.util.find_library(lib) is None else ""
+            why = f"MUJOCO_GL={shown} cannot be loaded ({missing}{type(e).__name__}: {_clip(e)})"
+        _failure = RenderError(f"cannot render: {why}; backend tried: {shown}; {INSTALL_HINT}")
+
+
+def context_failure(backend: str, e: BaseException | None) -> RenderError:
+    """The render failure of a backend mujoco imported but cannot make a context with: turned
+    off (``MUJOCO_GL=off``: mujoco then has no GLContext), or its library missing (mujoco's
+    placeholder context raises ImportError), in one line."""
+    shown = ascii(backend)[1:-1]
+    if e is None:
+        why = f"MUJOCO_GL={shown} turns OpenGL off in mujoco"
+    else:
+        lib = _LIBRARY.get(backend.lower().strip())
+        missing = f"lib{lib} not found; " if lib and ctypes.util.find_library(lib) is None else ""
+        why = f"MUJOCO_GL={shown}: {missing}{_clip(e)}"
+    return RenderError(f"cannot render: {why} (backend tried: {shown}); {INSTALL_HINT}")

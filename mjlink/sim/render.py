@@ -24,7 +24,6 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from .. import analysis, output, palette, reference
@@ -32,7 +31,8 @@ from ..errors import OutputError, RenderError
 from ..model.mechanism import Mechanism
 from ..runs import Settings, Trace
 from . import builder, simulate
-from .gl import _clip, ensure_gl_backend
+from ._mujoco import mujoco
+from .gl import _clip, context_failure, ensure_gl_backend
 
 PROGRESS_AFTER = 1.0  # s of rendering before a progress line is worth printing
 
@@ -145,6 +145,22 @@ def overlay_lines(trace: Trace, times: np.ndarray, time_scale: float, phi0: floa
             ]
         )
     return out
+
+
+def check_backend() -> str:
+    """The OpenGL backend rendering will use, tried now: one the environment chose
+    (``MUJOCO_GL``) makes a 16x16 context current here, as the video will (a probed one already
+    did); raises the one-line :class:`RenderError` a render would, before any run."""
+    backend = ensure_gl_backend()
+    if not hasattr(mujoco, "GLContext"):  # MUJOCO_GL turned OpenGL off
+        raise context_failure(backend, None)
+    try:
+        ctx = mujoco.GLContext(16, 16)
+        ctx.make_current()
+        ctx.free()
+    except Exception as e:
+        raise context_failure(backend, e) from None
+    return backend
 
 
 def render_video(
@@ -307,7 +323,7 @@ def _decorate(scene, extras: Extras, i: int) -> None:
 
 def _overlay(frame: np.ndarray, lines: list[str], font) -> np.ndarray:
     """``lines`` written in the frame's top-left corner on a translucent white box."""
-    from PIL import Image, ImageDraw
+    from PIL import Image, ImageDraw  # here: only for a video's overlay
 
     img = Image.fromarray(frame)
     d = ImageDraw.Draw(img, "RGBA")
@@ -354,8 +370,12 @@ def _frames(
         # No shadow map either: shadows are switched off below, and MuJoCo would still
         # allocate the 4096^2 map with the context (0.07 s of a software context's 0.2 s).
         model.vis.quality.shadowsize = 0
+        if not hasattr(mujoco, "GLContext"):  # MUJOCO_GL turned OpenGL off
+            raise context_failure(backend, None)
         try:
             renderer = mujoco.Renderer(model, height, width)
+        except ImportError as e:  # the backend's library is missing (mujoco's placeholder context)
+            raise context_failure(backend, e) from None
         except Exception as e:
             hint = (
                 (
@@ -380,7 +400,7 @@ def _frames(
         # The skybox's textured sphere is half of a software-rendered frame (9 -> 4.5 ms):
         # a flat backdrop behind the mechanism gives the same light ground (_decorate).
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
-        from PIL import ImageFont
+        from PIL import ImageFont  # here: only for a video's overlay
 
         font = ImageFont.load_default(size=max(10, round(OVERLAY_HEIGHT * height * 0.8)))
         writer = _open_writer(tmp, fps)
@@ -435,7 +455,7 @@ def _gl_renderer() -> bytes:
         name = get(0x1F01)  # GL_RENDERER
         if name:
             return name
-    from OpenGL import GL
+    from OpenGL import GL  # here: 0.1 s of import, only to name the renderer
 
     name = GL.glGetString(GL.GL_RENDERER) or b""
     return name if isinstance(name, bytes) else str(name).encode()
@@ -455,7 +475,7 @@ def _software_gl() -> bool:
 def _open_writer(path: Path, fps: float):
     """An imageio ffmpeg writer for H.264 yuv420p at ``fps`` frames/s."""
     try:
-        import imageio.v2 as iio
+        import imageio.v2 as iio  # here: only for a video
     except ImportError as e:
         raise RenderError(
             f"cannot encode video: imageio is not installed ({e}); pip install imageio imageio-ffmpeg"

@@ -26,7 +26,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from .. import reference
@@ -37,6 +36,7 @@ from ..model.mechanism import Mechanism
 from ..runs import DYNAMIC, KINEMATIC, Case, Settings, SteadyRun, Trace
 from ..units import RunKind, Source
 from . import builder
+from ._mujoco import mujoco, rollout
 
 FLYWHEEL_RATIO = 1e9
 PROGRESS_EVERY = 0.5  # s between progress reports of a long run
@@ -179,7 +179,6 @@ def _record_rollout(
     the state before step j+1, at t = j dt, which is the state rollout returned for step j
     (the initial state for j = 0). ``steps + 1`` steps give the samples up to the run's end.
     """
-    from mujoco import rollout
 
     model = built.physics
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS

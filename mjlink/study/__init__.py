@@ -11,11 +11,12 @@ The Python API (the ``study`` command is a thin layer over it)::
                          metrics=[{"kind": "thread_range"}, {"kind": "torque_peak"}])
     res.columns["thread_range"]                               # (201,) mm, NaN where infeasible
     checks = study.verify([v, mech])                          # MuJoCo, one batched rollout
-    out = study.run("takeup_tolerance", client=my_dask_client)  # a whole study file, written
 
     from mjlink.study import optimize                         # optimal synthesis ([optimize])
     res = optimize.run(study.load("crank_slider_pareto"))     # no files: res.winner, res.front
-    out = study.run("takeup_eyelets_demand")                  # searched, verified, winner.toml written
+
+A whole study file run and written (its folder, table, summary, figures; an optimization's
+winner file): :func:`mjlink.run_study`.
 
 Parameter paths and their units: :mod:`mjlink.model.paths`; metrics:
 :mod:`mjlink.analysis.metrics`; the study file: ``studies/README.md``.
@@ -23,6 +24,7 @@ Parameter paths and their units: :mod:`mjlink.model.paths`; metrics:
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -33,12 +35,11 @@ from ..analysis import metrics as _metrics
 from ..model import paths as _paths
 from ..model.mechanism import Mechanism
 from ..reference import batch as _batch
+from ..validation import get
 from .spec import Study, StudyFileError, Varied, load, parse
 from .tasks import Evaluated, Verified, reference_chunk
 
 if TYPE_CHECKING:
-    from ..pipeline.optimize import OptimizeResult
-    from ..pipeline.study import StudyResult
     from ..sim.batch import Verification
 
 __all__ = [
@@ -51,14 +52,12 @@ __all__ = [
     "mechanism",
     "override",
     "parse",
-    "run",
     "verify",
 ]
 
 
 def mechanism(name_or_path: str | Path) -> Mechanism:
     """A validated mechanism: a registered name (``takeup``) or a file's path."""
-    from ..validation import get
 
     return get(name_or_path)
 
@@ -117,17 +116,7 @@ def verify(mechs: Sequence[Mechanism], *, threads: int | None = None) -> list[Ve
     """MuJoCo's check of variants of one mechanism (same topology), stepped together in one
     ``mujoco.rollout`` over one period at constant speed and compared with the reference with
     the thresholds of ``simulate``. ``threads`` default: one per core."""
-    import os
 
-    from ..sim import batch as _sim
+    from ..sim import batch as _sim  # here: MuJoCo (0.4 s), only to verify
 
     return _sim.verify(list(mechs), threads=threads or os.cpu_count() or 1)
-
-
-def run(study: Study | str | Path, out_root: Path | str = Path("renders"), **kw: Any) -> StudyResult | OptimizeResult:
-    """Run a study (an ``[optimize]`` one returns a
-    :class:`~mjlink.pipeline.optimize.OptimizeResult`) and write its outputs (see :func:`mjlink.pipeline.study.run` for the options:
-    ``client``, ``scheduler``, ``workers``, ``plots``, ``force``, ``progress``)."""
-    from ..pipeline.study import run as _run
-
-    return _run(study, out_root, **kw)

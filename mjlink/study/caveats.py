@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from . import sampling
 from .spec import Study
 
 if TYPE_CHECKING:
@@ -202,7 +201,7 @@ def _active(study: Study, ev: Any, x: np.ndarray) -> list[str]:
     """The [[bound]]s within NEAR_LIMIT of their limit at ``x`` (robust: its worst sample)."""
     if not study.bounds:
         return []
-    rows = ev.rows(x[None] + sampling.robust_deviations(study))
+    rows = ev.rows(x[None] + ev.dev)  # the robust mode's deviations (one row of zeros without)
     out = []
     for b in study.bounds:
         a = rows.columns[b.column]

@@ -232,7 +232,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
         yield None, "in process"
         return
     try:
-        from distributed import Client, LocalCluster
+        from distributed import Client, LocalCluster  # here: Dask (0.4 s), only for a cluster
     except ImportError as e:  # pragma: no cover - a dependency
         raise EngineError(f"Dask distributed is not installed ({e}): pip install 'dask[distributed]'") from None
     if address:
@@ -263,7 +263,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
             _close_quietly(client)
         return
     n = workers or os.cpu_count() or 1
-    import dask
+    import dask  # here: Dask (0.4 s), only for a cluster
 
     # glibc reads these when a process starts (see mjlink.memory): the nanny's
     # pre-spawn environment is the only place to set them before a worker exists.
@@ -343,10 +343,9 @@ def _one_line(e: BaseException) -> str:
 
 
 def _warm() -> None:
+    """Run on every worker at start: its imports made now, not inside the first timed task."""
     import mjlink.sim.batch
-    import mjlink.study.tasks
-
-    mjlink.study.tasks._keep_freed_memory()
+    import mjlink.study.tasks  # noqa: F401
 
 
 def _warm_local() -> None:
@@ -518,7 +517,7 @@ def _map(
         for a, b in todo:
             done((a, b), fn(study, values[a:b], **kwargs))
         return
-    from distributed import as_completed
+    from distributed import as_completed  # here: Dask, only for a cluster
 
     futures = {client.submit(fn, study, values[a:b], pure=False, **kwargs): (a, b) for a, b in todo}
     try:

@@ -140,8 +140,13 @@ class Result:
 
 
 def deviations(study: Study) -> np.ndarray:
-    """(R, P) the robust mode's tolerance deviations (:func:`.sampling.robust_deviations`)."""
-    return sampling.robust_deviations(study)
+    """(R, P) the robust mode's tolerance deviations (file units; one row of zeros without
+    ``[robust]``), drawn once from the robust seed (:func:`.sampling.deviations`): the same for
+    every candidate."""
+    rb = study.robust
+    if rb is None:
+        return np.zeros((1, len(study.varied)))
+    return sampling.deviations(study.varied, rb.samples, rb.seed)
 
 
 def needed(study: Study) -> tuple[Any, ...]:
@@ -533,7 +538,7 @@ def criterion(study: Study) -> str:
 def _warm_init(study: Study, warm: list[np.ndarray], index: int) -> np.ndarray:
     """An initial population for a front run: a fresh scrambled Sobol sample (seeded by the
     run) with the given optima in place of its first rows, so each run starts from them."""
-    from scipy.stats import qmc
+    from scipy.stats import qmc  # here: scipy.stats (0.7 s), only for a search
 
     opt = study.optimize
     assert opt is not None

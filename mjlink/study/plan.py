@@ -123,23 +123,6 @@ def duration_text(s: float) -> str:
     return f"{s / 86400:.3g} days"
 
 
-_UNITS = {"": 1.0, "b": 1.0, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb": 1e9, "t": 1e12, "tb": 1e12}
-_UNITS |= {"kib": 2.0**10, "mib": 2.0**20, "gib": 2.0**30, "tib": 2.0**40}
-
-
-def parse_size(text: str) -> float:
-    """'64GiB', '500MB', '2e9' -> bytes; ValueError for anything else."""
-    t = text.strip().lower().replace(" ", "")
-    i = len(t)
-    while i and t[i - 1].isalpha():
-        i -= 1
-    number, unit = t[:i], t[i:]
-    v = float(number)
-    if unit not in _UNITS or not math.isfinite(v) or v <= 0:
-        raise ValueError(text)
-    return v * _UNITS[unit]
-
-
 def memory_limit() -> float:
     """Three quarters of the memory available now (Linux ``MemAvailable``; elsewhere half the
     physical memory), bytes."""

@@ -14,40 +14,37 @@ Values are in the file's units; the same study file gives the same variants on a
 from __future__ import annotations
 
 import itertools
+import warnings
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .spec import Study, Varied
+from .varied import Varied
 
 
-def sample(study: Study) -> np.ndarray:
-    """(V, P) parameter values of every variant, file units."""
-    P = len(study.varied)
-    if study.method == "optimize":
-        raise ValueError(f"{study.name}: an optimization draws its candidates itself (mjlink.study.optimize)")
-    if study.method == "grid":
-        return np.array(list(itertools.product(*(v.values for v in study.varied))), dtype=float).reshape(-1, P)
-    if study.method == "random":
-        from scipy.stats import qmc
+def grid(varied: Sequence[Varied]) -> np.ndarray:
+    """(V, P) every combination of the parameters' values, the first parameter slowest."""
+    P = len(varied)
+    return np.array(list(itertools.product(*(v.values for v in varied))), dtype=float).reshape(-1, P)
 
-        engine: qmc.QMCEngine
-        if study.sequence == "sobol":
-            engine = qmc.Sobol(P, scramble=True, seed=study.seed)
-        else:
-            engine = qmc.LatinHypercube(P, seed=study.seed)
-        with np.errstate(all="ignore"):
-            import warnings
 
-            with warnings.catch_warnings():  # Sobol warns for sample counts that are no power of 2
-                warnings.simplefilter("ignore", UserWarning)
-                u = engine.random(study.samples)
-        lo = np.array([v.low for v in study.varied])
-        hi = np.array([v.high for v in study.varied])
-        return np.asarray(qmc.scale(u, lo, hi), dtype=float)
-    return tolerance(study.varied, study.samples, study.seed)
+def quasi_random(varied: Sequence[Varied], samples: int, seed: int, sequence: str) -> np.ndarray:
+    """(samples, P) a scrambled Sobol sequence (``sequence`` 'sobol') or a Latin hypercube
+    ('lhs') over the parameters' ranges, seeded."""
+    from scipy.stats import qmc  # here: scipy.stats (0.7 s), only for a random design
+
+    P = len(varied)
+    engine: qmc.QMCEngine
+    if sequence == "sobol":
+        engine = qmc.Sobol(P, scramble=True, seed=seed)
+    else:
+        engine = qmc.LatinHypercube(P, seed=seed)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # Sobol warns for sample counts that are no power of 2
+        u = engine.random(samples)
+    lo = np.array([v.low for v in varied])
+    hi = np.array([v.high for v in varied])
+    return np.asarray(qmc.scale(u, lo, hi), dtype=float)
 
 
 def deviations(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:
@@ -67,12 +64,3 @@ def tolerance(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:
     """(samples, P) a tolerance study's variants: nominal + :func:`deviations`."""
     nominal = np.array([v.param.nominal for v in varied])
     return nominal + deviations(varied, samples, seed)
-
-
-def robust_deviations(study: Study) -> np.ndarray:
-    """(R, P) a robust optimization's tolerance deviations (file units; one row of zeros without
-    ``[robust]``), drawn once from the robust seed: the same for every candidate."""
-    rb = study.robust
-    if rb is None:
-        return np.zeros((1, len(study.varied)))
-    return deviations(study.varied, rb.samples, rb.seed)

@@ -30,7 +30,9 @@ from ..model import names as _names
 from ..model.limits import MAX_FILE_BYTES, MAX_TITLE_CHARS
 from ..model.mechanism import Mechanism
 from ..model.reader import digits, shown
-from . import sampling
+from . import sampling, values
+from .errors import StudyFileError, StudyLimitError
+from .varied import Varied
 
 METHODS = ("grid", "random", "tolerance")  # sampling; an [optimize] table makes the method "optimize"
 SEQUENCES = ("sobol", "lhs")
@@ -40,38 +42,7 @@ SENSES = ("min", "max")
 INITS = ("sobol", "lhs")
 MAX_VARIANTS = 10_000_000
 MAX_PER_TURN = 3600
-# Tolerance samples held against the mechanism file's validation one by one up to this many
-# values; beyond, the band is bounded instead (uniform: +-tolerance; normal: +-2 tolerance, six
-# standard deviations).
-MAX_CHECKED_SAMPLES = 20_000_000
 STUDIES_DIR = catalogue.STUDIES_DIR
-
-
-class StudyFileError(MjlinkError):
-    """A study file is unreadable or asks for something that cannot be done."""
-
-
-class StudyLimitError(StudyFileError, InputError):
-    """A study file (or its path) beyond one of mjlink's limits: too large, nested too deeply,
-    a number of too many digits or too large, more variants than allowed. Refused before any
-    work, exit status 2 on the command line (as a usage error: nothing ran, nothing was
-    written)."""
-
-
-@dataclass(frozen=True)
-class Varied:
-    """One varied parameter and how it varies (file units).
-
-    grid: ``values``; random: ``low``/``high``; tolerance: ``tolerance`` (the +- band) and
-    ``distribution`` ('uniform' over the band, or 'normal' with sigma = tolerance / 3).
-    """
-
-    param: paths.Param
-    values: tuple[float, ...] = ()
-    low: float = math.nan
-    high: float = math.nan
-    tolerance: float = math.nan
-    distribution: str = "uniform"
 
 
 @dataclass(frozen=True)
@@ -208,7 +179,13 @@ class Study:
     def values(self) -> np.ndarray:
         """(V, P) every variant's parameter values, file units, in a fixed order (the seed
         fixes random and tolerance samples)."""
-        return sampling.sample(self)
+        if self.method == "optimize":
+            raise ValueError(f"{self.name}: an optimization draws its candidates itself (mjlink.study.optimize)")
+        if self.method == "grid":
+            return sampling.grid(self.varied)
+        if self.method == "random":
+            return sampling.quasi_random(self.varied, self.samples, self.seed, self.sequence)
+        return sampling.tolerance(self.varied, self.samples, self.seed)
 
 
 def _fail(src: object, where: str, what: str) -> StudyFileError:
@@ -335,7 +312,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         raise error(src, "[study] mechanism", str(e)) from None
     base = mech
     fixed = _fixed(src, mech, data.get("set", {}))
-    _check_set(src, text, base, fixed)
+    values.check_set(src, text, base, fixed)
     if fixed:
         try:
             mech = paths.apply(mech, {paths.resolve(mech, k): v for k, v in fixed})
@@ -446,7 +423,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
             f"sizing a flywheel needs a drive characteristic: {mech.name} has neither [steady] nor "
             "[dynamics.motor] (give one in the mechanism file, or set steady.* in [set])",
         )
-    _check_varied(src, text, base, fixed, varied, method, samples, seed, robust)
+    values.check_varied(src, text, base, fixed, varied, method, samples, seed, robust)
 
     digest = hashlib.sha256(text.encode() + b"\0" + mtext).hexdigest()[:16]
     return Study(
@@ -693,122 +670,3 @@ def _range(src: object, rp: dict, where: str) -> tuple[float, float]:
     if not lo < hi:
         raise _fail(src, f"{where} range", f"low must be below high, got [{lo:g}, {hi:g}]")
     return lo, hi
-
-
-# ------------------------------------------------------------------ values written into the mechanism
-def _line(text: str, table: str, index: int = 0, key: str | None = None) -> int | None:
-    """The 1-based line of the ``index``-th ``[table]`` (``[[table]]``) header in a study file's
-    text, or of ``key`` within that table; None if not found (the text is scanned, not parsed:
-    a line number for a message)."""
-    seen = -1
-    inside = False
-    for n, raw in enumerate(text.splitlines(), 1):
-        line = raw.strip()
-        if line.startswith("["):
-            head = line.split("#", 1)[0].strip().strip("[]").strip()
-            inside = head == table and (seen := seen + 1) == index
-            if inside and key is None:
-                return n
-            continue
-        if inside and key is not None:
-            name = line.split("=", 1)[0].strip().strip("'\"")
-            if "=" in line and name == key:
-                return n
-    return None
-
-
-def _at(src: object, line: int | None) -> str:
-    return f"{src}:{line}" if line is not None else f"{src}"
-
-
-def _values_fail(src: object, line: int | None, where: str, e: MjlinkError) -> StudyFileError:
-    why = str(e).split(": ", 1)[-1]  # the reader's message without its file's path
-    return StudyFileError(f"{_at(src, line)}: {where}: {why}")
-
-
-def _check_set(src: object, text: str, mech: Mechanism, fixed: tuple[tuple[str, float], ...]) -> None:
-    """Every ``[set]`` value through the mechanism file's own validation, one at a time (so the
-    message names its line), then all together."""
-    if mech.path is None or not fixed:
-        return
-    resolved = [(k, paths.resolve(mech, k), v) for k, v in fixed]
-    for k, p, v in resolved:
-        try:
-            paths.check_values(mech, {p: v})
-        except MjlinkError as e:
-            raise _values_fail(src, _line(text, "set", key=k), f"[set] {k} = {v:g}", e) from None
-    try:
-        paths.check_values(mech, {p: v for _, p, v in resolved})
-    except MjlinkError as e:
-        raise _values_fail(src, _line(text, "set"), "[set]", e) from None
-
-
-def _check_varied(
-    src: object,
-    text: str,
-    mech: Mechanism,
-    fixed: tuple[tuple[str, float], ...],
-    varied: list[Varied],
-    method: str,
-    samples: int,
-    seed: int,
-    robust: Robust | None,
-) -> None:
-    """Every value a study will write into the mechanism (grid values, the ends of a range, the
-    tolerance samples, a robust optimization's range widened by its deviations) held to the
-    mechanism file's own validation with the other numbers at their [set] or file values.
-
-    The rules of a mechanism file bound a value from below, from above or in magnitude, so the
-    smallest, the largest and the smallest in magnitude of the values a parameter takes (0 if
-    a range spans it) are the ones to check."""
-    if mech.path is None:
-        return
-    base = {paths.resolve(mech, k): v for k, v in fixed}
-    extremes = _extremes(varied, method, samples, seed, robust)
-    for i, (v, (what, xs)) in enumerate(zip(varied, extremes, strict=True)):
-        for x in xs:
-            try:
-                paths.check_values(mech, {**base, v.param: x})
-            except MjlinkError as e:
-                where = f"[[parameter]] #{i + 1} ({v.param.path}) {what}"
-                unit = f" {v.param.unit}" if v.param.unit else ""
-                raise _values_fail(
-                    src,
-                    _line(text, "parameter", i, "path"),
-                    f"{where}: {x:g}{unit} would make an invalid mechanism file",
-                    e,
-                ) from None
-
-
-def _extremes(
-    varied: list[Varied], method: str, samples: int, seed: int, robust: Robust | None
-) -> list[tuple[str, list[float]]]:
-    """Per parameter: what its values are called in a message, and the values to check."""
-    dev_lo = dev_hi = np.zeros(len(varied))
-    if method == "optimize" and robust is not None:
-        d = sampling.deviations(varied, robust.samples, robust.seed)
-        dev_lo, dev_hi = d.min(axis=0), d.max(axis=0)
-    sampled = None
-    if method == "tolerance" and samples * len(varied) <= MAX_CHECKED_SAMPLES:
-        sampled = sampling.tolerance(varied, samples, seed)
-    out = []
-    for j, v in enumerate(varied):
-        if method == "grid":
-            xs, what = list(v.values), "values"
-        elif method in ("random", "optimize"):
-            lo, hi = v.low + float(dev_lo[j]), v.high + float(dev_hi[j])
-            xs = [lo, hi] + ([0.0] if lo < 0 < hi else [])
-            what = "range" + (" with its tolerance" if robust is not None and v.tolerance > 0 else "")
-        elif sampled is not None:
-            col = sampled[:, j]
-            xs, what = list(col) if len(col) <= 3 else [float(col.min()), float(col.max())], "tolerance samples"
-            xs.append(float(col[np.argmin(np.abs(col))]))
-        else:
-            band = v.tolerance * (1.0 if v.distribution == "uniform" else 2.0)
-            lo, hi = v.param.nominal - band, v.param.nominal + band
-            xs, what = [lo, hi] + ([0.0] if lo < 0 < hi else []), "tolerance band"
-        if xs:
-            a = np.asarray(xs, dtype=float)
-            xs = sorted({float(a.min()), float(a.max()), float(a[np.argmin(np.abs(a))])})
-        out.append((what, xs))
-    return out

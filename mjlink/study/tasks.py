@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import memory
 from ..analysis import metrics as _metrics
 from ..reference import batch as _batch
 from .spec import Study
@@ -27,14 +26,6 @@ class Evaluated:
     columns: dict[str, np.ndarray]
     feasible: np.ndarray
     reason: tuple[str, ...]
-
-
-def _keep_freed_memory() -> None:
-    """This process's allocator keeps what it frees (:mod:`mjlink.memory`), with one arena: a
-    study task runs in a worker thread, one at a time. Runs when a worker starts (the engine's
-    warm-up), before the worker's task thread exists, and at every task (a no-op then)."""
-    memory.keep_freed_memory()
-    memory.one_arena()
 
 
 def nominal_values(study: Study) -> np.ndarray:
@@ -67,7 +58,6 @@ def _nominal(study: Study) -> _batch.Batch:
 
 def reference_chunk(study: Study, values: np.ndarray) -> Evaluated:
     """Feasibility and every metric of the variants ``values`` ((n, P), file units)."""
-    _keep_freed_memory()
     params = study.params
     nominal = _nominal(study)
     b = _batch.solve_batch(study.mechanism, params, values, study.per_turn)
@@ -93,7 +83,6 @@ class StudyWorker:
     for four calls), and the study travels once, not with every task."""
 
     def __init__(self, study: Study):
-        _keep_freed_memory()
         self.study = study
 
     def reference(self, values: np.ndarray) -> Evaluated:
@@ -117,9 +106,7 @@ class Verified:
 def mujoco_chunk(study: Study, values: np.ndarray, threads: int = 1) -> Verified:
     """Every variant of ``values`` ((n, P), file units) built in MuJoCo and run over one
     period at constant speed in one batched rollout, compared with the reference."""
-    from ..sim import batch as _sim_batch
-
-    _keep_freed_memory()
+    from ..sim import batch as _sim_batch  # here: MuJoCo (0.4 s), not on reference-only workers
 
     mechs = [_batch.variant(study.mechanism, study.params, row) for row in values]
     res = _sim_batch.verify(mechs, threads=threads)

@@ -18,16 +18,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from ..errors import MjlinkError
-from ..model import blocks
+from . import blocks, tomlio
 
 if TYPE_CHECKING:
-    from ..model.mechanism import Mechanism
+    from .mechanism import Mechanism
 
 
 @dataclass(frozen=True)
@@ -141,9 +142,6 @@ def design_file(
     l replace its crank and rod lengths, the guide moves to y = -e, the centres of mass stay at
     mid-length. Raises MjlinkError if no root is accepted.
     """
-    import tomllib
-
-    from ..model import tomlio
 
     root = best(stroke, offset, ratio, max_pressure_angle)
     if root is None:
