@@ -1,12 +1,70 @@
 """mjlink: MuJoCo models of sewing- and knitting-machine linkages, checked against the
 classical vector-method analysis.
 
-The data flows through the packages in this order: :mod:`.model` (a mechanism file read
-once into typed objects; the building blocks own their behaviour), :mod:`.reference` (the
-papers' analysis, exact and vectorized), :mod:`.validation`, :mod:`.runs` (run data),
-:mod:`.sim` (the only MuJoCo side: builder, simulation, video), :mod:`.analysis`,
-:mod:`.compare` (every threshold), :mod:`.output`, :mod:`.plotting`, :mod:`.pipeline` (the
-only orchestrator) and :mod:`.cli`. Nothing is imported here.
+The public API (documented in docs/api.md; each name is a function of :mod:`mjlink.api`)::
+
+    import mjlink
+
+    mech = mjlink.load("takeup")              # a shipped mechanism, or a path to a .toml
+    tr = mjlink.traces(mech)                  # traces in memory: tr["P5_y_mm"], tr["phi1_deg"]
+    xml = mjlink.mjcf(mech)                   # the MJCF
+    res = mjlink.simulate(mech, "renders")    # `python -m mjlink simulate`: files and report
+    st = mjlink.run_study("crank_slider_grid", "renders", workers=0)
+    tab = mjlink.read_study(st.out_dir)       # the study's table and summary
+
+The names load on first use: ``import mjlink`` alone imports neither numpy nor MuJoCo.
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from .version import __version__
+
+if TYPE_CHECKING:
+    from .api import (
+        StudyTable,
+        Traces,
+        load,
+        mjcf,
+        read_study,
+        read_traces,
+        run_study,
+        simulate,
+        traces,
+    )
+    from .errors import MjlinkError
+    from .model.mechanism import Mechanism
+
+__all__ = [
+    "Mechanism",
+    "MjlinkError",
+    "StudyTable",
+    "Traces",
+    "__version__",
+    "load",
+    "mjcf",
+    "read_study",
+    "read_traces",
+    "run_study",
+    "simulate",
+    "traces",
+]
+
+_HOME = {"Mechanism": "mjlink.model.mechanism", "MjlinkError": "mjlink.errors"}
+
+
+def __getattr__(name: str) -> Any:
+    # The API's modules import numpy, the pipeline and (for a run) MuJoCo: loaded when a name
+    # is first used, so `import mjlink` (and `python -m mjlink --help`) stays light.
+    if name in __all__ and name != "__version__":
+        import importlib
+
+        value = getattr(importlib.import_module(_HOME.get(name, "mjlink.api")), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'mjlink' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,289 @@
+"""mjlink's public Python API: the functions :mod:`mjlink` exports (``import mjlink``).
+
+Six entry points, the command line's work from a script::
+
+    mech = mjlink.load("takeup")                # or a path to your own .toml
+    xml = mjlink.mjcf(mech)                     # the MJCF MuJoCo runs, as text
+    tr = mjlink.traces(mech)                    # one turn at the file's speed, in memory
+    tr["P5_y_mm"], tr["phi1_deg"]               # arrays, the unit in every name
+    res = mjlink.simulate(mech, "renders")      # what `mjlink simulate` writes, and its report
+    st = mjlink.run_study("crank_slider_grid", "renders", workers=0)
+    tab = mjlink.read_study(st.out_dir)         # its table, by column, and its summary
+
+Units: the arrays of :class:`Traces` and :class:`StudyTable` are in the unit their name ends
+with (``_mm``, ``_deg``, ``_rad_s``, ``_N_m``...), as in the CSV files; a mechanism object
+(:class:`~mjlink.model.Mechanism`) holds SI values (m, rad, kg, s). Errors are
+:class:`~mjlink.errors.MjlinkError` subclasses with a one-line message, the same the command
+line prints. docs/api.md shows a complete script.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from . import files, validation
+from .errors import MjlinkError
+from .model.mechanism import Mechanism
+from .pipeline import BuildResult, Options, SimulateResult, build
+from .pipeline import run as _simulate_run
+from .pipeline.optimize import OptimizeResult
+from .pipeline.study import StudyResult
+from .pipeline.study import run as _study_run
+from .reference import constant_speed, reference_trace
+from .sim import simulate as _sim
+from .units import RunKind
+
+__all__ = [
+    "StudyTable",
+    "Traces",
+    "load",
+    "mjcf",
+    "read_study",
+    "read_traces",
+    "run_study",
+    "simulate",
+    "traces",
+]
+
+PathLike = str | os.PathLike[str]
+
+
+def _mechanism(mechanism: Mechanism | PathLike) -> Mechanism:
+    return mechanism if isinstance(mechanism, Mechanism) else load(mechanism)
+
+
+def load(name_or_path: PathLike) -> Mechanism:
+    """Read and validate a mechanism: a shipped one by name (``'takeup'``; ``python -m mjlink
+    list`` names them) or a mechanism file by path.
+
+    Args:
+      name_or_path: a shipped mechanism's name, or a ``.toml`` file's path (a
+        :class:`pathlib.Path` is always a path).
+    Returns:
+      The mechanism, checked as ``python -m mjlink check`` checks it (it assembles over the
+      whole turn).
+    Raises:
+      MjlinkError: unknown name, missing file, or a file ``check`` refuses (one line naming
+        the file, the line and the value).
+    """
+    p = name_or_path if isinstance(name_or_path, Path) else os.fspath(name_or_path)
+    return validation.get(p)
+
+
+def mjcf(mechanism: Mechanism | PathLike, *, kinematic: bool = False) -> str:
+    """The mechanism's MuJoCo model as MJCF text (what ``python -m mjlink build`` writes).
+
+    Args:
+      mechanism: a :class:`Mechanism` or a name or path for :func:`load`.
+      kinematic: the kinematic run's model (a heavy flywheel holds the crank's speed) instead
+        of the dynamic one.
+    Returns:
+      The XML; ``mujoco.MjModel.from_xml_string`` loads it as it is.
+    """
+    result: BuildResult = build(_mechanism(mechanism), kinematic=kinematic)
+    return result.xml
+
+
+@dataclass(frozen=True)
+class Traces(Mapping[str, np.ndarray]):
+    """A run's traces by column name, each an array of shape (N,) in the unit its name ends
+    with: the columns of ``kinematics.csv`` (``time_s``, ``phi1_deg``, ``omega1_rad_s``,
+    ``n1_rpm``, ``P5_x_mm``, ``P5_vy_mm_s``, ``P5_ax_mm_s2``, ``thread_length_mm``...).
+
+    ``mechanism`` names the mechanism, ``source`` says who computed it: ``'mujoco'`` or
+    ``'reference'`` (the vector method), or ``'file'`` for traces read back from a CSV.
+    """
+
+    mechanism: str
+    source: str
+    columns: dict[str, np.ndarray] = field(repr=False)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise KeyError(f"no trace {name!r} (names: {', '.join(self.columns)})") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.columns)
+
+    def __len__(self) -> int:
+        return len(self.columns)
+
+
+def traces(
+    mechanism: Mechanism | PathLike,
+    *,
+    source: Literal["mujoco", "reference"] = "mujoco",
+    cycles: float | None = None,
+    speed_rpm: float | None = None,
+) -> Traces:
+    """The constant-speed kinematic run of a mechanism, in memory (nothing is written).
+
+    Args:
+      mechanism: a :class:`Mechanism` or a name or path for :func:`load`.
+      source: ``'mujoco'``, the MuJoCo model sampled through its sensors, or ``'reference'``,
+        the vector-method analysis at the same instants.
+      cycles: crank periods to run (default: the file's ``[input] cycles``).
+      speed_rpm: crank speed, rpm, signed as in the file (default: the file's).
+    Returns:
+      :class:`Traces` with N samples per column (N grows with ``cycles``).
+    Raises:
+      MjlinkError: a bad speed or cycle count, or a MuJoCo run that leaves the reference's
+        assembly branch or diverges.
+    """
+    mech = _mechanism(mechanism)
+    if source not in ("mujoco", "reference"):
+        raise MjlinkError(f"source {source!r}: use 'mujoco' or 'reference'")
+    speed = None
+    if speed_rpm is not None:
+        if not (math.isfinite(speed_rpm) and speed_rpm != 0.0):
+            raise MjlinkError(f"speed_rpm {speed_rpm!r}: give a finite, non-zero speed in rpm")
+        speed = speed_rpm * 2.0 * math.pi / 60.0
+    if cycles is not None and not (math.isfinite(cycles) and cycles > 0.0):
+        raise MjlinkError(f"cycles {cycles!r}: give a finite, positive number of crank periods")
+    case = _sim.kinematic_case(mech, speed=speed, cycles=cycles)
+    trace = _sim.run(mech, case)
+    if source == "reference":
+        trace = reference_trace(mech, constant_speed(mech, trace.time, case.omega0), RunKind.KINEMATICS)
+    names, blocks = files.columns(mech, trace)
+    cols: dict[str, np.ndarray] = {}
+    i = 0
+    for values, factor in blocks:
+        block = np.asarray(values, dtype=float) * factor
+        for col in block.reshape(len(block), -1).T:
+            cols[names[i]] = col
+            i += 1
+    return Traces(mech.name, source, cols)
+
+
+def read_traces(path: PathLike) -> Traces:
+    """Traces read back from a CSV that ``simulate`` wrote (``kinematics.csv``,
+    ``reference_kinematics.csv``, ``dynamics.csv``, ``loads.csv``...), by column name."""
+    p = Path(path)
+    if not p.is_file():
+        raise MjlinkError(f"{p}: no such traces file")
+    return Traces(p.parent.name, "file", files.read_csv(p))
+
+
+def simulate(
+    mechanism: Mechanism | PathLike,
+    out: PathLike = "renders",
+    *,
+    video: bool = False,
+    plots: bool = True,
+    dynamics: bool = True,
+    loads: bool = True,
+    speed_rpm: float | None = None,
+    cycles: float | None = None,
+    duration: float | None = None,
+    force: bool = False,
+) -> SimulateResult:
+    """What ``python -m mjlink simulate`` does, into ``out/NAME/``: the kinematic run and its
+    agreement with the reference, the forward dynamics, loads, figures, ``index.html``,
+    ``report.json`` and the traces as CSV (:func:`read_traces` reads them).
+
+    Args:
+      mechanism: a :class:`Mechanism` or a name or path for :func:`load`.
+      out: the output root; the folder ``out/NAME/`` is written whole or not at all.
+      video: also render the MP4 (needs a working OpenGL backend; off by default here, on for
+        the command).
+      plots, dynamics, loads: the PNG figures, the forward-dynamics run, the driving torque
+        and pair reactions (each where the file has what it needs).
+      speed_rpm: crank speed, rpm (default: the file's); cycles: crank periods of the
+        kinematic run; duration: s of the dynamic run (defaults: the file's).
+      force: publish into an existing folder mjlink did not write (your files are kept).
+    Returns:
+      The run's :class:`~mjlink.pipeline.SimulateResult`: ``failures`` lists every threshold
+      missed (empty when MuJoCo agrees with the reference), ``as_dict()`` is ``report.json``,
+      ``out_dir`` the folder.
+    """
+    mech = _mechanism(mechanism)
+    speed = None if speed_rpm is None else speed_rpm * 2.0 * math.pi / 60.0
+    opts = Options(
+        speed=speed, cycles=cycles, duration=duration, dynamics=dynamics, plots=plots, video=video, loads=loads
+    )
+    return _simulate_run(mech, Path(out), opts, force=force)
+
+
+def run_study(
+    study: PathLike,
+    out: PathLike = "renders",
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    plots: bool = True,
+    force: bool = False,
+    progress: bool = False,
+) -> StudyResult | OptimizeResult:
+    """What ``python -m mjlink study`` does, into ``out/NAME-study/``: a sweep, tolerance
+    study or optimization of a study file (studies/README.md).
+
+    Args:
+      study: a shipped study's name (``'crank_slider_grid'``) or a study file's path.
+      out: the output root.
+      workers: processes of a local Dask cluster (default: one per core, or this process for
+        a small study; 0: this process, no Dask).
+      scheduler: an existing Dask scheduler's address ``tcp://HOST:PORT`` instead.
+      plots: write the PNG figures.
+      force: publish into an existing folder mjlink did not write (your files are kept).
+      progress: report progress on stderr.
+    Returns:
+      A :class:`~mjlink.pipeline.study.StudyResult` (``out_dir``, ``summary``), or for an
+      ``[optimize]`` study an :class:`~mjlink.pipeline.optimize.OptimizeResult` (its
+      ``winner_file`` and ``summary``, whose ``converged`` says whether the search settled).
+    Raises:
+      MjlinkError: a study refused before any work (one line naming the file and line).
+    """
+    spec = study if isinstance(study, Path) else os.fspath(study)
+    return _study_run(
+        spec, Path(out), workers=workers, scheduler=scheduler, plots=plots, force=force, progress=progress
+    )
+
+
+@dataclass(frozen=True)
+class StudyTable:
+    """A finished study's results: ``columns`` its table by column name (``results.parquet``:
+    one row per variant; numbers as float arrays in the unit the name ends with, text as
+    object arrays), ``summary`` its ``summary.json`` (for an optimization: ``converged``,
+    the ``winner``, ``caveats``...), ``out_dir`` the folder."""
+
+    out_dir: Path
+    columns: dict[str, np.ndarray] = field(repr=False)
+    summary: dict[str, Any] = field(repr=False)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise KeyError(f"no column {name!r} (names: {', '.join(self.columns)})") from None
+
+    def __len__(self) -> int:
+        """The number of rows (variants)."""
+        return len(next(iter(self.columns.values()))) if self.columns else 0
+
+
+def read_study(folder: PathLike) -> StudyTable:
+    """Read a study's results folder (``OUT/NAME-study/``, as :func:`run_study` returns it).
+
+    Raises:
+      MjlinkError: no such folder, or one without a study's ``results.parquet`` and
+        ``summary.json``.
+    """
+    d = Path(folder)
+    table, summ = d / "results.parquet", d / "summary.json"
+    if not d.is_dir():
+        raise MjlinkError(f"{d}: no such study folder")
+    if not (table.is_file() and summ.is_file()):
+        raise MjlinkError(f"{d}: not a study's results (no results.parquet and summary.json)")
+    summary = files.read_json(summ)
+    if not isinstance(summary, dict):
+        raise MjlinkError(f"{summ}: not a readable study summary")
+    return StudyTable(d, files.read_parquet(table), summary)

@@ -9,6 +9,13 @@ from __future__ import annotations
 
 import enum
 import math
+from typing import TYPE_CHECKING, TypeVar
+
+if TYPE_CHECKING:
+    import numpy as np
+
+# A quantity converted as it comes: a float gives a float, an array an array of the same shape.
+Q = TypeVar("Q", float, "np.ndarray")
 
 MM = 1e-3  # m per mm
 UM = 1e-6  # m per um
@@ -17,22 +24,22 @@ DEG = math.pi / 180.0  # rad per deg
 RPM = math.pi / 30.0  # rad/s per rev/min
 
 
-def to_rpm(omega):
+def to_rpm(omega: Q) -> Q:
     """rev/min from rad/s (scalar or array)."""
     return omega * 30.0 / math.pi  # not omega / RPM: this order matches the CSVs written so far bit for bit
 
 
-def from_rpm(n):
+def from_rpm(n: Q) -> Q:
     """rad/s from rev/min (scalar or array)."""
     return n * math.pi / 30.0  # the order of operations the torque command has always used
 
 
-def to_mm(x):
+def to_mm(x: Q) -> Q:
     """mm from m (scalar or array)."""
     return x / MM
 
 
-def to_um(x):
+def to_um(x: Q) -> Q:
     """um from m (scalar or array)."""
     return x / UM
 

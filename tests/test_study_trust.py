@@ -585,7 +585,7 @@ def test_a_seed_dependent_result_says_how_much():
     res = optimize.run(spec.parse(body, ROOT / "studies" / "x.toml"))
     s = res.caveats.seeds
     assert s is not None and s.seeds == (3, 4) and len(s.objectives) == 2 and s.spread > 0
-    assert not s.agree and not res.converged and any("seeds' optima differ" in w for w in res.not_converged)
+    assert not s.agree and not res.converged and any("runs' optima differ" in w for w in res.not_converged)
 
 
 # ================================================================= 10. names that say what is computed

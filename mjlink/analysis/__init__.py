@@ -32,7 +32,8 @@ from ..runs import Trace
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot product of two (N, k) arrays: (N,)."""
-    return np.einsum("ij,ij->i", a, b)
+    out: np.ndarray = np.einsum("ij,ij->i", a, b)
+    return out
 
 
 def magnitude(vectors: np.ndarray) -> np.ndarray:
@@ -45,7 +46,8 @@ def angle_turned(phi: np.ndarray) -> np.ndarray:
     """Angle (rad, >= 0) the input crank has turned since the first sample of ``phi`` (N,) rad,
     whichever way it turns: (N,)."""
     phi = np.asarray(phi)
-    return np.abs(phi - phi[0])
+    out: np.ndarray = np.abs(phi - phi[0])
+    return out
 
 
 # ----------------------------------------------------------------------------- thread
@@ -123,7 +125,8 @@ def pressure_angle(trace: Trace, slider: Slider) -> np.ndarray:
     g = trace.points[n2][:, :2] - trace.points[n1][:, :2]
     d = trace.points[slider.point][:, :2] - trace.points[slider.start][:, :2]
     c = np.abs(_dot(d, g)) / (norms(d) * norms(g))
-    return np.arccos(np.clip(c, 0.0, 1.0))
+    out: np.ndarray = np.arccos(np.clip(c, 0.0, 1.0))
+    return out
 
 
 def guide_moves(mech: Mechanism, slider: Slider) -> bool:
@@ -177,7 +180,8 @@ def higher_harmonics_share(amp: np.ndarray) -> float:
 # ----------------------------------------------------------------------------- loads
 def drive_power(torque: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Power (W) the drive puts in: torque (N*m) times crank speed (rad/s), each (N,): (N,)."""
-    return torque * omega
+    power: np.ndarray = torque * omega
+    return power
 
 
 def period_angle(mech: Mechanism, phi: np.ndarray) -> np.ndarray:
@@ -185,10 +189,13 @@ def period_angle(mech: Mechanism, phi: np.ndarray) -> np.ndarray:
     [0, period): the abscissa on which a periodic orbit and a run's last period line up
     whatever crank angle the run's last period starts at."""
     sense = 1.0 if mech.speed >= 0 else -1.0
-    return np.mod(sense * (np.asarray(phi, dtype=float) - mech.phi0), mech.period)
+    out: np.ndarray = np.mod(sense * (np.asarray(phi, dtype=float) - mech.phi0), mech.period)
+    return out
 
 
-def last_period_at(mech: Mechanism, trace: Trace, duration: float, ref_phi: np.ndarray, ref_omega: np.ndarray):
+def last_period_at(
+    mech: Mechanism, trace: Trace, duration: float, ref_phi: np.ndarray, ref_omega: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """MuJoCo's last ``duration`` s of ``trace`` against a reference orbit (``ref_phi`` rad,
     ``ref_omega`` rad/s over one period) on the same abscissa: the angle turned from phi0
     within the period (rad, sorted), MuJoCo's speed there and the reference's interpolated

@@ -193,7 +193,8 @@ class FeedDeviation(Metric):
 
     def _pd(self, b: Batch) -> np.ndarray:
         lf = _thread(b, self.where)
-        return lf - lf[:, :1] - (b.mechanism.thread_elongation or 0.0)
+        pd: np.ndarray = lf - lf[:, :1] - (b.mechanism.thread_elongation or 0.0)
+        return pd
 
     def curve(self, b: Batch, loads: Loads) -> Curve | None:
         demand = np.interp(b.theta, self.angles, self.values, period=b.mechanism.period)

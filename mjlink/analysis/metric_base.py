@@ -158,7 +158,8 @@ def _peak(x: np.ndarray, d: np.ndarray, dd: np.ndarray, step: float, high: bool)
     with np.errstate(all="ignore"):
         h = -dv / ddv
         ok = (np.abs(h) <= step) & ((ddv < 0) if high else (ddv > 0))
-        return np.where(ok, xv - dv * dv / (2.0 * ddv), xv)
+        peak: np.ndarray = np.where(ok, xv - dv * dv / (2.0 * ddv), xv)
+        return peak
 
 
 def _coordinate(b: Batch, point: str, ax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

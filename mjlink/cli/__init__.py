@@ -19,9 +19,10 @@ import sys
 from importlib import metadata
 from typing import Any, NoReturn
 
-from .. import __version__, notes
+from .. import notes
 from ..errors import MjlinkError
 from ..output import Terminated, interruptible
+from ..version import __version__
 from .commands import COMMANDS, EXAMPLES
 from .text import error_line, format_report
 

@@ -665,7 +665,7 @@ COMMANDS: tuple[Command, ...] = (
     ),
     Command(
         "synth",
-        "metric synthesis of the offset crank-slider (seed 002)",
+        "metric synthesis of the offset crank-slider (the crank-slider synthesis paper)",
         "example: python -m mjlink synth crank_slider --stroke 45 --offset 15 --lambda 0.35 "
         "--max-pressure-angle 40 --write my_slider.toml",
         _synth_arguments,

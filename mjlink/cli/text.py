@@ -301,12 +301,12 @@ def optimization(res: OptimizeResult) -> str:
         + (f" (robust: mean + {rb['k']:g} std over {rb['samples']} tolerance samples)" if rb else "")
         + (f", subject to {', '.join(s['bounds'])}" if s["bounds"] else ""),
         f"differential evolution: {s['evaluations']} evaluations in {len(s['runs'])} run(s) of "
-        f"{o['population']} per generation, seed {o['seed']}; {s['engine']}",
+        f"{o['population']} per generation, random seed {o['seed']}; {s['engine']}",
     ]
     conv = s["convergence"]
     if conv["converged"]:
         o = s["optimizer"]
-        agree = f"; the {o['seeds']} seeds agree" if o["seeds"] > 1 and not o["pareto"] else ""
+        agree = f"; the {o['seeds']} independent runs agree" if o["seeds"] > 1 and not o["pareto"] else ""
         polish = f", then polished to {o['xtol']:g} of every range" if o["polish_evaluations"] else ""
         lines.append(f"converged: yes (every run settled{polish}{agree}; the criterion is in summary.json)")
     else:
@@ -361,7 +361,7 @@ def study(res: StudyResult | OptimizeResult) -> str:
     s = res.summary
     lines = [
         f"study {s['study']} of {s['mechanism']}: {s['variants']} variants ({s['method']}"
-        + (f", seed {s['seed']}" if s["seed"] is not None else "")
+        + (f", random seed {s['seed']}" if s["seed"] is not None else "")
         + f"), {s['angles_per_turn']} crank angles per turn; {s['engine']}",
         f"feasible: {s['feasible']} of {s['variants']}"
         + (f"; within the bounds ({', '.join(s['bounds'])}): {s['within_bounds']}" if s["bounds"] else ""),

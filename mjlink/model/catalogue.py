@@ -1,4 +1,10 @@
-"""The catalogue of mechanisms: every ``mechanisms/*.toml`` of this checkout, by name.
+"""The catalogue of mechanisms: every shipped ``mechanisms/*.toml``, by name.
+
+The shipped mechanism and study files are package data (``mjlink/mechanisms`` and
+``mjlink/studies`` of an installed wheel, found with :mod:`importlib.resources`); run from a
+source checkout (an editable install, or ``python -m mjlink`` inside the checkout, where the
+package's own folder shadows an installed copy), they are the checkout's top-level
+``mechanisms/`` and ``studies/``, which the wheel is built from.
 
 Names and paths, the rule (one argument, never both readings):
 
@@ -7,8 +13,8 @@ Names and paths, the rule (one argument, never both readings):
   path is taken from the current folder, spaces need only the shell's quoting. It is never
   looked up as a name: ``./takeup.toml`` is the file in the current folder even though
   ``takeup`` is registered. A :class:`pathlib.Path` is always a path.
-* Any other argument is a **registered name** (:func:`names`): ``mechanisms/NAME.toml`` of
-  this checkout. A file in the current folder called like a registered mechanism is not
+* Any other argument is a **registered name** (:func:`names`): the shipped
+  ``mechanisms/NAME.toml``. A file in the current folder called like a registered mechanism is not
   used for the bare name; write ``./takeup``. Only a bare word that is no registered name but
   is an existing file is read as that file (so ``my_linkage`` works without an extension).
 
@@ -17,13 +23,29 @@ Names and paths, the rule (one argument, never both readings):
 from __future__ import annotations
 
 import difflib
+import importlib.resources
 import os
 from pathlib import Path
 
 from ..errors import UnknownMechanismError
 
-MECHANISMS_DIR = Path(__file__).resolve().parent.parent.parent / "mechanisms"
-STUDIES_DIR = MECHANISMS_DIR.parent / "studies"  # the shipped study files (mjlink.study.spec)
+
+def shipped(folder: str) -> Path:
+    """The folder of shipped files called *folder* (``'mechanisms'`` or ``'studies'``).
+
+    Package data of the installed package where it is there; otherwise the source checkout's
+    top-level folder (the package's parent). Shipped files are read as files on disk: a
+    mechanism file can name another by a relative path (``../mechanisms/examples/...``), which
+    the wheel keeps by shipping both folders side by side inside the package.
+    """
+    data = importlib.resources.files("mjlink").joinpath(folder)
+    if isinstance(data, Path) and data.is_dir():
+        return data
+    return Path(__file__).resolve().parent.parent.parent / folder
+
+
+MECHANISMS_DIR = shipped("mechanisms")
+STUDIES_DIR = shipped("studies")  # the shipped study files (mjlink.study.spec)
 
 
 def names() -> list[str]:

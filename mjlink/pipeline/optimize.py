@@ -34,14 +34,16 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__, compare, output
+from .. import compare, output
 from ..analysis import metrics as _metrics
+from ..model.mechanism import Mechanism
 from ..reference import batch
 from ..reference.dynamics import flywheel_for, steady_motion, steady_variant
 from ..study import engine
 from ..study import optimize as _opt
 from ..study.spec import Study
 from ..study.tasks import Verified
+from ..version import __version__
 from . import winner as _winner
 from .columns import column_name, versions
 from .progress import optimize_progress
@@ -221,7 +223,7 @@ def _verified(designs: list[_winner.Written]) -> Verified:
     )
 
 
-def _crank_link(mech: Any) -> str:
+def _crank_link(mech: Mechanism) -> str:
     c = mech.input_crank
     return next(l.name for l in mech.links if c.pivot in l.points and c.point in l.points)
 

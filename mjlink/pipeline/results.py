@@ -18,11 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__, compare, reference
+from .. import compare, reference
 from ..model import synthesis
 from ..runs import Settings
 from ..sim import builder
 from ..units import to_rpm
+from ..version import __version__
 
 STEADY_DEFINITION = "delta = (omega_max - omega_min) / omega_mean, omega_mean = time average over a period"
 

@@ -22,12 +22,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .. import __version__, compare, output
+from .. import compare, output
 from ..errors import InputError, OutputError
 from ..notes import note
 from ..study import cache, engine, plan
 from ..study.plan import Plan
 from ..study.spec import Study, load
+from ..version import __version__
 from . import optimize
 from .columns import column_name, versions
 from .progress import study_progress
@@ -259,7 +260,9 @@ def run(
             started = time.perf_counter() - t
             with output.staged_dir(pre.dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
                 try:
-                    o = engine.run(st, client=c, cache_dir=pre.cache_dir, progress=update)
+                    # c is None where the study runs in this process (workers 0): say so, or
+                    # the engine would start a local cluster of its own.
+                    o = engine.run(st, client=c, workers=0, cache_dir=pre.cache_dir, progress=update)
                 except KeyboardInterrupt:
                     _kept(pre.cache_dir)
                     raise

@@ -66,7 +66,7 @@ def convergence(title: str, res: Result, out_dir: Path) -> Path:
     )
     ax.grid(True, alpha=0.3)
     rb = f", robust: {st.robust.samples} tolerance samples each" if st.robust else ""
-    what = f"convergence of differential evolution ({opt.population} candidates per generation{rb}, seed {opt.seed})"
+    what = f"convergence of differential evolution ({opt.population} candidates per generation{rb}, random seed {opt.seed})"
     ax.set_title(_title(title, what), fontsize=10)
     if many:
         fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", fontsize=7.5, ncol=2)

@@ -156,7 +156,8 @@ def place(
 
 def deg(phi: Any) -> np.ndarray:
     """Degrees from radians (scalar or array)."""
-    return np.degrees(np.asarray(phi, dtype=float))
+    out: np.ndarray = np.degrees(np.asarray(phi, dtype=float))
+    return out
 
 
 def user_text(text: str) -> str:

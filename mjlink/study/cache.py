@@ -39,11 +39,11 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
 from ..errors import InputError
 from ..files import read_json
 from ..notes import note
 from ..output import atomic_path
+from ..version import __version__
 from .spec import Study
 
 FORMAT = 2  # the manifest's layout (1: {study, digest, version}, before the manifest named its parts)

@@ -57,7 +57,7 @@ class SeedSpread:
         shown = sorted(self.sign * f for f in self.objectives)
         rel = self.spread / max(abs(min(self.objectives, key=abs)), 1e-300)
         return (
-            f"the {len(self.seeds)} seeds' optima {'agree' if self.agree else 'differ'}: objective "
+            f"the {len(self.seeds)} independent runs' optima {'agree' if self.agree else 'differ'}: objective "
             f"{shown[0]:.8g} .. {shown[-1]:.8g} (spread {self.spread:.3g}, {rel:.2g} of it), parameters apart by up to "
             f"{self.parameters:.2g} of their ranges"
         )
@@ -79,7 +79,7 @@ class Caveats:
         out += [f"at the edge of feasibility: {t}" for t in self.edge]
         out += [f"redundant: {t}" for t in self.redundant]
         if self.seeds is not None:
-            out.append(f"seeds: {self.seeds.text()}")
+            out.append(f"runs: {self.seeds.text()}")
         return out
 
     def as_dict(self) -> dict[str, Any]:
@@ -192,7 +192,7 @@ def _non_unique(study: Study, seeds: SeedSpread | None) -> list[str]:
         return []
     which = ", ".join(f"{p} by {a:.0%}" for p, a in moved)
     return [
-        f"the {len(f)} seeds' optima have the same objective but differ in {which} of the ranges: the objective "
+        f"the {len(f)} independent runs' optima have the same objective but differ in {which} of the ranges: the objective "
         "depends on a combination of these, not on each (fix all but one of them)"
     ]
 

@@ -419,7 +419,7 @@ def _run(study: Study, ev: Evaluator, here: Evaluator, engine: str, progress: Pr
     spread: SeedSpread | None = None
     if opt.pareto is None:
         for k in range(opt.seeds):
-            one(k, f"seed {opt.seed + k}" if opt.seeds > 1 else "optimum", weighted, None, opt.seed + k)
+            one(k, f"run {k + 1} of {opt.seeds}" if opt.seeds > 1 else "optimum", weighted, None, opt.seed + k)
         _feasible_or_fail(study, runs, book, every=False)
         best = min(runs, key=lambda r: r.f)
         winner = best.x
@@ -527,7 +527,7 @@ def criterion(study: Study) -> str:
         else " (no polish)"
     )
     seeds = (
-        f"; the {opt.seeds} seeds' optima agree (objectives within {opt.ftol:g} of their value plus atol, or "
+        f"; the {opt.seeds} independent runs' optima agree (objectives within {opt.ftol:g} of their value plus atol, or "
         f"parameters within {SAME_POINT:g} of every range)"
         if opt.pareto is None and opt.seeds > 1
         else ""
