@@ -6,6 +6,9 @@ and key), so the CLI can print it without a traceback and exit non-zero.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+
 
 class MjlinkError(Exception):
     """Base class of every error mjlink raises on purpose. ``exit_status``: what the command line
@@ -49,3 +52,10 @@ class RenderError(MjlinkError):
 
 class OutputError(MjlinkError):
     """An output folder or file cannot be written."""
+
+
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """``"did you mean 'X'? "`` for the choice closest to a misspelt ``word``, or ``""``: the
+    start of the parenthesis of an error message that then lists the valid choices."""
+    near = difflib.get_close_matches(word, list(choices), n=1)
+    return f"did you mean '{near[0]}'? " if near else ""

@@ -6,12 +6,12 @@ docstring and in ``studies/README.md``.
 
 from __future__ import annotations
 
-import difflib
 import math
 from typing import Any, ClassVar
 
 import numpy as np
 
+from ..errors import did_you_mean
 from ..model.limits import MAX_LENGTH_MM
 from ..model.mechanism import Mechanism
 from ..model.reader import shown
@@ -259,8 +259,7 @@ def _points(mech: Mechanism, raw: Any, where: str, n: int) -> tuple[str, ...]:
         raise MetricError(f"{where}: 'points' must be a list of {n} point names")
     for p in raw:
         if p not in mech.point_names:
-            near = difflib.get_close_matches(p, list(mech.point_names), n=1)
-            hint = f"did you mean '{near[0]}'? " if near else ""
+            hint = did_you_mean(p, list(mech.point_names))
             raise MetricError(f"{where}: unknown point '{p}' ({hint}points: {', '.join(mech.point_names)})")
     return tuple(raw)
 

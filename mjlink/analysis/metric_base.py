@@ -8,7 +8,6 @@ study side (read, columns, feasibility, compute).
 
 from __future__ import annotations
 
-import difflib
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -16,7 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import InputError, MjlinkError
+from ..errors import InputError, MjlinkError, did_you_mean
 from ..model.limits import MAX_SPEED, MIN_SPEED
 from ..model.mechanism import Mechanism
 from ..model.reader import shown
@@ -89,8 +88,7 @@ class Metric(ABC):
         allowed = {"kind", *self.options} | ({"point"} if self.needs_point else set())
         for k in raw:
             if k not in allowed:
-                near = difflib.get_close_matches(k, sorted(allowed), n=1)
-                hint = f"did you mean '{near[0]}'? " if near else ""
+                hint = did_you_mean(k, sorted(allowed))
                 raise MetricError(f"{where}: unknown key '{k}' ({hint}valid: {', '.join(sorted(allowed))})")
         self.point = ""
         if self.needs_point:
@@ -98,8 +96,7 @@ class Metric(ABC):
             if not isinstance(p, str):
                 raise MetricError(f"{where}: needs 'point' (a point of {mech.name})")
             if p not in mech.point_names:
-                near = difflib.get_close_matches(p, list(mech.point_names), n=1)
-                hint = f"did you mean '{near[0]}'? " if near else ""
+                hint = did_you_mean(p, list(mech.point_names))
                 raise MetricError(f"{where}: unknown point '{p}' ({hint}points: {', '.join(mech.point_names)})")
             self.point = p
         self.read(raw)

@@ -17,7 +17,6 @@ sampled uniformly from phi0, the end excluded (a mean over them is the exact cyc
 
 from __future__ import annotations
 
-import difflib
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import did_you_mean
 from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
 from ..model.mechanism import Mechanism
 from ..reference.batch import Batch
@@ -60,8 +60,7 @@ def read(mech: Mechanism, raw: Any, i: int) -> Metric:
     if not isinstance(kind, str):
         raise MetricError(f"{where}: needs 'kind' (one of {', '.join(Metric.types)})")
     if kind not in Metric.types:
-        near = difflib.get_close_matches(kind, list(Metric.types), n=1)
-        hint = f"did you mean '{near[0]}'? " if near else ""
+        hint = did_you_mean(kind, list(Metric.types))
         raise MetricError(f"{where}: unknown metric '{kind}' ({hint}valid: {', '.join(Metric.types)})")
     return Metric.types[kind](mech, raw, f"{where} ({kind})")
 

@@ -14,7 +14,6 @@ Units: SI (m, rad) on the objects; the file's mm and deg only in :meth:`Block.re
 
 from __future__ import annotations
 
-import difflib
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Iterable
@@ -24,6 +23,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
+from ..errors import did_you_mean
 from ..units import DEG, MM
 from . import jet
 from .limits import MAX_ANGLE_DEG, MAX_GEAR_RATIO, MAX_LENGTH_MM, MAX_PRESSURE_DEG, MIN_BAR_MM, MIN_TRANSMISSION_DEG
@@ -643,8 +643,7 @@ def read(r: Reader, raw: Any, i: int) -> Block:
     raw = r.table(raw, where)
     kind = r.string(raw, "block", where)
     if kind not in Block.types:
-        near = difflib.get_close_matches(kind, list(Block.types), n=1)
-        hint = f"did you mean '{near[0]}'? " if near else ""
+        hint = did_you_mean(kind, list(Block.types))
         raise r.fail(f"{where} block", f"unknown block '{kind}' ({hint}valid: {', '.join(Block.types)})")
     point = r.name(raw.get("point"), f"{where} point") if "point" in raw else None
     if point is None:

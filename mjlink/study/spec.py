@@ -10,7 +10,6 @@ parameter path's unit says (:mod:`mjlink.model.paths`).
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import math
 import os
@@ -24,7 +23,7 @@ import numpy as np
 
 from .. import validation
 from ..analysis import metrics as _metrics
-from ..errors import InputError, MjlinkError
+from ..errors import InputError, MjlinkError, did_you_mean
 from ..model import catalogue, paths
 from ..model import names as _names
 from ..model.limits import MAX_FILE_BYTES, MAX_TITLE_CHARS
@@ -196,8 +195,7 @@ def _keys(src: object, raw: dict, where: str, required: list[str], optional: lis
     allowed = required + optional
     for k in raw:
         if k not in allowed:
-            near = difflib.get_close_matches(k, allowed, n=1)
-            hint = f"did you mean '{near[0]}'? " if near else ""
+            hint = did_you_mean(k, allowed)
             raise _fail(src, where, f"unknown key {shown(k)} ({hint}valid: {', '.join(allowed)})")
     for k in required:
         if k not in raw:
@@ -250,8 +248,7 @@ def find(name_or_path: str | Path) -> Path:
     if os.path.lexists(p):
         raise StudyLimitError(f"{p}: is not a regular file (a FIFO or a device?): give a study file")
     known = sorted(q.stem for q in STUDIES_DIR.glob("*.toml"))
-    near = difflib.get_close_matches(str(name_or_path), known, n=1)
-    hint = f"did you mean '{near[0]}'? " if near else ""
+    hint = did_you_mean(str(name_or_path), known)
     raise StudyFileError(f"{shown(str(name_or_path))}: no such study file ({hint}shipped: {', '.join(known)})")
 
 
@@ -454,8 +451,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
 def _column(src: object, name: Any, names: list[str], where: str) -> str:
     if isinstance(name, str) and name in names:
         return name
-    near = difflib.get_close_matches(str(name), names, n=1)
-    hint = f"did you mean '{near[0]}'? " if near else ""
+    hint = did_you_mean(str(name), names)
     raise _fail(src, where, f"'{name}' is no metric column of this study ({hint}columns: {', '.join(names)})")
 
 
