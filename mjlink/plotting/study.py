@@ -513,7 +513,8 @@ def feasible_region(
         _metric_panel(fig, ax, m, z, gx, gy, xe, ye, limits.get(m.name))
         ax.set_title(_wrap(m.label or m.name, _chars(panel_w - 0.9, 9), 2), fontsize=9)
     for ax in used:
-        _cells(ax, ~feas, xe, ye, fc=HATCH_FACE, hatch="////", hatchcolor=HATCH_LINES, zorder=2.5)
+        # The hatch takes the edge colour (the edge itself is not drawn: lw 0), in every matplotlib.
+        _cells(ax, ~feas, xe, ye, fc=HATCH_FACE, ec=HATCH_LINES, hatch="////", zorder=2.5)
         if math.isfinite(nominal.get(x.name, math.nan)) and math.isfinite(nominal.get(y.name, math.nan)):
             ax.plot(nominal[x.name], nominal[y.name], "*", ms=11, mfc="white", mec="k", mew=1.0, zorder=6)
         ax.set_xlim(xe[0], xe[-1])

@@ -329,7 +329,8 @@ def _loop_forces(
         inc[row_of[pr.child], e] += 1.0
         if pr.parent is not None:
             inc[row_of[pr.parent], e] -= 1.0
-    if np.linalg.matrix_rank(inc) < len(built.loops):
+    # numpy < 2 cannot take the rank of an empty matrix: no loops, nothing to tell apart.
+    if inc.size and np.linalg.matrix_rank(inc) < len(built.loops):
         raise SimulationError(f"{mech.name}: the loops' forces cannot be told apart from the links' balances")
     rhs = np.empty((len(links), len(rows), 3))
     for l in links:
