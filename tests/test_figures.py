@@ -5,6 +5,7 @@ opened in a real headless Chromium (Debian's package), every image and the video
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -12,15 +13,26 @@ import subprocess
 import sys
 
 import matplotlib
+import mujoco
+import numpy as np
 import pytest
 from conftest import ROOT
+from test_plots import KNOWN, _check_png, _expected
 
-from mjlink import pipeline
+from mjlink import output, pipeline
 from mjlink.model import catalogue, mechanism
 from mjlink.pipeline import workers
 from mjlink.plotting import figures, style
 
 MECHS = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting"]
+SPEED_AND_LOADS = {
+    "speed_vs_time.png",
+    "speed_vs_angle.png",
+    "torque.png",
+    "reactions.png",
+    "reaction_polar.png",
+    "shaking.png",
+}
 UNIT = re.compile(r"\[[^\]]+\]")
 
 
@@ -50,7 +62,7 @@ def run_figures(request, tmp_path_factory):
             pipeline.run(mech, out, pipeline.Options(video=False))
     finally:
         mp.undo()
-    yield mech, dict(figs)
+    yield mech, dict(figs), out / mech.name, [n for n, _ in figs]
     for f in dict(figs).values():
         matplotlib.pyplot.close(f)
 
@@ -60,8 +72,26 @@ def _residuals(fig):
 
 
 @pytest.mark.slow
+def test_every_mechanism_gets_its_figures(run_figures):
+    """The kinematic figures that apply to each mechanism (test_plots.KNOWN, and the rules of
+    all_plots for any other), the speed and loads figures beside them, every PNG valid, nothing
+    unreported or temporary in the folder."""
+    mech, figs, out, drawn = run_figures
+    kinematic = {n for n in figs if n not in SPEED_AND_LOADS}
+    assert len(drawn) == len(set(drawn)), "a figure drawn twice"
+    assert kinematic == KNOWN.get(mech.name, _expected(mech))
+    assert kinematic == _expected(mech)
+    assert set(figs) - kinematic == SPEED_AND_LOADS
+    pngs = {p.name for p in out.iterdir() if p.suffix == ".png"}
+    assert pngs == set(figs), "unreported figure files"
+    for name in pngs:
+        _check_png(out / name)
+    assert not [p.name for p in out.iterdir() if p.name.startswith(".") and p.name != output.MARKER], "temporary files"
+
+
+@pytest.mark.slow
 def test_figure_content(run_figures):
-    mech, figs = run_figures
+    mech, figs, _, _ = run_figures
     rk4 = mech.dynamics.paper_rk4_steps is not None
     for name, fig in figs.items():
         assert style.text_overlaps(fig) == [], f"{name}: labels overlap"
@@ -114,7 +144,10 @@ def _chromium() -> str:
 
 
 @pytest.mark.slow
-def test_html_page_in_headless_chromium(tmp_path):
+def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(tmp_path):
+    """The command as a user runs it (a fresh process, video included, --strict): every file,
+    the agreement within the thresholds, the CSV columns and the MJCF; then its page opened in
+    a real headless Chromium."""
     r = subprocess.run(
         [
             sys.executable,
@@ -128,6 +161,7 @@ def test_html_page_in_headless_chromium(tmp_path):
             "1",
             "--size",
             "320x240",
+            "--strict",
         ],
         capture_output=True,
         text=True,
@@ -136,6 +170,44 @@ def test_html_page_in_headless_chromium(tmp_path):
     )
     assert r.returncode == 0, r.stderr
     out = tmp_path / "takeup"
+    for f in (
+        "kinematics.csv",
+        "dynamics.csv",
+        "reference_kinematics.csv",
+        "reference_dynamics.csv",
+        "report.json",
+        "model.xml",
+        "takeup.mp4",
+        "speed_vs_time.png",
+        "speed_vs_angle.png",
+        "positions.png",
+        "thread_length.png",
+    ):
+        assert (out / f).is_file(), f
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")], "staging folder left behind"
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["failures"] == []
+    assert rep["agreement"]["kinematics"]["position_um"] <= 0.1
+    assert rep["agreement"]["dynamics"]["omega_rel"] <= 5e-4
+    assert rep["video"]["frames"] == 30
+    assert "Agreement of MuJoCo" in r.stdout and "thresholds" in r.stdout
+    kin = output.read_csv(out / "kinematics.csv")
+    for col in (
+        "time_s",
+        "phi1_deg",
+        "omega1_rad_s",
+        "eps1_rad_s2",
+        "n1_rpm",
+        "P5_x_mm",
+        "P5_y_mm",
+        "P5_z_mm",
+        "thread_length_mm",
+    ):
+        assert col in kin
+    assert kin["phi1_deg"][-1] - kin["phi1_deg"][0] >= 359.0
+    ref = output.read_csv(out / "reference_kinematics.csv")
+    assert np.abs(kin["P5_x_mm"] - ref["P5_x_mm"]).max() < 1e-3  # mm; same times, same crank law
+    mujoco.MjModel.from_xml_path(str(out / "model.xml"))
     page = out / "index.html"
     text = page.read_text()
     pngs = sorted(p.name for p in out.glob("*.png"))
@@ -178,7 +250,6 @@ def test_html_page_in_headless_chromium(tmp_path):
         timeout=120,
     )
     import imageio.v2 as iio
-    import numpy as np
 
     img = np.asarray(iio.imread(shot))
     assert img.shape[0] >= 1000 and img.std() > 10, "the screenshot is blank"
