@@ -113,3 +113,14 @@ def test_the_wheel_lists_every_package_and_ships_the_data():
     assert catalogue.MECHANISMS_DIR.samefile(ROOT / "mechanisms")
     assert catalogue.STUDIES_DIR.samefile(ROOT / "studies")
     assert (ROOT / "mjlink" / "py.typed").is_file()
+
+
+def test_a_finished_study_says_nothing_of_discarded_chunks(tmp_path, capsys):
+    """Publishing a study removes its cache without judging the chunks against a study of
+    unknown size (which said, after every finished sampled study, that they were discarded)."""
+    from mjlink.cli import main
+
+    assert main(["study", "crank_slider_grid", "--workers", "0", "--no-plots", "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err
+    assert "discarding" not in err, err
+    assert not (tmp_path / ".crank_slider_grid-study.chunks").exists()

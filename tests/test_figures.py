@@ -36,19 +36,6 @@ SPEED_AND_LOADS = {
 UNIT = re.compile(r"\[[^\]]+\]")
 
 
-@pytest.mark.parametrize("name", MECHS)
-def test_positions_labels_never_collide(name, tmp_path):
-    mech = mechanism.load(catalogue.path_of(name))
-    with style.keep_figures() as figs:
-        figures.positions_plot(mech, tmp_path, highlight=None if mech.thread else figures.analysis.key_point(mech))
-    ((_, fig),) = figs
-    assert style.text_overlaps(fig) == []
-    texts = [t.get_text() for ax in fig.axes for t in ax.texts]
-    assert any("clockwise" in t for t in texts), "no direction of rotation on the drawing"
-    assert sum(t.endswith("°") for t in texts) >= 3, "no crank-angle marks along the key path"
-    matplotlib.pyplot.close(fig)
-
-
 @pytest.fixture(scope="module", params=MECHS)
 def run_figures(request, tmp_path_factory):
     """Every figure ``simulate`` draws for one mechanism (no video), kept open to be read."""
@@ -65,6 +52,18 @@ def run_figures(request, tmp_path_factory):
     yield mech, dict(figs), out / mech.name, [n for n, _ in figs]
     for f in dict(figs).values():
         matplotlib.pyplot.close(f)
+
+
+@pytest.mark.slow
+def test_positions_labels_never_collide(run_figures):
+    """The drawing of the mechanism in its positions, as simulate draws it (the run's own figure:
+    figures.kinematic_plots draws it with the key point highlighted when there is no thread)."""
+    _, figs, _, _ = run_figures
+    fig = figs["positions.png"]
+    assert style.text_overlaps(fig) == []
+    texts = [t.get_text() for ax in fig.axes for t in ax.texts]
+    assert any("clockwise" in t for t in texts), "no direction of rotation on the drawing"
+    assert sum(t.endswith("°") for t in texts) >= 3, "no crank-angle marks along the key path"
 
 
 def _residuals(fig):

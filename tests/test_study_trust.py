@@ -405,14 +405,20 @@ def test_a_second_run_into_the_same_folder_is_refused_while_the_first_writes(tmp
 
 
 # ================================================================= 6. a replaced output is said so
-def test_a_rerun_says_what_it_replaced(tmp_path):
+def test_a_rerun_says_what_it_replaced(tmp_path, capsys, monkeypatch):
+    # The command line in this process (what it prints does not depend on the process), its
+    # figures drawn here rather than in a forked plot worker: the same files are written.
+    from mjlink.pipeline import workers
+
+    monkeypatch.setattr(workers, "start", lambda jobs: None)
     out = tmp_path / "out"
     common = ["simulate", str(CRANK_ROCKER), "--no-video", "--no-dynamics", "--out", str(out)]
-    first = _mjlink(*common)
-    assert first.returncode == 0 and "replaced" not in first.stderr, first.stderr
-    again = _mjlink(*common, "--no-plots")
-    assert again.returncode == 0, again.stderr
-    lines = [line for line in again.stderr.splitlines() if "replaced the previous output" in line]
+    assert main(common) == 0
+    first = capsys.readouterr().err
+    assert "replaced" not in first, first
+    assert main([*common, "--no-plots"]) == 0
+    again = capsys.readouterr().err
+    lines = [line for line in again.splitlines() if "replaced the previous output" in line]
     assert len(lines) == 1
     assert str(out / "crank_rocker") in lines[0] and "simulate" in lines[0] and "positions.png" in lines[0]
     assert "not written this time, so removed" in lines[0] and lines[0].startswith("mjlink: note: ")
@@ -625,7 +631,10 @@ def _case_files(tmp_path: Path) -> dict[str, str]:
     cases = {
         "grid_overflow": base.replace('method = "tolerance"\nsamples = 40', 'method = "grid"').replace(
             "tolerance = 0.05",
-            "range = [21.0, 23.0]\ncount = 10000000\n\n[[parameter]]\npath = 'ground.P4.x'\nrange = [9, 10]\ncount = 10000000",
+            # 10^5 x 10^5 x 10^4 = 10^14 variants: each parameter's values are built before the
+            # grid's size is checked, so three moderate counts keep that cheap (two of 10^7 took 1.3 s).
+            "range = [21.0, 23.0]\ncount = 100000\n\n[[parameter]]\npath = 'ground.P4.x'\nrange = [9, 10]\ncount = 100000"
+            "\n\n[[parameter]]\npath = 'ground.P4.y'\nrange = [2, 3]\ncount = 10000",
         ),
         "deep": base + "\n[[metric]]\nkind = 'stroke'\npoint = " + "[" * 5000 + "]" * 5000 + "\n",
         "digits_5000": base.replace("samples = 40", "samples = " + "9" * 5000),
@@ -773,9 +782,7 @@ def test_ctrl_c_prints_at_most_three_lines_and_the_study_resumes(tmp_path):
     cluster: three lines at most after the plan, status 130, no worker left, the finished
     chunks kept; the same command then resumes and gives the uninterrupted study's numbers."""
     study = tmp_path / "s.toml"
-    # Large enough that the interrupt lands while chunks remain (the poll sees 3 of 79 written;
-    # two workers take about a second for the rest), small enough to resume and recompute cheaply.
-    study.write_text(SMALL.replace("samples = 40", "samples = 20000"))
+    study.write_text(SMALL.replace("samples = 40", "samples = 60000").replace("angles = 36", "angles = 72"))
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MJLINK_PROGRESS_SECONDS": "1000"}
     args = [sys.executable, "-m", "mjlink", "study", str(study), "--out", str(out), "--no-plots"]

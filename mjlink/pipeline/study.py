@@ -279,7 +279,7 @@ def run(
                     files += _plots(o, stage)
     finally:
         close()
-    cache.Cache(pre.cache_dir, st).remove()  # the outputs are published: the chunks served
+    cache.remove(pre.cache_dir)  # the outputs are published: the chunks served
     return StudyResult(o, pre.dest, [pre.dest / f.name for f in files], summ)
 
 

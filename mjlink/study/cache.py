@@ -225,9 +225,17 @@ class Cache:
 
     def remove(self) -> None:
         """Remove the cache (the study's outputs are published): only if it is mjlink's."""
-        if self.folder is not None and os.path.lexists(self.folder) and _read_manifest(self.folder) is not None:
-            if not self.folder.is_symlink():
-                shutil.rmtree(self.folder, ignore_errors=True)
+        remove(self.folder)
+
+
+def remove(folder: Path | None) -> None:
+    """Remove a cache folder once its study's outputs are published: only if it is mjlink's (its
+    manifest is there) and not a link. Its manifest is not compared with anything: opening a
+    :class:`Cache` to remove it would judge the chunks against a study of unknown size and say
+    they were discarded."""
+    if folder is not None and os.path.lexists(folder) and _read_manifest(folder) is not None:
+        if not folder.is_symlink():
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def _digest(arrays: Mapping[str, np.ndarray]) -> bytes:
