@@ -1,4 +1,7 @@
+import contextlib
+import io
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -26,3 +29,38 @@ def takeup():
     from mjlink import validation
 
     return validation.get("takeup")
+
+
+@pytest.fixture(autouse=True)
+def _environment_kept():
+    """Each test starts from the same environment: a LocalCluster a test starts by hand sets
+    Dask's worker settings in this process (its nanny's pre-spawn environment, e.g. glibc's
+    64 KiB trim threshold), and every program a later test started inherited them (a study
+    resumed in a subprocess ran six times slower). mjlink's own engine puts them back itself
+    (tested in test_study)."""
+    before = dict(os.environ)
+    yield
+    if dict(os.environ) != before:
+        os.environ.clear()
+        os.environ.update(before)
+
+
+def in_process(*args: str, cwd: Path | None = None) -> "subprocess.CompletedProcess[str]":
+    """``python -m mjlink ARGS`` run through :func:`mjlink.cli.main` in this process: its exit
+    status and what it printed, as :func:`subprocess.run` returns them. For tests of what a
+    command computes, writes and prints; what only a real process shows (the entry point, the
+    GL backend chosen at import, signals) is tested in real processes."""
+    from mjlink.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    here = os.getcwd()
+    try:
+        os.chdir(cwd or ROOT)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                status = main(list(args))
+            except SystemExit as e:  # argparse's --help and usage errors
+                status = e.code if isinstance(e.code, int) else 1
+    finally:
+        os.chdir(here)
+    return subprocess.CompletedProcess(["mjlink", *args], status, out.getvalue(), err.getvalue())

@@ -9,7 +9,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, in_process
 
 from mjlink import compare, validation
 from mjlink import validation as check
@@ -219,7 +219,7 @@ def test_drift_and_nan_are_not_called_a_branch(example_run):
 
 # ----------------------------------------------------------------------------- command line
 def test_example_simulates_within_the_thresholds(tmp_path):
-    r = mjlink("simulate", str(EXAMPLE_PATH), "--strict", "--no-video", "--no-plots", "--out", str(tmp_path))
+    r = in_process("simulate", str(EXAMPLE_PATH), "--strict", "--no-video", "--no-plots", "--out", str(tmp_path))
     assert r.returncode == 0, r.stdout + r.stderr
     assert (tmp_path / "crank_rocker" / "report.json").is_file()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

@@ -1,4 +1,6 @@
-"""The command line end to end, in a subprocess as a user runs it."""
+"""The command line end to end, as a user runs it: through ``mjlink.cli.main`` in this process
+(what a command computes, writes and prints), and in a real process where only a process shows
+it (the one-line errors and exit statuses of ``python -m mjlink``, numpy's threads)."""
 
 import json
 import os
@@ -7,12 +9,13 @@ import sys
 
 import mujoco
 import pytest
-from conftest import ROOT
+from conftest import ROOT, in_process
 
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+mjlink = in_process
 
 
-def mjlink(*args, cwd=None):
+def in_a_process(*args, cwd=None):
     return subprocess.run(
         [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd or ROOT, env=ENV, timeout=600
     )
@@ -40,15 +43,15 @@ def test_list_and_help():
 
 
 def test_errors_are_one_line_and_nonzero(tmp_path):
-    r = mjlink("simulate", "nosuch", "--out", str(tmp_path))
+    r = in_a_process("simulate", "nosuch", "--out", str(tmp_path))
     assert r.returncode == 1
     assert r.stderr.strip().count("\n") == 0 and "unknown mechanism 'nosuch'" in r.stderr
     bad = tmp_path / "bad.toml"
     bad.write_text("[mechanism]\nname = 'x'\n")
-    r = mjlink("simulate", str(bad), "--out", str(tmp_path), "--no-video")
+    r = in_a_process("simulate", str(bad), "--out", str(tmp_path), "--no-video")
     assert r.returncode == 1 and "Traceback" not in r.stderr and str(bad) in r.stderr
     assert not (tmp_path / "x").exists()
-    r = mjlink("simulate", "takeup", "--speed", "0rad/s", "--out", str(tmp_path))
+    r = in_a_process("simulate", "takeup", "--speed", "0rad/s", "--out", str(tmp_path))
     assert r.returncode == 1 and "--speed" in r.stderr
 
 

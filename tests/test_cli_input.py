@@ -21,7 +21,7 @@ import sys
 
 import matplotlib
 import pytest
-from conftest import ROOT
+from conftest import ROOT, in_process
 
 from mjlink import pipeline, validation
 from mjlink.cli import _parser, main
@@ -149,7 +149,7 @@ def test_direction_is_stated_and_a_reversal_noted():
 @pytest.mark.slow
 def test_simulate_speed_is_rpm_when_written_rpm_and_keeps_its_sign(tmp_path):
     # The issue: 'simulate takeup --speed 955' ran at 9,120 rpm; 955rpm is 100 rad/s.
-    r = mjlink(
+    r = in_process(
         "simulate", "takeup", "--speed", "955rpm", "--no-dynamics", "--no-video", "--no-plots", "--out", str(tmp_path)
     )
     assert r.returncode == 0, r.stderr
@@ -157,7 +157,7 @@ def test_simulate_speed_is_rpm_when_written_rpm_and_keeps_its_sign(tmp_path):
     assert rep["kinematics"]["speed_rad_s"] == pytest.approx(100.0, rel=1e-3)
     assert "kinematic run: 955.0 rpm (100 rad/s), counter-clockwise" in r.stdout and "note:" not in r.stdout
     # crank_slider turns clockwise: a positive speed reverses it, never silently.
-    r = mjlink(
+    r = in_process(
         "simulate", "crank_slider", "--speed", "100rad/s", "--no-dynamics", "--no-video", "--no-plots",
         "--out", str(tmp_path),
     )  # fmt: skip
@@ -170,10 +170,10 @@ def test_simulate_speed_is_rpm_when_written_rpm_and_keeps_its_sign(tmp_path):
 
 @pytest.mark.slow
 def test_torque_speed_is_signed_like_the_file(tmp_path):
-    r = mjlink("reactions", "crank_slider", "--speed", "-955rpm", "--no-plots", "--out", str(tmp_path))
+    r = in_process("reactions", "crank_slider", "--speed", "-955rpm", "--no-plots", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     assert "crank_slider at 955.0 rpm (100 rad/s), clockwise:" in r.stdout and "note:" not in r.stdout
-    r = mjlink("torque", "crank_slider", "--speed", "955rpm", "--no-plots", "--out", str(tmp_path))
+    r = in_process("torque", "crank_slider", "--speed", "955rpm", "--no-plots", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     assert "at 955.0 rpm (100 rad/s), counter-clockwise:" in r.stdout
     assert "note: --speed 955rpm is counter-clockwise, against the file's own direction" in r.stdout

@@ -5,21 +5,22 @@ opened in a real headless Chromium (Debian's package), every image and the video
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import re
 import shutil
 import subprocess
-import sys
 
 import matplotlib
 import mujoco
 import numpy as np
 import pytest
-from conftest import ROOT
 from test_plots import KNOWN, _check_png, _expected
 
-from mjlink import output, pipeline
+from mjlink import output
+from mjlink.cli import main
 from mjlink.model import catalogue, mechanism
 from mjlink.pipeline import workers
 from mjlink.plotting import figures, style
@@ -36,20 +37,32 @@ SPEED_AND_LOADS = {
 UNIT = re.compile(r"\[[^\]]+\]")
 
 
+# The take-up's run is the command a user types, with its video and --strict (the end-to-end
+# test below reads its files and opens its page); the others skip the video.
+COMMAND = {
+    "takeup": ["--video-seconds", "1", "--size", "320x240", "--strict"],
+    **{m: ["--no-video"] for m in MECHS[1:]},
+}
+
+
 @pytest.fixture(scope="module", params=MECHS)
 def run_figures(request, tmp_path_factory):
-    """Every figure ``simulate`` draws for one mechanism (no video), kept open to be read."""
+    """Every figure ``simulate`` draws for one mechanism, kept open to be read, from the one
+    full run of the command line per mechanism (here, in this process: the figures drawn here
+    rather than in forked plot workers, so that they can be kept). Yields the mechanism, the
+    figures by file name, the run's folder, the names in drawing order, the exit status and
+    what the command printed."""
     mech = mechanism.load(catalogue.path_of(request.param))
     out = tmp_path_factory.mktemp(request.param)
-    # Drawn in this process (no forked plot workers), so that the figures can be kept and read.
     mp = pytest.MonkeyPatch()
     mp.setattr(workers, "start", lambda jobs: None)
+    printed = io.StringIO()
     try:
-        with style.keep_figures() as figs:
-            pipeline.run(mech, out, pipeline.Options(video=False))
+        with style.keep_figures() as figs, contextlib.redirect_stdout(printed):
+            status = main(["simulate", request.param, "--out", str(out), *COMMAND[request.param]])
     finally:
         mp.undo()
-    yield mech, dict(figs), out / mech.name, [n for n, _ in figs]
+    yield mech, dict(figs), out / mech.name, [n for n, _ in figs], status, printed.getvalue()
     for f in dict(figs).values():
         matplotlib.pyplot.close(f)
 
@@ -58,7 +71,8 @@ def run_figures(request, tmp_path_factory):
 def test_positions_labels_never_collide(run_figures):
     """The drawing of the mechanism in its positions, as simulate draws it (the run's own figure:
     figures.kinematic_plots draws it with the key point highlighted when there is no thread)."""
-    _, figs, _, _ = run_figures
+    _, figs, _, _, status, _ = run_figures
+    assert status == 0
     fig = figs["positions.png"]
     assert style.text_overlaps(fig) == []
     texts = [t.get_text() for ax in fig.axes for t in ax.texts]
@@ -75,7 +89,7 @@ def test_every_mechanism_gets_its_figures(run_figures):
     """The kinematic figures that apply to each mechanism (test_plots.KNOWN, and the rules of
     all_plots for any other), the speed and loads figures beside them, every PNG valid, nothing
     unreported or temporary in the folder."""
-    mech, figs, out, drawn = run_figures
+    mech, figs, out, drawn, _, _ = run_figures
     kinematic = {n for n in figs if n not in SPEED_AND_LOADS}
     assert len(drawn) == len(set(drawn)), "a figure drawn twice"
     assert kinematic == KNOWN.get(mech.name, _expected(mech))
@@ -90,7 +104,7 @@ def test_every_mechanism_gets_its_figures(run_figures):
 
 @pytest.mark.slow
 def test_figure_content(run_figures):
-    mech, figs, _, _ = run_figures
+    mech, figs, _, _, _, _ = run_figures
     rk4 = mech.dynamics.paper_rk4_steps is not None
     for name, fig in figs.items():
         assert style.text_overlaps(fig) == [], f"{name}: labels overlap"
@@ -143,32 +157,14 @@ def _chromium() -> str:
 
 
 @pytest.mark.slow
-def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(tmp_path):
-    """The command as a user runs it (a fresh process, video included, --strict): every file,
-    the agreement within the thresholds, the CSV columns and the MJCF; then its page opened in
-    a real headless Chromium."""
-    r = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "mjlink",
-            "simulate",
-            "takeup",
-            "--out",
-            str(tmp_path),
-            "--video-seconds",
-            "1",
-            "--size",
-            "320x240",
-            "--strict",
-        ],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=600,
-    )
-    assert r.returncode == 0, r.stderr
-    out = tmp_path / "takeup"
+@pytest.mark.parametrize("run_figures", ["takeup"], indirect=True)
+def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figures, tmp_path):
+    """The command as a user types it (video included, --strict; the take-up's one full run):
+    every file, the agreement within the thresholds, the CSV columns and the MJCF; then its
+    page opened in a real headless Chromium. (The same command in a fresh process, from the
+    wheel and from the README, is run by .ci/run; test_cli runs simulate in fresh processes.)"""
+    _, _, out, _, status, stdout = run_figures
+    assert status == 0
     for f in (
         "kinematics.csv",
         "dynamics.csv",
@@ -183,13 +179,13 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(tmp_path):
         "thread_length.png",
     ):
         assert (out / f).is_file(), f
-    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")], "staging folder left behind"
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".")], "staging folder left behind"
     rep = json.loads((out / "report.json").read_text())
     assert rep["failures"] == []
     assert rep["agreement"]["kinematics"]["position_um"] <= 0.1
     assert rep["agreement"]["dynamics"]["omega_rel"] <= 5e-4
     assert rep["video"]["frames"] == 30
-    assert "Agreement of MuJoCo" in r.stdout and "thresholds" in r.stdout
+    assert "Agreement of MuJoCo" in stdout and "thresholds" in stdout
     kin = output.read_csv(out / "kinematics.csv")
     for col in (
         "time_s",

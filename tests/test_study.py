@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import in_process
 
-from mjlink import analysis, reference, validation
+from mjlink import analysis, memory, reference, validation
 from mjlink.errors import MjlinkError
 from mjlink.model import paths
 from mjlink.reference import batch, dynamics, kinetostatics
@@ -280,19 +281,25 @@ def test_a_real_two_worker_dask_cluster_gives_the_same_bits() -> None:
 
 @pytest.mark.slow
 def test_the_actor_pool_on_a_real_cluster_survives_a_lost_worker() -> None:
-    """engine.Pool (an optimization's generations) on a LocalCluster of 2 processes: one actor
-    per worker, the in-process bits, a failing chunk as one line, and a batch whose worker was
-    killed run again on the workers left."""
+    """engine.Pool (an optimization's generations) on the engine's own LocalCluster of 2
+    processes: one actor per worker, the in-process bits, a failing chunk as one line, and a
+    batch whose worker was killed run again on the workers left; the workers' environment
+    stays theirs."""
     import signal
-
-    from distributed import Client, LocalCluster
 
     st = spec.parse(study_text(base=BASE.replace("samples = 40", "samples = 64")), "s.toml")
     values = st.values()
     parts = [(0, 16), (16, 32), (32, 48), (48, 64)]
     local = tasks.reference_chunk(st, values)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        with Client(cluster) as client, engine.Pool(client, st) as pool:
+    before = dict(os.environ)
+    with engine.client_for(workers=2) as (client, _):
+        # The workers have the allocator settings; this process, whose nanny set them before
+        # spawning each worker, has its own environment back.
+        assert set(client.run(lambda: tuple(os.environ.get(k) for k in memory.MALLOC_ENV)).values()) == {
+            tuple(memory.MALLOC_ENV.values())
+        }
+        assert dict(os.environ) == before
+        with engine.Pool(client, st) as pool:
             holders = [w for ws in client.who_has(pool._futures).values() for w in ws]
             assert sorted(holders) == sorted(client.scheduler_info()["workers"])  # one actor on each worker
             got: dict[tuple[int, int], tasks.Evaluated] = {}
@@ -302,6 +309,7 @@ def test_the_actor_pool_on_a_real_cluster_survives_a_lost_worker() -> None:
             os.kill(client.run(os.getpid, workers=holders[:1])[holders[0]], signal.SIGKILL)
             again: dict[tuple[int, int], tasks.Evaluated] = {}
             pool.reference(values, parts, again.__setitem__)
+    assert dict(os.environ) == before  # also after the lost worker's restart, once closed
     for run in (got, again):
         for k in local.columns:
             assert np.array_equal(np.concatenate([run[p].columns[k] for p in parts]), local.columns[k], equal_nan=True)
@@ -325,7 +333,7 @@ def _mjlink(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
 def test_study_command_writes_table_summary_and_is_one_line_on_errors(tmp_path: Path) -> None:
     f = tmp_path / "tol.toml"
     f.write_text(study_text('\n[[metric]]\nkind = "stroke"\npoint = "P5"\naxis = "y"\n'))
-    r = _mjlink("study", str(f), "--workers", "0", "--no-plots", "--out", str(tmp_path / "out"))
+    r = in_process("study", str(f), "--workers", "0", "--no-plots", "--out", str(tmp_path / "out"))
     assert r.returncode == 0, r.stderr
     out = tmp_path / "out" / "tol-study"
     assert "feasible: 40 of 40" in r.stdout and "stroke_P5_y" in r.stdout

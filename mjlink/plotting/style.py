@@ -264,8 +264,9 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
     """Pairs of drawn texts of ``fig`` whose boxes overlap on the canvas: titles, axis labels,
     annotations, free texts and legends (a legend counts as one box); tick labels are laid out
     by matplotlib and not checked. Empty when nothing collides. ``pad`` pixels shrink every
-    box before testing (touching is not overlapping)."""
-    fig.canvas.draw()
+    box before testing (touching is not overlapping). The figure is laid out as it is drawn,
+    without rasterizing it (matplotlib's ``draw_without_rendering``)."""
+    fig.draw_without_rendering()
     r = fig.canvas.get_renderer()  # type: ignore[attr-defined]
     boxes = []
     legends = [lg for ax in fig.axes if (lg := ax.get_legend()) is not None] + list(fig.legends)

@@ -269,21 +269,31 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
     # pre-spawn environment is the only place to set them before a worker exists.
     # A worker never renders: it imports mujoco without probing OpenGL.
     environ = {**memory.MALLOC_ENV, "MJLINK_NO_GL": "1"}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), _workers_stderr():
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-            silence_logs=logging.ERROR,
-        )
+    # Dask's nanny sets its pre-spawn environment in this process too, before each worker it
+    # spawns ("even if this means poisoning the process running the Nanny", its documentation):
+    # the workers' allocator, BLAS, no-GL and hash-seed settings must not stay in a user's
+    # process and reach every program it starts afterwards. Put back once started and once
+    # closed (a lost worker's restart sets them again).
+    before = dict(os.environ)
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), _workers_stderr():
+            cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                silence_logs=logging.ERROR,
+            )
+    finally:
+        _restore(before)
     client = Client(cluster)
     try:
         client.run(_warm_local)  # imports on every worker now, not inside the first timed task
         yield client, f"Dask LocalCluster ({n} worker processes x 1 thread)"
     finally:
         _close_quietly(client, cluster)
+        _restore(before)
 
 
 def local_workers(workers: int | None) -> int:
@@ -297,6 +307,16 @@ def local_workers(workers: int | None) -> int:
         note(f"--workers {workers} is more than this machine's {cores} cores: using {cores}")
         return cores
     return workers
+
+
+def _restore(before: dict[str, str]) -> None:
+    """Set ``os.environ`` back to ``before``: what was added since is removed, what changed is
+    set back."""
+    for k in [k for k in os.environ if k not in before]:
+        del os.environ[k]
+    for k, v in before.items():
+        if os.environ.get(k) != v:
+            os.environ[k] = v
 
 
 @contextmanager
