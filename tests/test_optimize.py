@@ -71,19 +71,6 @@ def test_seeded_runs_are_identical_and_engine_independent():
     assert not np.array_equal(a.archive.values, other.archive.values)
 
 
-@pytest.mark.slow
-def test_dask_cluster_gives_the_same_optimum():
-    from distributed import Client, LocalCluster
-
-    st = _study(CIRCLE.replace("generations = 120", "generations = 10"))
-    here = optimize.run(st)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        with Client(cluster) as client:
-            there = optimize.run(st, client=client, workers=2)
-    assert np.array_equal(here.winner, there.winner)
-    assert np.array_equal(here.archive.objective, there.archive.objective)
-
-
 # The head height (A to the needle-bar joint C) falls as lambda = r/l grows; the pressure-angle
 # limit caps lambda at what synth finds: the constrained optimum sits on the limit.
 HEAD = """

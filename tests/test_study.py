@@ -9,7 +9,9 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -244,10 +246,25 @@ def test_interrupted_study_resumes_from_its_finished_chunks(tmp_path: Path) -> N
     assert engine.run(changed, workers=0, cache_dir=tmp_path / "c").resumed == 0  # another study: cache not used
 
 
+@pytest.fixture(scope="module")
+def two_workers() -> Iterator[Any]:
+    """A LocalCluster of 2 worker processes, started here (no mocks), shared by the tests that
+    need a real cluster without starting or stopping one of their own. Its nanny's settings for
+    the workers (e.g. glibc's trim threshold) are taken back out of this process's environment,
+    where a cluster started later would take them for the user's."""
+    from distributed import LocalCluster
+
+    before = dict(os.environ)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        os.environ.clear()
+        os.environ.update(before)
+        yield cluster
+
+
 @pytest.mark.slow
-def test_a_real_two_worker_dask_cluster_gives_the_same_bits() -> None:
-    """A LocalCluster of 2 worker processes, started here (no mocks), against in-process."""
-    from distributed import Client, LocalCluster
+def test_a_real_two_worker_dask_cluster_gives_the_same_bits(two_workers: Any) -> None:
+    """A LocalCluster of 2 worker processes against in-process."""
+    from distributed import Client
 
     st = spec.parse(
         study_text('\n[[metric]]\nkind = "torque_peak"\n', BASE.replace("samples = 40", "samples = 300")), "s.toml"
@@ -255,21 +272,19 @@ def test_a_real_two_worker_dask_cluster_gives_the_same_bits() -> None:
     from distributed import get_task_stream
 
     local = engine.run(st, workers=0)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        with Client(cluster) as client:
-            assert len(client.scheduler_info()["workers"]) == 2
-            time.sleep(3.0)  # past the active memory manager's pass, which dropped scattered replicas
-            with get_task_stream(client) as ts:
-                remote = engine.run(st, client=client)
-            by_address = engine.run(st, scheduler=cluster.scheduler_address)
+    cluster = two_workers
+    with Client(cluster) as client:
+        assert len(client.scheduler_info()["workers"]) == 2
+        time.sleep(3.0)  # past the active memory manager's pass, which dropped scattered replicas
+        with get_task_stream(client) as ts:
+            remote = engine.run(st, client=client)
+        by_address = engine.run(st, scheduler=cluster.scheduler_address)
 
-            def fails(study, values):
-                raise ValueError("no such thing")
+        def fails(study, values):
+            raise ValueError("no such thing")
 
-            with pytest.raises(
-                engine.EngineError, match="a study task failed on the cluster: ValueError: no such thing"
-            ):
-                engine._map(client, fails, st, np.zeros((4, 1)), [(0, 2), (2, 4)], lambda k, r: None, {})
+        with pytest.raises(engine.EngineError, match="a study task failed on the cluster: ValueError: no such thing"):
+            engine._map(client, fails, st, np.zeros((4, 1)), [(0, 2), (2, 4)], lambda k, r: None, {})
     # Every worker computed some of the chunks: nothing pins the tasks to one of them.
     assert len({d["worker"] for d in ts.data}) == 2
     assert remote.chunks == local.chunks > 2
@@ -277,6 +292,22 @@ def test_a_real_two_worker_dask_cluster_gives_the_same_bits() -> None:
         assert np.array_equal(local.columns[k], remote.columns[k], equal_nan=True)
         assert np.array_equal(local.columns[k], by_address.columns[k], equal_nan=True)
     assert "2 workers" in by_address.engine
+
+
+@pytest.mark.slow
+def test_dask_cluster_gives_the_same_optimum(two_workers: Any) -> None:
+    """An optimization's generations on a real cluster: the in-process winner and archive."""
+    from distributed import Client
+    from test_optimize import CIRCLE, _study
+
+    from mjlink.study import optimize
+
+    st = _study(CIRCLE.replace("generations = 120", "generations = 10"))
+    here = optimize.run(st)
+    with Client(two_workers) as client:
+        there = optimize.run(st, client=client, workers=2)
+    assert np.array_equal(here.winner, there.winner)
+    assert np.array_equal(here.archive.objective, there.archive.objective)
 
 
 @pytest.mark.slow
