@@ -459,6 +459,15 @@ def test_an_unconverged_search_says_so_everywhere(tmp_path, capsys):
     page = (tmp_path / "short-study" / "index.html").read_text()
     assert "NOT CONVERGED" in page and "Criterion:" in page
     assert "NOT CONVERGED" in (tmp_path / "short-study" / "winner.toml").read_text()
+    # The winner's metrics beside the mechanism file's design (a study without tolerances has
+    # no second value of the winner to show).
+    lines = out.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("metric "))
+    assert lines[head].split()[-3:] == ["winner", "file", "design"], lines[head]
+    for line in lines[head + 1 : head + 1 + len(summ["winner"]["metrics"])]:
+        name, *_, winner, file_design = line.split()
+        assert float(winner) == pytest.approx(summ["winner"]["metrics"][name]["value"], rel=1e-5)
+        assert float(file_design) == pytest.approx(summ["mechanism_file_design"]["metrics"][name], rel=1e-5)
 
 
 # ================================================================= 8. caveats, rounding

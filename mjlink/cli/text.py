@@ -331,9 +331,18 @@ def optimization(res: OptimizeResult) -> str:
         n = len(s["rejected"])
         more = f" ({n} better candidates set aside in all: summary.json lists them)" if n > 1 else ""
         lines.append(f"set aside: the best candidate: {s['rejected'][0]['reason']}{more}")
-    lines.append(f"{'metric':<34} {'unit':>6} {'winner':>12} {'nominal dims':>13}")
+    # The winner beside the mechanism file's own design; a robust winner's metrics are its
+    # mean + k std under the tolerances, so its values without them are shown too.
+    file_metrics = s["mechanism_file_design"]["metrics"]
+    robust = s["robust"] is not None
+    head = f"{'metric':<34} {'unit':>6} {'winner':>12}" + (f" {'no tolerances':>13}" if robust else "")
+    lines.append(head + f" {'file design':>12}")
     for name, m in w["metrics"].items():
-        lines.append(f"{name:<34} {m['unit']:>6} {m['value']:>12.6g} {m['nominal_dimensions']:>13.6g}")
+        row = f"{name:<34} {m['unit']:>6} {m['value']:>12.6g}"
+        if robust:
+            row += f" {m['nominal_dimensions']:>13.6g}"
+        fm = file_metrics.get(name)
+        lines.append(row + (f" {fm:>12.6g}" if isinstance(fm, int | float) else f" {'-':>12}"))
     fly = s["flywheel"]
     if fly:
         lines.append(
