@@ -797,7 +797,14 @@ def test_ctrl_c_prints_at_most_three_lines_and_the_study_resumes(tmp_path):
     study.write_text(SMALL.replace("samples = 40", "samples = 60000"))
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MJLINK_PROGRESS_SECONDS": "1000"}
-    args = [sys.executable, "-m", "mjlink", "study", str(study), "--out", str(out), "--no-plots"]
+    # python -m mjlink as a terminal's foreground job starts it: with SIGINT at its default. A
+    # shell's background job (the suite may run as one) has SIGINT ignored, which a child
+    # inherits and Python then leaves ignored, so the study would never see the Ctrl-C.
+    foreground = (
+        "import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+        "runpy.run_module('mjlink', run_name='__main__', alter_sys=True)"
+    )
+    args = [sys.executable, "-c", foreground, "study", str(study), "--out", str(out), "--no-plots"]
     p = subprocess.Popen(
         args, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env, start_new_session=True
     )
