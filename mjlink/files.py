@@ -257,7 +257,7 @@ def write_records(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray])
 
 def write_parquet(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray]) -> Path:
     """Write the same columns as :func:`write_records` as a Parquet table into a staging folder."""
-    import pyarrow as pa  # here: 0.1 s of import, only for a study's table
+    import pyarrow as pa  # here: only for a study's table
     import pyarrow.parquet as pq
 
     table = pa.table({k: (np.asarray(v) if isinstance(v, np.ndarray) else list(v)) for k, v in columns.items()})
@@ -269,7 +269,7 @@ def write_parquet(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray])
 def read_parquet(path: Path) -> dict[str, np.ndarray]:
     """The columns of a Parquet table written by :func:`write_parquet`, by name: numbers as
     float or integer arrays, text as object arrays."""
-    import pyarrow.parquet as pq  # here: 0.1 s of import, only for a study's table
+    import pyarrow.parquet as pq  # here: only for a study's table
 
     table = pq.read_table(path)
     return {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}

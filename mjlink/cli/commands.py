@@ -202,7 +202,7 @@ def _drive_options(p: argparse.ArgumentParser) -> None:
 def _drive(args: argparse.Namespace) -> Drive:
     """The drive options a command has (the others None), speeds in rad/s;
     :func:`pipeline.with_drive` checks them."""
-    from ..pipeline import Drive  # here: the pipeline loads MuJoCo (0.4 s) that list, check and --help do without
+    from ..pipeline import Drive  # here: the pipeline loads MuJoCo, which list, check and --help do without
 
     return Drive(
         moment=getattr(args, "moment", None),
@@ -267,7 +267,7 @@ def _build_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _build(args: argparse.Namespace) -> int:
-    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
+    from .. import pipeline  # here: it loads MuJoCo, which list, check and --help do without
 
     mech = validation.get(args.mechanism)
     res = pipeline.build(mech, kinematic=args.kinematic, path=args.output)
@@ -339,7 +339,7 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
 
 def _simulate(args: argparse.Namespace) -> int:
     w, h = _size(args.size)
-    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
+    from .. import pipeline  # here: it loads MuJoCo, which list, check and --help do without
 
     if args.speed is not None:
         pipeline.check_speed("--speed", args.speed.rad_s, str(args.speed))
@@ -382,7 +382,7 @@ def _simulate(args: argparse.Namespace) -> int:
     )
     estimate = pipeline.estimate(mech, opts)  # the absurd is refused here, before anything runs
     if not args.no_video:
-        from ..sim.render import check_backend  # here: MuJoCo (0.4 s), only for a video
+        from ..sim.render import check_backend  # here: MuJoCo, only for a video
 
         check_backend()  # no OpenGL: fail now, not after the runs
     _notes(mech, args, (("--speed", "speed"), ("--omega0", "omega0"), ("--no-load-speed", "no_load_speed")))
@@ -420,7 +420,7 @@ def _loads_arguments(q: argparse.ArgumentParser) -> None:
 
 
 def _loads(args: argparse.Namespace, *, torque: bool) -> int:
-    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
+    from .. import pipeline  # here: it loads MuJoCo, which list, check and --help do without
 
     mech = validation.get(args.mechanism)
     speed = _rad_s(args.speed)
@@ -465,7 +465,7 @@ def _steady_arguments(q: argparse.ArgumentParser) -> None:
 
 
 def _steady(args: argparse.Namespace) -> int:
-    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
+    from .. import pipeline  # here: it loads MuJoCo, which list, check and --help do without
 
     mech = validation.get(args.mechanism)
     drive = _drive(args)
@@ -493,7 +493,7 @@ def _synth_arguments(y: argparse.ArgumentParser) -> None:
 
 
 def _synth(args: argparse.Namespace) -> int:
-    from .. import pipeline  # here: it loads MuJoCo (0.4 s) that list, check and --help do without
+    from .. import pipeline  # here: it loads MuJoCo, which list, check and --help do without
 
     res = pipeline.synthesize(
         args.problem,
@@ -581,7 +581,7 @@ def _shipped() -> str:
 
 
 def _study(args: argparse.Namespace) -> int:
-    from ..pipeline import study as pipeline_study  # here: scipy, Dask (1 s of imports) only for a study
+    from ..pipeline import study as pipeline_study  # here: scipy and Dask, only for a study
     from ..study import spec  # here: as the line above
 
     if args.workers is not None and not 0 <= args.workers <= 256:

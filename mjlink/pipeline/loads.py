@@ -38,7 +38,7 @@ def loads_stage(
     output.write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
     output.write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
     if plots is not None:
-        from ..plotting import loads as loads_plots  # here: matplotlib (0.4 s), not for --no-plots
+        from ..plotting import loads as loads_plots  # here: matplotlib, not for --no-plots
 
         plots.append(functools.partial(loads_plots.torque_plot, mech, kin_mj, rx, stage))
         plots.append(functools.partial(loads_plots.reactions_plot, mech, kin_mj, rx, stage))
@@ -73,7 +73,7 @@ def steady_stage(mech: Mechanism, stage: Path, plots: list[PlotJob] | None) -> S
     runs = (simulate.steady_run(mv, plain), simulate.steady_run(mv, fly))
     output.write_steady_csv(stage / "reference_steady.csv", plain, fly)
     if plots is not None:
-        from ..plotting import loads as loads_plots  # here: matplotlib (0.4 s), not for --no-plots
+        from ..plotting import loads as loads_plots  # here: matplotlib, not for --no-plots
 
         plots.append(functools.partial(loads_plots.steady_plot, mech, plain, fly, runs, stage))
     motor = mv.dynamics.motor

@@ -560,7 +560,7 @@ def page(summ: dict[str, Any], files: list[str]) -> str:
 
 
 def _plots(res: _opt.Result, ver: Verified, stage: Path) -> list[Path]:
-    from ..plotting import optimize as po  # here: matplotlib (0.4 s), not for --no-plots
+    from ..plotting import optimize as po  # here: matplotlib, not for --no-plots
 
     st = res.study
     opt = st.optimize

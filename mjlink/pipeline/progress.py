@@ -107,7 +107,7 @@ def study_progress(label: str) -> tuple[Callable[[str, int, int], None], Callabl
     if not is_terminal():
         lines = Lines(label, "variants")
         return (lambda stage, done, total: lines.update(stage, done, total)), lines.close
-    from tqdm import tqdm  # here: 25 ms, only on a terminal
+    from tqdm import tqdm  # here: only on a terminal
 
     bars: dict[str, Any] = {}
 
@@ -136,7 +136,7 @@ def optimize_progress(label: str, sign: float) -> tuple[Callable[[str, int, int,
     if not is_terminal():
         lines = Lines(label, "generations")
         return (lambda name, gen, total, best: lines.update(name, gen, max(total, gen), best_text(best))), lines.close
-    from tqdm import tqdm  # here: 25 ms, only on a terminal
+    from tqdm import tqdm  # here: only on a terminal
 
     bars: dict[str, Any] = {}
 

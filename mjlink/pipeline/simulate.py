@@ -124,7 +124,7 @@ def run(
                 pending.extend(jobs)
 
         if opts.plots:
-            from ..plotting import figures, style  # here: matplotlib (0.4 s), not for --no-plots
+            from ..plotting import figures, style  # here: matplotlib, not for --no-plots
 
             style.warm()  # once here, for every worker forked from this process
             # Residual panels subtract the reference at MuJoCo's own crank state, as the
@@ -136,7 +136,7 @@ def run(
             dyn = _forward_dynamics(mech, opts.duration, stage, clock, progress)
             agreements.append(dyn.agreement)
             if opts.plots:
-                from ..plotting import figures  # here: matplotlib (0.4 s), not for --no-plots
+                from ..plotting import figures  # here: matplotlib, not for --no-plots
 
                 # The speed figures from the moment the dynamics are compared, beside the loads.
                 draw(
@@ -192,7 +192,7 @@ def run(
         # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.
         xml = dyn.model.spec.to_xml() if dyn is not None else builder.to_xml(mech, DYNAMIC)
         output.write_text(stage / "model.xml", xml, in_stage=True)
-        from ..plotting import page  # here: matplotlib (0.4 s), not for --no-plots
+        from ..plotting import page  # here: matplotlib, not for --no-plots
 
         written = [p.name for p in stage.iterdir() if p.name != output.MARKER] + ["index.html"]
         output.write_text(stage / "index.html", page.index_html(result, written), in_stage=True)

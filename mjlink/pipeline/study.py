@@ -301,7 +301,7 @@ def _client(client: Any, scheduler: str | None, workers: int | None) -> Iterator
 
 
 def _plots(o: engine.Outcome, stage: Path) -> list[Path]:
-    from ..plotting import study as sp  # here: matplotlib (0.4 s), not for --no-plots
+    from ..plotting import study as sp  # here: matplotlib, not for --no-plots
 
     st = o.study
     title = f"{st.name}: {st.title or st.mechanism.title}"

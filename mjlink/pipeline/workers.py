@@ -112,8 +112,8 @@ def _main(jobs: list[PlotJob], sink: Connection, parent: int, mask: set[Any]) ->
         os._exit(1)
     signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     # No collections in this short-lived process: matplotlib's figures are cyclic garbage the
-    # collector would chase through every few thousand allocations (0.3 s of CPU over the
-    # take-up's figures); what they hold, some 50 MB in all, is freed when the worker exits.
+    # collector would chase through every few thousand allocations for nothing; what they
+    # hold, some 50 MB in all, is freed when the worker exits.
     gc.disable()
     report: Any = None
     try:

@@ -239,7 +239,7 @@ def forward_dynamics(
             phi, omega, (J, dJ, Q) = out
             return Motion(t_eval, phi, omega, _accel(mech, J, dJ, Q, omega), "energy")
         method = "LSODA"
-    from scipy.integrate import odeint, solve_ivp  # here, not at the top: 0.5 s of import
+    from scipy.integrate import odeint, solve_ivp  # here: scipy, only when the energy solution does not serve
 
     f = _rhs(sd)
     if method == "DOP853":

@@ -227,7 +227,7 @@ def choose() -> None:
         return
     if os.environ.get(NO_GL_ENV) == "1":
         # This process will not render (a command without video): mujoco is imported without
-        # probing OpenGL, which costs 0.1 to 0.5 s (a library load or a subprocess) for nothing.
+        # probing OpenGL, which would load a library or start a subprocess for nothing.
         return
     try:
         ensure_gl_backend()

@@ -356,19 +356,19 @@ def _frames(
     renderer = writer = None
     shown = False
     try:
-        # A software rasterizer (Mesa llvmpipe, OSMesa: every machine here) pays ~3x per frame
-        # for 4x multisampling (27 -> 10 ms) for an image that changes by 0.4/255 on average
+        # A software rasterizer (Mesa llvmpipe, OSMesa: every machine here) pays about three
+        # times per frame for 4x multisampling, for an image that changes by 0.4/255 on average
         # at these line widths: the first context is made without it, and only a hardware
         # one is made again with the model's setting.
         samples = int(model.vis.quality.offsamples)
         model.vis.quality.offsamples = 0
-        # Capsules and cylinders with 16 slices and 8 stacks instead of MuJoCo's 28 and 16:
-        # 8 % of a software-rendered frame, 0.12/255 of image change on average (0.5 % of
+        # Capsules and cylinders with 16 slices and 8 stacks instead of MuJoCo's 28 and 16: a
+        # cheaper software-rendered frame, 0.12/255 of image change on average (0.5 % of
         # the pixels by more than 8/255, along the links' outlines) at these sizes.
         slices = (int(model.vis.quality.numslices), int(model.vis.quality.numstacks))
         model.vis.quality.numslices, model.vis.quality.numstacks = min(slices[0], 16), min(slices[1], 8)
         # No shadow map either: shadows are switched off below, and MuJoCo would still
-        # allocate the 4096^2 map with the context (0.07 s of a software context's 0.2 s).
+        # allocate the 4096^2 map with the context (a third of a software context's making).
         model.vis.quality.shadowsize = 0
         if not hasattr(mujoco, "GLContext"):  # MUJOCO_GL turned OpenGL off
             raise context_failure(backend, None)
@@ -397,7 +397,7 @@ def _frames(
         # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
         # yet the 4096^2 shadow map costs ~2/3 of a frame on a software (Mesa) renderer.
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
-        # The skybox's textured sphere is half of a software-rendered frame (9 -> 4.5 ms):
+        # The skybox's textured sphere is half of a software-rendered frame:
         # a flat backdrop behind the mechanism gives the same light ground (_decorate).
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
         from PIL import ImageFont  # here: only for a video's overlay
@@ -455,7 +455,7 @@ def _gl_renderer() -> bytes:
         name = get(0x1F01)  # GL_RENDERER
         if name:
             return name
-    from OpenGL import GL  # here: 0.1 s of import, only to name the renderer
+    from OpenGL import GL  # here: only to name the renderer
 
     name = GL.glGetString(GL.GL_RENDERER) or b""
     return name if isinstance(name, bytes) else str(name).encode()
@@ -482,12 +482,11 @@ def _open_writer(path: Path, fps: float):
         ) from e
     try:
         # macro_block_size=2: sizes are already even, so imageio must not rescale the frames.
-        # x264's "veryfast" preset: the same file size at this quality (460 kB for the
-        # take-up's 90 frames) for 0.49 s of encoder CPU instead of 0.87 s with its default.
+        # x264's "veryfast" preset: the same file size at this quality for about half the
+        # encoder's CPU of its default preset.
         # One encoder thread: the frames come no faster than one thread encodes them, the
         # other core is drawing figures, and x264's threads decide differently with the
-        # number of cores: with one, the same frames give the same file on every machine
-        # (and 0.03 to 0.05 s less encoder CPU here, the same size).
+        # number of cores: with one, the same frames give the same file on every machine.
         return iio.get_writer(
             path,
             format="FFMPEG",

@@ -117,6 +117,6 @@ def verify(mechs: Sequence[Mechanism], *, threads: int | None = None) -> list[Ve
     ``mujoco.rollout`` over one period at constant speed and compared with the reference with
     the thresholds of ``simulate``. ``threads`` default: one per core."""
 
-    from ..sim import batch as _sim  # here: MuJoCo (0.4 s), only to verify
+    from ..sim import batch as _sim  # here: MuJoCo, only to verify
 
     return _sim.verify(list(mechs), threads=threads or os.cpu_count() or 1)

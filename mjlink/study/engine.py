@@ -232,7 +232,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
         yield None, "in process"
         return
     try:
-        from distributed import Client, LocalCluster  # here: Dask (0.4 s), only for a cluster
+        from distributed import Client, LocalCluster  # here: Dask, only for a cluster
     except ImportError as e:  # pragma: no cover - a dependency
         raise EngineError(f"Dask distributed is not installed ({e}): pip install 'dask[distributed]'") from None
     if address:
@@ -263,7 +263,7 @@ def client_for(scheduler: str | None = None, workers: int | None = None) -> Iter
             _close_quietly(client)
         return
     n = workers or os.cpu_count() or 1
-    import dask  # here: Dask (0.4 s), only for a cluster
+    import dask  # here: Dask, only for a cluster
 
     # glibc reads these when a process starts (see mjlink.memory): the nanny's
     # pre-spawn environment is the only place to set them before a worker exists.

@@ -538,7 +538,7 @@ def criterion(study: Study) -> str:
 def _warm_init(study: Study, warm: list[np.ndarray], index: int) -> np.ndarray:
     """An initial population for a front run: a fresh scrambled Sobol sample (seeded by the
     run) with the given optima in place of its first rows, so each run starts from them."""
-    from scipy.stats import qmc  # here: scipy.stats (0.7 s), only for a search
+    from scipy.stats import qmc  # here: scipy.stats, only for a search
 
     opt = study.optimize
     assert opt is not None

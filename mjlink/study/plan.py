@@ -42,7 +42,7 @@ SAMPLE_BYTES = 8.0 * 24  # MuJoCo's recorded values per model step (position, ve
 CLUSTER_START_S = 2.0  # a local Dask cluster's start
 # An optimization's generation below this much work runs faster in this process than on a
 # local cluster, whose calls cost milliseconds each way and whose polish runs here anyway
-# (measured: the known-answer path study 1.4 s here, 7.6 s on two workers).
+# (bench/bench_optimize.py compares the two).
 SMALL_GENERATION_S = 0.1
 CALIBRATION_VARIANTS = 16
 

@@ -31,7 +31,7 @@ def grid(varied: Sequence[Varied]) -> np.ndarray:
 def quasi_random(varied: Sequence[Varied], samples: int, seed: int, sequence: str) -> np.ndarray:
     """(samples, P) a scrambled Sobol sequence (``sequence`` 'sobol') or a Latin hypercube
     ('lhs') over the parameters' ranges, seeded."""
-    from scipy.stats import qmc  # here: scipy.stats (0.7 s), only for a random design
+    from scipy.stats import qmc  # here: scipy.stats, only for a random design
 
     P = len(varied)
     engine: qmc.QMCEngine

@@ -98,7 +98,7 @@ def search(
     from scipy.optimize import (
         NonlinearConstraint,
         differential_evolution,
-    )  # here: scipy.optimize (0.5 s), only for a search
+    )  # here: scipy.optimize, only for a search
 
     opt = study.optimize
     assert opt is not None
@@ -158,7 +158,7 @@ def search(
         return False
 
     if init is None:
-        from scipy.stats import qmc  # here: scipy.stats (0.7 s), only for a first generation
+        from scipy.stats import qmc  # here: scipy.stats, only for a first generation
 
         engine: qmc.QMCEngine = (
             qmc.Sobol(P, scramble=True, seed=seed) if opt.init == "sobol" else qmc.LatinHypercube(P, seed=seed)

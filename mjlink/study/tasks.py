@@ -106,7 +106,7 @@ class Verified:
 def mujoco_chunk(study: Study, values: np.ndarray, threads: int = 1) -> Verified:
     """Every variant of ``values`` ((n, P), file units) built in MuJoCo and run over one
     period at constant speed in one batched rollout, compared with the reference."""
-    from ..sim import batch as _sim_batch  # here: MuJoCo (0.4 s), not on reference-only workers
+    from ..sim import batch as _sim_batch  # here: MuJoCo, not on reference-only workers
 
     mechs = [_batch.variant(study.mechanism, study.params, row) for row in values]
     res = _sim_batch.verify(mechs, threads=threads)
