@@ -40,6 +40,11 @@ def _environment_kept():
     (tested in test_study)."""
     before = dict(os.environ)
     yield
+    environment_back(before)
+
+
+def environment_back(before: dict[str, str]) -> None:
+    """``os.environ`` as it was when ``before = dict(os.environ)`` was taken."""
     if dict(os.environ) != before:
         os.environ.clear()
         os.environ.update(before)

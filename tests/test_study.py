@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import in_process
+from conftest import environment_back, in_process
 
 from mjlink import analysis, memory, reference, validation
 from mjlink.errors import MjlinkError
@@ -256,8 +256,7 @@ def two_workers() -> Iterator[Any]:
 
     before = dict(os.environ)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        os.environ.clear()
-        os.environ.update(before)
+        environment_back(before)
         yield cluster
 
 
