@@ -322,3 +322,32 @@ def test_video_file_is_the_same_on_one_core_or_all():
         finally:
             os.sched_setaffinity(0, cpus)
     assert one == everywhere
+
+
+def test_a_signal_while_the_renderer_is_made_acts_once_it_exists(monkeypatch):
+    """SIGTERM (or Ctrl-C) landing inside the GL context's constructor would leave a half-made
+    context whose ``__del__`` prints an AttributeError after the run's one-line message (mujoco
+    3.8's EGL context): the renderer is made whole first, then the handler runs."""
+    import signal
+
+    made: list[object] = []
+
+    class Renderer:
+        def __init__(self, model, height, width):
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):  # bytecode boundaries at which a handler would run
+                pass
+            self._context = "made"
+            made.append(self)
+
+    def handler(signum, frame):
+        raise RuntimeError(f"signal {signum}, {len(made)} made")
+
+    monkeypatch.setattr(render.mujoco, "Renderer", Renderer)
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        with pytest.raises(RuntimeError, match="1 made"):
+            render._new_renderer(None, 16, 16)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    assert len(made) == 1

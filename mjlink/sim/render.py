@@ -147,6 +147,16 @@ def overlay_lines(trace: Trace, times: np.ndarray, time_scale: float, phi0: floa
     return out
 
 
+def _new_renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
+    """``mujoco.Renderer(model, height, width)`` with SIGINT and SIGTERM acted on once it exists.
+
+    Why: a GL context whose constructor an interruption cuts short (mujoco 3.8's EGL context
+    sets its ``_context`` last) prints an ``AttributeError`` from its ``__del__`` after the
+    run's one-line message; held back, the signal ends the run right after, cleanly."""
+    with output.uninterrupted():
+        return mujoco.Renderer(model, height, width)
+
+
 def check_backend() -> str:
     """The OpenGL backend rendering will use, tried now: one the environment chose
     (``MUJOCO_GL``) makes a 16x16 context current here, as the video will (a probed one already
@@ -155,7 +165,8 @@ def check_backend() -> str:
     if not hasattr(mujoco, "GLContext"):  # MUJOCO_GL turned OpenGL off
         raise context_failure(backend, None)
     try:
-        ctx = mujoco.GLContext(16, 16)
+        with output.uninterrupted():  # see _new_renderer
+            ctx = mujoco.GLContext(16, 16)
         ctx.make_current()
         ctx.free()
     except Exception as e:
@@ -373,7 +384,7 @@ def _frames(
         if not hasattr(mujoco, "GLContext"):  # MUJOCO_GL turned OpenGL off
             raise context_failure(backend, None)
         try:
-            renderer = mujoco.Renderer(model, height, width)
+            renderer = _new_renderer(model, height, width)
         except ImportError as e:  # the backend's library is missing (mujoco's placeholder context)
             raise context_failure(backend, e) from None
         except Exception as e:
@@ -393,7 +404,7 @@ def _frames(
             renderer.close()
             model.vis.quality.offsamples = samples
             model.vis.quality.numslices, model.vis.quality.numstacks = slices
-            renderer = mujoco.Renderer(model, height, width)
+            renderer = _new_renderer(model, height, width)
         # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
         # yet the 4096^2 shadow map costs ~2/3 of a frame on a software (Mesa) renderer.
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
