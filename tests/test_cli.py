@@ -33,9 +33,10 @@ def test_build_writes_loadable_mjcf(tmp_path):
 def test_list_and_help():
     r = mjlink("list")
     assert r.returncode == 0
-    for name in ("takeup", "crank_slider", "takeup_eyelets", "warp_knitting"):
+    for name in ("takeup", "crank_slider", "takeup_eyelets", "warp_knitting", "lockstitch_head"):
         assert name in r.stdout
-    assert r.stdout.count("source: ") == 4 and r.stdout.count("paper, docs/papers.md)") == 4
+    assert r.stdout.count("source: ") == 5 and r.stdout.count("paper, docs/papers.md)") == 4
+    assert "settings from Juki and Brother manuals (docs/head.md)" in r.stdout
     r = mjlink("--help")
     assert r.returncode == 0 and "examples:" in r.stdout
     r = mjlink("simulate", "--help")

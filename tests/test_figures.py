@@ -25,7 +25,7 @@ from mjlink.model import catalogue, mechanism
 from mjlink.pipeline import workers
 from mjlink.plotting import figures, style
 
-MECHS = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting"]
+MECHS = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting", "lockstitch_head"]
 SPEED_AND_LOADS = {
     "speed_vs_time.png",
     "speed_vs_angle.png",

@@ -142,6 +142,8 @@ def _expected(m) -> set[str]:
         if isinstance(s, mechanism.Crank) and s.ratio != 1.0:
             names.add("phase_study.png")
     names |= {f"link_{l}.png" for l in analysis.motion_links(m)}
+    if m.timing is not None:
+        names.add("cyclogram.png")  # a sewing head's timing diagram
     return names
 
 

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, cast
 
 from .. import compare, validation
+from ..analysis.timing import HeadTiming, window_text
 from ..model import names
 from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
 from ..units import G, PairKind, PairRole, to_mm, to_rpm
@@ -91,6 +92,8 @@ def simulation(res: SimulateResult) -> str:
             f"to {r.omega_max_abs_diff:.3g} rad/s ({r.omega_max_rel_diff:.2%} of max), final "
             f"{r.omega_final_rel_diff:.2%}"
         )
+    if res.timing is not None:
+        out.append(timing_table(res.timing))
     if res.loads is not None:
         L = res.loads
         out.append(
@@ -401,3 +404,17 @@ def study(res: StudyResult | OptimizeResult) -> str:
         lines.append(f"resumed: {s['resumed_chunks']} finished chunks taken from the previous run")
     lines.append(f"wrote {res.out_dir}/ ({', '.join(p.name for p in res.files)}) in {s['timing_s']['total']:.1f} s")
     return "\n".join(lines)
+
+
+def timing_table(head: HeadTiming) -> str:
+    """A head's timing checks, one row each: value, window, result; the target maker's and the
+    general rows decide the run, the other makers' are shown for comparison."""
+    rows = [f"\nTiming over one stitch (main-shaft angle from the needle bar's top; built to '{head.target}'):"]
+    rows.append(f"{'settings':9s} {'check':47s} {'measured':>9s} {'window':>17s} unit  result")
+    for r in head.rows:
+        mark = ("pass" if r.ok else "FAIL") if r.counts else ("meets" if r.ok else "misses")
+        rows.append(
+            f"{r.maker or 'every':9s} {r.label:47s} {r.shown(r.value):>9s} {window_text(r):>17s} {r.unit:4s}  {mark}"
+        )
+    rows.append("events (deg): " + ", ".join(f"{k} {v:.1f}" for k, v in head.events.items() if k != "needle bar top"))
+    return "\n".join(rows)

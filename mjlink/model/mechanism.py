@@ -24,6 +24,7 @@ from ..errors import FileTooLargeError, MechanismFileError
 from ..units import DEG, MM, G
 from . import blocks as _blocks
 from . import names as _names
+from . import timing as _timing
 from .blocks import Attached, Block, Crank, Dyad, Slider
 from .limits import (
     MAX_ANGLE_DEG,
@@ -43,6 +44,7 @@ from .limits import (
 )
 from .names import RESERVED_LINK_NAMES
 from .reader import Reader, shown
+from .timing import Timing
 
 __all__ = [
     "Attached",
@@ -213,6 +215,7 @@ class Mechanism:
     synthesis: Synthesis | None = None
     steady: SteadyCase | None = None
     counterweight: Counterweight | None = None
+    timing: Timing | None = None  # a sewing head's [timing] table (mjlink.model.timing)
 
     @property
     def input_crank(self) -> Crank:
@@ -364,7 +367,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         data,
         "",
         ["mechanism", "ground", "construct", "links", "input"],
-        ["dynamics", "thread", "synthesis", "steady", "counterweight"],
+        ["dynamics", "thread", "synthesis", "steady", "counterweight", "timing"],
     )
 
     meta = r.table(data["mechanism"], "[mechanism]")
@@ -585,6 +588,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         synthesis,
         steady,
         _read_counterweight(r, data["counterweight"]) if "counterweight" in data else None,
+        _timing.read(r, data["timing"], set(known), {c.point for c in _blocks.geared(steps)})
+        if "timing" in data
+        else None,
     )
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))

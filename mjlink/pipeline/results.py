@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .. import compare, reference
+from ..analysis.timing import HeadTiming
 from ..model import synthesis
 from ..runs import Settings
 from ..sim import builder
@@ -325,7 +326,8 @@ class SimulateResult:
     and, when run, ``dynamics``, ``loads``, ``steady`` and ``video``; ``agreements`` MuJoCo
     against the reference per run (kinematics, then dynamics) with ``thresholds`` their limits
     (:func:`compare.thresholds`); ``failures`` every limit missed (agreement, loads, steady);
-    ``timings``; ``files`` the names in ``out_dir``. :meth:`as_dict` is ``report.json``.
+    ``timings``; ``files`` the names in ``out_dir``; ``timing`` a head's timing checks (their
+    misses are among ``failures``). :meth:`as_dict` is ``report.json``.
     """
 
     mechanism: str
@@ -344,6 +346,7 @@ class SimulateResult:
     video: VideoSummary | None = None
     files: tuple[str, ...] = field(default=())
     provenance: Provenance | None = None
+    timing: HeadTiming | None = None  # a sewing head's timing checks ([timing] table)
 
     def as_dict(self) -> dict[str, Any]:
         """The contents of ``report.json``."""
@@ -360,6 +363,8 @@ class SimulateResult:
             d["loads"] = self.loads.as_dict()
         if self.steady is not None:
             d["steady"] = self.steady.as_dict()
+        if self.timing is not None:
+            d["timing"] = self.timing.as_dict()
         d["agreement"] = {a.kind: a.as_dict() for a in self.agreements}
         d["thresholds"] = dict(self.thresholds)
         d["failures"] = list(self.failures)

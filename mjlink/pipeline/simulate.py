@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import compare, output, reference
+from ..analysis.timing import head_timing
 from ..errors import SimulationError
 from ..model.mechanism import Mechanism
 from ..runs import DYNAMIC, Settings, Trace
@@ -155,7 +156,13 @@ def run(
         if opts.steady:
             steady_summary = steady_stage(mech, stage, queue)
             clock.lap("steady")
+        head = head_timing(mech) if mech.timing is not None else None
+        if head is not None and opts.plots:
+            from ..plotting import timing as timing_plot  # here: matplotlib, not for --no-plots
+
+            draw([functools.partial(timing_plot.cyclogram_plot, mech, head, stage)])
         failures = tuple(f for a in agreements for f in a.failures())
+        failures += head.failures() if head else ()
         failures += loads_summary.failures if loads_summary else ()
         failures += steady_summary.failures if steady_summary else ()
 
@@ -187,6 +194,7 @@ def run(
             steady=steady_summary,
             video=video,
             provenance=provenance(command, dataclasses.asdict(opts)),
+            timing=head,
         )
         output.write_json(stage / "report.json", result.as_dict())
         # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.

@@ -14,6 +14,8 @@ import html
 from collections.abc import Iterable
 from typing import Any
 
+from ..analysis.timing import window_text
+
 _CSS = """
 body { font-family: sans-serif; margin: 1.5em auto; max-width: 1400px; color: #222; }
 h1 { font-size: 1.4em; margin-bottom: 0.1em; } h2 { font-size: 1.15em; margin-top: 1.6em; }
@@ -60,6 +62,7 @@ def _caption(name: str) -> str:
         "shaking": "loads on the frame (shaking force, gravity, forces): hodograph and moment",
         "steady": "steady motion without and with the flywheel",
         "phase_study": "paths for several settings of the geared crank",
+        "cyclogram": "timing diagram of the head over one stitch, with the makers' windows",
     }
     if stem in known:
         return known[stem]
@@ -80,6 +83,7 @@ def _caption(name: str) -> str:
 # Figures in the order an engineer reads a run: the mechanism, its motion, then its loads.
 _ORDER = (
     "positions",
+    "cyclogram",
     "speed_vs_time",
     "speed_vs_angle",
     "kinematics_",
@@ -149,6 +153,24 @@ def index_html(result: Any, files: Iterable[str]) -> str:
         *rows,
         "</tbody></table>",
     ]
+    head = getattr(result, "timing", None)
+    if head is not None:
+        parts += [
+            f"<h2>Timing over one stitch</h2><p class='sub'>built to the {e(head.target)} settings; the other "
+            "makers' rows show which of their windows the head also meets</p>",
+            "<table><thead><tr><th>settings</th><th>check</th><th>measured</th><th>window</th><th>unit</th>"
+            "<th>result</th></tr></thead><tbody>",
+        ]
+        for r in head.rows:
+            text, cls = (
+                _MARK["pass" if r.ok else "FAIL"] if r.counts else (("meets", "info") if r.ok else ("misses", "info"))
+            )
+            parts.append(
+                f"<tr><td>{e(r.maker or 'every head')}</td><td title='{e(r.what)}'>{e(r.label)}</td>"
+                f"<td class='num'>{e(r.shown(r.value))}</td><td class='num'>{e(window_text(r))}</td>"
+                f"<td>{e(r.unit)}</td><td class='{cls}'>{e(text)}</td></tr>"
+            )
+        parts.append("</tbody></table>")
     for v in videos:
         parts += [
             "<h2>Video</h2>",

@@ -32,6 +32,7 @@ from .. import reference
 from ..errors import SimulationError
 from ..model import names
 from ..model.jet import norms
+from ..model.limits import VERIFIED_SPEED
 from ..model.mechanism import Mechanism
 from ..runs import DYNAMIC, KINEMATIC, Case, Settings, SteadyRun, Trace
 from ..units import RunKind, Source
@@ -53,10 +54,16 @@ def kinematic_case(
     so that the mechanism's inertia barely moves it, and large enough that its speed servo
     (see :mod:`mjlink.sim.builder`) holds the speed within ``SPEED_HOLD`` of nominal against
     the largest torque the motion needs (inertia, gravity, damping and the file's forces).
+
+    Above ``VERIFIED_SPEED`` (a sewing head at its production speed) the default settings'
+    timestep and loop time constant shrink by ``VERIFIED_SPEED / |speed|``: the run is then the
+    verified one on a faster clock (the same crank angle per step and per time constant), where
+    at the fixed timestep the loops' error would grow with the speed squared. Given
+    ``settings`` are used as they are.
     """
     w = mech.speed if speed is None else speed
     n = mech.cycles if cycles is None else cycles
-    base = settings or KINEMATIC
+    base = settings or _faster_clock(KINEMATIC, w)
     phi = mech.phi0 + np.linspace(0, mech.period, 64, endpoint=False)
     jmax = float(reference.SpectralDynamics(mech, samples=128).evaluate(phi)[0].max())
     tau_max = float(np.abs(reference.driving_torque(mech, phi, w)).max())
@@ -64,6 +71,13 @@ def kinematic_case(
     fly = max(FLYWHEEL_RATIO * max(jmax, 1e-9), held)
     s = dataclasses.replace(base, flywheel=fly, imposed_speed=w)
     return Case(RunKind.KINEMATICS, n * mech.period / abs(w), w, s, 1, True)
+
+
+def _faster_clock(s: Settings, speed: float) -> Settings:
+    k = min(1.0, VERIFIED_SPEED / abs(speed)) if speed else 1.0
+    if k == 1.0:
+        return s
+    return dataclasses.replace(s, timestep=s.timestep * k, solref=(s.solref[0] * k, s.solref[1]))
 
 
 def dynamic_case(

@@ -1,0 +1,116 @@
+"""The timing diagram (cyclogram) of a sewing head: every member's motion against the main-shaft
+angle over one stitch, with the events and the windows of the head's target settings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.timing import HeadTiming
+from ..model.mechanism import Mechanism
+from ..units import MM
+from .style import angle_ticks, place, save, subplots, title
+
+# Events drawn as vertical lines, each with its short tag on the top panel.
+_EVENTS = {
+    "needle bar bottom": "BDC",
+    "hook picks the loop": "hook",
+    "loop released": "release",
+    "take-up top": "take-up top",
+    "dog flush, descending": "dog down",
+}
+
+
+def _rise_band(head: HeadTiming, lo: float, hi: float) -> tuple[float, float] | None:
+    """Main-shaft angles (deg) over which the needle bar, rising from its bottom, is between
+    ``lo`` and ``hi`` mm above it."""
+    theta, rise = head.theta, head.curves["needle bar rise"]
+    bdc = head.events["needle bar bottom"]
+    up = (theta >= bdc) & (theta <= bdc + 90.0)
+    t, r = theta[up], rise[up]
+    if len(t) < 2:
+        return None
+    return float(np.interp(lo, r, t)), float(np.interp(hi, r, t))
+
+
+def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path:
+    """``cyclogram.png``: needle point and eye, take-up eyelet, hook angle, feed dog height and
+    advance over one stitch; the events as vertical lines; the target maker's windows shaded
+    (the hook timing as the band of main-shaft angles its needle-bar rise allows, the dog's
+    height as a band of heights)."""
+    assert mech.timing is not None
+    maker = mech.timing.maker(head.target)
+    fig, axes = subplots(5, 1, figsize=(10.0, 10.5), sharex=True)
+    place(fig, axes[0].get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=0.6, hgap=0.25)
+    th, c = head.theta, head.curves
+    band = None
+    if "hook_rise" in maker.windows:
+        w = maker.windows["hook_rise"]
+        band = _rise_band(head, (w.lo or 0.0) / MM, (w.hi or 0.0) / MM)
+    fabric = mech.timing.fabric / MM
+
+    ax = axes[0]
+    ax.plot(th, c["needle point"], color="C0", label="needle point")
+    ax.plot(th, c["needle eye"], color="C0", ls="--", lw=1.0, label="top of the eye")
+    ax.plot(th, c["hook point height"], color="C3", lw=0.8, alpha=0.6, label="hook point")
+    ax.axhline(0.0, color="0.3", lw=1.0)
+    ax.axhline(fabric, color="0.5", lw=0.8, ls=":")
+    ax.set_ylabel("height above\nthe plate [mm]")
+    low = min(c["needle point"].min(), c["hook point height"].min())
+    ax.set_ylim(low - 0.45 * (c["needle point"].max() - low), c["needle point"].max() + 4)
+    ax.legend(loc="lower center", fontsize=8, ncols=3, framealpha=0.9)
+
+    ax = axes[1]
+    ax.plot(th, c["take-up eyelet"], color="C2")
+    ax.set_ylabel("take-up eyelet above\nits lowest [mm]")
+
+    ax = axes[2]
+    hook = np.where(np.abs(np.diff(c["hook angle"], append=c["hook angle"][0])) > 180.0, np.nan, c["hook angle"])
+    ax.plot(th, hook, color="C3")
+    ax.set_yticks([0, 90, 180, 270, 360])
+    ax.set_ylim(-10, 370)
+    ax.set_ylabel("hook angle [deg]")
+
+    ax = axes[3]
+    ax.plot(th, c["dog height"], color="C1")
+    ax.axhline(0.0, color="0.3", lw=1.0)
+    if "dog_height" in maker.windows:
+        w = maker.windows["dog_height"]
+        ax.axhspan((w.lo or 0.0) / MM, (w.hi or 0.0) / MM, color="C1", alpha=0.2, lw=0)
+    ax.set_ylabel("feed dog above\nthe plate [mm]")
+
+    ax = axes[4]
+    ax.plot(th, c["dog advance"], color="C4")
+    ax.set_ylabel("feed dog\nadvance [mm]")
+    ax.set_xlabel("main-shaft angle from the needle bar's top dead centre [deg]")
+    angle_ticks(ax, 0.0, 360.0)
+
+    for a in axes:
+        if band is not None:
+            a.axvspan(*band, color="C3", alpha=0.15, lw=0)
+        for key in _EVENTS:
+            x = head.events.get(key)
+            if x is not None and np.isfinite(x):
+                a.axvline(x, color="0.45", lw=0.8, ls="--")
+        a.grid(alpha=0.3)
+    top = axes[0]
+    for key, tag in _EVENTS.items():
+        x = head.events.get(key)
+        if x is not None and np.isfinite(x):
+            top.annotate(
+                tag,
+                (x, 1.0),
+                xycoords=("data", "axes fraction"),
+                xytext=(2, -2),
+                textcoords="offset points",
+                ha="left",
+                va="top",
+                fontsize=8,
+                rotation=90,
+                color="0.3",
+            )
+    fig.suptitle(
+        title(mech, f"timing diagram over one stitch; shaded: the {head.target} settings' windows"), fontsize=11
+    )
+    return save(fig, out_dir, "cyclogram.png")

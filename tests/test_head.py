@@ -1,0 +1,119 @@
+"""The lockstitch head: its timing checks against the makers' windows, a mistimed copy that
+fails them, its motion in closed form from the file's numbers, and its MuJoCo model."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import mjlink
+from mjlink.analysis.timing import head_timing
+from mjlink.errors import MechanismFileError
+from mjlink.model import mechanism
+from mjlink.model.catalogue import shipped
+from mjlink.reference import kinematics
+
+HEAD = shipped("mechanisms") / "lockstitch_head.toml"
+
+
+@pytest.fixture(scope="module")
+def head():
+    return mjlink.load("lockstitch_head")
+
+
+@pytest.fixture(scope="module")
+def timing(head):
+    return head_timing(head)
+
+
+def _row(t, key, maker=None):
+    return next(r for r in t.rows if r.key == key and r.maker == maker)
+
+
+def test_the_shipped_head_meets_every_juki_window_and_says_which_brother_ones_it_misses(timing):
+    assert timing.target == "juki"
+    assert timing.failures() == ()
+    for r in timing.rows:
+        assert r.counts == (r.maker in (None, "juki"))
+    assert _row(timing, "hook_rise", "juki").value == pytest.approx(2.0e-3, abs=0.02e-3)
+    assert _row(timing, "hook_above_eye", "juki").value == pytest.approx(1.4e-3, abs=0.02e-3)
+    assert 0.75e-3 <= _row(timing, "dog_height", "juki").value <= 0.85e-3
+    # The Brother settings put the hook point 0.5-0.7 mm above the eye and the needle point
+    # about 1 mm above the plate at the dog's flush: this Juki-built head misses both.
+    assert not _row(timing, "hook_above_eye", "brother").ok
+    assert not _row(timing, "needle_at_dog_flush", "brother").ok
+    assert _row(timing, "hook_rise", "brother").ok
+
+
+def test_a_hook_twenty_degrees_late_fails_the_hook_timing_with_a_clear_row(head, tmp_path):
+    text = HEAD.read_text()
+    late, n = re.subn(r"(ratio = 2\.0.*\nphase = )37\.9", r"\g<1>17.9", text)
+    assert n == 1
+    path = tmp_path / "late_hook.toml"
+    path.write_text(late)
+    t = head_timing(mechanism.load(path))
+    rise = _row(t, "hook_rise", "juki")
+    assert not rise.ok and rise.counts
+    # 20 deg of hook is 10 deg of main shaft: the needle bar has risen several mm more.
+    assert rise.value > 3e-3
+    (line,) = [f for f in t.failures() if "rise" in f]
+    assert "needle bar rise from its bottom dead centre when the hook point reaches the needle" in line
+    assert "(juki)" in line and "window 1.800..2.200 mm" in line
+
+
+def test_needle_bar_and_hook_in_closed_form_from_the_files_numbers(head):
+    """The needle bar of an in-line crank-slider, r = 15.35 mm, l = 52 mm, and the hook at twice
+    the shaft's angle plus its phase, written out from the file's numbers, against the reference."""
+    phi = np.radians(np.linspace(0, 360, 721))
+    k = kinematics.solve(head, phi)
+    r, l = 15.35, 52.0
+    a = phi  # the needle crank pin lies on the take-up crank's line (angle 0)
+    y_bar = r * np.sin(a) - np.sqrt(l**2 - (r * np.cos(a)) ** 2)
+    np.testing.assert_allclose(k.position("NB")[:, 1] * 1e3, y_bar, atol=1e-9)
+    np.testing.assert_allclose(k.position("NT")[:, 1] * 1e3, y_bar - 43.65, atol=1e-9)
+    hook = np.radians(37.9) + 2.0 * (phi - np.radians(90.0))
+    hp = k.position("HP")[:, :2] * 1e3
+    np.testing.assert_allclose(hp[:, 0], 13.5 * np.cos(hook), atol=1e-9)
+    np.testing.assert_allclose(hp[:, 1], -118.8 + 13.5 * np.sin(hook), atol=1e-9)
+    assert (y_bar.max() - y_bar.min()) == pytest.approx(30.7, abs=1e-9)
+
+
+def test_the_head_checks_and_its_mjcf_runs_in_plain_mujoco(head):
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(mjlink.mjcf(head))
+    data = mujoco.MjData(model)
+    assert model.nkey >= 1 and model.nu >= 1
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    names = {model.eq(i).name for i in range(model.neq)}
+    assert sum(model.eq_type == mujoco.mjtEq.mjEQ_JOINT) == 2, names  # belt and hook gears
+    sites = {model.site(i).name for i in range(model.nsite)}
+    assert {"NT", "NE", "HP", "F", "P5"} <= sites
+    for _ in range(200):
+        mujoco.mj_step(model, data)
+    assert np.isfinite(data.qpos).all()
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            'target = "juki"',
+            'target = "singer"',
+            "[timing] target: 'singer' is not one of the settings tables juki, brother",
+        ),
+        ('hook_point = "HP"', 'hook_point = "NT"', "must be the point of a geared crank"),
+        ("hook_rise = [1.8, 2.2]", "hook_rise = [2.2, 1.8]", "lo 2.2 mm is above hi 1.8 mm"),
+        ('needle_eye = "NE"', 'needle_eye = "NX"', "names point 'NX', which is not defined"),
+    ],
+)
+def test_a_bad_timing_table_is_one_line(tmp_path, old, new, message):
+    text = HEAD.read_text()
+    assert old in text
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace(old, new, 1))
+    with pytest.raises(MechanismFileError) as e:
+        mechanism.load(path)
+    assert message in str(e.value) and "\n" not in str(e.value)
