@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from . import reference
+from .analysis.timing import HeadTiming, head_timing
 from .errors import AssemblyError, MechanismFileError, MjlinkError, SimulationError, UnknownMechanismError
 from .model import catalogue
 from .model.blocks import BlockAngle
@@ -633,6 +634,7 @@ class CheckReport:
     problems: tuple[tuple[str, str], ...]
     notes: tuple[str, ...]
     period_deg: float = 360.0
+    timing: HeadTiming | None = None  # a head's timing checks, when it assembles over the turn
 
     @property
     def ok(self) -> bool:
@@ -743,4 +745,5 @@ def check(mech: Mechanism) -> CheckReport:
         probs,
         tuple(notes),
         math.degrees(mech.period),
+        head_timing(mech) if mech.timing is not None and full and not probs else None,
     )

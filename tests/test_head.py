@@ -3,6 +3,7 @@ fails them, its motion in closed form from the file's numbers, and its MuJoCo mo
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -117,3 +118,66 @@ def test_a_bad_timing_table_is_one_line(tmp_path, old, new, message):
     with pytest.raises(MechanismFileError) as e:
         mechanism.load(path)
     assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_check_prints_the_timing_table_and_names_a_miss(tmp_path):
+    from conftest import in_process
+
+    r = in_process("check", "lockstitch_head")
+    assert r.returncode == 0, r.stderr
+    assert "Timing over one stitch" in r.stdout and "misses" in r.stdout and "window(s) missed" not in r.stdout
+    late = tmp_path / "late.toml"
+    late.write_text(re.sub(r"(ratio = 2\.0.*\nphase = )37\.9", r"\g<1>17.9", HEAD.read_text()))
+    r = in_process("check", str(late))
+    assert "timing: 2 window(s) missed" in r.stdout  # the hook meets the needle late, and low on it
+    assert re.search(
+        r"juki +needle bar rise when the hook meets the needle +[\d.]+ +1\.800\.\.2\.200 mm +FAIL", r.stdout
+    )
+
+
+@pytest.fixture(scope="module")
+def tolerance_study(tmp_path_factory):
+    """The shipped timing tolerance study at 60 heads (its own 1,000 are the same law)."""
+    text = (shipped("studies") / "lockstitch_head_timing.toml").read_text()
+    path = tmp_path_factory.mktemp("timing") / "lockstitch_head_timing.toml"
+    path.write_text(text.replace("samples = 1000", "samples = 60"))
+    res = mjlink.run_study(path, path.parent / "out", workers=0, plots=False)
+    return res, mjlink.read_study(res.out_dir)
+
+
+def test_the_timing_study_measures_each_head_as_simulate_does(tolerance_study, head):
+    """Each sampled head rebuilt from its row's numbers and measured by head_timing at 7,200
+    angles: the study's columns (720 angles) and its verdict per head agree."""
+    from mjlink.model import paths
+    from mjlink.study.spec import load as load_study
+
+    res, table = tolerance_study
+    st = load_study(res.summary["file"])
+    assert 0 < table["timing_ok"].sum() < len(table)  # some heads meet every window, some not
+    assert res.summary["within_bounds"] == int(table["timing_ok"].sum())
+    for i in (0, 7, 23, 41):
+        values = {v.param: float(table[f"{v.param.path}_{v.param.unit}"][i]) for v in st.varied}
+        t = head_timing(paths.apply(head, {p: np.array([x]) for p, x in values.items()}))
+        rows = {r.key: r for r in t.rows if r.maker in (None, "juki")}
+        for key, r in rows.items():
+            unit = "deg" if key == "take_up_after_release" else "mm"
+            scale = 1e3 if unit == "mm" else 180 / math.pi
+            assert table[f"timing_{key}_{unit}"][i] == pytest.approx(r.value * scale, abs=2e-3), key
+        assert table["timing_ok"][i] == float(all(r.ok for r in rows.values()))
+
+
+def test_the_most_sensitive_tolerance_is_ranked_first_with_the_slope_of_a_finite_difference(tolerance_study, head):
+    """The hook's phase on its shaft moves the hook timing: ranked first, and the fitted slope
+    is the derivative a finite difference of the nominal head gives."""
+    res, _ = tolerance_study
+    s = res.summary["sensitivity"]["timing_hook_rise"]
+    top = s["ranked"][0]
+    assert top["parameter"] == "construct.HP.phase" and top["share"] > 0.8 and s["r2"] > 0.99
+    assert sum(r["share"] for r in s["ranked"]) <= s["r2"] + 1e-9
+    text = HEAD.read_text()
+    rise = []
+    for phase in ("37.4", "38.4"):
+        m = mechanism.parse(re.sub(r"(ratio = 2\.0.*\nphase = )37\.9", rf"\g<1>{phase}", text))
+        rise.append(_row(head_timing(m), "hook_rise", "juki").value * 1e3)
+    assert top["slope"] == pytest.approx(rise[1] - rise[0], rel=0.03)
+    assert "timing_ok" not in res.summary["sensitivity"]  # a pass/fail flag has no slope

@@ -280,10 +280,18 @@ def format_report(r: validation.CheckReport, *, speed: float | None = None) -> s
                 f"  slider {a.label:<20} pressure angle up to {a.worst_deg:5.2f} deg at input "
                 f"{a.phi_deg:6.1f} deg ({a.margin_deg:.2f} deg from the dead point)  {verdict}"
             )
+    if r.timing is not None:
+        out.append(timing_table(r.timing))
     if r.notes:
         out.append("")
         out += [f"note: {n}" for n in r.notes]
     out.append("")
+    missed = len(r.timing.failures()) if r.timing is not None else 0
+    if missed and not r.problems:
+        out.append(
+            f"timing: {missed} window(s) missed (the general checks and the {r.timing.target if r.timing else ''} "
+            "settings): the head assembles and runs, but would not form its stitch as set"
+        )
     if r.problems:
         out.append(f"problems ({len(r.problems)}):")
         out += [f"  - {msg}" for _, msg in r.problems]
@@ -389,6 +397,11 @@ def study(res: StudyResult | OptimizeResult) -> str:
         lines.append(
             f"{name:<34} {m['unit']:>5} {m['min']:>11.6g} {m['p50']:>11.6g} {m['max']:>11.6g} {m['std']:>11.4g}"
         )
+    if s.get("sensitivity"):
+        lines.append("most sensitive parameters (share of the metric's variance, from a linear fit):")
+        for name, sv in s["sensitivity"].items():
+            ranked = ", ".join(f"{r['parameter']} {r['share']:.0%}" for r in sv["ranked"][:3] if r["share"] >= 0.005)
+            lines.append(f"  {name:<32} {ranked} (fit R^2 {sv['r2']:.2f})")
     mj = s["mujoco"]
     if mj["verified"]:
         w, t = mj["worst_um"], mj["thresholds_um"]

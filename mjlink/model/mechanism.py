@@ -594,6 +594,12 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     )
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))
+    if mech.timing is not None and turns != 1:
+        raise r.fail(
+            "[timing]",
+            f"a head makes one stitch per main-shaft turn, but its shafts repeat only after {turns} turns: "
+            "every geared crank's ratio must be a whole number",
+        )
     if len(mech.point_names) * SAMPLES_PER_TURN * turns > MAX_CHECK_POINT_SAMPLES:
         raise r.fail(
             "",

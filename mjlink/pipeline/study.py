@@ -90,6 +90,58 @@ def _stats(x: np.ndarray) -> dict[str, float]:
     return out
 
 
+def sensitivity(o: engine.Outcome, top: int = 5) -> dict[str, dict[str, Any]]:
+    """The parameters that move each metric most, for a sampled study (tolerance or random).
+
+    A least-squares plane through the feasible variants: metric = c + sum_j b_j (p_j - mean).
+    Each parameter's share of the metric's variance is its term b_j^2 var(p_j) of the plane's,
+    the terms scaled to add up to ``r2``, the part of the variance the plane explains: for a
+    response linear over the sampled band and independent parameters (a tolerance study's),
+    the first-order variance shares. Metrics with at most two distinct
+    values (pass/fail flags) and constant ones are left out.
+
+    Returns:
+      metric -> {"r2": float, "ranked": [{"parameter", "unit", "share", "slope"}] (largest share
+      first, at most ``top``)}; ``slope`` in the metric's unit per parameter unit.
+    """
+    st = o.study
+    if st.method == "grid" or not st.varied:
+        return {}
+    out: dict[str, dict[str, Any]] = {}
+    P = np.asarray(o.values, dtype=float)
+    for c in st.columns:
+        y = np.asarray(o.columns[c.name], dtype=float)
+        ok = o.feasible & np.isfinite(y) & np.isfinite(P).all(axis=1)
+        if ok.sum() < P.shape[1] + 2 or len(np.unique(y[ok])) <= 2:
+            continue
+        X = P[ok] - P[ok].mean(axis=0)
+        yc = y[ok] - y[ok].mean()
+        vy = float(yc @ yc)
+        if vy <= 0.0:
+            continue
+        b, *_ = np.linalg.lstsq(X, yc, rcond=None)
+        fit = X @ b
+        r2 = float(1.0 - ((yc - fit) @ (yc - fit)) / vy)
+        part = b**2 * (X**2).sum(axis=0)
+        # Shares of the explained variance, scaled to sum to R^2: a finite sample's parameters
+        # are never exactly uncorrelated, and the raw terms would not add up.
+        share = part / part.sum() * r2 if part.sum() > 0 else part
+        order = np.argsort(-share)[:top]
+        out[c.name] = {
+            "r2": r2,
+            "ranked": [
+                {
+                    "parameter": st.varied[j].param.path,
+                    "unit": st.varied[j].param.unit,
+                    "share": float(share[j]),
+                    "slope": float(b[j]),
+                }
+                for j in order
+            ],
+        }
+    return out
+
+
 def summary(o: engine.Outcome, command: str | None = None) -> dict[str, Any]:
     """What ``summary.json`` holds (see the module docstring)."""
     st = o.study
@@ -116,6 +168,7 @@ def summary(o: engine.Outcome, command: str | None = None) -> dict[str, Any]:
         "infeasible": int((~o.feasible).sum()),
         "bounds": [b.text() for b in st.bounds],
         "within_bounds": int(within.sum()) if st.bounds else None,
+        "sensitivity": sensitivity(o),
         "mujoco": {
             "verify": st.verify,
             "verified": int(verified.sum()),
