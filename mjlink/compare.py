@@ -404,7 +404,11 @@ def loads(
         pairs,
         max((p["error_rel"] for p in pairs.values()), default=0.0),
         float(norms(got.force - ref.force).max() / f_range) if f_range > 0 else 0.0,
-        None if mech.geared else float(np.abs(got.moment - ref.moment).max() / m_range) if m_range > 0 else 0.0,
+        None
+        if mech.geared and not mj.gear_torques
+        else float(np.abs(got.moment - ref.moment).max() / m_range)
+        if m_range > 0
+        else 0.0,
     )
 
 
@@ -418,9 +422,11 @@ def frame_reference(mech: Mechanism, mj: Trace, kin: reference.Kinematics | None
 def frame_mujoco(mech: Mechanism, mj: Trace) -> FrameLoads:
     """MuJoCo's shaking force (N, (n, 2)) and moment (N*m about the input crank's pivot) from
     a run's recorded pair forces: minus the ground pairs' forces on their links (with their
-    moments, for a slide), minus the drive's torque, plus the crank bearing's friction. A run
-    records no gear equality's torque, whose unbalanced share the frame carries, so for a
-    mechanism with geared cranks the moment is not compared (:class:`Loads`)."""
+    moments, for a slide), minus the drive's torque, plus the crank bearing's friction, minus
+    what the gear couplings put on the frame (from the torque each geared shaft's joint takes
+    through its coupling, the trace's ``gear_torques``, and the input crank's share by the ratio).
+    A trace without them (a geared mechanism's run that recorded no loads) has its moment left
+    uncompared (:class:`Loads`)."""
     assert mj.torque is not None
     P = mj.points
     pivot = P[mech.input_crank.pivot][:, :2]
@@ -436,6 +442,11 @@ def frame_mujoco(mech: Mechanism, mj: Trace) -> FrameLoads:
         else:
             d = P[mech.link(pr.child).points[0]][:, :2] - pivot
             moment = moment - mj.moments[pr.label]
+        if pr.label in mj.gear_torques:
+            # The coupling puts tau on the geared shaft and -ratio tau on the input crank (its
+            # constraint q_g = phase + ratio q_in): the frame carries minus their sum.
+            ratio = next(c.ratio for c in mech.geared if mech.carrier(c).name == pr.child)
+            moment = moment - (1.0 - ratio) * mj.gear_torques[pr.label]
         moment = moment + d[:, 0] * f[:, 1] - d[:, 1] * f[:, 0]
     return FrameLoads(force, moment)
 

@@ -54,7 +54,9 @@ class Trace:
     'dynamics'. ``time`` s, ``phi`` rad (unwrapped input angle), ``omega`` rad/s, ``eps``
     rad/s^2; per point name (N, 3) arrays of position m, velocity m/s, acceleration m/s^2;
     ``thread_length`` m (None without a thread); ``loop_gap`` m, the largest loop-closure
-    violation per sample (MuJoCo only); ``qpos`` MuJoCo joint positions (for rendering)."""
+    violation per sample (MuJoCo only); ``qpos`` MuJoCo joint positions (for rendering);
+    ``gear_torques`` per ground pair of a geared shaft, the torque (N*m, about Z) its joint
+    carries from the frame: the gear coupling's share (MuJoCo's loads runs only)."""
 
     source: Source
     kind: RunKind
@@ -73,6 +75,7 @@ class Trace:
     torque: np.ndarray | None = None
     reactions: dict[str, np.ndarray] = field(default_factory=dict)
     moments: dict[str, np.ndarray] = field(default_factory=dict)
+    gear_torques: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

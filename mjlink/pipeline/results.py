@@ -179,8 +179,8 @@ class LoadsSummary:
             "torque_error_rel": self.torque_error,
             "force_error_rel": self.force_error,
             "pairs": self.pairs,
-            # The frame's shaking force and moment, relative to the reference's range (the
-            # moment of a geared mechanism is not compared: None).
+            # The frame's shaking force and moment, relative to the reference's range (None: a
+            # geared mechanism's moment in a run without its gear couplings' torques).
             "shaking_force_error_rel": self.shaking_force_error,
             "shaking_moment_error_rel": self.shaking_moment_error,
             "thresholds": {

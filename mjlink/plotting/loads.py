@@ -296,7 +296,7 @@ def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoad
     a1.grid(alpha=0.3)
     a1.set_title("force on the frame: shaking (inertia) + gravity + forces", fontsize=9)
     a2.plot(x, ref.moment, label=REF_LABEL, **REF_STYLE)
-    if got.moment is not None and not mech.geared:
+    if got.moment is not None and (kin_mj.gear_torques or not mech.geared):
         a2.plot(x[::every], got.moment[::every], "o", ms=3.5, mfc="none", color="tab:blue", label="MuJoCo (circles)")
     a2.axhline(0, color="0.6", lw=0.8)
     a2.set_ylabel("moment on the frame\nabout the crank pivot [N·m]")

@@ -390,11 +390,13 @@ def decode(mech: Mechanism, case: Case, built: builder.Built, rec: Record) -> Tr
     tau = None
     RF: dict[str, np.ndarray] = {}
     RM: dict[str, np.ndarray] = {}
+    GT: dict[str, np.ndarray] = {}
     if case.loads:
         # The drive's torque on the crank minus what turns the flywheel: the effort of the
         # imposed motion from ordinary-sized terms.
         tau = col(("output", names.DRIVE), 1)[:, 0] - model.dof_armature[built.input_dof] * eps
         full: dict[str, np.ndarray] = {}
+        geared = {mech.carrier(c).name for c in mech.geared}
         for pr, j in built.tree:
             quat = col(("quat", pr.child), 4)
             f = _rotate(quat, col(("force", pr.child)))
@@ -406,6 +408,10 @@ def decode(mech: Mechanism, case: Case, built: builder.Built, rec: Record) -> Tr
                 nrm = np.column_stack([-u[:, 1], u[:, 0], np.zeros(n)])
                 RF[pr.label] = np.einsum("ij,ij->i", f, nrm)[:, None] * nrm
                 RM[pr.label] = _rotate(quat, col(("torque", pr.child)))[:, 2]
+            if pr.parent is None and pr.revolute and pr.child in geared:
+                # A geared shaft's joint carries the gear equality's torque, which no pair's
+                # force shows: the frame's share of the coupling (compare.frame_mujoco).
+                GT[pr.label] = _rotate(quat, col(("torque", pr.child)))[:, 2]
         RF.update(_loop_forces(mech, built, rec, full))
     return Trace(
         Source.MUJOCO,
@@ -425,6 +431,7 @@ def decode(mech: Mechanism, case: Case, built: builder.Built, rec: Record) -> Tr
         tau,
         RF,
         RM,
+        GT,
     )
 
 
