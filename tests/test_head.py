@@ -36,8 +36,8 @@ def _row(t, key, maker=None):
 def test_the_shipped_head_meets_every_juki_window_and_says_which_brother_ones_it_misses(timing):
     assert timing.target == "juki"
     assert timing.failures() == ()
-    for r in timing.rows:
-        assert r.counts == (r.maker in (None, "juki"))
+    for r in timing.rows:  # the general rows and the target's count, the slack is for information
+        assert r.counts == (r.maker in (None, "juki") and r.key != "thread_slack")
     assert _row(timing, "hook_rise", "juki").value == pytest.approx(2.0e-3, abs=0.02e-3)
     assert _row(timing, "hook_above_eye", "juki").value == pytest.approx(1.4e-3, abs=0.02e-3)
     assert 0.75e-3 <= _row(timing, "dog_height", "juki").value <= 0.85e-3
@@ -129,7 +129,8 @@ def test_check_prints_the_timing_table_and_names_a_miss(tmp_path):
     late = tmp_path / "late.toml"
     late.write_text(re.sub(r"(ratio = 2\.0.*\nphase = )37\.9", r"\g<1>17.9", HEAD.read_text()))
     r = in_process("check", str(late))
-    assert "timing: 2 window(s) missed" in r.stdout  # the hook meets the needle late, and low on it
+    # The hook meets the needle late, and low on it (the loop then comes late for the take-up too).
+    assert re.search(r"timing: [23] window\(s\) missed", r.stdout)
     assert re.search(
         r"juki +needle bar rise when the hook meets the needle +[\d.]+ +1\.800\.\.2\.200 mm +FAIL", r.stdout
     )
@@ -162,8 +163,11 @@ def test_the_timing_study_measures_each_head_as_simulate_does(tolerance_study, h
         for key, r in rows.items():
             unit = "deg" if key == "take_up_after_release" else "mm"
             scale = 1e3 if unit == "mm" else 180 / math.pi
-            assert table[f"timing_{key}_{unit}"][i] == pytest.approx(r.value * scale, abs=2e-3), key
-        assert table["timing_ok"][i] == float(all(r.ok for r in rows.values()))
+            # The thread's balance is measured from the stitch's setting, a sample of the grid
+            # (0.5 deg here, 0.05 deg in simulate): its rows agree to a few hundredths of a mm.
+            tol = 0.05 if key.startswith("thread") else 2e-3
+            assert table[f"timing_{key}_{unit}"][i] == pytest.approx(r.value * scale, abs=tol), key
+        assert table["timing_ok"][i] == float(all(r.ok for r in rows.values() if r.counts))
 
 
 def test_the_most_sensitive_tolerance_is_ranked_first_with_the_slope_of_a_finite_difference(tolerance_study, head):
@@ -181,3 +185,93 @@ def test_the_most_sensitive_tolerance_is_ranked_first_with_the_slope_of_a_finite
         rise.append(_row(head_timing(m), "hook_rise", "juki").value * 1e3)
     assert top["slope"] == pytest.approx(rise[1] - rise[0], rel=0.03)
     assert "timing_ok" not in res.summary["sensitivity"]  # a pass/fail flag has no slope
+
+
+# ----------------------------------------------------------------------------- thread balance
+def test_the_loop_wrapped_around_a_circle_in_closed_form():
+    """A thread from a point straight above a circle's centre, carried round the circle by a
+    point on a larger radius: tangent + arc + tangent, each in closed form, to 1e-12 m; and
+    straight while the circle is not yet in the way."""
+    from mjlink.analysis.timing import wrapped
+
+    R, d, rb = 0.0105, 0.02, 0.0135
+    centre = np.array([0.0, 0.0])
+    turned = np.radians([10.0, 90.0, 180.0, 270.0])
+    beak_angle = np.pi / 2 + turned  # carried counter-clockwise from the top
+    a = np.tile([0.0, d], (len(turned), 1))
+    b = np.column_stack([rb * np.cos(beak_angle), rb * np.sin(beak_angle)])
+    got = wrapped(a, b, centre, R, turned, 1.0)
+    ta, tb = math.sqrt(d * d - R * R), math.sqrt(rb * rb - R * R)
+    # Tangent points: acos(R/d) past a's direction, acos(R/rb) short of b's.
+    arc = turned - math.acos(R / d) - math.acos(R / rb)
+    closed = np.where(arc > 0, ta + R * arc + tb, np.hypot(*(b - a).T))
+    np.testing.assert_allclose(got, closed, atol=1e-12)
+    assert got[0] == pytest.approx(math.dist(a[0], b[0]), abs=1e-15)  # 10 deg: not yet wrapped
+    assert (np.diff(got) > 0).all()  # the loop grows as the hook carries it round
+
+
+def test_the_demand_of_a_straight_path_with_a_circular_loop_in_closed_form(head):
+    """The demand while the hook carries the loop, rebuilt from the traced points by the
+    formula of docs/head.md written out here: both legs wrapped round the bobbin case, the
+    fabric's thickness and the stitch's travel; and it meets the demand before the pick-up
+    without a jump (the loop's legs start at the eye and the fabric's underside)."""
+    t = head_timing(head)
+    b = t.balance
+    tm, bal = head.timing, head.balance
+    P = t.positions
+    loop = ((t.theta - t.events["hook picks the loop"]) % 360) <= (
+        (t.events["loop released"] - t.events["hook picks the loop"]) % 360
+    )
+    i = np.nonzero(loop)[0][[5, 200, 1000, 2000]]
+    eye, hp, nt = P["NE"][i, :2], P["HP"][i, :2], P["NT"][i, :2]
+    c, R = head.ground["H"][:2], bal.bobbin_case / 2
+    turned = np.radians((t.theta[i] - t.events["hook picks the loop"]) % 360) * 2.0
+
+    def wrap(a, p, k):
+        da, dp = np.linalg.norm(a - c), np.linalg.norm(p - c)
+        ga = math.atan2(*(a - c)[::-1]) + math.acos(R / da)
+        gp = math.atan2(*(p - c)[::-1]) - math.acos(R / dp)
+        arc = gp - ga
+        arc += (
+            2 * math.pi * round((turned[k] - (math.atan2(*(p - c)[::-1]) - math.atan2(*(a - c)[::-1]))) / (2 * math.pi))
+        )
+        return math.sqrt(da**2 - R**2) + R * arc + math.sqrt(dp**2 - R**2) if arc > 0 else math.dist(a, p)
+
+    below = []
+    for k, (e, h, n) in enumerate(zip(eye, hp, nt, strict=True)):
+        fabric = np.array([n[0], tm.plate])
+        below.append(wrap(e, h, k) + wrap(fabric, h, k) + tm.fabric)
+    below = np.array(below)
+    # The demand is the thread below the eye minus its value when the stitch was set; the
+    # stitch's travel along the fabric (the feed, finished before the needle enters) adds the
+    # same stitch length to every sample of the loop.
+    offset = b.demand[i] * 1e-3 - below
+    np.testing.assert_allclose(offset, offset[0], atol=1e-9)
+    j = np.nonzero(loop)[0][0]
+    assert abs(b.demand[j] - b.demand[j - 1]) < 0.05  # mm, one sample apart at the pick-up
+
+
+def test_a_take_up_with_its_stroke_cut_by_30_percent_cannot_supply_the_loop(tmp_path):
+    """The take-up lever's arm to the eyelet 30 % shorter: the eyelet's stroke, and with it the
+    thread the take-up gives out, fall short of what the loop takes: the supply row fails."""
+    text = HEAD.read_text()
+    cut, n = re.subn(r'(point = "P5".*\n(?:.*\n){4}length = )47\.0', r"\g<1>32.9", text)
+    assert n == 1
+    path = tmp_path / "short_take_up.toml"
+    path.write_text(cut)
+    t = head_timing(mechanism.load(path))
+    row = _row(t, "thread_shortfall")
+    assert not row.ok and row.counts and row.value > 10e-3
+    (line,) = [f for f in t.failures() if "shortfall" in f]
+    assert "what the take-up holds back of what the needle and the loop take" in line
+    assert _row(head_timing(mechanism.load(HEAD)), "thread_shortfall").ok
+
+
+def test_a_stitch_holds_its_length_and_the_fabric_of_needle_thread(head):
+    """With the interlacing in the fabric's middle, a lockstitch's needle thread runs the
+    stitch's length on top and half the fabric down and up: s + t; the bobbin thread the same,
+    2 (s + t) for the two threads (the usual estimate of a lockstitch's consumption)."""
+    t = head_timing(head)
+    s, th = head.balance.stitch_length * 1e3, head.timing.fabric * 1e3
+    assert t.balance.per_stitch == pytest.approx(s + th)
+    assert 2 * t.balance.per_stitch == pytest.approx(2 * (s + th))

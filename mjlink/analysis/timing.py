@@ -10,6 +10,7 @@ default 7,200 samples a 0.05 deg grid, far finer than any window.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -32,7 +33,18 @@ GENERAL = {
 """The checks every head gets, whatever the maker: the stitch cannot form otherwise."""
 
 
+BALANCE = {
+    "thread_shortfall": "largest shortfall of thread from the stitch's setting to the loop's release: what the "
+    "take-up holds back of what the needle and the loop take, beyond what the thread stretches (drawn through "
+    "the tension, or torn)",
+    "thread_slack": "largest slack of thread from the stitch's setting to the loop's release: the check spring's "
+    "travel it needs (beyond the spring's, loose loops form)",
+}
+"""The thread balance's checks (a head with a ``[balance]`` table)."""
+
 LABELS = {
+    "thread_shortfall": "thread short of what needle and loop take",
+    "thread_slack": "check spring travel the slack needs",
     "dog_below_while_needle_down": "feed dog below the plate while the needle is",
     "feed_in_fabric": "feed with the needle in the fabric",
     "take_up_after_release": "take-up top after the loop's release",
@@ -100,6 +112,8 @@ class HeadTiming:
     events: dict[str, float]
     rows: tuple[TimingRow, ...]
     target: str
+    positions: dict[str, np.ndarray] = dataclasses.field(default_factory=dict, repr=False)
+    balance: ThreadBalance | None = None
 
     def failures(self) -> tuple[str, ...]:
         """One line per counting check that misses its window."""
@@ -161,8 +175,12 @@ def head_timing(mech: Mechanism, samples: int = 7200) -> HeadTiming:
     u = np.arange(samples) / samples * mech.period  # shaft turn from phi0, rad
     hook = hook_crank(mech)
     kin = reference.solve(mech, mech.phi0 + sense * u)
-    pos = {p: kin.position(p) for p in set(tm.roles.values()) | {hook.pivot}}
-    return measure(tm, hook, u, pos)
+    pos = {p: kin.position(p) for p in set(tm.roles.values()) | {hook.pivot} | set(mech.thread or ())}
+    head = measure(tm, hook, u, pos)
+    if mech.balance is None or not mech.thread:
+        return head
+    bal = thread_balance(mech, head)
+    return dataclasses.replace(head, rows=head.rows + bal.rows, balance=bal)
 
 
 def hook_crank(mech: Mechanism) -> Crank:
@@ -298,7 +316,7 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
         "dog height": dog_h / MM,
         "dog advance": advance / MM,
     }
-    return HeadTiming(theta, curves, events, tuple(rows), tm.target)
+    return HeadTiming(theta, curves, events, tuple(rows), tm.target, P)
 
 
 class TimingChecks(Metric):
@@ -324,7 +342,8 @@ class TimingChecks(Metric):
 
     def _keys(self) -> list[str]:
         assert self.mech.timing is not None
-        return [*GENERAL, *self.mech.timing.maker(self.maker).windows]
+        extra = list(BALANCE) if self.mech.balance is not None and self.mech.thread else []
+        return [*GENERAL, *self.mech.timing.maker(self.maker).windows, *extra]
 
     def columns(self) -> list[Column]:
         cols = [
@@ -342,16 +361,177 @@ class TimingChecks(Metric):
         hook = hook_crank(self.mech)
         # The batch's angles run from phi0 counter-clockwise; the shaft's own sense may not.
         u = b.theta if mech.speed >= 0 else np.mod(-b.theta, 2.0 * math.pi)
-        names = set(tm.roles.values()) | {hook.pivot}
+        names = set(tm.roles.values()) | {hook.pivot} | set(self.mech.thread or ())
         pts = {p: b.per_variant(np.broadcast_to(b.kin.points[p].v, (b.variants * b.angles, 3))) for p in names}
         keys = self._keys()
         out = np.full((b.variants, len(keys) + 1), np.nan)
         for i in range(b.variants):
             head = measure(tm, hook, u, {p: v[i] for p, v in pts.items()})
-            rows = {r.key: r for r in head.rows if r.maker in (None, self.maker)}
+            extra = thread_balance(self.mech, head).rows if "thread_shortfall" in keys else ()
+            rows = {r.key: r for r in (*head.rows, *extra) if r.maker in (None, self.maker)}
             out[i, :-1] = [rows[k].value / (DEG if rows[k].unit == "deg" else MM) for k in keys]
-            out[i, -1] = float(all(rows[k].ok for k in keys))
+            out[i, -1] = float(all(rows[k].ok for k in keys if rows[k].counts))
         return {c.name: out[:, j] for j, c in enumerate(self.columns())}
 
 
-__all__ = ["GENERAL", "LABELS", "HeadTiming", "TimingChecks", "TimingRow", "head_timing", "measure", "window_text"]
+def wrapped(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, turned: np.ndarray, sense: float
+) -> np.ndarray:
+    """Length of a thread from points ``a`` to points ``b`` (each (N, 2), m) that the hook has
+    drawn around a circle (the bobbin case: ``centre`` (2,), ``radius``) in its sense of
+    rotation ``sense`` (+1 counter-clockwise): tangent from ``a``, the arc, tangent to ``b``,
+    or the straight segment where the arc would be negative (the circle is not yet in the way).
+    ``turned`` (N,) rad is how far round from ``a``'s side ``b`` has been carried (unwrapped),
+    which tells the arc's turns apart."""
+    ra, rb = a - centre, b - centre
+    da, db = np.hypot(*ra.T), np.hypot(*rb.T)
+    ta = np.sqrt(np.maximum(da**2 - radius**2, 0.0))
+    tb = np.sqrt(np.maximum(db**2 - radius**2, 0.0))
+    # Tangent points: leaving a forwards, arriving at b from behind (angles from the centre).
+    ga = np.arctan2(ra[:, 1], ra[:, 0]) + sense * np.arccos(np.clip(radius / da, -1.0, 1.0))
+    gb = np.arctan2(rb[:, 1], rb[:, 0]) - sense * np.arccos(np.clip(radius / db, -1.0, 1.0))
+    # The arc from a's tangent point to b's, the turns counted from how far b was carried.
+    start = np.arctan2(ra[:, 1], ra[:, 0])
+    arc = sense * (gb - ga)
+    arc = arc + 2.0 * np.pi * np.round((turned - sense * (np.arctan2(rb[:, 1], rb[:, 0]) - start)) / (2.0 * np.pi))
+    straight = np.hypot(*(b - a).T)
+    out: np.ndarray = np.where(arc > 0.0, ta + radius * arc + tb, straight)
+    return out
+
+
+@dataclass(frozen=True)
+class ThreadBalance:
+    """The needle thread over one stitch (docs/head.md, The thread balance), on the timing's
+    angles ``theta`` (deg from the needle bar's top): ``path`` (N,) the thread's length from
+    the tension discs to the needle's eye, mm; ``supply`` (N,) what the path has given out
+    since the take-up's top, mm; ``demand`` (N,) what the needle, the fabric and the hook's
+    loop have taken beyond their length at the take-up's top, mm; ``balance`` = supply -
+    demand (slack > 0, shortfall < 0), NaN in the stitch-setting phase where the take-up draws
+    the thread tight; ``phases`` name -> (start, end) deg; ``per_stitch`` the needle thread a
+    stitch holds, mm; ``rows`` the checks."""
+
+    theta: np.ndarray
+    path: np.ndarray
+    supply: np.ndarray
+    demand: np.ndarray
+    balance: np.ndarray
+    phases: dict[str, tuple[float, float]]
+    per_stitch: float
+    rows: tuple[TimingRow, ...]
+
+
+def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
+    """The needle thread's balance over the stitch ``head`` measured.
+
+    The path's length L runs from the tension discs to the needle's eye through the file's
+    ``[thread]`` points. Below the eye the thread runs to the end of the last stitch on the
+    fabric's top, which the feed carries away by the stitch length while the dog is up: straight
+    while the eye is above the fabric, up the needle and along the fabric while it is in it,
+    and, once the hook has taken the loop, over the hook's blade point and around the bobbin
+    case (both legs of the loop, the one to the eye and the one to the fabric's underside,
+    wrapped around the case in the hook's sense) until the loop is released. The supply is
+    L at the take-up's top minus L; the demand is the thread below the eye minus its value at
+    the take-up's top. From the release to the take-up's next top the take-up draws the loop
+    tight and the stitch's thread from the spool: no balance there.
+    """
+    tm, bal = mech.timing, mech.balance
+    assert tm is not None and bal is not None and mech.thread
+    P, th, ev = head.positions, head.theta, head.events
+    path = np.zeros(len(th))
+    for a, b in itertools.pairwise(mech.thread):
+        path += np.linalg.norm(P[b] - P[a], axis=1)
+    hook = hook_crank(mech)
+    sense = math.copysign(1.0, hook.ratio * (mech.speed or 1.0))
+    nt, eye, hp = P[tm.roles["needle_point"]], P[tm.roles["needle_eye"]], P[tm.roles["hook_point"]]
+    centre = P[hook.pivot][0, :2]
+    x_n = nt[:, 0]
+    bottom = np.column_stack([x_n, np.full(len(th), tm.plate)])
+    top_y = tm.plate + tm.fabric
+    # The fabric's travel since the take-up's top: the dog's advance while it is up, scaled to
+    # the stitch length.
+    adv = head.curves["dog advance"] * MM
+    up = head.curves["dog height"] > 0
+    step = np.diff(np.append(adv, adv[0]))
+    pick, release = ev["hook picks the loop"], ev["loop released"]
+    # The stitch is set where the path is longest between the loop's release and the needle's
+    # entry into the fabric: the take-up has drawn the most thread.
+    window = _between(th, release, ev["needle point through the plate, down"])
+    i0 = int(np.argmax(np.where(window, path, -np.inf)))
+    drawn = float(th[i0])
+    moved = np.roll(np.cumsum(np.roll(np.where(up & (step > 0), step, 0.0), -i0)), i0)
+    moved = moved / moved.max() * bal.stitch_length if moved.max() > 0 else moved
+    along = moved  # the last stitch's end, behind the needle's line along the feed
+    y_eye = eye[:, 1]
+    above = y_eye >= top_y
+    below = np.where(above, np.hypot(eye[:, 0] - x_n - along, y_eye - top_y), (top_y - y_eye) + along)
+    loop = _between(th, pick, release)
+    turned = np.radians((th - pick) % 360.0) * abs(hook.ratio)
+    r = bal.bobbin_case / 2.0
+    leg_eye = wrapped(eye[:, :2], hp[:, :2], centre, r, turned, sense)
+    leg_fabric = wrapped(bottom, hp[:, :2], centre, r, turned, sense)
+    below = np.where(loop, leg_eye + leg_fabric + tm.fabric + along, below)
+    forming = _between(th, drawn, release)
+    supply = path[i0] - path
+    demand = below - below[i0]
+    balance = np.where(forming, supply - demand, np.nan)
+    short = _peak(-(supply - demand), forming)
+    slack = _peak(supply - demand, forming)
+    rows = (
+        TimingRow(
+            "thread_shortfall",
+            BALANCE["thread_shortfall"],
+            None,
+            short,
+            Window(None, bal.stretch * float(path.min())),
+            "mm",
+            True,
+        ),
+        TimingRow(
+            "thread_slack", BALANCE["thread_slack"], None, slack, Window(None, bal.check_spring_travel), "mm", False
+        ),
+    )
+    phases = {
+        "needle descending": (drawn, ev["needle point through the plate, down"]),
+        "needle in the fabric": (ev["needle point through the plate, down"], pick),
+        "loop taken and enlarged around the bobbin": (pick, release),
+        "loop cast off, stitch set": (release, drawn),
+    }
+    return ThreadBalance(
+        th, path / MM, supply / MM, demand / MM, balance / MM, phases, (bal.stitch_length + tm.fabric) / MM, rows
+    )
+
+
+def _peak(x: np.ndarray, where: np.ndarray) -> float:
+    """The largest of ``x`` over the samples ``where``, refined between samples: the vertex of
+    the parabola through the best sample and its neighbours when both are in ``where`` (a
+    study's coarse angles then find what simulate's fine ones do)."""
+    if not where.any():
+        return math.nan
+    j = int(np.argmax(np.where(where, x, -np.inf)))
+    n = len(x)
+    a, b, c = x[(j - 1) % n], x[j], x[(j + 1) % n]
+    curv = a - 2.0 * b + c
+    if where[(j - 1) % n] and where[(j + 1) % n] and curv < 0:
+        return float(b - (a - c) ** 2 / (8.0 * curv))
+    return float(b)
+
+
+def _between(theta: np.ndarray, a: float, b: float) -> np.ndarray:
+    """(N,) bool: the angles from ``a`` to ``b`` (deg), going forwards round the stitch."""
+    return (theta - a) % 360.0 <= (b - a) % 360.0
+
+
+__all__ = [
+    "BALANCE",
+    "GENERAL",
+    "LABELS",
+    "HeadTiming",
+    "ThreadBalance",
+    "TimingChecks",
+    "TimingRow",
+    "head_timing",
+    "measure",
+    "thread_balance",
+    "window_text",
+    "wrapped",
+]

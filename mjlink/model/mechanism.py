@@ -13,6 +13,7 @@ are in SI (m, rad, kg, kg*m^2, N, N*m, N*m*s, rad/s, s).
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,7 +45,7 @@ from .limits import (
 )
 from .names import RESERVED_LINK_NAMES
 from .reader import Reader, shown
-from .timing import Timing
+from .timing import Balance, Timing
 
 __all__ = [
     "Attached",
@@ -216,6 +217,7 @@ class Mechanism:
     steady: SteadyCase | None = None
     counterweight: Counterweight | None = None
     timing: Timing | None = None  # a sewing head's [timing] table (mjlink.model.timing)
+    balance: Balance | None = None  # its needle thread's [balance] (mjlink.model.timing)
 
     @property
     def input_crank(self) -> Crank:
@@ -367,7 +369,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         data,
         "",
         ["mechanism", "ground", "construct", "links", "input"],
-        ["dynamics", "thread", "synthesis", "steady", "counterweight", "timing"],
+        ["dynamics", "thread", "synthesis", "steady", "counterweight", "timing", "balance"],
     )
 
     meta = r.table(data["mechanism"], "[mechanism]")
@@ -592,6 +594,8 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         if "timing" in data
         else None,
     )
+    if "balance" in data:
+        mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing))
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))
     if mech.timing is not None and turns != 1:

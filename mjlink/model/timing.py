@@ -144,3 +144,43 @@ def _maker(r: Reader, name: str, raw: Any) -> MakerSettings:
     if not windows:
         raise r.fail(where, f"gives no setting (any of {', '.join(SETTINGS)})")
     return MakerSettings(name, r.string(body, "source", where, default=""), windows)
+
+
+@dataclass(frozen=True)
+class Balance:
+    """A head's ``[balance]`` table in SI units: the stitch (``stitch_length``; the fabric's
+    thickness is the ``[timing]`` table's), the bobbin case's diameter the loop is drawn
+    around, the check spring (its point on the ``[thread]`` path and its travel) and the
+    thread's ``stretch`` at its working tension (a fraction: what the take-up may hold back is
+    what the thread in the path stretches)."""
+
+    stitch_length: float
+    bobbin_case: float
+    check_spring: str
+    check_spring_travel: float
+    stretch: float = 0.01  # the thread's elastic elongation at its working tension, a fraction
+
+
+def read_balance(r: Reader, raw: Any, thread: tuple[str, ...] | None, timing: Timing | None) -> Balance:
+    """The ``[balance]`` table: needs ``[timing]`` (the needle, hook and plate) and a
+    ``[thread]`` path that ends at the needle's eye and holds the check spring's point."""
+    t = r.table(raw, "[balance]")
+    r.keys(t, "[balance]", ["stitch_length", "bobbin_case", "check_spring", "check_spring_travel"], ["stretch"])
+    if timing is None:
+        raise r.fail("[balance]", "needs a [timing] table (the needle, the hook and the plate)")
+    if not thread or thread[-1] != timing.roles["needle_eye"]:
+        raise r.fail(
+            "[balance]",
+            f"needs a [thread] path that ends at the needle's eye '{timing.roles['needle_eye']}' "
+            "(from the tension discs through the take-up to the needle)",
+        )
+    spring = r.name(t["check_spring"], "[balance] check_spring")
+    if spring not in thread:
+        raise r.fail("[balance] check_spring", f"'{spring}' is not a point of the [thread] path")
+    return Balance(
+        r.number(t, "stitch_length", "[balance]", positive=True, scale=MM, hi=50.0, unit=" mm"),
+        r.number(t, "bobbin_case", "[balance]", positive=True, scale=MM, hi=200.0, unit=" mm"),
+        spring,
+        r.number(t, "check_spring_travel", "[balance]", nonneg=True, scale=MM, hi=100.0, unit=" mm"),
+        r.number(t, "stretch", "[balance]", nonneg=True, hi=0.2, default=0.01),
+    )

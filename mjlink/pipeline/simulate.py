@@ -160,7 +160,10 @@ def run(
         if head is not None and opts.plots:
             from ..plotting import timing as timing_plot  # here: matplotlib, not for --no-plots
 
-            draw([functools.partial(timing_plot.cyclogram_plot, mech, head, stage)])
+            jobs: list[PlotJob] = [functools.partial(timing_plot.cyclogram_plot, mech, head, stage)]
+            if head.balance is not None:
+                jobs.append(functools.partial(timing_plot.balance_plot, mech, head, stage))
+            draw(jobs)
         failures = tuple(f for a in agreements for f in a.failures())
         failures += head.failures() if head else ()
         failures += loads_summary.failures if loads_summary else ()

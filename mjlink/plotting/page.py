@@ -63,6 +63,7 @@ def _caption(name: str) -> str:
         "steady": "steady motion without and with the flywheel",
         "phase_study": "paths for several settings of the geared crank",
         "cyclogram": "timing diagram of the head over one stitch, with the makers' windows",
+        "thread_balance": "needle thread balance over one stitch: supply, demand, slack and shortfall",
     }
     if stem in known:
         return known[stem]
@@ -84,6 +85,7 @@ def _caption(name: str) -> str:
 _ORDER = (
     "positions",
     "cyclogram",
+    "thread_balance",
     "speed_vs_time",
     "speed_vs_angle",
     "kinematics_",

@@ -114,3 +114,61 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
         title(mech, f"timing diagram over one stitch; shaded: the {head.target} settings' windows"), fontsize=11
     )
     return save(fig, out_dir, "cyclogram.png")
+
+
+def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path:
+    """``thread_balance.png``: the needle thread over one stitch: what the take-up and guides
+    give out (supply) and what the needle, the fabric and the hook's loop take (demand) since
+    the stitch was set, their difference (slack above zero, shortfall below), the check
+    spring's travel as a band, and the phases named."""
+    assert head.balance is not None and mech.balance is not None
+    b = head.balance
+    fig, (ax, bx) = subplots(2, 1, figsize=(10.0, 7.5), sharex=True, height_ratios=[1.4, 1.0])
+    place(fig, ax.get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=0.6, hgap=0.3)
+    forming = np.isfinite(b.balance)
+    ax.plot(b.theta, np.where(forming, b.supply, np.nan), color="C2", label="supply: take-up and guides")
+    ax.plot(b.theta, np.where(forming, b.demand, np.nan), color="C3", label="demand: needle, fabric and loop")
+    ax.plot(b.theta, np.where(forming, np.nan, b.supply), color="C2", lw=0.8, ls=":")
+    ax.set_ylabel("thread since the\nstitch was set [mm]")
+    ax.legend(loc="upper left", bbox_to_anchor=(0.0, 0.86), fontsize=8, framealpha=0.9)
+    travel = mech.balance.check_spring_travel / MM
+    bx.axhspan(0.0, travel, color="C0", alpha=0.12, lw=0)
+    bx.plot(b.theta, b.balance, color="C0")
+    bx.axhline(0.0, color="0.3", lw=1.0)
+    bx.set_ylabel("supply - demand [mm]\n(slack > 0 > shortfall)")
+    bx.set_xlabel("main-shaft angle from the needle bar's top dead centre [deg]")
+    angle_ticks(bx, 0.0, 360.0)
+    shades = ("0.93", "0.86")
+    for k, (name, (lo, hi)) in enumerate(b.phases.items()):
+        spans = [(lo, hi)] if hi >= lo else [(lo, 360.0), (0.0, hi)]
+        for a0, a1 in spans:
+            for a in (ax, bx):
+                a.axvspan(a0, a1, color=shades[k % 2], lw=0, zorder=0)
+        mid = (lo + ((hi - lo) % 360.0) / 2.0) % 360.0
+        ax.annotate(
+            name,
+            (mid, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(0, -4),
+            textcoords="offset points",
+            ha="center",
+            va="top",
+            fontsize=7.5,
+            rotation=90 if (hi - lo) % 360.0 < 60.0 else 0,
+            color="0.25",
+        )
+    short = next(r for r in head.rows if r.key == "thread_shortfall")
+    slack = next(r for r in head.rows if r.key == "thread_slack")
+    bx.text(
+        0.01,
+        0.04,
+        f"largest shortfall {short.value / MM:.2f} mm ({'none' if short.ok else 'FAIL'}); largest slack "
+        f"{slack.value / MM:.2f} mm (check spring travel {travel:g} mm, shaded); a stitch holds "
+        f"{b.per_stitch:.2f} mm of needle thread",
+        transform=bx.transAxes,
+        fontsize=8,
+    )
+    for a in (ax, bx):
+        a.grid(alpha=0.3)
+    fig.suptitle(title(mech, "needle thread balance over one stitch"), fontsize=11)
+    return save(fig, out_dir, "thread_balance.png")
