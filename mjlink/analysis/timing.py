@@ -366,8 +366,24 @@ class TimingChecks(Metric):
         keys = self._keys()
         out = np.full((b.variants, len(keys) + 1), np.nan)
         for i in range(b.variants):
-            head = measure(tm, hook, u, {p: v[i] for p, v in pts.items()})
-            extra = thread_balance(self.mech, head).rows if "thread_shortfall" in keys else ()
+            # A study may vary the fabric, the stitch or the thread's numbers: this variant's.
+            own_tm = dataclasses.replace(tm, fabric=_of(mech.timing.fabric if mech.timing else tm.fabric, i, b))
+            own = self.mech
+            if self.mech.balance is not None and mech.balance is not None:
+                vb = mech.balance
+                own = dataclasses.replace(
+                    self.mech,
+                    timing=own_tm,
+                    balance=dataclasses.replace(
+                        vb,
+                        stitch_length=_of(vb.stitch_length, i, b),
+                        bobbin_case=_of(vb.bobbin_case, i, b),
+                        check_spring_travel=_of(vb.check_spring_travel, i, b),
+                        stretch=_of(vb.stretch, i, b),
+                    ),
+                )
+            head = measure(own_tm, hook, u, {p: v[i] for p, v in pts.items()})
+            extra = thread_balance(own, head).rows if "thread_shortfall" in keys else ()
             rows = {r.key: r for r in (*head.rows, *extra) if r.maker in (None, self.maker)}
             out[i, :-1] = [rows[k].value / (DEG if rows[k].unit == "deg" else MM) for k in keys]
             out[i, -1] = float(all(rows[k].ok for k in keys if rows[k].counts))
@@ -455,7 +471,9 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     pick, release = ev["hook picks the loop"], ev["loop released"]
     # The stitch is set where the path is longest between the loop's release and the needle's
     # entry into the fabric: the take-up has drawn the most thread.
-    window = _between(th, release, ev["needle point through the plate, down"])
+    entry = _crossing(th, head.curves["needle point"], tm.fabric / MM, True)
+    enters = float(entry[0]) if len(entry) else ev["needle point through the plate, down"]
+    window = _between(th, release, enters)
     i0 = int(np.argmax(np.where(window, path, -np.inf)))
     drawn = float(th[i0])
     moved = np.roll(np.cumsum(np.roll(np.where(up & (step > 0), step, 0.0), -i0)), i0)
@@ -471,11 +489,22 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     leg_fabric = wrapped(bottom, hp[:, :2], centre, r, turned, sense)
     below = np.where(loop, leg_eye + leg_fabric + tm.fabric + along, below)
     forming = _between(th, drawn, release)
-    supply = path[i0] - path
-    demand = below - below[i0]
+    path_at, below_at = path[i0], below[i0]
+    if not window[(i0 + 1) % len(th)] and path[(i0 + 1) % len(th)] > path[i0]:
+        # Still drawing as the needle enters the fabric: the stitch is set at the entry itself,
+        # between two samples (a study's coarse grid then agrees with simulate's fine one).
+        drawn = enters
+        path_at, below_at = _at(th, path, enters), _at(th, below, enters)
+    supply = path_at - path
+    demand = below - below_at
     balance = np.where(forming, supply - demand, np.nan)
-    short = _peak(-(supply - demand), forming)
-    slack = _peak(supply - demand, forming)
+    diff = supply - demand
+    # The phase ends at the release, between two samples: the balance there, extrapolated from
+    # the phase's last two samples, is a candidate too (a coarse grid would stop short of it).
+    k = int(np.nonzero(forming & ~np.roll(forming, -1))[0][0]) if forming.any() and not forming.all() else -1
+    at_end = diff[k] + (diff[k] - diff[k - 1]) * ((release - th[k]) % 360.0) / ((th[k] - th[k - 1]) % 360.0)
+    short = max(_peak(-diff, forming), -float(at_end))
+    slack = max(_peak(diff, forming), float(at_end))
     rows = (
         TimingRow(
             "thread_shortfall",
@@ -491,14 +520,19 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         ),
     )
     phases = {
-        "needle descending": (drawn, ev["needle point through the plate, down"]),
-        "needle in the fabric": (ev["needle point through the plate, down"], pick),
+        "needle descending": (drawn, enters),
+        "needle in the fabric": (enters, pick),
         "loop taken and enlarged around the bobbin": (pick, release),
         "loop cast off, stitch set": (release, drawn),
     }
     return ThreadBalance(
         th, path / MM, supply / MM, demand / MM, balance / MM, phases, (bal.stitch_length + tm.fabric) / MM, rows
     )
+
+
+def _of(x: Any, i: int, b: Batch) -> float:
+    """Variant ``i``'s value of a number a study may vary: a (V*A,) row array or a scalar."""
+    return float(np.asarray(x).reshape(-1)[i * b.angles]) if np.ndim(x) else float(x)
 
 
 def _peak(x: np.ndarray, where: np.ndarray) -> float:

@@ -134,6 +134,13 @@ def catalogue(mech: Mechanism) -> dict[str, Param]:
     add("counterweight.mass", G, "g", False, cw.mass)
     add("counterweight.radius", MM, "mm", False, cw.radius)
     add("counterweight.angle", DEG, "deg", False, cw.angle)
+    if mech.timing is not None:
+        add("timing.fabric", MM, "mm", False, mech.timing.fabric)
+    if mech.balance is not None:
+        add("balance.stitch_length", MM, "mm", True, mech.balance.stitch_length)
+        add("balance.bobbin_case", MM, "mm", True, mech.balance.bobbin_case)
+        add("balance.check_spring_travel", MM, "mm", False, mech.balance.check_spring_travel)
+        add("balance.stretch", 1.0, "", False, mech.balance.stretch)
     if mech.synthesis is not None:
         sy = mech.synthesis
         add("synthesis.stroke", MM, "mm", True, sy.stroke)
@@ -219,6 +226,12 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
             synthesis[parts[1]] = v
         elif sec == "counterweight":
             counterweight[parts[1]] = v
+        elif sec == "timing":
+            assert mech.timing is not None
+            top["timing"] = dataclasses.replace(top.get("timing", mech.timing), **{parts[1]: v})
+        elif sec == "balance":
+            assert mech.balance is not None
+            top["balance"] = dataclasses.replace(top.get("balance", mech.balance), **{parts[1]: v})
         else:  # catalogue() lists no other section
             raise PathError(f"{mech.name}: parameter path '{p.path}' cannot be varied")
     d = mech.dynamics
@@ -411,7 +424,7 @@ def _set(raw: dict, path: str, v: float) -> None:
         step[parts[2]] = v
     elif sec == "links":
         raw["links"][parts[1]][parts[2]] = v
-    elif sec in ("input", "steady", "thread", "synthesis", "counterweight"):
+    elif sec in ("input", "steady", "thread", "synthesis", "counterweight", "timing", "balance"):
         raw.setdefault(sec, {})[parts[1]] = v
     elif sec == "dynamics" and parts[1] == "motor":
         raw["dynamics"]["motor"][parts[2]] = v
