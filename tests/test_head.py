@@ -309,3 +309,23 @@ def test_stitch_and_fabric_are_study_parameters_measured_per_variant(head, tmp_p
     assert (table["timing_ok"][thick] == 0).all() and (table["timing_ok"][~thick] == 1).all()
     with pytest.raises(MechanismFileError, match="fabric"):
         paths.check_values(head, {paths.resolve(head, "timing.fabric"): -1.0})
+
+
+def test_an_optimization_draws_the_balance_curve_before_and_after(head):
+    """The timing metric's curve is the thread's balance over the cycle (before_after.png of a
+    take-up study): its extremes are the slack and the shortfall the rows report."""
+    from mjlink.analysis.metric_base import Loads
+    from mjlink.analysis.timing import TimingChecks
+    from mjlink.model import paths
+    from mjlink.reference import batch
+
+    p = paths.resolve(head, "timing.fabric")
+    b = batch.solve_batch(head, [p], np.array([[1.5], [3.0]]), 720)
+    m = TimingChecks(head, {"kind": "timing"}, "[[metric]] #1")
+    cv = m.curve(b, Loads())
+    cols = m.compute(b, b, Loads())
+    assert cv is not None and cv.values.shape == (2, 720) and cv.unit == "mm"
+    for i in range(2):
+        assert np.nanmax(cv.values[i]) == pytest.approx(cols["timing_thread_slack"][i], abs=0.02)
+        assert -np.nanmin(cv.values[i]) == pytest.approx(cols["timing_thread_shortfall"][i], abs=0.02)
+    assert cols["timing_thread_shortfall"][1] > cols["timing_thread_shortfall"][0]  # thicker fabric

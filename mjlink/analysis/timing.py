@@ -23,7 +23,7 @@ from ..model.mechanism import Mechanism
 from ..model.timing import SETTINGS, Timing, Window
 from ..reference.batch import Batch
 from ..units import DEG, MM
-from .metric_base import Column, Loads, Metric, MetricError
+from .metric_base import Column, Curve, Loads, Metric, MetricError
 
 GENERAL = {
     "dog_below_while_needle_down": "feed dog's highest point above the throat plate while the needle point is below it",
@@ -114,6 +114,7 @@ class HeadTiming:
     target: str
     positions: dict[str, np.ndarray] = dataclasses.field(default_factory=dict, repr=False)
     balance: ThreadBalance | None = None
+    order: np.ndarray | None = dataclasses.field(default=None, repr=False)  # input sample of each angle
 
     def failures(self) -> tuple[str, ...]:
         """One line per counting check that misses its window."""
@@ -316,7 +317,7 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
         "dog height": dog_h / MM,
         "dog advance": advance / MM,
     }
-    return HeadTiming(theta, curves, events, tuple(rows), tm.target, P)
+    return HeadTiming(theta, curves, events, tuple(rows), tm.target, P, order=order)
 
 
 class TimingChecks(Metric):
@@ -353,7 +354,8 @@ class TimingChecks(Metric):
         cols.append(Column(f"timing_ok{self.tag}", "", f"1 if every timing window holds ({self.maker} and general)"))
         return cols
 
-    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+    def _heads(self, b: Batch) -> list[tuple[HeadTiming, ThreadBalance | None, dict[str, TimingRow]]]:
+        """Each variant's timing, thread balance (None without [balance]) and rows by key."""
         mech = b.mechanism
         tm = self.mech.timing
         assert tm is not None
@@ -363,8 +365,7 @@ class TimingChecks(Metric):
         u = b.theta if mech.speed >= 0 else np.mod(-b.theta, 2.0 * math.pi)
         names = set(tm.roles.values()) | {hook.pivot} | set(self.mech.thread or ())
         pts = {p: b.per_variant(np.broadcast_to(b.kin.points[p].v, (b.variants * b.angles, 3))) for p in names}
-        keys = self._keys()
-        out = np.full((b.variants, len(keys) + 1), np.nan)
+        out = []
         for i in range(b.variants):
             # A study may vary the fabric, the stitch or the thread's numbers: this variant's.
             own_tm = dataclasses.replace(tm, fabric=_of(mech.timing.fabric if mech.timing else tm.fabric, i, b))
@@ -383,11 +384,29 @@ class TimingChecks(Metric):
                     ),
                 )
             head = measure(own_tm, hook, u, {p: v[i] for p, v in pts.items()})
-            extra = thread_balance(own, head).rows if "thread_shortfall" in keys else ()
-            rows = {r.key: r for r in (*head.rows, *extra) if r.maker in (None, self.maker)}
+            bal = thread_balance(own, head) if own.balance is not None and own.thread else None
+            rows = {r.key: r for r in (*head.rows, *(bal.rows if bal else ())) if r.maker in (None, self.maker)}
+            out.append((head, bal, rows))
+        return out
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        keys = self._keys()
+        out = np.full((b.variants, len(keys) + 1), np.nan)
+        for i, (_, _, rows) in enumerate(self._heads(b)):
             out[i, :-1] = [rows[k].value / (DEG if rows[k].unit == "deg" else MM) for k in keys]
             out[i, -1] = float(all(rows[k].ok for k in keys if rows[k].counts))
         return {c.name: out[:, j] for j, c in enumerate(self.columns())}
+
+    def curve(self, b: Batch, loads: Loads) -> Curve | None:
+        """The needle thread's balance (supply - demand, mm) over the cycle, for a head with a
+        ``[balance]`` table: NaN where the take-up sets the stitch."""
+        if self.mech.balance is None or not self.mech.thread:
+            return None
+        values = np.full((b.variants, b.angles), np.nan)
+        for i, (head, bal, _) in enumerate(self._heads(b)):
+            assert bal is not None and head.order is not None
+            values[i, head.order] = bal.balance
+        return Curve("needle thread: supply - demand", "mm", values, limit=0.0)
 
 
 def wrapped(
