@@ -470,6 +470,28 @@ def test_an_unconverged_search_says_so_everywhere(tmp_path, capsys):
         assert float(file_design) == pytest.approx(summ["mechanism_file_design"]["metrics"][name], rel=1e-5)
 
 
+def test_the_polish_never_overflows_on_a_degenerate_covariance():
+    """A nearly singular covariance made the CMA-ES polish's evolution path so long that the
+    step-size update overflowed (a traceback at the end of a head's take-up synthesis): the
+    factor is capped at e per generation, the axes floored relative to the longest."""
+    from mjlink.study import polish
+
+    assert polish.step_size(0.1, 1e300, 0.3, 1.3, 3.4) == pytest.approx(0.1 * math.e)
+    assert polish.step_size(0.1, 3.4, 0.3, 1.3, 3.4) == pytest.approx(0.1)
+    d = polish.axes(np.array([1.0, 1e-300, 0.0, -1e-17]))
+    assert np.all(np.isfinite(1.0 / d)) and d.min() == pytest.approx(1e-10)
+    # A whole polish whose objective only one coordinate moves, from the box's corner.
+    r = polish.polish(
+        lambda X: ((X[:, 0] - 0.3) ** 2, np.where(X[:, 1:].min(axis=1) < 1.0, 1.0, 0.0)),
+        np.ones(12),
+        0.49,
+        sigma0=0.2,
+        evaluations=4000,
+        seed=1,
+    )
+    assert math.isfinite(r.step) and r.f <= 0.49
+
+
 # ================================================================= 8. caveats, rounding
 CIRCLE = f"""
 [study]

@@ -58,6 +58,22 @@ class Polished:
     stopped_by: str
 
 
+def step_size(sigma: float, path_norm: float, cs: float, damps: float, chi_n: float) -> float:
+    """CMA-ES's step-size update from the length of the conjugate evolution path, its factor
+    capped at e per generation as Hansen's reference implementation caps it: a path lengthened
+    by a nearly singular covariance would otherwise overflow the exponential (it did, on a
+    head's take-up synthesis)."""
+    return sigma * math.exp(min(1.0, (cs / damps) * (path_norm / chi_n - 1.0)))
+
+
+def axes(d2: np.ndarray) -> np.ndarray:
+    """The covariance's axis lengths (square roots of its eigenvalues ``d2``), floored at 1e-10
+    of the longest: a direction the selection never moved along keeps a finite inverse, so that
+    C^-1/2 (and the evolution path through it) stays bounded."""
+    out: np.ndarray = np.sqrt(np.maximum(d2, 1e-20 * max(float(np.max(d2)), 1e-300)))
+    return out
+
+
 def polish(
     batch: Batch,
     u0: np.ndarray,
@@ -129,13 +145,13 @@ def polish(
         hsig = float(np.linalg.norm(ps) / math.sqrt(1 - (1 - cs) ** (2 * gen)) / chi_n < 1.4 + 2 / (n + 1))
         pc = (1 - cc) * pc + hsig * math.sqrt(cc * (2 - cc) * mueff) * yw
         C = (1 - c1 - cmu) * C + c1 * (np.outer(pc, pc) + (1 - hsig) * cc * (2 - cc) * C) + cmu * (sel.T * w) @ sel
-        sigma *= math.exp((cs / damps) * (float(np.linalg.norm(ps)) / chi_n - 1))
+        sigma = step_size(sigma, float(np.linalg.norm(ps)), cs, damps, chi_n)
         sigma = min(sigma, 0.5)
         if used - decomposed > lam / (c1 + cmu) / n / 10:
             decomposed = used
             C = np.triu(C) + np.triu(C, 1).T
             d2, B = np.linalg.eigh(C)
-            D = np.sqrt(np.maximum(d2, 1e-300))
+            D = axes(d2)
             inv_sqrt_c = (B / D) @ B.T
         step = sigma * float(D.max())
         if step < xtol:
