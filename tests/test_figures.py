@@ -84,6 +84,26 @@ def _residuals(fig):
     return [ax for ax in fig.axes if ax.get_gid() == style.RESIDUAL_GID]
 
 
+def _head_report_and_page(run_figures) -> None:
+    """simulate of a head: report.json's timing checks (every row with its value, window and
+    result, the events), the page's timing table, and the cyclogram and thread balance among
+    the figures with their captions."""
+    _, figs, out, _, status, printed = run_figures
+    assert status == 0
+    report = json.loads((out / "report.json").read_text())
+    checks = report["timing"]["checks"]
+    keys = {(c["check"], c["settings"]) for c in checks}
+    assert {("hook_rise", "juki"), ("hook_rise", "brother"), ("thread_shortfall", None)} <= keys
+    assert all(c["result"] in ("pass", "FAIL") and c["unit"] in ("mm", "deg") for c in checks)
+    assert not [c for c in checks if c["counts"] and c["result"] == "FAIL"] and report["failures"] == []
+    assert report["timing"]["events_deg"]["hook picks the loop"] == pytest.approx(206.05, abs=0.1)
+    page = (out / "index.html").read_text()
+    assert "Timing over one stitch" in page and "needle bar rise when the hook meets the needle" in page
+    assert "thread_balance.png: needle thread balance" in page and "cyclogram.png: timing diagram" in page
+    assert {"cyclogram.png", "thread_balance.png"} <= set(figs)
+    assert "Timing over one stitch" in printed
+
+
 @pytest.mark.slow
 def test_every_mechanism_gets_its_figures(run_figures):
     """The kinematic figures that apply to each mechanism (test_plots.KNOWN, and the rules of
@@ -100,6 +120,8 @@ def test_every_mechanism_gets_its_figures(run_figures):
     for name in pngs:
         _check_png(out / name)
     assert not [p.name for p in out.iterdir() if p.name.startswith(".") and p.name != output.MARKER], "temporary files"
+    if mech.timing is not None:  # a sewing head: its timing and thread balance, reported
+        _head_report_and_page(run_figures)
 
 
 @pytest.mark.slow
@@ -248,24 +270,3 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
 
     img = np.asarray(iio.imread(shot))
     assert img.shape[0] >= 1000 and img.std() > 10, "the screenshot is blank"
-
-
-@pytest.mark.parametrize("run_figures", ["lockstitch_head"], indirect=True)
-def test_the_heads_report_and_page_carry_its_timing_and_thread_balance(run_figures):
-    """simulate lockstitch_head: report.json's timing checks (every row with its value, window
-    and result, the events), the page's timing table, and the cyclogram and thread balance
-    among the figures with their captions."""
-    _, figs, out, _, status, printed = run_figures
-    assert status == 0
-    report = json.loads((out / "report.json").read_text())
-    checks = report["timing"]["checks"]
-    keys = {(c["check"], c["settings"]) for c in checks}
-    assert {("hook_rise", "juki"), ("hook_rise", "brother"), ("thread_shortfall", None)} <= keys
-    assert all(c["result"] in ("pass", "FAIL") and c["unit"] in ("mm", "deg") for c in checks)
-    assert not [c for c in checks if c["counts"] and c["result"] == "FAIL"] and report["failures"] == []
-    assert report["timing"]["events_deg"]["hook picks the loop"] == pytest.approx(206.05, abs=0.1)
-    page = (out / "index.html").read_text()
-    assert "Timing over one stitch" in page and "needle bar rise when the hook meets the needle" in page
-    assert "thread_balance.png: needle thread balance" in page and "cyclogram.png: timing diagram" in page
-    assert {"cyclogram.png", "thread_balance.png"} <= set(figs)
-    assert "Timing over one stitch" in printed
