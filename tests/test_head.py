@@ -29,6 +29,18 @@ def timing(head):
     return head_timing(head)
 
 
+def _edited(tmp_path, pattern, repl, name):
+    """The shipped head with one regex edit (made exactly once), written to ``name`` and read."""
+    text, n = re.subn(pattern, repl, HEAD.read_text())
+    assert n == 1
+    path = tmp_path / name
+    path.write_text(text)
+    return mechanism.load(path)
+
+
+LATE_HOOK = (r"(ratio = 2\.0.*\nphase = )37\.9", r"\g<1>17.9")
+
+
 def _row(t, key, maker=None):
     return next(r for r in t.rows if r.key == key and r.maker == maker)
 
@@ -49,12 +61,7 @@ def test_the_shipped_head_meets_every_juki_window_and_says_which_brother_ones_it
 
 
 def test_a_hook_twenty_degrees_late_fails_the_hook_timing_with_a_clear_row(head, tmp_path):
-    text = HEAD.read_text()
-    late, n = re.subn(r"(ratio = 2\.0.*\nphase = )37\.9", r"\g<1>17.9", text)
-    assert n == 1
-    path = tmp_path / "late_hook.toml"
-    path.write_text(late)
-    t = head_timing(mechanism.load(path))
+    t = head_timing(_edited(tmp_path, *LATE_HOOK, "late_hook.toml"))
     rise = _row(t, "hook_rise", "juki")
     assert not rise.ok and rise.counts
     # 20 deg of hook is 10 deg of main shaft: the needle bar has risen several mm more.
@@ -126,9 +133,8 @@ def test_check_prints_the_timing_table_and_names_a_miss(tmp_path):
     r = in_process("check", "lockstitch_head")
     assert r.returncode == 0, r.stderr
     assert "Timing over one stitch" in r.stdout and "misses" in r.stdout and "window(s) missed" not in r.stdout
-    late = tmp_path / "late.toml"
-    late.write_text(re.sub(r"(ratio = 2\.0.*\nphase = )37\.9", r"\g<1>17.9", HEAD.read_text()))
-    r = in_process("check", str(late))
+    late = _edited(tmp_path, *LATE_HOOK, "late.toml")
+    r = in_process("check", str(late.path))
     # The hook meets the needle late, and low on it (the loop then comes late for the take-up too).
     assert re.search(r"timing: [23] window\(s\) missed", r.stdout)
     assert re.search(
@@ -254,12 +260,7 @@ def test_the_demand_of_a_straight_path_with_a_circular_loop_in_closed_form(head)
 def test_a_take_up_with_its_stroke_cut_by_30_percent_cannot_supply_the_loop(tmp_path):
     """The take-up lever's arm to the eyelet 30 % shorter: the eyelet's stroke, and with it the
     thread the take-up gives out, fall short of what the loop takes: the supply row fails."""
-    text = HEAD.read_text()
-    cut, n = re.subn(r'(point = "P5".*\n(?:.*\n){4}length = )47\.0', r"\g<1>32.9", text)
-    assert n == 1
-    path = tmp_path / "short_take_up.toml"
-    path.write_text(cut)
-    t = head_timing(mechanism.load(path))
+    t = head_timing(_edited(tmp_path, r'(point = "P5".*\n(?:.*\n){4}length = )47\.0', r"\g<1>32.9", "short.toml"))
     row = _row(t, "thread_shortfall")
     assert not row.ok and row.counts and row.value > 10e-3
     (line,) = [f for f in t.failures() if "shortfall" in f]

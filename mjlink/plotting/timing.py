@@ -4,8 +4,10 @@ angle over one stitch, with the events and the windows of the head's target sett
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from matplotlib.axes import Axes
 
 from ..analysis.timing import HeadTiming
 from ..model.mechanism import Mechanism
@@ -20,6 +22,19 @@ _EVENTS = {
     "take-up top": "take-up top",
     "dog flush, descending": "dog down",
 }
+
+
+def _label(ax: Axes, text: str, x: float, *, dx: float = 0.0, dy: float = -2.0, **style: Any) -> None:
+    """``text`` hanging from the top of ``ax`` at main-shaft angle ``x`` (offset in points)."""
+    ax.annotate(
+        text,
+        (x, 1.0),
+        xycoords=("data", "axes fraction"),
+        xytext=(dx, dy),
+        textcoords="offset points",
+        va="top",
+        **style,
+    )
 
 
 def _rise_band(head: HeadTiming, lo: float, hi: float) -> tuple[float, float] | None:
@@ -98,18 +113,7 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
     for key, tag in _EVENTS.items():
         x = head.events.get(key)
         if x is not None and np.isfinite(x):
-            top.annotate(
-                tag,
-                (x, 1.0),
-                xycoords=("data", "axes fraction"),
-                xytext=(2, -2),
-                textcoords="offset points",
-                ha="left",
-                va="top",
-                fontsize=8,
-                rotation=90,
-                color="0.3",
-            )
+            _label(top, tag, x, dx=2, ha="left", fontsize=8, rotation=90, color="0.3")
     fig.suptitle(
         title(mech, f"timing diagram over one stitch; shaded: the {head.target} settings' windows"), fontsize=11
     )
@@ -145,28 +149,21 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
             for a in (ax, bx):
                 a.axvspan(a0, a1, color=shades[k % 2], lw=0, zorder=0)
         mid = (lo + ((hi - lo) % 360.0) / 2.0) % 360.0
-        ax.annotate(
-            name,
-            (mid, 1.0),
-            xycoords=("data", "axes fraction"),
-            xytext=(0, -4),
-            textcoords="offset points",
-            ha="center",
-            va="top",
-            fontsize=7.5,
-            rotation=90 if (hi - lo) % 360.0 < 60.0 else 0,
-            color="0.25",
-        )
+        rotation = 90 if (hi - lo) % 360.0 < 60.0 else 0
+        _label(ax, name, mid, dy=-4, ha="center", fontsize=7.5, rotation=rotation, color="0.25")
     short = next(r for r in head.rows if r.key == "thread_shortfall")
     slack = next(r for r in head.rows if r.key == "thread_slack")
-    bx.text(
-        0.01,
-        0.04,
-        f"largest shortfall {short.value / MM:.2f} mm ({'none' if short.ok else 'FAIL'}); largest slack "
-        f"{slack.value / MM:.2f} mm (check spring travel {travel:g} mm, shaded); a stitch holds "
-        f"{b.per_stitch:.2f} mm of needle thread",
-        transform=bx.transAxes,
+    ax.text(
+        0.42,
+        0.5,
+        f"largest shortfall {short.value / MM:.2f} mm ({'within' if short.ok else 'FAIL: beyond'} the thread's "
+        f"stretch, {(short.window.hi or 0.0) / MM:.2f} mm)\nlargest slack {slack.value / MM:.2f} mm (check spring "
+        f"travel {travel:g} mm, shaded below)\na stitch holds {b.per_stitch:.2f} mm of needle thread",
+        transform=ax.transAxes,
+        ha="center",
+        va="center",
         fontsize=8,
+        bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "none"},
     )
     for a in (ax, bx):
         a.grid(alpha=0.3)
