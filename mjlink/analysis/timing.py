@@ -78,10 +78,23 @@ class TimingRow:
     def label(self) -> str:
         return LABELS[self.key]
 
+    @property
+    def verdict(self) -> str:
+        """'pass' or 'FAIL' for a check that decides the run; 'meets' or 'misses' for another
+        maker's window, shown for comparison."""
+        if self.counts:
+            return "pass" if self.ok else "FAIL"
+        return "meets" if self.ok else "misses"
+
     def shown(self, x: float | None) -> str:
         if x is None:
             return ""
         return f"{x / (MM if self.unit == 'mm' else DEG):.3f}"
+
+    def window_text(self) -> str:
+        """The window as tables show it: '1.800..2.200' (an open end as -inf or inf)."""
+        lo, hi = self.shown(self.window.lo), self.shown(self.window.hi)
+        return f"{lo or '-inf'}..{hi or 'inf'}"
 
     def as_dict(self) -> dict[str, object]:
         k = MM if self.unit == "mm" else DEG
@@ -120,7 +133,7 @@ class HeadTiming:
         """One line per counting check that misses its window."""
         return tuple(
             f"timing: {r.what}{f' ({r.maker})' if r.maker else ''} is {r.shown(r.value)} {r.unit}, "
-            f"window {_window(r)} {r.unit}"
+            f"window {r.window_text()} {r.unit}"
             for r in self.rows
             if r.counts and not r.ok
         )
@@ -131,16 +144,6 @@ class HeadTiming:
             "events_deg": {k: round(v, 3) for k, v in self.events.items()},
             "checks": [r.as_dict() for r in self.rows],
         }
-
-
-def _window(r: TimingRow) -> str:
-    lo, hi = r.shown(r.window.lo), r.shown(r.window.hi)
-    return f"{lo or '-inf'}..{hi or 'inf'}"
-
-
-def window_text(r: TimingRow) -> str:
-    """The row's window as shown in tables: '1.800..2.200'."""
-    return _window(r)
 
 
 def _crossing(theta: np.ndarray, f: np.ndarray, level: float, falling: bool) -> np.ndarray:
@@ -585,6 +588,5 @@ __all__ = [
     "head_timing",
     "measure",
     "thread_balance",
-    "window_text",
     "wrapped",
 ]

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, cast
 
 from .. import compare, validation
-from ..analysis.timing import HeadTiming, window_text
+from ..analysis.timing import HeadTiming
 from ..model import names
 from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
 from ..units import G, PairKind, PairRole, to_mm, to_rpm
@@ -425,9 +425,8 @@ def timing_table(head: HeadTiming) -> str:
     rows = [f"\nTiming over one stitch (main-shaft angle from the needle bar's top; built to '{head.target}'):"]
     rows.append(f"{'settings':9s} {'check':47s} {'measured':>9s} {'window':>17s} unit  result")
     for r in head.rows:
-        mark = ("pass" if r.ok else "FAIL") if r.counts else ("meets" if r.ok else "misses")
         rows.append(
-            f"{r.maker or 'every':9s} {r.label:47s} {r.shown(r.value):>9s} {window_text(r):>17s} {r.unit:4s}  {mark}"
+            f"{r.maker or 'every':9s} {r.label:47s} {r.shown(r.value):>9s} {r.window_text():>17s} {r.unit:4s}  {r.verdict}"
         )
     rows.append("events (deg): " + ", ".join(f"{k} {v:.1f}" for k, v in head.events.items() if k != "needle bar top"))
     return "\n".join(rows)

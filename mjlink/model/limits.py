@@ -18,8 +18,8 @@ MIN_SPEED, MAX_SPEED = 1.0, 1e4
 MAX_CYCLES = 100.0
 # Durations of the dynamic run, s ([dynamics] duration, --duration). It is sampled every
 # 0.25 ms and needs 100 samples to be compared with the reference (compare.MIN_SAMPLES), so a
-# run under 25 ms cannot be judged; at dt = 50 us a 100 s run is 2 million steps (tens of
-# minutes), beyond any study of a machine's run-up (the papers' take-up settles within 1 s).
+# run under 25 ms cannot be judged; at dt = 50 us a 100 s run is 2 million steps, far beyond
+# any study of a machine's run-up (the papers' take-up settles within 1 s of simulated time).
 MIN_DURATION_S, MAX_DURATION_S = 0.025, 100.0
 MAX_GEAR_RATIO = 64.0
 # Angles in files (phi0, phase, attached angle): beyond a turn or two they only lose precision
@@ -62,9 +62,9 @@ TRACE_BYTES_PER_VALUE, CSV_BYTES_PER_VALUE = 60.0, 23.0
 MAX_TRACE_BYTES = 2e9  # memory for the traces of one run, bytes
 MAX_CSV_BYTES = 1e9  # CSV written by one run, bytes
 LONG_RUN_SAMPLES = 100_000  # above this a run says on stderr that it will take a while
-# The video: frames are rendered and encoded one by one: 10 000 frames are minutes of
-# rendering on a software rasterizer, a 5.5-minute video at 30 fps; beyond 240 fps no player
-# shows the difference.
+# The video: frames are rendered and encoded one by one, so a run's cost grows with its frames
+# (10 000 frames are a 5.5-minute video at 30 fps, far more than a cycle needs); beyond 240 fps
+# no player shows the difference. What a video costs: docs/performance.md.
 MAX_VIDEO_FRAMES = 10_000
 MAX_FPS = 240
 # Text a file shows in every listing, plot title and report: one line, a title not an essay
@@ -73,9 +73,9 @@ MAX_TITLE_CHARS = 200
 # A mechanism or study file is a few kB: above this it is refused by its size, before it is read.
 MAX_FILE_BYTES = 1 << 20
 # Points in one file (ground and built): every check over a cycle solves each point at
-# SAMPLES_PER_TURN input angles per turn of the period, so its cost is points x samples: 200
-# points keep `check` to seconds, 2000 took minutes. The product is bounded too, for geared
-# files whose period spans many turns: 200 points over 4 turns.
+# SAMPLES_PER_TURN input angles per turn of the period, so its cost is points x samples, and
+# 200 points are far more than a machine's linkage names. The product is bounded too, for
+# geared files whose period spans many turns: 200 points over 4 turns.
 MAX_POINTS = 200
 MAX_CHECK_POINT_SAMPLES = MAX_POINTS * SAMPLES_PER_TURN * 4
 # Synthesis of the offset crank-slider (synth): stroke and offset are lengths like any bar's

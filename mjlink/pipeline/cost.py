@@ -19,10 +19,9 @@ from ..model.limits import (
     MAX_TRACE_BYTES,
     MAX_VIDEO_FRAMES,
     TRACE_BYTES_PER_VALUE,
-    VERIFIED_SPEED,
 )
 from ..model.mechanism import Mechanism
-from ..runs import DYNAMIC, KINEMATIC, Case
+from ..runs import DYNAMIC, Case
 from ..sim import simulate
 from ..units import RunKind
 from .options import Options, check_duration, check_speed, has_masses
@@ -105,8 +104,7 @@ def estimate(
         n = mech.cycles if opts.cycles is None else opts.cycles
         if not (math.isfinite(n) and n > 0):
             raise MjlinkError(f"--cycles must be a positive finite number, got {n:g}")
-        # Above the verified speed the run's clock is scaled (sim.simulate.kinematic_case).
-        samples = n * mech.period / min(abs(w), VERIFIED_SPEED) / KINEMATIC.timestep + 1
+        samples = n * mech.period / abs(w) / simulate.kinematic_settings(w).timestep + 1
         hint = f"lower {cycles_option} or raise --speed" if cycles_option else "raise --speed (or lower [input] cycles)"
         runs.append(RunCost("kinematic run", samples, values, hint))
     if opts.dynamics and has_masses(mech):

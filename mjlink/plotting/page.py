@@ -14,8 +14,6 @@ import html
 from collections.abc import Iterable
 from typing import Any
 
-from ..analysis.timing import window_text
-
 _CSS = """
 body { font-family: sans-serif; margin: 1.5em auto; max-width: 1400px; color: #222; }
 h1 { font-size: 1.4em; margin-bottom: 0.1em; } h2 { font-size: 1.15em; margin-top: 1.6em; }
@@ -164,12 +162,10 @@ def index_html(result: Any, files: Iterable[str]) -> str:
             "<th>result</th></tr></thead><tbody>",
         ]
         for r in head.rows:
-            text, cls = (
-                _MARK["pass" if r.ok else "FAIL"] if r.counts else (("meets", "info") if r.ok else ("misses", "info"))
-            )
+            text, cls = _MARK[r.verdict] if r.counts else (r.verdict, "info")
             parts.append(
                 f"<tr><td>{e(r.maker or 'every head')}</td><td title='{e(r.what)}'>{e(r.label)}</td>"
-                f"<td class='num'>{e(r.shown(r.value))}</td><td class='num'>{e(window_text(r))}</td>"
+                f"<td class='num'>{e(r.shown(r.value))}</td><td class='num'>{e(r.window_text())}</td>"
                 f"<td>{e(r.unit)}</td><td class='{cls}'>{e(text)}</td></tr>"
             )
         parts.append("</tbody></table>")

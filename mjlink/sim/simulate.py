@@ -63,7 +63,7 @@ def kinematic_case(
     """
     w = mech.speed if speed is None else speed
     n = mech.cycles if cycles is None else cycles
-    base = settings or _faster_clock(KINEMATIC, w)
+    base = settings or kinematic_settings(w)
     phi = mech.phi0 + np.linspace(0, mech.period, 64, endpoint=False)
     jmax = float(reference.SpectralDynamics(mech, samples=128).evaluate(phi)[0].max())
     tau_max = float(np.abs(reference.driving_torque(mech, phi, w)).max())
@@ -73,11 +73,16 @@ def kinematic_case(
     return Case(RunKind.KINEMATICS, n * mech.period / abs(w), w, s, 1, True)
 
 
-def _faster_clock(s: Settings, speed: float) -> Settings:
+def kinematic_settings(speed: float) -> Settings:
+    """The kinematic run's default settings at ``speed`` (rad/s): ``KINEMATIC``, with the
+    timestep and the loops' time constant scaled by ``VERIFIED_SPEED / |speed|`` above it
+    (:func:`kinematic_case`)."""
     k = min(1.0, VERIFIED_SPEED / abs(speed)) if speed else 1.0
     if k == 1.0:
-        return s
-    return dataclasses.replace(s, timestep=s.timestep * k, solref=(s.solref[0] * k, s.solref[1]))
+        return KINEMATIC
+    return dataclasses.replace(
+        KINEMATIC, timestep=KINEMATIC.timestep * k, solref=(KINEMATIC.solref[0] * k, KINEMATIC.solref[1])
+    )
 
 
 def dynamic_case(
