@@ -243,8 +243,16 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
         "--disable-sync",
         "--virtual-time-budget=20000",
     ]
+    # A laptop's window: 1280 px wide, 800 px high (the fold).
     dom = subprocess.run(
-        [_chromium(), *flags, f"--user-data-dir={tmp_path / 'profile1'}", "--dump-dom", page.as_uri()],
+        [
+            _chromium(),
+            *flags,
+            f"--user-data-dir={tmp_path / 'profile1'}",
+            "--window-size=1280,800",
+            "--dump-dom",
+            page.as_uri(),
+        ],
         capture_output=True,
         text=True,
         timeout=120,
@@ -253,6 +261,17 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
     assert body, dom[:500]
     assert f'data-images="{len(pngs)}/{len(pngs)}"' in body.group(0), body.group(0)
     assert 'data-video="loaded"' in body.group(0), body.group(0)
+    # The design first: nothing wider than the window, the summary's last row above the fold.
+    assert 'data-overflow-px="0"' in body.group(0), body.group(0)
+    bottom = re.search(r'data-summary-bottom-px="(\d+)"', body.group(0))
+    assert bottom and int(bottom.group(1)) <= 800, body.group(0)
+    first = [dom.find(s) for s in ('id="design"', 'id="contents"', 'id="agreement"', 'id="figures"')]
+    assert -1 not in first and first == sorted(first), first
+    shown = dict(re.findall(r'data-metric="([^"]+)">([^<]+)<', dom))
+    for row in rep["design"]["summary"]:
+        assert float(shown[row["metric"]]) == pytest.approx(row["value"], rel=5e-4), row
+    params = dict(re.findall(r'data-param="([^"]+)">([^<]+)<', dom))
+    assert float(params["construct.P2.length"]) == 30.0 and float(params["input.phi0"]) == pytest.approx(101.0)
     shot = tmp_path / "page.png"
     subprocess.run(
         [

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .. import compare, reference
+from ..analysis.summary import Summary
 from ..analysis.timing import HeadTiming
 from ..model import synthesis
 from ..runs import Settings
@@ -327,7 +328,8 @@ class SimulateResult:
     against the reference per run (kinematics, then dynamics) with ``thresholds`` their limits
     (:func:`compare.thresholds`); ``failures`` every limit missed (agreement, loads, steady);
     ``timings``; ``files`` the names in ``out_dir``; ``timing`` a head's timing checks (their
-    misses are among ``failures``). :meth:`as_dict` is ``report.json``.
+    misses are among ``failures``); ``design`` the design at a glance (headline numbers, strokes,
+    dimensions: :class:`mjlink.analysis.summary.Summary`). :meth:`as_dict` is ``report.json``.
     """
 
     mechanism: str
@@ -347,6 +349,7 @@ class SimulateResult:
     files: tuple[str, ...] = field(default=())
     provenance: Provenance | None = None
     timing: HeadTiming | None = None  # a sewing head's timing checks ([timing] table)
+    design: Summary | None = None  # the design at a glance: the page's first screen
 
     def as_dict(self) -> dict[str, Any]:
         """The contents of ``report.json``."""
@@ -357,6 +360,8 @@ class SimulateResult:
             "mujoco_version": self.mujoco_version,
             "kinematics": self.kinematics.as_dict(),
         }
+        if self.design is not None:
+            d["design"] = self.design.as_dict()
         if self.dynamics is not None:
             d["dynamics"] = self.dynamics.as_dict()
         if self.loads is not None:

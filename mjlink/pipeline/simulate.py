@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import compare, output, reference
+from ..analysis import summary
 from ..analysis.timing import head_timing
 from ..errors import SimulationError
 from ..model.mechanism import Mechanism
@@ -198,6 +199,7 @@ def run(
             video=video,
             provenance=provenance(command, dataclasses.asdict(opts)),
             timing=head,
+            design=summary.summarize(mech),
         )
         output.write_json(stage / "report.json", result.as_dict())
         # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.

@@ -1,4 +1,6 @@
-"""``index.html``: one page per run with the agreement table, every figure and the video.
+"""``index.html``: one page per run, led by the design (the drawing at the crank's setting, the
+headline numbers with their units, the dimensions and a head's timing), then the contents, the
+agreement table, the strokes of every point, every figure and the video.
 
 Presentation only, like the figures: the page is built from a finished
 :class:`mjlink.pipeline.SimulateResult` and the names of the files beside it. Links are
@@ -11,28 +13,52 @@ could be decoded (``data-video``), so a headless browser can check the page.
 from __future__ import annotations
 
 import html
+import math
 from collections.abc import Iterable
 from typing import Any
 
 _CSS = """
-body { font-family: sans-serif; margin: 1.5em auto; max-width: 1400px; color: #222; }
-h1 { font-size: 1.4em; margin-bottom: 0.1em; } h2 { font-size: 1.15em; margin-top: 1.6em; }
-.sub { color: #555; margin-top: 0; }
-table { border-collapse: collapse; font-size: 0.9em; }
-th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
-td.num { text-align: right; font-family: monospace; }
-.pass { color: #1a7f37; font-weight: bold; } .fail { color: #c62828; font-weight: bold; }
-.info { color: #666; }
-figure { margin: 1em 0 2em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
-figcaption { color: #555; font-size: 0.9em; }
-video { max-width: 100%; border: 1px solid #ddd; }
+:root { color-scheme: light dark; --fg: #222; --bg: #fff; --muted: #555; --line: #ccc; --ok: #1a7f37; --bad: #c62828; }
+@media (prefers-color-scheme: dark) {
+  :root { --fg: #e6e6e6; --bg: #16181b; --muted: #a8a8a8; --line: #444; --ok: #4ccb6c; --bad: #ff6b6b; }
+  img { background: #fff; }
+}
+* { box-sizing: border-box; }
+body { font-family: sans-serif; margin: 1em auto; padding: 0 1em; max-width: 1240px; color: var(--fg);
+       background: var(--bg); overflow-wrap: anywhere; }
+h1 { font-size: 1.4em; margin: 0 0 0.1em 0; } h2 { font-size: 1.15em; margin-top: 1.6em; }
+h3 { font-size: 1em; margin: 1em 0 0.3em 0; }
+.sub { color: var(--muted); margin-top: 0; } caption { text-align: left; padding-bottom: 0.3em; }
+table { border-collapse: collapse; font-size: 0.9em; max-width: 100%; }
+th, td { border: 1px solid var(--line); padding: 0.2em 0.5em; text-align: left; vertical-align: top; }
+td.num { text-align: right; font-family: monospace; white-space: nowrap; }
+.pass { color: var(--ok); font-weight: bold; } .fail { color: var(--bad); font-weight: bold; }
+.info { color: var(--muted); }
+.wide { overflow-x: auto; max-width: 100%; }
+.design { display: grid; grid-template-columns: minmax(0, 3fr) minmax(0, 2fr); gap: 1.2em; align-items: start; }
+.design img { width: 100%; border: 1px solid var(--line); }
+.columns { columns: 2 18em; column-gap: 1.5em; } .columns table { width: 100%; }
+nav ol { columns: 3 14em; margin: 0.3em 0; padding-left: 1.4em; }
+figure { margin: 1em 0 2em 0; } figure img { max-width: 100%; border: 1px solid var(--line); }
+figcaption { color: var(--muted); font-size: 0.9em; }
+video { max-width: 100%; border: 1px solid var(--line); }
+@media (max-width: 900px) { .design { grid-template-columns: minmax(0, 1fr); } }
+@media print {
+  :root { --fg: #000; --bg: #fff; --muted: #333; --line: #999; }
+  nav, video { display: none; } body { max-width: none; margin: 0; }
+  figure, table, .design { break-inside: avoid; } a { color: inherit; text-decoration: none; }
+}
 """
 
 _SCRIPT = """
 window.addEventListener('load', function () {
   var imgs = Array.prototype.slice.call(document.images);
   var ok = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; }).length;
-  document.body.setAttribute('data-images', ok + '/' + imgs.length);
+  var b = document.body, root = document.documentElement;
+  b.setAttribute('data-images', ok + '/' + imgs.length);
+  b.setAttribute('data-overflow-px', String(Math.max(0, root.scrollWidth - root.clientWidth)));
+  var s = document.getElementById('summary');
+  if (s) { b.setAttribute('data-summary-bottom-px', String(Math.round(s.getBoundingClientRect().bottom + window.scrollY))); }
 });
 var v = document.querySelector('video');
 if (v) {
@@ -114,10 +140,75 @@ def _num(v: Any, unit: str) -> str:
     return f"{v:.0f}" if unit == "" else f"{v:.3g}"
 
 
+def _value(v: float) -> str:
+    return f"{v:.4g}" if abs(v) < 1e4 else f"{v:.0f}"
+
+
+def _design(result: Any, pngs: list[str]) -> list[str]:
+    """The first screen: the drawing at the crank's setting, the headline numbers and the file's
+    dimensions (each value on an element naming its study metric or parameter path)."""
+    e = html.escape
+    d = result.design
+    rpm = abs(d.speed) * 60.0 / (2.0 * math.pi)
+    sense = "counter-clockwise" if d.speed > 0 else "clockwise"
+    rows = "".join(
+        f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'>{_value(r.value)}</td>"
+        f"<td>{e(r.unit)}</td></tr>"
+        for r in d.headline
+    )
+    dims = "".join(
+        f"<tr><td>{e(p)}</td><td class='num' data-param='{e(p)}'>{_value(v)}</td><td>{e(u)}</td></tr>"
+        for p, v, u in d.dimensions
+    )
+    left = (
+        f"<a href='positions.png'><img src='positions.png' alt='{e(_caption('positions.png'))}' loading='eager'></a>"
+        f"<p class='sub'>bold: the design at the crank's setting φ0 = {d.phi0_deg:g}°; grey: 23 more positions "
+        "over the period</p>"
+        if "positions.png" in pngs
+        else f"<p class='sub'>the crank's setting φ0 = {d.phi0_deg:g}° (no drawing: run without --no-plots)</p>"
+    )
+    return [
+        "<section id='design'><h2>Design</h2><div class='design'>",
+        f"<div>{left}</div><div>",
+        f"<table id='summary'><caption class='sub'>at {rpm:.0f} rpm ({abs(d.speed):.4g} rad/s), {sense}; "
+        "strokes along the axis the point moves most</caption>",
+        "<thead><tr><th>what the design does</th><th>value</th><th>unit</th></tr></thead><tbody>",
+        rows,
+        "</tbody></table>",
+        "<h3>Dimensions (the file's, by study path)</h3>",
+        "<table id='dimensions'><thead><tr><th>parameter</th><th>value</th><th>unit</th></tr></thead><tbody>",
+        dims,
+        "</tbody></table></div></div></section>",
+    ]
+
+
+def _strokes(result: Any) -> list[str]:
+    e = html.escape
+    rows = "".join(
+        f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'>{_value(r.value)}</td>"
+        f"<td>{e(r.unit)}</td></tr>"
+        for r in result.design.points
+    )
+    return [
+        "<section id='strokes'><h2>Strokes of the moving points</h2><div class='columns'>",
+        "<table><thead><tr><th>point</th><th>value</th><th>unit</th></tr></thead><tbody>",
+        rows,
+        "</tbody></table></div></section>",
+    ]
+
+
+def _contents(entries: list[tuple[str, str]]) -> str:
+    e = html.escape
+    items = "".join(f"<li><a href='#{e(i)}'>{e(t)}</a></li>" for i, t in entries)
+    return f"<nav id='contents'><h2>Contents</h2><ol>{items}</ol></nav>"
+
+
 def index_html(result: Any, files: Iterable[str]) -> str:
     """The page for ``result`` (a :class:`mjlink.pipeline.SimulateResult`) in the folder that
-    holds ``files`` (names): title, the verdict, the agreement table with a pass or fail mark
-    on every thresholded row, the video and every PNG with a caption, the data files."""
+    holds ``files`` (names). First the design: the drawing at the crank's setting, the headline
+    numbers and the dimensions, and a head's timing table; then the contents; then the
+    verification (the agreement table with a pass or fail mark on every thresholded row), the
+    strokes of every point, the video, every PNG with a caption and the data files."""
     e = html.escape
     names = sorted(files)
     pngs = sorted((n for n in names if n.endswith(".png")), key=_rank)
@@ -133,56 +224,80 @@ def index_html(result: Any, files: Iterable[str]) -> str:
                 f"<td>{e(c.unit)}</td><td class='num'>{e(limit)}</td><td class='{cls}'>{text}</td></tr>"
             )
     verdict = (
-        "<p class='pass'>✓ every threshold holds</p>"
+        "<p class='pass'>✓ MuJoCo agrees with the vector-method reference: every threshold holds "
+        "(<a href='#agreement'>agreement</a>)</p>"
         if not result.failures
         else "<p class='fail'>✗ thresholds missed:</p><ul>"
         + "".join(f"<li>{e(f)}</li>" for f in result.failures)
         + "</ul>"
     )
+    design = getattr(result, "design", None)
+    head = getattr(result, "timing", None)
+    contents: list[tuple[str, str]] = []
     parts = [
         "<!DOCTYPE html>",
         "<html lang='en'><head><meta charset='utf-8'>",
+        "<meta name='viewport' content='width=device-width, initial-scale=1'>",
         f"<title>{e(result.mechanism)}: mjlink simulate</title>",
         f"<style>{_CSS}</style></head><body>",
         f"<h1>{e(result.mechanism)}</h1><p class='sub'>{e(result.title)}</p>",
-        f"<p class='sub'>MuJoCo {e(str(result.mujoco_version))}; mechanism file {e(str(result.source))}</p>",
-        "<h2>Agreement of MuJoCo with the vector-method reference</h2>",
         verdict,
-        "<table><thead><tr><th>run</th><th>quantity</th><th>measured</th><th>unit</th>"
-        "<th>threshold</th><th>result</th></tr></thead><tbody>",
-        *rows,
-        "</tbody></table>",
     ]
-    head = getattr(result, "timing", None)
+    if design is not None:
+        parts += _design(result, pngs)
+        contents.append(("design", "Design"))
     if head is not None:
         parts += [
-            f"<h2>Timing over one stitch</h2><p class='sub'>built to the {e(head.target)} settings; the other "
-            "makers' rows show which of their windows the head also meets</p>",
-            "<table><thead><tr><th>settings</th><th>check</th><th>measured</th><th>window</th><th>unit</th>"
-            "<th>result</th></tr></thead><tbody>",
+            f"<section id='timing'><h2>Timing over one stitch</h2><p class='sub'>built to the {e(head.target)} "
+            "settings; the other makers' rows show which of their windows the head also meets</p>",
+            "<div class='wide'><table><thead><tr><th>settings</th><th>check</th><th>measured</th><th>window</th>"
+            "<th>unit</th><th>result</th></tr></thead><tbody>",
         ]
         for r in head.rows:
             text, cls = _MARK[r.verdict] if r.counts else (r.verdict, "info")
             parts.append(
                 f"<tr><td>{e(r.maker or 'every head')}</td><td title='{e(r.what)}'>{e(r.label)}</td>"
-                f"<td class='num'>{e(r.shown(r.value))}</td><td class='num'>{e(r.window_text())}</td>"
-                f"<td>{e(r.unit)}</td><td class='{cls}'>{e(text)}</td></tr>"
+                f"<td class='num' data-metric='timing_{e(r.key)}'>{e(r.shown(r.value))}</td>"
+                f"<td class='num'>{e(r.window_text())}</td><td>{e(r.unit)}</td><td class='{cls}'>{e(text)}</td></tr>"
             )
-        parts.append("</tbody></table>")
+        parts.append("</tbody></table></div></section>")
+        contents.append(("timing", "Timing over one stitch"))
+    later = [
+        "<section id='agreement'><h2>Agreement of MuJoCo with the vector-method reference</h2>",
+        f"<p class='sub'>MuJoCo {e(str(result.mujoco_version))}; mechanism file {e(str(result.source))}</p>",
+        "<div class='wide'><table><thead><tr><th>run</th><th>quantity</th><th>measured</th><th>unit</th>"
+        "<th>threshold</th><th>result</th></tr></thead><tbody>",
+        *rows,
+        "</tbody></table></div></section>",
+    ]
+    contents.append(("agreement", "Agreement of MuJoCo with the reference"))
+    if design is not None and design.points:
+        later += _strokes(result)
+        contents.append(("strokes", "Strokes of the moving points"))
     for v in videos:
-        parts += [
-            "<h2>Video</h2>",
+        later += [
+            "<section id='video'><h2>Video</h2>",
             f"<video controls loop muted preload='auto' src='{e(v)}'></video>",
-            f"<p class='sub'><a href='{e(v)}'>{e(v)}</a></p>",
+            f"<p class='sub'><a href='{e(v)}'>{e(v)}</a></p></section>",
         ]
-    if pngs:
-        parts.append("<h2>Figures</h2>")
-    for p in pngs:
-        parts.append(
-            f"<figure id='{e(p)}'><a href='{e(p)}'><img src='{e(p)}' alt='{e(_caption(p))}' loading='eager'></a>"
-            f"<figcaption>{e(p)}: {e(_caption(p))}</figcaption></figure>"
-        )
+        contents.append(("video", "Video"))
+    # The drawing leads the design section: not again among the figures.
+    figures = [p for p in pngs if not (design is not None and p == "positions.png")]
+    if figures:
+        later.append("<section id='figures'><h2>Figures</h2>")
+        contents.append(("figures", "Figures"))
+        for p in figures:
+            later.append(
+                f"<figure id='{e(p)}'><a href='{e(p)}'><img src='{e(p)}' alt='{e(_caption(p))}' loading='eager'></a>"
+                f"<figcaption>{e(p)}: {e(_caption(p))}</figcaption></figure>"
+            )
+        later.append("</section>")
     if data:
-        parts.append("<h2>Data</h2><ul>" + "".join(f"<li><a href='{e(d)}'>{e(d)}</a></li>" for d in data) + "</ul>")
-    parts += [f"<script>{_SCRIPT}</script>", "</body></html>"]
+        later.append(
+            "<section id='data'><h2>Data</h2><ul>"
+            + "".join(f"<li><a href='{e(d)}'>{e(d)}</a></li>" for d in data)
+            + "</ul></section>"
+        )
+        contents.append(("data", "Data"))
+    parts += [_contents(contents), *later, f"<script>{_SCRIPT}</script>", "</body></html>"]
     return "\n".join(parts) + "\n"

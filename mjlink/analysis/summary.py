@@ -1,0 +1,123 @@
+"""What a design does, in a few numbers: the summary a designer reads first.
+
+The numbers are the study metrics of the file's own design (the same definitions, names and
+units as a study's columns, :mod:`mjlink.analysis.metrics`), computed once from the reference
+over one period: the key point's stroke and extreme positions, the thread feed per turn, the
+worst transmission and pressure angles, and at the file's speed the driving torque's peak and
+RMS, the mean power and the peak shaking force. :func:`point_strokes` gives every moving
+point's stroke and extremes, and :func:`dimensions` the file's geometry by study path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..model import paths
+from ..model.mechanism import Mechanism
+from ..reference import batch
+from . import key_point, mass_centres, metrics
+
+PER_TURN = 360  # crank angles per input turn of the summary's reference
+
+
+@dataclass(frozen=True)
+class Row:
+    """One number of the summary: ``metric`` its name as a study's column (``stroke_P5``),
+    ``label`` in words, ``value`` in ``unit`` (the column's)."""
+
+    metric: str
+    label: str
+    value: float
+    unit: str
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"metric": self.metric, "label": self.label, "value": self.value, "unit": self.unit}
+
+
+def _rows(mech: Mechanism, tables: list[dict[str, Any]]) -> list[Row]:
+    mets = [metrics.read(mech, t, i) for i, t in enumerate(tables)]
+    b = batch.solve_batch(mech, [], np.zeros((1, 0)), PER_TURN)
+    values = metrics.compute(mets, b, b)
+    out = []
+    for c in metrics.columns(mets):
+        v = float(values[c.name][0])
+        if math.isfinite(v):
+            out.append(Row(c.name, c.label, v, c.unit))
+    return out
+
+
+def _loaded(mech: Mechanism) -> bool:
+    return any(l.mass > 0 for l in mech.links) and bool(mech.speed)
+
+
+def design_summary(mech: Mechanism) -> tuple[Row, ...]:
+    """The headline numbers of ``mech`` (see the module's docstring); a row whose metric does
+    not apply (no thread, no dyad, no slider, no masses) is left out."""
+    key = key_point(mech)
+    tables: list[dict[str, Any]] = [{"kind": "stroke", "point": key}, {"kind": "extremes", "point": key}]
+    if mech.thread:
+        tables.append({"kind": "thread_feed"})
+    tables += [{"kind": "transmission_min"}, {"kind": "pressure_max"}]
+    if _loaded(mech):
+        tables += [{"kind": k} for k in ("torque_peak", "torque_rms", "power_mean", "shaking_force_peak")]
+    return tuple(_rows(mech, tables))
+
+
+def point_strokes(mech: Mechanism) -> tuple[Row, ...]:
+    """Stroke and extreme positions (along the axis each point moves most) of every moving
+    point that is not merely a link's centre of mass, in the file's order."""
+    coms = mass_centres(mech)
+    tables: list[dict[str, Any]] = []
+    for p in mech.moving_points:
+        if p not in coms:
+            tables += [{"kind": "stroke", "point": p}, {"kind": "extremes", "point": p}]
+    return tuple(_rows(mech, tables))
+
+
+def dimensions(mech: Mechanism) -> tuple[tuple[str, float, str], ...]:
+    """The file's geometry as (study path, value, unit): every ground point's coordinates (z
+    only where it is not 0) and every number of every block but those placing a centre of
+    mass, then the input crank's setting ``input.phi0``."""
+    coms = mass_centres(mech)
+    out = []
+    for path, p in paths.catalogue(mech).items():
+        section, *rest = path.split(".")
+        if section == "ground" or (section == "construct" and rest[0] not in coms):
+            if rest[-1] == "z" and p.nominal == 0.0:
+                continue
+            out.append((path, p.nominal, p.unit))
+    out.append(("input.phi0", paths.resolve(mech, "input.phi0").nominal, "deg"))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Summary:
+    """The design of a run at a glance: the crank's setting ``phi0_deg`` (deg) at which the
+    design is drawn, the file's ``speed`` (rad/s, signed, CCW positive) at which the loads are
+    taken, the ``headline`` numbers (:func:`design_summary`), every point's stroke
+    (:func:`point_strokes`) and the file's ``dimensions``."""
+
+    phi0_deg: float
+    speed: float
+    headline: tuple[Row, ...]
+    points: tuple[Row, ...]
+    dimensions: tuple[tuple[str, float, str], ...]
+
+    def as_dict(self) -> dict[str, Any]:
+        """The report's ``design`` entry."""
+        return {
+            "phi0_deg": self.phi0_deg,
+            "speed_rad_s": self.speed,
+            "summary": [r.as_dict() for r in self.headline],
+            "points": [r.as_dict() for r in self.points],
+            "dimensions": [{"param": p, "value": v, "unit": u} for p, v, u in self.dimensions],
+        }
+
+
+def summarize(mech: Mechanism) -> Summary:
+    """:class:`Summary` of ``mech``."""
+    return Summary(math.degrees(mech.phi0), mech.speed, design_summary(mech), point_strokes(mech), dimensions(mech))
