@@ -129,7 +129,8 @@ def test_figure_content(run_figures):
     mech, figs, _, _, _, _ = run_figures
     rk4 = mech.dynamics.paper_rk4_steps is not None
     for name, fig in figs.items():
-        assert style.text_overlaps(fig) == [], f"{name}: labels overlap"
+        # Units in brackets on every axis, no overlapping texts or ticks, nothing off the canvas.
+        assert style.figure_defects(fig) == [], name
         for ax in fig.axes:
             if not ax.axison or not ax.lines:
                 continue

@@ -86,8 +86,8 @@ class Param:
         return self.path.split(".", 1)[0]
 
     def label(self) -> str:
-        """'construct.P3.length_a, mm'."""
-        return f"{self.path}, {self.unit}" if self.unit else self.path
+        """'construct.P3.length_a [mm]'."""
+        return f"{self.path} [{self.unit}]" if self.unit else self.path
 
 
 def catalogue(mech: Mechanism) -> dict[str, Param]:

@@ -231,7 +231,7 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         am, ar = analysis.harmonics(mech, kin_mj, sm[2]), analysis.harmonics(mech, kin_ref, sr[2])
         if am is not None and ar is not None:
             fig, ax = subplots(figsize=(8.0, 5.0))
-            place(fig, ax.get_gridspec(), left=1.0, right=0.25, top=0.75, bottom=0.6)  # one draw
+            place(fig, ax.get_gridspec(), left=1.2, right=0.25, top=0.75, bottom=0.6)  # one draw
             k = np.arange(1, len(ar) + 1)
             ax.bar(k - 0.2, am, width=0.4, color="tab:red", alpha=0.75, label=MJ_LABEL)
             ax.bar(k + 0.2, ar, width=0.4, color="white", edgecolor="k", hatch="////", lw=0.8, label=REF_LABEL)
@@ -239,11 +239,11 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
             ax.set_xticks(k)
             if turns > 1:
                 ax.set_xlabel(
-                    f"harmonic k of the mechanism period ({turns} turns of the input crank = "
+                    f"harmonic k of the mechanism period [-] ({turns} turns of the input crank = "
                     f"{math.degrees(mech.period):g}°; k = {turns}: once per turn)"
                 )
             else:
-                ax.set_xlabel("harmonic k of the crank rotation (order)")
+                ax.set_xlabel("harmonic k of the crank rotation, its order [-]")
             ax.set_ylabel(f"amplitude of $d^2s/dt^2$ of {p} [m/s$^2$]")
             ax.grid(True, which="major", axis="y", alpha=0.3)
             ks = f"2..{len(ar)}"

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .drawing import segments
+from ..analysis import segments
 from .style import figure, save, subplots, user_text
 
 if TYPE_CHECKING:
@@ -28,6 +28,14 @@ TARGET: dict[str, Any] = dict(color="k", lw=1.0, ls=":")
 
 def _unit(u: str) -> str:
     return {"m/s^2": "m/s²", "N*m": "N·m", "kg*m^2": "kg·m²"}.get(u, u)
+
+
+def _objective_unit(st: Any) -> str:
+    """The unit of a study's objective: its columns' when they share one, else '-' (a weighted
+    sum of different quantities)."""
+    opt = st.optimize
+    units = {c.unit for c in st.columns if c.name in {name for name, _ in opt.objective}}
+    return _unit(units.pop()) if len(units) == 1 and "" not in units else "-"
 
 
 def _title(title: str, what: str, width: int = 90) -> str:
@@ -58,11 +66,11 @@ def convergence(title: str, res: Result, out_dir: Path) -> Path:
         ax.step(h[:, 1], y, where="post", lw=1.6 if k == 0 else 1.1, label=user_text(r.name), color=f"C{k % 10}")
     if many or (positive and opt.sense == "min"):
         ax.set_yscale("log")
-    ax.set_xlabel("evaluations (candidates; a robust candidate counts once)")
+    ax.set_xlabel("evaluations: candidates, a robust candidate counting once [-]")
     ax.set_ylabel(
-        "best feasible so far: relative excess over the run's final value"
+        "best feasible so far:\nrelative excess over the run's final value [-]"
         if many
-        else user_text(f"best feasible so far: {opt.label}")
+        else "\n".join(textwrap.wrap(user_text(f"best feasible so far: {opt.label} [{_objective_unit(st)}]"), 60))
     )
     ax.grid(True, alpha=0.3)
     rb = f", robust: {st.robust.samples} tolerance samples each" if st.robust else ""
@@ -119,30 +127,34 @@ def before_after(
     for p, t in targets.items():
         ax0.plot(t[:, 0], t[:, 1], "x", color="tab:red", ms=8, mew=2, label=f"precision points of {p}")
     ax0.set_aspect("equal", adjustable="datalim")
-    ax0.set_xlabel("x, mm")
-    ax0.set_ylabel("y, mm")
+    ax0.set_xlabel("x [mm]")
+    ax0.set_ylabel("y [mm]")
     ax0.grid(True, alpha=0.3)
     ax0.legend(fontsize=8, loc="best")
-    ax0.set_title("at phi0, with the paths of " + ", ".join(traced), fontsize=9)
+    ax0.set_title("at $\\varphi_0$, with the paths of " + ", ".join(traced), fontsize=9)
     theta = np.degrees(b.theta)
+    first = None
     for i, cv in enumerate(curves):
-        ax = fig.add_subplot(gs[i, 1])
+        ax = fig.add_subplot(gs[i, 1], sharex=first)  # one crank-angle axis, named at the bottom
+        first = first or ax
         if feasible[0]:
             ax.plot(theta, cv.values[0], **NOMINAL, label="mechanism file (nominal)")
         ax.plot(theta, cv.values[1], **OPTIMUM, label="optimum")
         if cv.target is not None:
             ax.plot(theta, cv.target, **TARGET, label=cv.target_label)
-        ax.set_ylabel(user_text(f"{cv.label}, {_unit(cv.unit)}"), fontsize=8.5)
+        ax.set_ylabel(user_text(f"{cv.label} [{_unit(cv.unit) or '-'}]"), fontsize=8.5)
         ax.grid(True, alpha=0.3)
         ax.set_xlim(theta[0], theta[-1] + (theta[1] - theta[0]))
         if i == n - 1:
-            ax.set_xlabel("input crank angle from phi0, deg")
+            ax.set_xlabel("input crank angle from $\\varphi_0$ [deg]")
         ax.legend(fontsize=7.5, loc="best")
     opt = st.optimize
     assert opt is not None
-    obj = "" if opt.pareto else f": {res.objective:.5g}"
+    unit = "" if opt.pareto else _objective_unit(st)
+    obj = "" if opt.pareto else f": {res.objective:.5g}" + (f" {unit}" if unit != "-" else "")
     nom = "" if feasible[0] else " (the mechanism file's design is infeasible here: not drawn)"
-    fig.suptitle(_title(title, f"before and after: {opt.label}{obj}{nom}", 120), fontsize=10)
+    # About 11 characters of 10-point text per inch of the figure's width.
+    fig.suptitle(_title(title, f"before and after: {opt.label}{obj}{nom}", int(11 * fig.get_figwidth())), fontsize=10)
     return save(fig, out_dir, "before_after.png")
 
 
@@ -167,8 +179,8 @@ def pareto(title: str, res: Result, ver: Verified, out_dir: Path) -> Path | None
     ax.plot(res.columns[c1], res.columns[c2], "*", color="tab:orange", ms=16, mec="k", label="winner (knee)")
     for i, (x, y) in enumerate(zip(f1, f2, strict=True)):
         ax.annotate(f"{i + 1:02d}", (x, y), textcoords="offset points", xytext=(6, 4), fontsize=7)
-    ax.set_xlabel(user_text(f"{cols[c1].label}, {_unit(cols[c1].unit)}"))
-    ax.set_ylabel(user_text(f"{cols[c2].label}, {_unit(cols[c2].unit)}"))
+    ax.set_xlabel(user_text(f"{cols[c1].label} [{_unit(cols[c1].unit) or '-'}]"))
+    ax.set_ylabel(user_text(f"{cols[c2].label} [{_unit(cols[c2].unit) or '-'}]"))
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     bounds = "; ".join(b.text() for b in st.bounds)

@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
 from .. import compare, palette, reference
 from ..model.mechanism import Mechanism
@@ -150,7 +151,9 @@ def speed_plots(
         z_n.set_title(f"zoom: the last {ZOOM_TURNS} turns", fontsize=9)
         short = "time t [s]" if by_time else "crank angle, as on the left [deg]"
         z_e.set_xlabel(short)
-        residual(a_r, xm, dyn_mj.omega - dyn_ref.omega, "rad/s", limit, what="MuJoCo − reference\n$\\omega_1$")
+        # The zoom spans a few turns of a long run: its ticks are long numbers, five at most.
+        z_e.xaxis.set_major_locator(MaxNLocator(5))
+        residual(a_r, xm, dyn_mj.omega - dyn_ref.omega, "rad/s", limit, what="MuJoCo − ref. $\\omega_1$")
         a_r.set_xlabel(xlabel)
         if rk4 is not None and xk is not None:
             tight = np.interp(rk4.t[:k], dyn_ref.time, dyn_ref.omega)

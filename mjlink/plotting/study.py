@@ -223,13 +223,9 @@ def scatter_matrix(
     ncol, rows = _legend_shape([str(h.get_label()) for h in handles], fig_w - 0.4, 8)
     bottom = 0.12 + 0.22 * rows + 0.1 + 0.14 * max(lab.count("\n") + 1 for lab in xlabels) + 0.08 + 0.25
     what = f"metrics (rows) against parameters (columns) of {_count(V, 'variant')}; r: linear correlation"
-    shown = []
-    if len(params) > P:
-        shown.append(f"the first {P} of {len(params)} parameters")
-    if len(metrics) > M:
-        shown.append(f"the first {M} of {len(metrics)} metrics")
-    if shown:
-        what += "\nshowing " + " and ".join(shown) + " (the others are in the table)"
+    left_out = [c.name for c in [*params[P:], *metrics[M:]]]
+    if left_out:
+        what += "\n" + _wrap("not shown (in results.csv): " + ", ".join(left_out), _chars(fig_w - 0.4, 10), 3)
     head = _wrap(title, _chars(fig_w - 0.4, 10), 2) + "\n" + what
     top = 0.15 + 0.19 * (head.count("\n") + 1) + 0.15
     fig_h = top + M * panel_h + (M - 1) * gap + bottom
@@ -329,8 +325,7 @@ def histograms(
         ax = axs.flat[k]
         scale = _histogram(ax, col, v[np.isfinite(v)], n_feas, pcts, nominal.get(col.name, math.nan), panel_h)
         ax.set_xlabel(_wrap(_with_unit(col, scale), _chars(panel_w - 0.3, 8.5)), fontsize=8.5)
-        if k % cols == 0:
-            ax.set_ylabel("variants", fontsize=8.5)
+        ax.set_ylabel("variants [-]", fontsize=8.5)
     what = (
         f"spread of the metrics over the {n_feas:,} of {_count(V, 'variant')} that assemble ({V - n_feas:,} {INFEASIBLE})"
         if n_feas < V
@@ -651,7 +646,7 @@ def _metric_panel(
     cb = fig.colorbar(cs, ax=ax, pad=0.02, fraction=0.08, aspect=25)
     cb.ax.tick_params(labelsize=7)
     times = _times(_tidy(cb.ax.yaxis, 6))
-    cb.set_label(f"[{' '.join(t for t in (times, unit) if t)}]" if times or unit else "(no unit)", fontsize=8)
+    cb.set_label(f"[{' '.join(t for t in (times, unit) if t)}]" if times or unit else "[-]", fontsize=8)
     if constant:
         cb.set_ticks([mid])
         spread = f" ± {0.5 * (hi - lo):.1g}" if hi > lo else ""

@@ -66,10 +66,13 @@ def _times(scale: int) -> str:
 
 
 def _with_unit(col: Column, scale: int = 0) -> str:
-    """'label [unit]' (raw text), unless the label already names its unit at its end, as
-    'construct.P3.length_a, mm' does; with the ticks' factor ('label [×10⁻⁶ m]') if ``scale``."""
+    """'label [unit]' (raw text; '[-]' without a unit), unless the label already ends in its unit
+    in brackets ('construct.P3.length_a [mm]'); with the ticks' factor ('label [×10⁻⁶ m]') if
+    ``scale``."""
     label, unit = (col.label or col.name).rstrip(), col.unit.strip()
-    if not unit or any(label.endswith(e) for e in (f", {unit}", f"[{unit}]", f"({unit})", f" {unit}")):
+    if not unit:  # a ratio, a count or a flag: '[-]', the figures' mark of no unit
+        return f"{label} [{_times(scale) or '-'}]"
+    if label.endswith(f"[{unit}]"):
         return f"{label} [{_times(scale)}]" if scale else label
     return f"{label} [{(_times(scale) + ' ') if scale else ''}{_shown_unit(unit)}]"
 

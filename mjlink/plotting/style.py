@@ -16,7 +16,10 @@ runs left to right with time.
 from __future__ import annotations
 
 import io
+import itertools
 import math
+import re
+import weakref
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -52,6 +55,7 @@ REF_LABEL = "reference, vector method (solid)"
 RESIDUAL_GID = "residual"  # every residual panel's Axes carries this gid (the figure tests look for it)
 
 _KEEP: list[tuple[str, Figure]] | None = None
+_SAVED_TIGHT: weakref.WeakSet[Figure] = weakref.WeakSet()  # figures save() cropped to their drawing
 
 
 class keep_figures:
@@ -114,6 +118,8 @@ def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Pa
         except OSError as e:
             raise OutputError(f"{path}: cannot write plot: {e.strerror or e}") from None
         crop = TIGHT if tight else {}
+        if tight:
+            _SAVED_TIGHT.add(fig)
         with atomic_path(path, suffix=".png") as tmp:
             fig.savefig(tmp, format="png", dpi=DPI, pil_kwargs=PNG_OPTIONS, **crop)
     finally:
@@ -290,6 +296,79 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
             a, b = boxes[i][1], boxes[j][1]
             if min(a.x1, b.x1) - max(a.x0, b.x0) > 2 * pad + 0.5 and min(a.y1, b.y1) - max(a.y0, b.y0) > 2 * pad + 0.5:
                 out.append((boxes[i][0], boxes[j][0]))
+    return out
+
+
+UNIT = re.compile(r"\[[^\]]+\]")  # an axis label's unit: "crank angle [deg]", "ratio [-]"
+
+
+def _has_data(ax: Axes) -> bool:
+    return bool(ax.lines or ax.collections or ax.images or ax.patches)
+
+
+def _shown_tick_labels(axis: matplotlib.axis.Axis) -> list[matplotlib.text.Text]:
+    """The tick labels ``axis`` draws: those of its ticks inside the view interval (the axis
+    keeps Text objects for ticks outside it too, and does not draw them)."""
+    scale = axis.get_transform()  # compared on the axis' scale (a log axis spans decades)
+    lo, hi = sorted(float(v) for v in scale.transform(np.asarray(axis.get_view_interval(), dtype=float)))
+    eps = 1e-9 * (hi - lo)
+    out = []
+    for tick in [*axis.get_major_ticks(), *axis.get_minor_ticks()]:
+        loc = tick.get_loc()
+        if loc is None or not lo - eps <= float(scale.transform(np.asarray([loc], dtype=float))[0]) <= hi + eps:
+            continue
+        out += [t for t in (tick.label1, tick.label2) if t.get_visible() and t.get_text().strip()]
+    return out
+
+
+def figure_defects(fig: Figure) -> list[str]:
+    """What is wrong with a figure as a reader sees it, in words (empty when nothing is):
+
+    * an axis that shows data and numbered ticks without a label naming its unit in brackets
+      (``y [mm]``; ``[-]`` for a ratio), the figure-wide convention;
+    * texts that overlap (:func:`text_overlaps`);
+    * tick labels of one axis that overlap each other;
+    * a text that leaves the canvas (a figure :func:`save` crops to its drawing cannot lose one).
+
+    Laid out as :func:`save` draws it (at its resolution), without rasterizing."""
+    fig.set_dpi(DPI)
+    out = [f"labels overlap: {a!r} and {b!r}" for a, b in text_overlaps(fig)]
+    r = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    texts = []
+    ticks: set[int] = set()
+    hidden = [ax for ax in fig.axes if not ax.get_visible()]
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            ticks |= {
+                id(t) for tick in [*axis.get_major_ticks(), *axis.get_minor_ticks()] for t in (tick.label1, tick.label2)
+            }
+            shown = _shown_tick_labels(axis) if ax.get_visible() and ax.axison and axis.get_visible() else []
+            texts += shown
+            if not shown or not _has_data(ax):
+                continue
+            name = axis.axis_name
+            # A row or column of panels sharing an axis names it once (on its outer panel).
+            shared = ax.get_shared_x_axes() if name == "x" else ax.get_shared_y_axes()
+            labels = [getattr(a, f"get_{name}label")() for a in shared.get_siblings(ax)]
+            label = axis.get_label_text()
+            if not any(UNIT.search(lb) for lb in [label, *labels]):
+                out.append(f"{name} axis {label!r} of {ax.get_title()!r} names no unit in brackets")
+            boxes = sorted((t.get_window_extent(r) for t in shown), key=lambda b: (b.x0, b.y0))
+            for a, b in itertools.pairwise(boxes):
+                if min(a.x1, b.x1) - max(a.x0, b.x0) > 0.5 and min(a.y1, b.y1) - max(a.y0, b.y0) > 0.5:
+                    out.append(f"{name} tick labels overlap on {ax.get_title()!r} ({label!r})")
+                    break
+    if fig not in _SAVED_TIGHT:
+        texts += [
+            t
+            for t in fig.findobj(matplotlib.text.Text)
+            if id(t) not in ticks and t.get_visible() and t.get_text().strip() and t.axes not in hidden
+        ]
+        canvas = fig.bbox
+        for t in texts:
+            b = t.get_window_extent(r)
+            if b.x0 < canvas.x0 - 1 or b.y0 < canvas.y0 - 1 or b.x1 > canvas.x1 + 1 or b.y1 > canvas.y1 + 1:
+                out.append(f"text leaves the canvas: {t.get_text()!r}")
     return out
 
 
