@@ -394,3 +394,25 @@ def energy_cycle(mech: Mechanism, omega: float, per_turn: int = 720) -> tuple[np
     phi = mech.phi0 + sense * (one_period(mech, per_turn) - mech.phi0)
     e = energy_fluctuation(phi, reference.driving_torque(mech, phi, omega))
     return np.append(phi, phi[0] + sense * mech.period), e
+
+
+def segments(mech: Mechanism) -> list[tuple[str, str]]:
+    """Point pairs to draw, one polyline per link, following how each point was built.
+
+    Joining a point to the link point it was constructed from shows the link's real shape
+    (e.g. a lever's arm from its joint, not a chord from its first point); points built
+    from nothing on their own link hang off the link's first point.
+    """
+    built = {s.point: s for s in mech.steps}
+    pairs: list[tuple[str, str]] = []
+    for link in mech.links:
+        pts = [p for p in link.points if p != link.com]
+        if link.guide:
+            # A slider body: its points in listed order; there is no pivot to radiate from.
+            pairs += list(pairwise(pts))
+            continue
+        for p in pts[1:]:
+            cand = built[p].drawn_from if p in built else ()
+            parent = next((c for c in cand if c in pts and c != p), pts[0])
+            pairs.append((parent, p))
+    return pairs

@@ -283,6 +283,34 @@ def _build(args: argparse.Namespace) -> int:
     return 0
 
 
+# ----------------------------------------------------------------------------- export
+def angle_arg(s: str) -> float:
+    """argparse type of a crank angle: degrees, with or without the unit ('30', '30deg', '30 deg')."""
+    m = re.fullmatch(r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*(deg)?\s*", s)
+    if m is None or not math.isfinite(float(m.group(1))):
+        raise argparse.ArgumentTypeError(f"{s!r}: give the crank angle in degrees, e.g. 90 or 90deg")
+    return float(m.group(1))
+
+
+def _export_arguments(p: argparse.ArgumentParser) -> None:
+    _mechanism(p)
+    p.add_argument("--dxf", type=path_arg, help="DXF file to write (mm; a layer per link, pivots, points, paths)")
+    p.add_argument("--points", type=path_arg, help="the named points' coordinates, .csv or .json")
+    p.add_argument(
+        "--angle", type=angle_arg, help="the input crank's angle, deg (default: the file's phi0, its setting)"
+    )
+
+
+def _export(args: argparse.Namespace) -> int:
+    from ..pipeline import export  # here: it reads the reference and ezdxf, which list and --help do without
+
+    mech = validation.get(args.mechanism)
+    res = export.export(mech, args.angle, args.dxf, args.points)
+    wrote = ", ".join(str(p) for p in (res.dxf, res.points_file) if p is not None)
+    print(f"wrote {wrote} ({mech.name} at input crank angle {res.angle_deg:g} deg, mm)", file=sys.stderr)
+    return 0
+
+
 # ----------------------------------------------------------------------------- simulate
 def _simulate_arguments(s: argparse.ArgumentParser) -> None:
     _mechanism(s)
@@ -638,6 +666,14 @@ COMMANDS: tuple[Command, ...] = (
         "example: python -m mjlink build takeup -o takeup.xml",
         _build_arguments,
         _build,
+    ),
+    Command(
+        "export",
+        "the mechanism at one crank angle for CAD: a DXF and the points' coordinates",
+        "examples:\n  python -m mjlink export takeup --dxf takeup.dxf --points takeup_points.csv\n"
+        "  python -m mjlink export lockstitch_head --angle 180 --dxf head_at_bdc.dxf",
+        _export_arguments,
+        _export,
     ),
     Command(
         "simulate", "simulate, compare with the reference, plot and render", EXAMPLES, _simulate_arguments, _simulate

@@ -7,7 +7,6 @@ eyelet take-up in front and top view (its Fig. 2). Drawing only: positions from
 from __future__ import annotations
 
 import math
-from itertools import pairwise
 from pathlib import Path
 
 import matplotlib
@@ -18,6 +17,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon, Rectangle
 
 from .. import analysis, reference
+from ..analysis import segments
 from ..model.mechanism import Mechanism
 from ..units import to_mm
 from .style import (
@@ -31,28 +31,6 @@ from .style import (
 
 
 # ----------------------------------------------------------------------------- positions (Fig. 1b)
-def segments(mech: Mechanism) -> list[tuple[str, str]]:
-    """Point pairs to draw, one polyline per link, following how each point was built.
-
-    Joining a point to the link point it was constructed from shows the link's real shape
-    (e.g. a lever's arm from its joint, not a chord from its first point); points built
-    from nothing on their own link hang off the link's first point.
-    """
-    built = {s.point: s for s in mech.steps}
-    pairs: list[tuple[str, str]] = []
-    for link in mech.links:
-        pts = [p for p in link.points if p != link.com]
-        if link.guide:
-            # A slider body: its points in listed order; there is no pivot to radiate from.
-            pairs += list(pairwise(pts))
-            continue
-        for p in pts[1:]:
-            cand = built[p].drawn_from if p in built else ()
-            parent = next((c for c in cand if c in pts and c != p), pts[0])
-            pairs.append((parent, p))
-    return pairs
-
-
 def _angle_ticks(ax, mech: Mechanism, phi: np.ndarray, xy: np.ndarray, size: float, label_every: int) -> list:
     """Short ticks across the path ``xy`` (mm, sampled at the input angles ``phi`` over one
     period from phi0) every 30 deg of crank angle turned; returns the ticks to be labelled

@@ -1,0 +1,161 @@
+"""The ``export`` command: a mechanism for CAD, at one crank angle.
+
+The DXF (R2010, millimetres, ``$INSUNITS`` = 4) holds, in the mechanism's own frame:
+
+* one layer per link (its name in the file), the link's centre lines as LINEs, joining each of
+  its points to the point it was built from (the shape the drawings show);
+* ``PIVOTS``: a CIRCLE of radius :data:`PIVOT_MM` round every ground point, ``POINTS``: a POINT
+  at every named point, ``LABELS``: each point's name beside it;
+* ``PATHS``: the closed path over the period of every moving point that is not merely a
+  link's centre of mass, as a closed 3D polyline of :data:`PATH_SAMPLES` vertices.
+
+The points file lists every named point at that angle: name, whether it is on the ground, x, y,
+z in mm (CSV, or JSON by the file's extension). Positions are the reference's
+(:func:`mjlink.reference.solve`), the same as ``simulate`` checks MuJoCo against.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import output, reference
+from ..analysis import mass_centres, segments
+from ..errors import MjlinkError
+from ..model.mechanism import Mechanism
+from ..units import DEG, to_mm
+
+PIVOT_MM = 2.0  # radius of the circle drawn round a ground pivot, mm
+PATH_SAMPLES = 361  # vertices of a point's path over the period (closed)
+LAYERS = ("PIVOTS", "POINTS", "LABELS", "PATHS")  # besides one per link
+
+
+@dataclass(frozen=True)
+class ExportResult:
+    """What :func:`export` wrote: ``angle_deg`` the input crank's angle (deg), ``points`` name ->
+    (x, y, z) mm at it, ``dxf`` and ``points_file`` the paths written (None where not asked)."""
+
+    mechanism: str
+    angle_deg: float
+    points: dict[str, tuple[float, float, float]]
+    dxf: Path | None
+    points_file: Path | None
+
+
+def positions(mech: Mechanism, angle_deg: float) -> dict[str, tuple[float, float, float]]:
+    """Every named point of ``mech`` at input crank angle ``angle_deg`` (deg), mm."""
+    kin = reference.solve(mech, np.array([angle_deg * DEG]))
+    return {p: tuple(float(v) for v in to_mm(kin.position(p))[0]) for p in mech.point_names}  # type: ignore[misc]
+
+
+def _paths(mech: Mechanism) -> dict[str, np.ndarray]:
+    coms = mass_centres(mech)
+    moving = [p for p in mech.moving_points if p not in coms]
+    phi = mech.phi0 + np.linspace(0.0, mech.period, PATH_SAMPLES)
+    kin = reference.solve(mech, phi)
+    return {p: to_mm(kin.position(p)) for p in moving}
+
+
+def dxf_text(mech: Mechanism, angle_deg: float) -> str:
+    """The DXF document of ``mech`` at ``angle_deg`` as text (see the module's docstring)."""
+    import ezdxf  # here: only this command needs it
+
+    at = positions(mech, angle_deg)
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4  # millimetres
+    doc.header["$MEASUREMENT"] = 1  # metric
+    for i, name in enumerate([*LAYERS, *(link.name for link in mech.links)]):
+        doc.layers.add(name, color=1 + i % 254)
+    msp = doc.modelspace()
+    link_of: dict[str, str] = {}
+    for link in mech.links:
+        for p in link.points:
+            link_of.setdefault(p, link.name)
+    for a, b in segments(mech):
+        layer = next((l.name for l in mech.links if a in l.points and b in l.points), link_of.get(b, "POINTS"))
+        msp.add_line(at[a], at[b], dxfattribs={"layer": layer})
+    size = max(1.0, 0.02 * _extent(at))
+    for name, xyz in at.items():
+        msp.add_point(xyz, dxfattribs={"layer": "POINTS"})
+        msp.add_text(
+            name, height=size, dxfattribs={"layer": "LABELS", "insert": (xyz[0] + size, xyz[1] + size, xyz[2])}
+        )
+        if name in mech.ground:
+            msp.add_circle(xyz, PIVOT_MM, dxfattribs={"layer": "PIVOTS"})
+    for xyz in _paths(mech).values():
+        msp.add_polyline3d([tuple(map(float, v)) for v in xyz[:-1]], close=True, dxfattribs={"layer": "PATHS"})
+    stream = io.StringIO()
+    doc.write(stream)
+    return stream.getvalue()
+
+
+def _extent(at: dict[str, tuple[float, float, float]]) -> float:
+    xy = np.array([v[:2] for v in at.values()])
+    return float(np.max(np.ptp(xy, axis=0))) if len(xy) > 1 else 1.0
+
+
+def points_text(at: dict[str, tuple[float, float, float]], mech: Mechanism, fmt: str) -> str:
+    """The points file's text, ``fmt`` 'csv' or 'json'."""
+    rows = [{"point": p, "ground": p in mech.ground, "x_mm": x, "y_mm": y, "z_mm": z} for p, (x, y, z) in at.items()]
+    if fmt == "json":
+        return json.dumps({"mechanism": mech.name, "points": rows}, indent=1) + "\n"
+    out = io.StringIO()
+    w = csv.DictWriter(out, fieldnames=list(rows[0]), lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({**r, **{k: repr(v) for k, v in r.items() if isinstance(v, float)}})
+    return out.getvalue()
+
+
+def export(mech: Mechanism, angle_deg: float | None, dxf: Path | None, points: Path | None) -> ExportResult:
+    """Write the DXF to ``dxf`` and the points file to ``points`` (CSV or JSON by its
+    extension), each whole or not at all, for the input crank at ``angle_deg`` (deg; None: the
+    file's ``phi0``). Raises MjlinkError (one line) for an angle that is not a number, a
+    points file of another extension, or no output asked for."""
+    if dxf is None and points is None:
+        raise MjlinkError("export: nothing to write: give --dxf FILE.dxf and/or --points FILE.csv|FILE.json")
+    if points is not None and points.suffix.lower() not in (".csv", ".json"):
+        raise MjlinkError(f"--points {points}: must end in .csv or .json")
+    angle = math.degrees(mech.phi0) if angle_deg is None else float(angle_deg)
+    if not math.isfinite(angle):
+        raise MjlinkError(f"--angle {angle_deg}: must be a finite number of degrees")
+    at = positions(mech, angle)
+    texts: list[tuple[Path, str]] = []
+    if dxf is not None:
+        texts.append((dxf, dxf_text(mech, angle)))
+    if points is not None:
+        texts.append((points, points_text(at, mech, points.suffix.lower()[1:])))
+    for path, text in texts:
+        output.write_text(path, text)
+    return ExportResult(mech.name, angle, at, dxf, points)
+
+
+def read_back(path: Path) -> dict[str, Any]:
+    """A DXF written by :func:`dxf_text` read back with ezdxf: its units, layers, and the
+    entities per type as coordinate arrays (mm); for tests and for a user's own check."""
+    import ezdxf
+    from ezdxf.entities import Polyline
+
+    doc = ezdxf.readfile(str(path))
+    msp = doc.modelspace()
+    lines = [(e.dxf.layer, tuple(e.dxf.start), tuple(e.dxf.end)) for e in msp.query("LINE")]
+    return {
+        "units": doc.header.get("$INSUNITS"),
+        "layers": {layer.dxf.name for layer in doc.layers},
+        "lines": lines,
+        "points": [tuple(e.dxf.location) for e in msp.query("POINT")],
+        "labels": {e.dxf.text: tuple(e.dxf.insert) for e in msp.query("TEXT")},
+        "circles": [(tuple(e.dxf.center), e.dxf.radius) for e in msp.query("CIRCLE")],
+        "paths": [
+            np.array([tuple(v.dxf.location) for v in e.vertices])
+            for e in msp.query("POLYLINE")
+            if isinstance(e, Polyline)
+        ],
+    }

@@ -1,0 +1,82 @@
+"""``export``: the DXF and the points file read back and compared with the reference, and with
+the crank-slider's closed form."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+from conftest import in_process
+
+from mjlink import analysis, reference
+from mjlink.model import catalogue, mechanism
+from mjlink.pipeline import export
+from mjlink.units import DEG, to_mm
+
+NAMES = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting", "lockstitch_head"]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_dxf_read_back_holds_the_reference_positions_in_mm(name, tmp_path):
+    mech = mechanism.load(catalogue.path_of(name))
+    angle = math.degrees(mech.phi0) + 37.0
+    dxf = tmp_path / f"{name}.dxf"
+    r = in_process("export", name, "--dxf", str(dxf), "--angle", f"{angle}deg")
+    assert r.returncode == 0, r.stderr
+    got = export.read_back(dxf)
+    kin = reference.solve(mech, np.array([angle * DEG]))
+    at = {p: to_mm(kin.position(p))[0] for p in mech.point_names}
+    assert got["units"] == 4  # millimetres
+    assert {link.name for link in mech.links} | set(export.LAYERS) <= got["layers"]
+    pairs = analysis.segments(mech)
+    assert len(got["lines"]) == len(pairs)
+    for (layer, start, end), (a, b) in zip(got["lines"], pairs, strict=True):
+        assert np.allclose(start, at[a], rtol=0, atol=1e-9) and np.allclose(end, at[b], rtol=0, atol=1e-9)
+        assert any(layer == link.name and a in link.points and b in link.points for link in mech.links)
+    assert len(got["points"]) == len(at)
+    assert {tuple(np.round(c, 9)) for c, _ in got["circles"]} == {tuple(np.round(at[p], 9)) for p in mech.ground}
+    moving = [p for p in mech.moving_points if p not in analysis.mass_centres(mech)]
+    path_kin = reference.solve(mech, mech.phi0 + np.linspace(0.0, mech.period, export.PATH_SAMPLES))
+    assert len(got["paths"]) == len(moving)
+    for p, verts in zip(moving, got["paths"], strict=True):
+        assert np.allclose(verts, to_mm(path_kin.position(p))[:-1], rtol=0, atol=1e-9)
+
+
+def test_the_points_file_of_the_crank_slider_is_its_closed_form(tmp_path):
+    """Crank r at angle t from A = (0, 0), rod l, guide y = -e: B = r (cos t, sin t),
+    C = (r cos t + sqrt(l^2 - (r sin t + e)^2), -e)."""
+    r_, l_, e_ = 21.730974582035103, 62.08849880581459, 15.0
+    for t_deg, fmt in ((0.0, "csv"), (123.4, "json")):
+        out = tmp_path / f"p{t_deg}.{fmt}"
+        assert in_process("export", "crank_slider", "--points", str(out), "--angle", str(t_deg)).returncode == 0
+        if fmt == "csv":
+            with open(out, newline="") as f:
+                rows = {row["point"]: row for row in csv.DictReader(f)}
+        else:
+            rows = {row["point"]: row for row in json.loads(out.read_text())["points"]}
+        t = math.radians(t_deg)
+        b = (r_ * math.cos(t), r_ * math.sin(t))
+        c = (r_ * math.cos(t) + math.sqrt(l_**2 - (r_ * math.sin(t) + e_) ** 2), -e_)
+        for name, xy in (("B", b), ("C", c)):
+            assert float(rows[name]["x_mm"]) == pytest.approx(xy[0], abs=1e-9)
+            assert float(rows[name]["y_mm"]) == pytest.approx(xy[1], abs=1e-9)
+        assert rows["A"]["ground"] in (True, "True") and rows["C"]["ground"] in (False, "False")
+
+
+@pytest.mark.parametrize(
+    ("args", "status", "message"),
+    [
+        ([], 1, "nothing to write"),
+        (["--points", "p.txt"], 1, "must end in .csv or .json"),
+        (["--dxf", "x.dxf", "--angle", "ninety"], 2, "crank angle in degrees"),
+    ],
+)
+def test_bad_export_arguments_are_one_line_and_write_nothing(tmp_path, args, status, message):
+    """Status 1 for a bad request, 2 for a usage error: one line each, naming the cause."""
+    r = in_process("export", "takeup", *args, cwd=tmp_path)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == status and len(lines) == 1 and message in lines[0], r.stderr
+    assert list(tmp_path.iterdir()) == []
