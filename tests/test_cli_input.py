@@ -234,7 +234,6 @@ def test_integers_of_thousands_of_digits_are_one_line(tmp_path, old, new, match)
         (["simulate", "takeup", "--duration", "1e-9", "--no-video"], "--duration must be between 0.025 and 100 s"),
         (["simulate", "takeup", "--duration", "1e9", "--no-video"], "got 1e+09 s"),
         (["simulate", "takeup", "--duration", "1e308", "--no-video"], "got 1e+308 s"),
-        (["simulate", "takeup", "--duration", "nan", "--no-video"], "--duration"),
         (["synth", "crank_slider", "--stroke", "1e308"], "--stroke must be between 0.1 and 1000 mm, got 1e+308 mm"),
         (["synth", "crank_slider", "--offset", "-5"], "--offset must be between 0 and 1000 mm, got -5 mm"),
         (["synth", "crank_slider", "--lambda", "nan"], "--lambda must be between 0 and 1"),
@@ -245,6 +244,13 @@ def test_integers_of_thousands_of_digits_are_one_line(tmp_path, old, new, match)
 )
 def test_absurd_values_and_paths_are_one_line(capsys, argv, match):
     assert match in failed(capsys, argv)
+
+
+@pytest.mark.parametrize("value", ["nan", "2 furlongs", "2 mm"])
+def test_a_duration_that_is_not_a_time_is_a_usage_error_naming_the_units(capsys, value):
+    msg = usage_error(capsys, ["simulate", "takeup", "--duration", value, "--no-video"])
+    assert "--duration" in msg and repr(value) in msg
+    assert "not a number with a unit" in msg or "not a unit of time (s, ms, min)" in msg
 
 
 @pytest.mark.parametrize(

@@ -71,7 +71,7 @@ def test_the_points_file_of_the_crank_slider_is_its_closed_form(tmp_path):
     [
         ([], 1, "nothing to write"),
         (["--points", "p.txt"], 1, "must end in .csv or .json"),
-        (["--dxf", "x.dxf", "--angle", "ninety"], 2, "crank angle in degrees"),
+        (["--dxf", "x.dxf", "--angle", "ninety"], 2, "is not a number with a unit: write e.g. 12deg"),
     ],
 )
 def test_bad_export_arguments_are_one_line_and_write_nothing(tmp_path, args, status, message):

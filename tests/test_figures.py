@@ -233,6 +233,7 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
     for p in [*pngs, "takeup.mp4"]:
         assert f"src='{p}'" in text, p
     assert "✓ pass" in text
+    assert (out / "design.html").is_file() and "href='design.html'" in text  # drag-to-design, linked
     flags = [
         "--headless",
         "--no-sandbox",

@@ -27,6 +27,8 @@ from ..model import catalogue
 from ..model.catalogue import STUDIES_DIR
 from ..model.limits import MAX_CYCLES, MAX_FPS
 from ..model.mechanism import load
+from ..quantity import QuantityError
+from ..quantity import parse as parse_quantity
 from ..units import from_rpm
 from . import text
 
@@ -179,10 +181,12 @@ _SPEED_HELP = "with its unit (955rpm, 100rad/s), signed, counter-clockwise posit
 
 
 def _drive_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--moment", type=float, metavar="N_M", help="constant driving moment on the crank, N*m (signed)")
+    p.add_argument(
+        "--moment", type=quantity_arg("N*m"), metavar="N_M", help="constant driving moment on the crank, N*m (signed)"
+    )
     p.add_argument(
         "--stall-torque",
-        type=float,
+        type=quantity_arg("N*m"),
         metavar="N_M",
         help="motor characteristic: torque at rest, N*m, signed (with --no-load-speed)",
     )
@@ -192,7 +196,7 @@ def _drive_options(p: argparse.ArgumentParser) -> None:
         metavar="SPEED",
         help=f"motor characteristic: speed at which the torque falls to zero, {_SPEED_HELP}",
     )
-    p.add_argument("--damping", type=float, metavar="N_M_S", help="viscous damping on the crank, N*m*s")
+    p.add_argument("--damping", type=quantity_arg("N*m*s"), metavar="N_M_S", help="viscous damping on the crank, N*m*s")
     p.add_argument(
         "--omega0", type=speed_arg, metavar="SPEED", help=f"initial crank speed of the dynamic run, {_SPEED_HELP}"
     )
@@ -284,12 +288,18 @@ def _build(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------- export
-def angle_arg(s: str) -> float:
-    """argparse type of a crank angle: degrees, with or without the unit ('30', '30deg', '30 deg')."""
-    m = re.fullmatch(r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*(deg)?\s*", s)
-    if m is None or not math.isfinite(float(m.group(1))):
-        raise argparse.ArgumentTypeError(f"{s!r}: give the crank angle in degrees, e.g. 90 or 90deg")
-    return float(m.group(1))
+def quantity_arg(unit: str) -> Callable[[str], float]:
+    """argparse type of an option in ``unit``: a bare number in ``unit`` or a number with any
+    unit of its kind, with or without a space ('2', '2s', '500 ms'; mjlink.quantity)."""
+
+    def read(s: str) -> float:
+        try:
+            return parse_quantity(s, unit)
+        except QuantityError as e:
+            raise argparse.ArgumentTypeError(text.error_line(str(e))) from None
+
+    read.__name__ = f"quantity in {unit}"  # argparse names the type in its messages
+    return read
 
 
 def _export_arguments(p: argparse.ArgumentParser) -> None:
@@ -297,7 +307,7 @@ def _export_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dxf", type=path_arg, help="DXF file to write (mm; a layer per link, pivots, points, paths)")
     p.add_argument("--points", type=path_arg, help="the named points' coordinates, .csv or .json")
     p.add_argument(
-        "--angle", type=angle_arg, help="the input crank's angle, deg (default: the file's phi0, its setting)"
+        "--angle", type=quantity_arg("deg"), help="the input crank's angle, deg (default: the file's phi0, its setting)"
     )
 
 
@@ -308,6 +318,27 @@ def _export(args: argparse.Namespace) -> int:
     res = export.export(mech, args.angle, args.dxf, args.points)
     wrote = ", ".join(str(p) for p in (res.dxf, res.points_file) if p is not None)
     print(f"wrote {wrote} ({mech.name} at input crank angle {res.angle_deg:g} deg, mm)", file=sys.stderr)
+    return 0
+
+
+# ----------------------------------------------------------------------------- design
+def _design_arguments(p: argparse.ArgumentParser) -> None:
+    _mechanism(p)
+    p.add_argument("-o", "--output", type=path_arg, help="HTML file to write (default: renders/NAME-design.html)")
+
+
+def _design(args: argparse.Namespace) -> int:
+    from .. import output
+    from ..plotting import design_page  # here: the page's module, which list and --help do without
+
+    mech = validation.get(args.mechanism)
+    assert mech.path is not None  # a mechanism is read from its file
+    path = args.output or Path("renders") / f"{mech.name}-design.html"
+    output.write_text(path, design_page.design_html(mech, mech.path.read_text(encoding="utf-8")))
+    print(
+        f"wrote {path}: open it in a browser (offline; drag the pivots, edit the numbers, save as TOML)",
+        file=sys.stderr,
+    )
     return 0
 
 
@@ -329,11 +360,11 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
         help=f"crank speed of the kinematic run, {_SPEED_HELP} (default: the file's [input] speed)",
     )
     s.add_argument("--cycles", type=float, help="crank periods in the kinematic run (default: the file's)")
-    s.add_argument("--duration", type=float, help="duration of the dynamic run, s (default: the file's)")
+    s.add_argument("--duration", type=quantity_arg("s"), help="duration of the dynamic run, s (default: the file's)")
     s.add_argument("--no-dynamics", action="store_true", help="skip the forward-dynamics run")
     s.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     s.add_argument("--no-video", action="store_true", help="skip the MP4")
-    s.add_argument("--video-seconds", type=float, default=3.0, help="length of the video, s (default 3)")
+    s.add_argument("--video-seconds", type=quantity_arg("s"), default=3.0, help="length of the video, s (default 3)")
     s.add_argument("--fps", type=float, default=30, help="video frames per second, a whole number (default 30)")
     s.add_argument(
         "--size",
@@ -344,7 +375,7 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
         "--phi0",
         "--phi01",
         dest="phi0",
-        type=float,
+        type=quantity_arg("deg"),
         metavar="DEG",
         help="initial angle of the input crank, deg (default: the file's)",
     )
@@ -352,7 +383,7 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
         "--phase",
         "--phi04",
         dest="phase",
-        type=float,
+        type=quantity_arg("deg"),
         metavar="DEG",
         help="angle of the geared crank at the initial input angle, deg (geared mechanisms)",
     )
@@ -474,9 +505,9 @@ def _reactions(args: argparse.Namespace) -> int:
 
 def _steady_arguments(q: argparse.ArgumentParser) -> None:
     _mechanism(q)
-    q.add_argument("--stall-torque", type=float, metavar="N_M", help="motor torque at rest, N*m (signed)")
+    q.add_argument("--stall-torque", type=quantity_arg("N*m"), metavar="N_M", help="motor torque at rest, N*m (signed)")
     q.add_argument("--no-load-speed", type=speed_arg, metavar="SPEED", help=f"motor no-load speed, {_SPEED_HELP}")
-    q.add_argument("--damping", type=float, metavar="N_M_S", help="viscous damping on the crank, N*m*s")
+    q.add_argument("--damping", type=quantity_arg("N*m*s"), metavar="N_M_S", help="viscous damping on the crank, N*m*s")
     q.add_argument(
         "--target-delta",
         type=float,
@@ -513,10 +544,10 @@ def _steady(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------- synth
 def _synth_arguments(y: argparse.ArgumentParser) -> None:
     y.add_argument("problem", help="what to synthesize: crank_slider")
-    y.add_argument("--stroke", type=float, help="slider stroke S, mm (default: crank_slider.toml's)")
-    y.add_argument("--offset", type=float, help="guide offset e, mm")
+    y.add_argument("--stroke", type=quantity_arg("mm"), help="slider stroke S, mm (default: crank_slider.toml's)")
+    y.add_argument("--offset", type=quantity_arg("mm"), help="guide offset e, mm")
     y.add_argument("--lambda", dest="ratio", type=float, help="lambda = r / l")
-    y.add_argument("--max-pressure-angle", type=float, help="allowed pressure angle [theta], deg")
+    y.add_argument("--max-pressure-angle", type=quantity_arg("deg"), help="allowed pressure angle [theta], deg")
     y.add_argument("--write", type=path_arg, metavar="FILE", help="save the accepted design as a mechanism file")
 
 
@@ -666,6 +697,13 @@ COMMANDS: tuple[Command, ...] = (
         "example: python -m mjlink build takeup -o takeup.xml",
         _build_arguments,
         _build,
+    ),
+    Command(
+        "design",
+        "drag-to-design: an offline HTML page to edit the mechanism and watch its paths and numbers",
+        "example: python -m mjlink design takeup -o takeup-design.html",
+        _design_arguments,
+        _design,
     ),
     Command(
         "export",

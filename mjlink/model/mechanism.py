@@ -330,7 +330,7 @@ def _read_motor(r: Reader, raw: Any, where: str) -> Motor:
     raw = r.table(raw, where)
     if where == "[dynamics.motor]":
         r.keys(raw, where, ["stall_torque", "no_load_speed"])
-    ts = r.number(raw, "stall_torque", where)
+    ts = r.number(raw, "stall_torque", where, unit=" N*m")
     w0 = r.number(
         raw, "no_load_speed", where, lo=MIN_SPEED, hi=MAX_SPEED, unit=" rad/s", why="see mechanisms/README.md, Limits"
     )
@@ -380,7 +380,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
 
     ground = {}
     for k, v in r.table(data["ground"], "[ground]").items():
-        ground[r.name(k, "[ground]")] = r.vector(v, f"[ground] {k}", scale=MM, hi=MAX_LENGTH_MM)
+        ground[r.name(k, "[ground]")] = r.vector(v, f"[ground] {k}", scale=MM, hi=MAX_LENGTH_MM, unit="mm")
     if not ground:
         raise r.fail("[ground]", "needs at least one fixed point")
 
@@ -446,7 +446,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     inp = r.table(data["input"], "[input]")
     r.keys(inp, "[input]", ["phi0", "speed"], ["cycles"])
     phi0 = r.number(inp, "phi0", "[input]", scale=DEG, hi=MAX_ANGLE_DEG, unit=" deg", why="an angle")
-    speed = r.number(inp, "speed", "[input]")
+    speed = r.number(inp, "speed", "[input]", unit=" rad/s")
     if speed == 0:
         raise r.fail("[input] speed", "must be non-zero (rad/s, CCW positive)")
     if not MIN_SPEED <= abs(speed) <= MAX_SPEED:
@@ -487,20 +487,22 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         if ("value" in fr) == ("angles" in fr or "values" in fr):
             raise r.fail(w, "give either 'value' (constant) or 'angles' and 'values' (a table)")
         if "value" in fr:
-            forces.append(Force(p, tuple(r.vector(fr["value"], f"{w} value"))))
+            forces.append(Force(p, tuple(r.vector(fr["value"], f"{w} value", unit="N"))))
             continue
         if "angles" not in fr or "values" not in fr:
             raise r.fail(w, "a force table needs both 'angles' (deg) and 'values' (N)")
         angs = fr["angles"]
         if not isinstance(angs, list) or len(angs) < 2:
             raise r.fail(f"{w} angles", "must be a list of at least two angles (deg)")
-        a = np.array([r.number({"a": x}, "a", f"{w} angles") for x in angs]) * DEG
+        a = np.array([r.number({"a": x}, "a", f"{w} angles", unit=" deg") for x in angs]) * DEG
         if not np.all(np.diff(a) > 0):
             raise r.fail(f"{w} angles", "must increase strictly")
         vals = fr["values"]
         if not isinstance(vals, list) or len(vals) != len(angs):
             raise r.fail(f"{w} values", f"must list one force per angle ({len(angs)})")
-        forces.append(Force(p, angles=tuple(a), values=tuple(tuple(r.vector(v, f"{w} values")) for v in vals)))
+        forces.append(
+            Force(p, angles=tuple(a), values=tuple(tuple(r.vector(v, f"{w} values", unit="N")) for v in vals))
+        )
     motor = _read_motor(r, dyn_raw["motor"], "[dynamics.motor]") if "motor" in dyn_raw else None
     if "dynamics" in data:
         massless = [l.name for l in links if l.mass <= 0]
@@ -520,8 +522,8 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     elif motor is not None:
         steady = SteadyCase(motor)
     dynamics = Dynamics(
-        moment=r.number(dyn_raw, "moment", "[dynamics]", default=0.0),
-        damping=r.number(dyn_raw, "damping", "[dynamics]", default=0.0, nonneg=True),
+        moment=r.number(dyn_raw, "moment", "[dynamics]", default=0.0, unit=" N*m"),
+        damping=r.number(dyn_raw, "damping", "[dynamics]", default=0.0, nonneg=True, unit=" N*m*s"),
         omega0=r.number(
             dyn_raw,
             "omega0",
@@ -541,7 +543,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
             hi=MAX_DURATION_S,
             unit=" s",
         ),
-        gravity=r.number(dyn_raw, "gravity", "[dynamics]", default=9.81, nonneg=True),
+        gravity=r.number(dyn_raw, "gravity", "[dynamics]", default=9.81, nonneg=True, unit=" m/s^2"),
         forces=tuple(forces),
         motor=motor,
         paper_rk4_steps=_steps(r, dyn_raw, "paper_rk4_steps", "[dynamics]"),
@@ -553,7 +555,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         r.keys(th, "[thread]", ["path"], ["elongation"])
         thread = r.names(th["path"], "[thread] path", min_length=2)
         if "elongation" in th:
-            elongation = r.number(th, "elongation", "[thread]", nonneg=True, scale=MM)
+            elongation = r.number(th, "elongation", "[thread]", nonneg=True, scale=MM, unit=" mm")
         for p in thread:
             if p not in known:
                 raise r.fail("[thread] path", f"uses point '{p}', which is not defined")
@@ -562,12 +564,12 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     if "synthesis" in data:
         sy = r.table(data["synthesis"], "[synthesis]")
         r.keys(sy, "[synthesis]", ["stroke", "offset", "lambda", "max_pressure_angle"])
-        theta = r.number(sy, "max_pressure_angle", "[synthesis]", positive=True)
+        theta = r.number(sy, "max_pressure_angle", "[synthesis]", positive=True, unit=" deg")
         if theta >= 90:
             raise r.fail("[synthesis] max_pressure_angle", f"must be below 90 deg, got {theta:g}")
         synthesis = Synthesis(
-            r.number(sy, "stroke", "[synthesis]", positive=True, scale=MM),
-            r.number(sy, "offset", "[synthesis]", nonneg=True, scale=MM),
+            r.number(sy, "stroke", "[synthesis]", positive=True, scale=MM, unit=" mm"),
+            r.number(sy, "offset", "[synthesis]", nonneg=True, scale=MM, unit=" mm"),
             r.number(sy, "lambda", "[synthesis]", positive=True),
             theta * DEG,
         )

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import MechanismFileError
+from ..quantity import QuantityError, parse
 from . import names as _names
 
 _INT_DIGITS = sys.get_int_max_str_digits() or 4300  # Python refuses str() of longer integers
@@ -123,8 +124,15 @@ class Reader:
                 raise self.fail(where, f"missing key '{key}'")
             return default
         v = data[key]
+        if isinstance(v, str) and unit.strip():
+            # A number with its unit, in the grammar every place shares ('12mm', '1.2 cm').
+            try:
+                v = parse(v, unit.strip(), require_unit=True)
+            except QuantityError as e:
+                raise self.fail(f"{where} {key}", str(e)) from None
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(f"{where} {key}", f"must be a number, got {type(v).__name__} {shown(v)}")
+            with_unit = f" (or a string with its unit, e.g. '12{unit.strip()}')" if unit.strip() else ""
+            raise self.fail(f"{where} {key}", f"must be a number, got {type(v).__name__} {shown(v)}{with_unit}")
         try:
             v = float(v)
         except OverflowError:  # TOML integers may have any number of digits
@@ -169,12 +177,18 @@ class Reader:
             raise self.fail(where, f"invalid name {shown(v)}: use a letter then letters, digits or _ (at most 32)")
         return v
 
-    def vector(self, v: Any, where: str, sizes=(2, 3), scale=1.0, hi=None) -> np.ndarray:
-        """A list of 2 or 3 finite numbers (z = 0 if absent); ``hi`` bounds each coordinate, mm."""
+    def vector(self, v: Any, where: str, sizes=(2, 3), scale=1.0, hi=None, unit="") -> np.ndarray:
+        """A list of 2 or 3 finite numbers (z = 0 if absent); ``hi`` bounds each coordinate, mm.
+        With ``unit``, a coordinate may be written with its unit ('12mm', '1.2 cm')."""
         if not isinstance(v, list) or len(v) not in sizes:
             raise self.fail(where, f"must be a list of {' or '.join(map(str, sizes))} numbers, got {shown(v)}")
         out = []
         for x in v:
+            if isinstance(x, str) and unit:
+                try:
+                    x = parse(x, unit, require_unit=True)
+                except QuantityError as e:
+                    raise self.fail(where, str(e)) from None
             try:
                 ok = not isinstance(x, bool) and isinstance(x, (int, float)) and math.isfinite(float(x))
             except OverflowError:

@@ -144,7 +144,7 @@ def _value(v: float) -> str:
     return f"{v:.4g}" if abs(v) < 1e4 else f"{v:.0f}"
 
 
-def _design(result: Any, pngs: list[str]) -> list[str]:
+def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
     """The first screen: the drawing at the crank's setting, the headline numbers and the file's
     dimensions (each value on an element naming its study metric or parameter path)."""
     e = html.escape
@@ -167,8 +167,16 @@ def _design(result: Any, pngs: list[str]) -> list[str]:
         if "positions.png" in pngs
         else f"<p class='sub'>the crank's setting φ0 = {d.phi0_deg:g}° (no drawing: run without --no-plots)</p>"
     )
+    drag = (
+        "<p><a href='design.html'>Drag to design</a>: move the pivots and change the dimensions in your "
+        "browser, watch the paths and these numbers follow, save the edited file.</p>"
+        if "design.html" in names
+        else ""
+    )
     return [
-        "<section id='design'><h2>Design</h2><div class='design'>",
+        "<section id='design'><h2>Design</h2>",
+        drag,
+        "<div class='design'>",
         f"<div>{left}</div><div>",
         f"<table id='summary'><caption class='sub'>at {rpm:.0f} rpm ({abs(d.speed):.4g} rad/s), {sense}; "
         "strokes along the axis the point moves most</caption>",
@@ -244,7 +252,7 @@ def index_html(result: Any, files: Iterable[str]) -> str:
         verdict,
     ]
     if design is not None:
-        parts += _design(result, pngs)
+        parts += _design(result, pngs, names)
         contents.append(("design", "Design"))
     if head is not None:
         parts += [

@@ -29,6 +29,8 @@ from ..model import names as _names
 from ..model.limits import MAX_FILE_BYTES, MAX_TITLE_CHARS
 from ..model.mechanism import Mechanism
 from ..model.reader import digits, shown
+from ..quantity import QuantityError
+from ..quantity import parse as parse_quantity
 from . import sampling, values
 from .errors import StudyFileError, StudyLimitError
 from .varied import Varied
@@ -202,10 +204,18 @@ def _keys(src: object, raw: dict, where: str, required: list[str], optional: lis
             raise _fail(src, where, f"missing key '{k}'")
 
 
-def _number(src: object, raw: dict, key: str, where: str, *, default: float | None = None) -> float:
+def _number(src: object, raw: dict, key: str, where: str, *, default: float | None = None, unit: str = "") -> float:
+    """A finite number; with ``unit``, also a number with a unit of its kind ('12mm',
+    '1.2 cm', mjlink.quantity), converted to ``unit``."""
     v = raw.get(key, default)
+    if isinstance(v, str) and unit:
+        try:
+            v = parse_quantity(v, unit, require_unit=True)
+        except QuantityError as e:
+            raise _fail(src, f"{where} {key}", str(e)) from None
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise _fail(src, f"{where} {key}", f"must be a finite number, got {shown(v)}")
+        with_unit = f" (or a string with its unit, e.g. '12{unit}')" if unit else ""
+        raise _fail(src, f"{where} {key}", f"must be a finite number, got {shown(v)}{with_unit}")
     try:
         x = float(v)
     except OverflowError:  # an integer of hundreds of digits
@@ -478,15 +488,15 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
             vals = rp["values"]
             if not isinstance(vals, list) or not vals:
                 raise _fail(src, f"{where} values", "must be a non-empty list of numbers")
-            out = tuple(_number(src, {"v": x}, "v", f"{where} values") for x in vals)
+            out = tuple(_number(src, {"v": x}, "v", f"{where} values", unit=p.unit) for x in vals)
         else:
-            lo, hi = _range(src, rp, where)
+            lo, hi = _range(src, rp, where, p.unit)
             if ("count" in rp) == ("step" in rp):
                 raise _fail(src, where, "a 'range' needs either 'count' (values, ends included) or 'step'")
             if "count" in rp:
                 n = _integer(src, rp, "count", where, 1, MAX_VARIANTS)
             else:
-                step = _number(src, rp, "step", where)
+                step = _number(src, rp, "step", where, unit=p.unit)
                 if step <= 0:
                     raise _fail(src, f"{where} step", f"must be positive, got {step:g}")
                 with np.errstate(all="ignore"):
@@ -503,21 +513,21 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
         if "range" not in rp:
             what = "the bounds the samples fill" if method == "random" else "the bounds of the search"
             raise _fail(src, where, f"needs 'range' = [low, high] ({what})")
-        lo, hi = _range(src, rp, where)
+        lo, hi = _range(src, rp, where, p.unit)
         if method == "random" or "tolerance" not in rp:
             return Varied(p, low=lo, high=hi, tolerance=0.0 if method == "optimize" else math.nan)
-        tol, dist = _tolerance(src, rp, where)
+        tol, dist = _tolerance(src, rp, where, p.unit)
         return Varied(p, low=lo, high=hi, tolerance=tol, distribution=dist)
     if "tolerance" not in rp:
         raise _fail(src, where, "needs 'tolerance' (the +- band, in the parameter's unit)")
-    tol, dist = _tolerance(src, rp, where)
+    tol, dist = _tolerance(src, rp, where, p.unit)
     if not math.isfinite(p.nominal):
         raise _fail(src, where, "has no nominal value in the mechanism file to put a tolerance on")
     return Varied(p, tolerance=tol, distribution=dist)
 
 
-def _tolerance(src: object, rp: dict, where: str) -> tuple[float, str]:
-    tol = _number(src, rp, "tolerance", where)
+def _tolerance(src: object, rp: dict, where: str, unit: str = "") -> tuple[float, str]:
+    tol = _number(src, rp, "tolerance", where, unit=unit)
     if tol < 0:
         raise _fail(src, f"{where} tolerance", f"must be >= 0, got {tol:g}")
     dist = rp.get("distribution", "uniform")
@@ -533,10 +543,10 @@ def _fixed(src: object, mech: Mechanism, raw: Any) -> tuple[tuple[str, float], .
     out = []
     for k in raw:
         try:
-            paths.resolve(mech, k)
+            unit = paths.resolve(mech, k).unit
         except MjlinkError as e:
             raise _fail(src, "[set]", str(e).split(": ", 1)[-1]) from None
-        out.append((k, _number(src, raw, k, "[set]")))
+        out.append((k, _number(src, raw, k, "[set]", unit=unit)))
     return tuple(out)
 
 
@@ -657,12 +667,12 @@ def _robust(src: object, raw: Any, seed: int) -> Robust:
     )
 
 
-def _range(src: object, rp: dict, where: str) -> tuple[float, float]:
+def _range(src: object, rp: dict, where: str, unit: str = "") -> tuple[float, float]:
     r = rp["range"]
     if not isinstance(r, list) or len(r) != 2:
         raise _fail(src, f"{where} range", "must be [low, high]")
-    lo = _number(src, {"v": r[0]}, "v", f"{where} range")
-    hi = _number(src, {"v": r[1]}, "v", f"{where} range")
+    lo = _number(src, {"v": r[0]}, "v", f"{where} range", unit=unit)
+    hi = _number(src, {"v": r[1]}, "v", f"{where} range", unit=unit)
     if not lo < hi:
         raise _fail(src, f"{where} range", f"low must be below high, got [{lo:g}, {hi:g}]")
     return lo, hi

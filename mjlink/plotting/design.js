@@ -1,0 +1,383 @@
+// mjlink drag-to-design: the reference's closed-form position analysis, ported, and the page
+// that edits a mechanism with it. Units as in mechanism files: mm, deg. One block per type,
+// each the same formula as mjlink.model.blocks (Crank, Dyad, Attached, Slider), so that the
+// page draws what `simulate` computes (tests/test_design_page.py compares them).
+"use strict";
+(function () {
+  const D = Math.PI / 180;
+  const TRANSMISSION_MIN = 20; // deg: a dyad's dead-point limit, as `check`
+  const PRESSURE_MAX = 60; // deg: a slider's
+
+  // ------------------------------------------------------------------ the kinematics port
+  const BLOCKS = {
+    crank(s, P, phi, phi0) {
+      const a = (phi - phi0) * s.ratio + (s.phase === null ? phi0 : s.phase * D);
+      const p = P[s.pivot];
+      return { at: [p[0] + s.length * Math.cos(a), p[1] + s.length * Math.sin(a), p[2]] };
+    },
+    dyad(s, P) {
+      const a = P[s.a], b = P[s.b];
+      const dx = a[0] - b[0], dy = a[1] - b[1];
+      const dist = Math.sqrt(dx * dx + dy * dy);
+      const cu = (dist * dist + (s.length_b * s.length_b - s.length_a * s.length_a)) / (dist * (2 * s.length_b));
+      const w = Math.min(1, Math.max(-1, cu));
+      const sn = s.sign * Math.sqrt(1 - w * w);
+      const ux = dx * (s.length_b / dist), uy = dy * (s.length_b / dist);
+      const cm = (s.length_a * s.length_a + s.length_b * s.length_b - dist * dist) / (2 * s.length_a * s.length_b);
+      const mu = Math.acos(Math.min(1, Math.max(-1, cm))) / D;
+      return {
+        at: [b[0] + (ux * w - uy * sn), b[1] + (ux * sn + uy * w), b[2]],
+        closes: Math.abs(cu) <= 1,
+        angle: { what: "transmission angle", value: Math.min(mu, 180 - mu), bad: Math.min(mu, 180 - mu) < TRANSMISSION_MIN },
+      };
+    },
+    attached(s, P) {
+      const o = P[s.origin], t = P[s.toward];
+      const dx = t[0] - o[0], dy = t[1] - o[1];
+      const n = Math.sqrt(dx * dx + dy * dy);
+      const ux = dx / n, uy = dy / n;
+      const c = s.length * Math.cos(s.angle * D), sn = s.length * Math.sin(s.angle * D);
+      return { at: [o[0] + (ux * c - uy * sn), o[1] + (ux * sn + uy * c), s.z === null ? o[2] : s.z] };
+    },
+    slider(s, P) {
+      const st = P[s.start], n1 = P[s.guide[0]], n2 = P[s.guide[1]];
+      const gx = n2[0] - n1[0], gy = n2[1] - n1[1];
+      const gn = Math.sqrt(gx * gx + gy * gy);
+      const ux = gx / gn, uy = gy / gn;
+      const along = (st[0] - n1[0]) * ux + (st[1] - n1[1]) * uy;
+      const fx = n1[0] + ux * along, fy = n1[1] + uy * along;
+      const ox = st[0] - fx, oy = st[1] - fy;
+      const h2 = -(ox * ox + oy * oy) + s.length * s.length;
+      const h = Math.sqrt(Math.max(h2, 0));
+      const sg = s.toward === s.guide[1] ? h : -h;
+      const pressure = Math.asin(Math.min(1, Math.max(0, Math.sqrt(ox * ox + oy * oy) / s.length))) / D;
+      return {
+        at: [fx + ux * sg, fy + uy * sg, n1[2]],
+        closes: h2 >= 0,
+        angle: { what: "pressure angle", value: pressure, bad: pressure > PRESSURE_MAX },
+      };
+    },
+  };
+
+  function label(s) {
+    if (s.kind === "dyad") return `dyad ${s.a}-${s.point}-${s.b}`;
+    if (s.kind === "slider") return `slider ${s.start}-${s.point} on ${s.guide[0]}-${s.guide[1]}`;
+    return `${s.kind} ${s.point}`;
+  }
+
+  // Every point at input crank angle phiDeg (deg), mm; `open`: the blocks that cannot close
+  // there, `dead`: those past their dead-point limit, `angles`: each such block's angle.
+  function solve(m, phiDeg) {
+    const P = {};
+    for (const k in m.ground) P[k] = m.ground[k].slice();
+    const open = [], dead = [], angles = [];
+    for (const s of m.steps) {
+      const r = BLOCKS[s.kind](s, P, phiDeg * D, m.phi0 * D);
+      P[s.point] = r.at;
+      if (r.closes === false) open.push(label(s));
+      if (r.angle) {
+        angles.push({ block: label(s), what: r.angle.what, value: r.angle.value });
+        if (r.angle.bad && r.closes !== false) dead.push(label(s));
+      }
+    }
+    return { P, open, dead, angles };
+  }
+
+  // ---------------------------------------------------------------- the design's numbers
+  function samples(m, perTurn) {
+    const n = perTurn * m.turns;
+    const out = [];
+    for (let k = 0; k < n; k++) {
+      const phi = m.phi0 + (360 * m.turns * k) / n;
+      out.push({ phi, ...solve(m, phi) });
+    }
+    return out;
+  }
+
+  function ranges(phis, flags, step) {
+    const out = [];
+    let start = null;
+    for (let i = 0; i <= phis.length; i++) {
+      if (i < phis.length && flags[i]) {
+        if (start === null) start = phis[i];
+      } else if (start !== null) {
+        out.push(`${start.toFixed(1)}..${(phis[i - 1] + step).toFixed(1)}`);
+        start = null;
+      }
+    }
+    return out.join(", ");
+  }
+
+  // The extreme (sense 1: highest, -1: lowest) of a periodic sampled curve, refined by the
+  // parabola through the extreme sample and its neighbours (the samples alone are off by up to
+  // a quarter of the curvature times the step squared).
+  function peak(y, sense) {
+    const n = y.length;
+    let i = 0;
+    for (let k = 1; k < n; k++) if (sense * y[k] > sense * y[i]) i = k;
+    const a = y[(i - 1 + n) % n], b = y[i], c = y[(i + 1) % n];
+    const curv = a - 2 * b + c;
+    return curv === 0 ? b : b - ((a - c) * (a - c)) / (8 * curv);
+  }
+
+  function threadLength(m, P) {
+    let l = 0;
+    for (let i = 1; i < m.thread.length; i++) {
+      const a = P[m.thread[i - 1]], b = P[m.thread[i]];
+      l += Math.hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    }
+    return l;
+  }
+
+  // The metrics a study names the same way (mjlink.analysis.metrics), from `perTurn` samples
+  // per input turn; `feasible` false (metrics empty) where the design does not assemble over
+  // the whole cycle or passes a dead point, with `why` naming the block and angles.
+  function metrics(m, perTurn) {
+    const S = samples(m, perTurn);
+    const phis = S.map((s) => s.phi);
+    const step = (360 * m.turns) / S.length;
+    const openBlocks = [...new Set(S.flatMap((s) => s.open))];
+    const deadBlocks = [...new Set(S.flatMap((s) => s.dead))];
+    const lf = m.thread ? S.map((s) => threadLength(m, s.P)) : null;
+    const out = { samples: S, feasible: true, why: "", values: {}, thread: lf };
+    if (openBlocks.length) {
+      out.feasible = false;
+      out.why = openBlocks
+        .map((b) => `${b} cannot close for input angles ${ranges(phis, S.map((s) => s.open.includes(b)), step)} deg`)
+        .join("; ");
+      return out;
+    }
+    if (deadBlocks.length) {
+      out.feasible = false;
+      out.why = deadBlocks
+        .map((b) => `${b} passes its dead-point limit for input angles ${ranges(phis, S.map((s) => s.dead.includes(b)), step)} deg`)
+        .join("; ");
+    }
+    const key = m.key;
+    const xs = [0, 1, 2].map((ax) => S.map((s) => s.P[key][ax]));
+    const spans = xs.map((v) => Math.max(...v) - Math.min(...v));
+    const ax = spans.indexOf(Math.max(...spans));
+    const v = out.values;
+    const lo = peak(xs[ax], -1), hi = peak(xs[ax], 1);
+    v[`stroke_${key}`] = hi - lo;
+    v[`${key}_${"xyz"[ax]}_min`] = lo;
+    v[`${key}_${"xyz"[ax]}_max`] = hi;
+    if (lf) {
+      let rise = 0;
+      for (let i = 0; i < lf.length; i++) rise += Math.max(0, lf[(i + 1) % lf.length] - lf[i]);
+      v.thread_feed = rise / m.turns;
+    }
+    const tr = S.flatMap((s) => s.angles.filter((a) => a.what === "transmission angle").map((a) => a.value));
+    if (tr.length) v.transmission_min = Math.min(...tr);
+    const pr = S.flatMap((s) => s.angles.filter((a) => a.what === "pressure angle").map((a) => a.value));
+    if (pr.length) v.pressure_max = Math.max(...pr);
+    return out;
+  }
+
+  // ------------------------------------------------------------------------- editing
+  function set(m, path, value) {
+    const [section, name, key] = path.split(".");
+    if (section === "ground") m.ground[name]["xyz".indexOf(key)] = value;
+    else if (section === "construct") m.steps.find((s) => s.point === name)[key] = value;
+    else if (path === "input.phi0") m.phi0 = value;
+  }
+
+  function edited(raw, edits) {
+    const out = JSON.parse(JSON.stringify(raw));
+    for (const [path, value] of Object.entries(edits)) {
+      const [section, name, key] = path.split(".");
+      if (section === "ground") {
+        const p = out.ground[name];
+        while (p.length < 3 && "xyz".indexOf(key) >= p.length) p.push(0);
+        p["xyz".indexOf(key)] = value;
+      } else if (section === "construct") out.construct.find((c) => c.point === name)[key] = value;
+      else if (path === "input.phi0") out.input.phi0 = value;
+    }
+    return out;
+  }
+
+  // A TOML document of `obj` (the mechanism file as read, edited): tables, arrays of tables,
+  // strings, numbers, booleans and arrays, which is all a mechanism file holds.
+  function toml(obj) {
+    const lines = [];
+    const table = (v) => v !== null && typeof v === "object" && !Array.isArray(v);
+    const tables = (v) => Array.isArray(v) && v.length > 0 && v.every(table);
+    const key = (k) => (/^[A-Za-z0-9_-]+$/.test(k) ? k : JSON.stringify(k));
+    const num = (v) => String(v); // an integral value is written as an integer: the reader takes both
+    const val = (v) =>
+      typeof v === "string" ? JSON.stringify(v) : typeof v === "boolean" ? String(v) : typeof v === "number" ? num(v) : `[${v.map(val).join(", ")}]`;
+    const emit = (prefix, t) => {
+      const entries = Object.entries(t);
+      for (const [k, v] of entries) if (!table(v) && !tables(v)) lines.push(`${key(k)} = ${val(v)}`);
+      for (const [k, v] of entries)
+        if (table(v)) {
+          lines.push("", `[${prefix}${key(k)}]`);
+          emit(`${prefix}${key(k)}.`, v);
+        }
+      for (const [k, v] of entries)
+        if (tables(v))
+          for (const item of v) {
+            lines.push("", `[[${prefix}${key(k)}]]`);
+            emit(`${prefix}${key(k)}.`, item);
+          }
+    };
+    emit("", obj);
+    return lines.join("\n").replace(/^\n+/, "") + "\n";
+  }
+
+  // --------------------------------------------------------------------------- the page
+  const NS = "http://www.w3.org/2000/svg";
+  const PER_TURN = 360; // samples per input turn: the study metrics' own (mjlink.analysis.summary)
+
+  function svg(tag, attrs, parent) {
+    const e = document.createElementNS(NS, tag);
+    for (const k in attrs) e.setAttribute(k, attrs[k]);
+    if (parent) parent.appendChild(e);
+    return e;
+  }
+
+  function fmt(v) {
+    return Math.abs(v) >= 1e4 ? v.toFixed(0) : Number(v.toPrecision(6)).toString();
+  }
+
+  function page(M) {
+    const m = JSON.parse(JSON.stringify(M.model));
+    const edits = {};
+    const drawing = document.getElementById("drawing");
+    const angle = document.getElementById("angle");
+    const status = document.getElementById("status");
+    const feed = document.getElementById("feed");
+    let result = null;
+
+    // The view box is the nominal design's extent, fixed: a dragged pivot moves on a still page.
+    const first = metrics(m, 90);
+    const all = first.samples.flatMap((s) => Object.values(s.P));
+    const xs = all.map((p) => p[0]), ys = all.map((p) => p[1]);
+    const span = Math.max(Math.max(...xs) - Math.min(...xs), Math.max(...ys) - Math.min(...ys)) || 1;
+    const pad = 0.12 * span;
+    const x0 = Math.min(...xs) - pad, y1 = Math.max(...ys) + pad;
+    const w = Math.max(...xs) - Math.min(...xs) + 2 * pad, h = Math.max(...ys) - Math.min(...ys) + 2 * pad;
+    drawing.setAttribute("viewBox", `${x0} ${-y1} ${w} ${h}`);
+    const scale = span / 100; // stroke widths and labels in drawing units
+    const layer = svg("g", { transform: "scale(1,-1)" }, drawing);
+
+    function draw() {
+      while (layer.firstChild) layer.removeChild(layer.firstChild);
+      const S = result.samples;
+      if (!result.feasible && S.some((s) => s.open.length)) {
+        // A geometry that does not close is not drawn: no position of it would be true.
+        for (const g in m.ground) pivot(g);
+        return;
+      }
+      for (const p of M.moving) {
+        const pts = S.map((s) => `${s.P[p][0]},${s.P[p][1]}`).join(" ");
+        svg("polygon", { points: pts, fill: "none", stroke: p === m.key ? "#c2185b" : "#9e9e9e", "stroke-width": (p === m.key ? 0.5 : 0.25) * scale }, layer);
+      }
+      const now = solve(m, Number(angle.value));
+      if (m.thread) {
+        const pts = m.thread.map((p) => `${now.P[p][0]},${now.P[p][1]}`).join(" ");
+        svg("polyline", { points: pts, fill: "none", stroke: "#ef6c00", "stroke-width": 0.35 * scale }, layer);
+      }
+      M.segments.forEach(([a, b], i) => {
+        svg("line", { x1: now.P[a][0], y1: now.P[a][1], x2: now.P[b][0], y2: now.P[b][1], stroke: M.colors[i], "stroke-width": 0.9 * scale, "stroke-linecap": "round" }, layer);
+      });
+      for (const p in now.P) {
+        if (m.ground[p] === undefined && !M.coms.includes(p)) svg("circle", { cx: now.P[p][0], cy: now.P[p][1], r: 0.7 * scale, fill: "#fff", stroke: "#333", "stroke-width": 0.25 * scale }, layer);
+      }
+      for (const g in m.ground) pivot(g);
+      for (const p in now.P) {
+        if (M.coms.includes(p)) continue;
+        const t = svg("text", { x: now.P[p][0] + scale, y: -now.P[p][1] - scale, "font-size": 2.6 * scale, transform: "scale(1,-1)" }, layer);
+        t.textContent = p;
+      }
+    }
+
+    function pivot(g) {
+      const c = svg("circle", { cx: m.ground[g][0], cy: m.ground[g][1], r: 1.6 * scale, fill: "#1565c0", "fill-opacity": 0.35, stroke: "#1565c0", "stroke-width": 0.3 * scale, class: "pivot", "data-pivot": g }, layer);
+      c.addEventListener("pointerdown", (ev) => {
+        c.setPointerCapture(ev.pointerId);
+        const move = (e) => {
+          const pt = drawing.createSVGPoint();
+          pt.x = e.clientX;
+          pt.y = e.clientY;
+          const q = pt.matrixTransform(drawing.getScreenCTM().inverse());
+          change(`ground.${g}.x`, q.x, true);
+          change(`ground.${g}.y`, -q.y, true);
+          update();
+        };
+        const up = () => {
+          c.removeEventListener("pointermove", move);
+          c.removeEventListener("pointerup", up);
+        };
+        c.addEventListener("pointermove", move);
+        c.addEventListener("pointerup", up);
+      });
+    }
+
+    function change(path, value, fromDrag) {
+      set(m, path, value);
+      edits[path] = value;
+      if (fromDrag) {
+        const field = document.querySelector(`input[data-param="${path}"]`);
+        if (field) field.value = fmt(value);
+      }
+    }
+
+    function update() {
+      const t0 = performance.now();
+      result = metrics(m, PER_TURN);
+      for (const el of document.querySelectorAll("[data-metric]")) {
+        const v = result.values[el.dataset.metric];
+        el.textContent = result.feasible && v !== undefined ? fmt(v) : "–";
+        el.dataset.value = result.feasible && v !== undefined ? String(v) : ""; // full precision
+        el.dataset.feasible = String(result.feasible);
+      }
+      status.textContent = result.feasible ? "assembles over the whole cycle, clear of dead points" : `infeasible: ${result.why}`;
+      status.className = result.feasible ? "ok" : "bad";
+      draw();
+      if (feed && result.thread && result.feasible) plotThread(result);
+      else if (feed) feed.innerHTML = "";
+      document.body.dataset.updateMs = (performance.now() - t0).toFixed(2);
+      document.body.dataset.updates = String(Number(document.body.dataset.updates || 0) + 1);
+    }
+
+    function plotThread(r) {
+      feed.innerHTML = "";
+      const lf = r.thread, n = lf.length;
+      const lo = Math.min(...lf), hi = Math.max(...lf);
+      feed.setAttribute("viewBox", `0 0 ${n} 100`);
+      const pts = lf.map((v, i) => `${i},${95 - (90 * (v - lo)) / (hi - lo || 1)}`).join(" ");
+      svg("polyline", { points: pts, fill: "none", stroke: "#ef6c00", "stroke-width": 1.2, "vector-effect": "non-scaling-stroke" }, feed);
+      document.getElementById("feed-range").textContent = `${fmt(lo)} .. ${fmt(hi)} mm over ${m.turns * 360} deg from phi0`;
+    }
+
+    for (const field of document.querySelectorAll("input[data-param]")) {
+      field.addEventListener("input", () => {
+        const v = Number(field.value);
+        if (field.value.trim() === "" || !Number.isFinite(v)) return;
+        change(field.dataset.param, v, false);
+        update();
+      });
+    }
+    angle.addEventListener("input", () => {
+      document.getElementById("angle-value").textContent = `${angle.value} deg`;
+      draw();
+    });
+    document.getElementById("save").addEventListener("click", () => {
+      const text = toml(edited(M.raw, edits));
+      document.getElementById("toml").value = text;
+      const a = document.createElement("a");
+      a.href = URL.createObjectURL(new Blob([text], { type: "application/toml" }));
+      a.download = `${M.raw.mechanism.name}.toml`;
+      document.body.appendChild(a);
+      a.click();
+      a.remove();
+    });
+    update();
+    document.body.dataset.ready = "true";
+  }
+
+  window.mjlinkDesign = { solve, metrics, set, edited, toml, BLOCKS, page };
+  const data = document.getElementById("mechanism-data");
+  if (data) page(JSON.parse(data.textContent));
+})();

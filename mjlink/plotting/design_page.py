@@ -1,0 +1,187 @@
+"""``design.html``: drag-to-design, one self-contained offline page per mechanism.
+
+The page draws the mechanism at a crank angle with the paths of its moving points and lets a
+designer drag its ground pivots and edit every dimension (the numbers of the file's ``[ground]``
+and ``[[construct]]`` blocks and ``input.phi0``, each an ``<input data-param="<study path>">``);
+while they do, the paths, the thread length over the cycle, the key point's stroke and
+extremes, the thread feed per turn and the worst transmission and pressure angles
+(``data-metric="<study metric>"``, in the metric's unit) follow. A geometry that does not close
+over the cycle or passes a dead point is said to be infeasible with the blocks and input angles,
+and one that does not close is not drawn. "Save as TOML" writes the edited file (the original
+file as read, its comments dropped) for ``check`` and ``simulate``.
+
+The computation in the browser is ``design.js``: a port of the reference's closed-form position
+analysis (:mod:`mjlink.model.blocks`), one function per block type, in the file's units; the
+page embeds it and the mechanism as JSON, and loads nothing from the network.
+"""
+
+from __future__ import annotations
+
+import html
+import importlib.resources
+import json
+import math
+import tomllib
+from typing import Any
+
+from .. import analysis
+from ..analysis import segments, summary
+from ..model.blocks import Attached, Crank, Dyad, Slider
+from ..model.mechanism import Mechanism
+
+COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
+
+
+def _mm(v: float) -> float:
+    return v * 1e3
+
+
+def model(mech: Mechanism) -> dict[str, Any]:
+    """``mech`` as design.js reads it: file units (mm, deg), one entry per block."""
+    steps: list[dict[str, Any]] = []
+    for s in mech.steps:
+        if isinstance(s, Crank):
+            phase = None if s.phase is None else math.degrees(s.phase)
+            steps.append(
+                dict(kind="crank", point=s.point, pivot=s.pivot, length=_mm(s.length), ratio=s.ratio, phase=phase)
+            )
+        elif isinstance(s, Dyad):
+            steps.append(
+                dict(
+                    kind="dyad",
+                    point=s.point,
+                    a=s.a,
+                    b=s.b,
+                    length_a=_mm(s.length_a),
+                    length_b=_mm(s.length_b),
+                    sign=s.sign,
+                )
+            )
+        elif isinstance(s, Attached):
+            z = None if s.z is None else _mm(s.z)
+            steps.append(
+                dict(
+                    kind="attached",
+                    point=s.point,
+                    origin=s.origin,
+                    toward=s.toward,
+                    angle=math.degrees(s.angle),
+                    length=_mm(s.length),
+                    z=z,
+                )
+            )
+        elif isinstance(s, Slider):
+            steps.append(
+                dict(
+                    kind="slider",
+                    point=s.point,
+                    start=s.start,
+                    length=_mm(s.length),
+                    guide=list(s.guide),
+                    toward=s.toward,
+                )
+            )
+        else:  # a block type the port does not know: refuse rather than draw something else
+            raise TypeError(f"design.js has no port of the {type(s).__name__} block")
+    return {
+        "name": mech.name,
+        "phi0": math.degrees(mech.phi0),
+        "turns": round(mech.period / (2.0 * math.pi)),
+        "ground": {k: [_mm(float(v)) for v in p] for k, p in mech.ground.items()},
+        "steps": steps,
+        "thread": list(mech.thread) if mech.thread else None,
+        "key": analysis.key_point(mech),
+    }
+
+
+def _script() -> str:
+    return importlib.resources.files("mjlink.plotting").joinpath("design.js").read_text(encoding="utf-8")
+
+
+_CSS = """
+:root { color-scheme: light dark; --fg: #222; --bg: #fff; --muted: #555; --line: #ccc; }
+@media (prefers-color-scheme: dark) { :root { --fg: #e6e6e6; --bg: #16181b; --muted: #a8a8a8; --line: #444; } }
+* { box-sizing: border-box; }
+body { font-family: sans-serif; margin: 1em auto; padding: 0 1em; max-width: 1240px; color: var(--fg); background: var(--bg); }
+h1 { font-size: 1.3em; margin: 0; } .sub { color: var(--muted); margin: 0.2em 0 0.8em 0; }
+.grid { display: grid; grid-template-columns: minmax(0, 3fr) minmax(0, 2fr); gap: 1.2em; align-items: start; }
+#drawing { width: 100%; height: 560px; border: 1px solid var(--line); background: #fff; touch-action: none; }
+#feed { width: 100%; height: 90px; border: 1px solid var(--line); background: #fff; }
+.pivot { cursor: grab; }
+table { border-collapse: collapse; font-size: 0.88em; width: 100%; }
+th, td { border: 1px solid var(--line); padding: 0.15em 0.4em; text-align: left; }
+td.num { text-align: right; font-family: monospace; }
+input[type=number] { width: 7.5em; font-family: monospace; }
+#status.ok { color: #1a7f37; } #status.bad { color: #c62828; font-weight: bold; }
+.params { max-height: 420px; overflow-y: auto; }
+textarea { width: 100%; height: 6em; font-family: monospace; font-size: 0.8em; }
+@media (max-width: 900px) { .grid { grid-template-columns: minmax(0, 1fr); } }
+"""
+
+
+def design_html(mech: Mechanism, text: str) -> str:
+    """The page for ``mech``, whose file's text is ``text`` (what "Save as TOML" edits)."""
+    e = html.escape
+    m = model(mech)
+    coms = analysis.mass_centres(mech)
+    pairs = segments(mech)
+    colors = [
+        COLORS[next((i for i, l in enumerate(mech.links) if a in l.points and b in l.points), 0) % len(COLORS)]
+        for a, b in pairs
+    ]
+    data = {
+        "model": m,
+        "raw": tomllib.loads(text),
+        "segments": [list(p) for p in pairs],
+        "colors": colors,
+        "coms": sorted(coms),
+        "moving": [p for p in mech.moving_points if p not in coms],
+    }
+    loads = {"torque_peak", "torque_rms", "power_mean", "shaking_force_peak"}  # need masses and speed: not here
+    rows = [r for r in summary.design_summary(mech) if r.metric not in loads]
+    metric_rows = "".join(
+        f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'></td><td>{e(r.unit)}</td></tr>"
+        for r in rows
+    )
+    params = "".join(
+        f"<tr><td>{e(p)}</td><td><input type='number' step='any' data-param='{e(p)}' value='{v:.10g}'></td>"
+        f"<td>{e(u)}</td></tr>"
+        for p, v, u in summary.dimensions(mech)
+    )
+    period = 360 * m["turns"]
+    thread = (
+        "<h3>Thread length over the cycle</h3><svg id='feed' preserveAspectRatio='none'></svg>"
+        "<p class='sub' id='feed-range'></p>"
+        if mech.thread
+        else ""
+    )
+    payload = json.dumps(data).replace("</", "<\\/")
+    return "\n".join(
+        [
+            "<!DOCTYPE html>",
+            "<html lang='en'><head><meta charset='utf-8'>",
+            "<meta name='viewport' content='width=device-width, initial-scale=1'>",
+            f"<title>{e(mech.name)}: mjlink design</title><style>{_CSS}</style></head><body>",
+            f"<h1>{e(mech.name)}: drag to design</h1>",
+            f"<p class='sub'>{e(mech.title)}. Drag a blue ground pivot or edit a number; units mm and deg as in "
+            "the file. Computed here, offline, with the reference's closed-form kinematics.</p>",
+            "<p id='status'></p>",
+            "<div class='grid'><div>",
+            "<svg id='drawing' xmlns='http://www.w3.org/2000/svg'></svg>",
+            f"<label>input crank angle <input id='angle' type='range' min='{m['phi0']:.6g}' "
+            f"max='{m['phi0'] + period:.6g}' step='1' value='{m['phi0']:.6g}'></label> <span id='angle-value'>"
+            f"{m['phi0']:g} deg</span>",
+            thread,
+            "</div><div>",
+            "<h3>What the design does</h3><table><thead><tr><th>metric</th><th>value</th><th>unit</th></tr></thead>"
+            f"<tbody>{metric_rows}</tbody></table>",
+            "<h3>Dimensions</h3><div class='params'><table><thead><tr><th>parameter</th><th>value</th><th>unit</th>"
+            f"</tr></thead><tbody>{params}</tbody></table></div>",
+            "<p><button id='save' type='button'>Save as TOML</button></p>",
+            "<textarea id='toml' readonly placeholder='the saved file appears here too'></textarea>",
+            "</div></div>",
+            f"<script type='application/json' id='mechanism-data'>{payload}</script>",
+            f"<script>{_script()}</script>",
+            "</body></html>",
+        ]
+    )

@@ -1,0 +1,175 @@
+"""Drag-to-design (design.html) driven in a real headless Chromium through Playwright: the
+browser's port of the closed-form kinematics against the Python reference on every shipped
+mechanism and on random variants, the page's contract (every dimension an input with its study
+path, every number an element with its metric's name and value), editing and dragging, an
+infeasible geometry shown as such, and the saved file accepted by ``check``."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import in_process
+from playwright.sync_api import sync_playwright
+from test_figures import _chromium
+
+from mjlink import reference, study, validation
+from mjlink.analysis import summary
+from mjlink.model import catalogue, mechanism
+from mjlink.plotting import design_page
+
+NAMES = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting", "lockstitch_head"]
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=_chromium(), args=["--no-sandbox", "--disable-gpu"])
+        yield b
+        b.close()
+
+
+def _open(browser, name, tmp_path):
+    path = catalogue.path_of(name)
+    page_file = tmp_path / f"{name}-design.html"
+    page_file.write_text(design_page.design_html(mechanism.load(path), path.read_text()))
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on(
+        "request",
+        lambda r: errors.append(f"network: {r.url}") if not r.url.startswith(("file:", "blob:", "data:")) else None,
+    )
+    page.goto(page_file.as_uri())
+    page.wait_for_selector("body[data-ready=true]", timeout=20000)
+    return page, errors
+
+
+def _port_error(page, mech) -> float:
+    """Largest |browser - reference| over 24 angles and every point, relative to the extent."""
+    phis = list(math.degrees(mech.phi0) + np.linspace(0.0, math.degrees(mech.period), 25)[:-1])
+    got = page.evaluate("([m, phis]) => phis.map(p => mjlinkDesign.solve(m, p).P)", [design_page.model(mech), phis])
+    kin = reference.solve(mech, np.radians(phis))
+    ref = {p: kin.position(p) * 1e3 for p in mech.point_names}
+    extent = max(float(np.ptp(np.concatenate([v[:, :2] for v in ref.values()]), axis=0).max()), 1.0)
+    return max(abs(g[p][k] - ref[p][i, k]) for i, g in enumerate(got) for p in ref for k in range(3)) / extent
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_browser_port_is_the_reference_on_the_design_and_random_variants(browser, name, tmp_path):
+    page, errors = _open(browser, name, tmp_path)
+    mech = mechanism.load(catalogue.path_of(name))
+    assert _port_error(page, mech) < 1e-9
+    # Random variants: every dimension moved by up to 2 % (or 0.5 mm / 2 deg), those that
+    # assemble over the cycle compared the same way.
+    rng = np.random.default_rng(7)
+    dims = [(p, v, u) for p, v, u in summary.dimensions(mech) if p != "input.phi0"]
+    tried = 0
+    for _ in range(12):
+        values = {p: [v + rng.uniform(-1, 1) * max(0.02 * abs(v), 0.5 if u == "mm" else 2.0)] for p, v, u in dims}
+        ok = study.evaluate(mech, values, [{"kind": "transmission_min"}]).feasible[0]
+        if not ok:
+            continue
+        variant = study.override(mech, {p: v[0] for p, v in values.items()})
+        assert _port_error(page, variant) < 1e-9
+        tried += 1
+    assert tried >= 3, "too few random variants assembled to compare"
+    assert errors == []
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_dimension_is_an_input_and_every_number_the_study_metric(browser, name, tmp_path):
+    page, errors = _open(browser, name, tmp_path)
+    mech = mechanism.load(catalogue.path_of(name))
+    params = page.eval_on_selector_all("input[data-param]", "els => els.map(e => [e.dataset.param, Number(e.value)])")
+    assert [p for p, _ in params] == [p for p, _, _ in summary.dimensions(mech)]
+    for (p, v), (_, nominal, _) in zip(params, summary.dimensions(mech), strict=True):
+        assert v == pytest.approx(nominal, rel=1e-9, abs=1e-12), p
+    shown = dict(page.eval_on_selector_all("[data-metric]", "els => els.map(e => [e.dataset.metric, e.dataset.value])"))
+    want = {r.metric: r.value for r in summary.design_summary(mech)}
+    assert shown and set(shown) <= set(want)
+    for metric, value in shown.items():
+        assert float(value) == pytest.approx(want[metric], rel=1e-6, abs=1e-6), metric
+    assert "assembles over the whole cycle" in page.inner_text("#status")
+    assert errors == []
+
+
+def test_editing_a_length_updates_the_numbers_to_the_variants_own(browser, tmp_path):
+    page, _ = _open(browser, "takeup", tmp_path)
+    mech = mechanism.load(catalogue.path_of("takeup"))
+    before = int(page.get_attribute("body", "data-updates"))
+    page.fill("input[data-param='construct.P2.length']", "29.6")
+    page.wait_for_function(f"Number(document.body.dataset.updates) > {before}")
+    variant = study.override(mech, {"construct.P2.length": 29.6})
+    want = {r.metric: r.value for r in summary.design_summary(variant)}
+    for metric in ("stroke_P5", "thread_feed", "transmission_min"):
+        got = float(page.get_attribute(f"[data-metric='{metric}']", "data-value"))
+        assert got == pytest.approx(want[metric], rel=1e-6), metric
+
+
+def test_dragging_a_pivot_moves_it_and_its_numbers(browser, tmp_path):
+    """The thread guide N2 dragged right and up: its coordinates follow in their fields and the
+    thread feed is the variant's own."""
+    page, _ = _open(browser, "takeup", tmp_path)
+    mech = mechanism.load(catalogue.path_of("takeup"))
+    box = page.locator("circle[data-pivot='N2']").bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 12, y - 9, steps=4)
+    page.mouse.up()
+    px = float(page.input_value("input[data-param='ground.N2.x']"))
+    py = float(page.input_value("input[data-param='ground.N2.y']"))
+    assert px > 30.0 and py > 85.0  # right and up on the page: +x and +y of the mechanism
+    want = {
+        r.metric: r.value for r in summary.design_summary(study.override(mech, {"ground.N2.x": px, "ground.N2.y": py}))
+    }
+    got = float(page.get_attribute("[data-metric='thread_feed']", "data-value"))
+    assert got == pytest.approx(want["thread_feed"], rel=1e-5)  # the fields show 6 digits of the dragged point
+
+
+def test_a_geometry_that_does_not_close_is_said_so_and_not_drawn(browser, tmp_path):
+    page, _ = _open(browser, "takeup", tmp_path)
+    page.fill("input[data-param='construct.P3.length_a']", "5")
+    page.wait_for_function("document.getElementById('status').className === 'bad'")
+    status = page.inner_text("#status")
+    assert "infeasible: dyad P2-P3-P4 cannot close for input angles" in status and " deg" in status
+    assert page.eval_on_selector_all("#drawing line", "els => els.length") == 0  # no link drawn
+    assert page.get_attribute("[data-metric='stroke_P5']", "data-feasible") == "false"
+    assert page.inner_text("[data-metric='stroke_P5']") == "–"
+    # A crank 0.4 mm longer takes the dyad past its dead-point limit, as `check` and the
+    # study metrics say (transmission angle beyond 160 deg near 90 deg from phi0).
+    assert not study.evaluate(
+        mechanism.load(catalogue.path_of("takeup")), {"construct.P2.length": [30.4]}, []
+    ).feasible[0]
+    page.fill("input[data-param='construct.P3.length_a']", "22")
+    page.fill("input[data-param='construct.P2.length']", "30.4")
+    page.wait_for_function("document.getElementById('status').textContent.includes('dead-point')")
+    assert "dyad P2-P3-P4 passes its dead-point limit for input angles" in page.inner_text("#status")
+
+
+def test_the_saved_file_is_accepted_by_check_with_the_edits(browser, tmp_path):
+    page, _ = _open(browser, "lockstitch_head", tmp_path)
+    page.fill("input[data-param='construct.P5.length']", "48.5")
+    page.fill("input[data-param='ground.N2.x']", "72")
+    with page.expect_download():
+        page.click("#save")
+    text = page.input_value("#toml")
+    saved = tmp_path / "edited_head.toml"
+    saved.write_text(text.replace('name = "lockstitch_head"', 'name = "edited_head"'))
+    r = in_process("check", str(saved))
+    assert r.returncode == 0, r.stdout + r.stderr
+    edited = validation.get(str(saved))
+    original = mechanism.load(catalogue.path_of("lockstitch_head"))
+    from mjlink.model import paths
+
+    assert paths.resolve(edited, "construct.P5.length").nominal == 48.5
+    assert paths.resolve(edited, "ground.N2.x").nominal == 72.0
+    same = [p for p, _, _ in summary.dimensions(original) if p not in ("construct.P5.length", "ground.N2.x")]
+    for p in same:
+        assert paths.resolve(edited, p).nominal == pytest.approx(
+            paths.resolve(original, p).nominal, rel=1e-12, abs=1e-12
+        )
+    assert edited.timing is not None and edited.balance is not None  # the rest of the file kept
