@@ -1,6 +1,6 @@
 """CI: every figure of every shipped mechanism and study, checked as a reader sees it.
 
-Runs ``simulate`` on each shipped mechanism and ``study`` on each shipped study file (its budget
+Runs ``simulate`` (and ``steady`` where the file has a motor) on each shipped mechanism and ``study`` on each shipped study file (its budget
 cut to a few candidates: the figures are the same kinds, drawn from the study's own
 parameters, metrics and titles) in this process, keeps every figure open and lists what
 :func:`mjlink.plotting.style.figure_defects` finds: an axis without a unit in brackets,
@@ -25,6 +25,7 @@ ensure_gl_backend()
 
 import matplotlib.pyplot as plt  # noqa: E402
 
+from mjlink import validation  # noqa: E402
 from mjlink.cli import main  # noqa: E402
 from mjlink.model import catalogue  # noqa: E402
 from mjlink.pipeline import workers  # noqa: E402
@@ -66,6 +67,17 @@ def main_check(names: list[str]) -> int:
         for name in names or [*mechs, *studies]:
             if name in mechs:
                 args = ["simulate", name, "--out", str(out / "runs"), "--no-video"]
+                mech = validation.get(name)
+                if mech.steady is not None or mech.dynamics.motor is not None:
+                    # steady.png is the steady command's own figure: checked too.
+                    status, found, last = run(["steady", name, "--out", str(out / "steady")])
+                    print(
+                        f"{name} (steady): {'ok' if status == 0 and not found else 'FAILED'}"
+                        + (f" ({last})" if status else "")
+                    )
+                    for fig, d in found:
+                        print(f"  {fig}: {d}")
+                    bad += status != 0 or bool(found)
             else:
                 copy = out / f"{name}.toml"
                 copy.write_text(cut_budget((catalogue.STUDIES_DIR / f"{name}.toml").read_text(), catalogue.STUDIES_DIR))

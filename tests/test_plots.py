@@ -201,16 +201,18 @@ def test_harmonics_of_a_known_signal():
 
 
 def test_clockwise_crank_angle_axis(tmp_path):
-    """A clockwise crank (phi decreasing) is plotted against the angle turned, 0 to 360 deg; a
-    counter-clockwise one against phi itself. The speed plots of a clockwise run-up work too."""
+    """One convention for every crank-angle axis: the angle turned from the setting phi01, 0 to
+    360 deg over a turn, in either sense (a clockwise crank's phi decreases). The speed plots of
+    a clockwise run-up work too."""
     m, kin, kin_ref = _kinematics("crank_slider")
     assert m.speed < 0
     (xm, _xr), label = style.crank_x(m, kin, kin_ref)
-    assert "turned clockwise" in label
+    assert "turned clockwise from" in label
     assert xm[0] == pytest.approx(0.0) and np.all(np.diff(xm) > 0) and xm[-1] == pytest.approx(360.0, abs=0.5)
     m2, kin2, _ = _kinematics("takeup_eyelets")
     (x2,), label2 = style.crank_x(m2, kin2)
-    assert "turned" not in label2 and x2 == pytest.approx(np.degrees(kin2.phi))
+    assert "turned from" in label2 and "clockwise" not in label2
+    assert x2 == pytest.approx(np.degrees(kin2.phi - m2.phi0)) and x2[0] == pytest.approx(0.0)
     dyn = S.run(m, S.dynamic_case(m, duration=0.05))
     dyn_ref = R.reference_trace(m, R.forward_dynamics(m, dyn.time), "dynamics")
     for p in plots.speed_plots(m, dyn, dyn_ref, tmp_path):

@@ -10,7 +10,9 @@ point's stroke and extremes, and :func:`dimensions` the file's geometry by study
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,7 +66,33 @@ def design_summary(mech: Mechanism) -> tuple[Row, ...]:
     tables += [{"kind": "transmission_min"}, {"kind": "pressure_max"}]
     if _loaded(mech):
         tables += [{"kind": k} for k in ("torque_peak", "torque_rms", "power_mean", "shaking_force_peak")]
-    return tuple(_rows(mech, tables))
+    rows = _rows(mech, tables)
+    chosen = chosen_guides(mech)
+    if chosen:  # the feed depends on where the guides are: say when the file chose them
+        rows = [
+            dataclasses.replace(r, label=f"{r.label} (guides {', '.join(chosen)} placed by the file's [choice])")
+            if r.metric == "thread_feed"
+            else r
+            for r in rows
+        ]
+    return tuple(rows)
+
+
+def chosen_guides(mech: Mechanism) -> list[str]:
+    """The thread's ground points whose line in the mechanism file is marked ``[choice`` (placed
+    by the file's author, not taken from its source), in the thread's order."""
+    if not mech.thread or mech.path is None:
+        return []
+    try:
+        text = mech.path.read_text(encoding="utf-8")
+    except OSError:
+        return []
+    marked = set()
+    for line in text.splitlines():
+        m = re.match(r"\s*([A-Za-z][A-Za-z0-9_]*)\s*=\s*\[[^\]]*\]\s*#.*\[choice", line)
+        if m:
+            marked.add(m[1])
+    return [p for p in mech.thread if p in mech.ground and p in marked]
 
 
 def point_strokes(mech: Mechanism) -> tuple[Row, ...]:

@@ -231,8 +231,8 @@ def steady_plot(
     """``steady.png``: crank speed (rpm, magnitude) over one period of steady motion, without
     and with the flywheel, MuJoCo's last period vs the reference's orbit; beneath, MuJoCo minus
     the reference at the same angle turned (rpm; the rule is on delta, not on this curve)."""
-    fig, (ax, rax) = subplots(2, 1, figsize=(8, 6.6), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.45)))
-    place(fig, ax.get_gridspec(), left=1.05, top=0.75, bottom=0.6, hgap=0.2)
+    fig, (ax, rax) = subplots(2, 1, figsize=(9, 7.0), sharex=True, gridspec_kw=dict(height_ratios=(1, 0.45)))
+    place(fig, ax.get_gridspec(), left=1.25, top=0.75, bottom=0.95, hgap=0.2)
     for st, run, color, what in (
         (plain, runs[0], "tab:blue", "no flywheel"),
         (fly, runs[1], "tab:green", f"flywheel {fly.extra_inertia:.3g} kg·m²"),
@@ -254,10 +254,25 @@ def steady_plot(
     rax.set_ylabel("MuJoCo − ref.\n$|n_1|$ [rpm]", fontsize=8.5)
     rax.grid(True, alpha=0.3)
     rax.legend(loc="best", fontsize=7.5)
-    rax.set_xlabel("crank angle turned from $\\varphi_0$ within the period [deg]")
+    rax.set_xlabel(f"crank angle turned from $\\varphi_{{01}}$ = {math.degrees(mech.phi0):g}° within the period [deg]")
     ax.set_ylabel("crank speed $|n_1|$ [rpm]")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
+    # The two flywheel figures a run reports, tied together: torque.png's classical estimate is
+    # the whole rotating inertia at constant speed; this one is what is added to the links'.
+    if mech.steady is not None:
+        w = abs(fly.omega_mean)
+        classical = analysis.flywheel_estimate(analysis.torque_cycle(mech, w).energy, w, mech.steady.target_delta)
+        fig.text(
+            0.02,
+            0.012,
+            f"The flywheel added here, {fly.extra_inertia:.3g} kg·m², is found under the motor's characteristic on top "
+            "of the links' own inertia.\nThe classical estimate on torque.png, J = ΔE / (δ ω²) = "
+            f"{classical:.3g} kg·m² at this mean speed, is the whole rotating inertia reduced to the crank at constant "
+            "speed.",
+            fontsize=7.5,
+            va="bottom",
+        )
     ax.set_title(title(mech, f"steady motion under the motor characteristic, {direction(fly.omega_mean)}"), fontsize=10)
     return save(fig, out_dir, "steady.png")
 

@@ -8,9 +8,9 @@ labels, titles, crank-angle axes, :func:`text_overlaps` (the figure tests' check
 :func:`save`. Colours of links, thread and key point are :mod:`mjlink.palette`'s, shared
 with the video.
 
-Crank angles are plotted in degrees, unwrapped from the traces; a crank turning clockwise is
-plotted against the angle turned from phi0 (the axis label says so), so every angle axis
-runs left to right with time.
+Crank angles are plotted in degrees as the angle the input crank has turned from its setting
+phi01 (the file's phi0), unwrapped, in either sense of rotation, so every angle axis starts at
+0 at the setting and runs left to right with time (:func:`crank_axis`; the axis label says so).
 """
 
 from __future__ import annotations
@@ -376,17 +376,16 @@ def crank_axis(mech: Mechanism, phi: np.ndarray) -> tuple[Callable[[Any], np.nda
     """How to plot the crank angles of a run whose input angles are ``phi`` (rad): a function
     from input angles (rad) to abscissae (deg) and the axis label that says which they are.
 
-    A crank turning counter-clockwise is plotted against its unwrapped angle phi1. One turning
-    clockwise (phi1 decreasing, as the needle-bar drives) is plotted against the angle turned
-    from phi01, phi01 - phi1, so the axis still runs left to right with time from 0.
+    Every crank-angle axis is the one convention: the angle the input crank has turned from its
+    setting phi01 (the file's phi0), in degrees, 0 at the setting and growing with time in
+    either sense of rotation (a clockwise crank, as the needle-bar drives, turns phi01 - phi1).
     """
     phi = np.asarray(phi)
-    if phi[-1] >= phi[0]:
-        return deg, "crank angle $\\varphi_1$ [deg]"
+    sense = 1.0 if phi[-1] >= phi[0] else -1.0
+    clockwise = "" if sense > 0 else " clockwise"
     return (
-        lambda p: deg(mech.phi0 - np.asarray(p, dtype=float)),
-        "crank angle turned clockwise, $\\varphi_{01} - \\varphi_1$ [deg] "
-        f"($\\varphi_{{01}}$ = {math.degrees(mech.phi0):g}°)",
+        lambda p: deg(sense * (np.asarray(p, dtype=float) - mech.phi0)),
+        f"crank angle turned{clockwise} from $\\varphi_{{01}}$ = {math.degrees(mech.phi0):g}° [deg]",
     )
 
 
