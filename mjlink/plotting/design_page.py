@@ -17,6 +17,7 @@ page embeds it and the mechanism as JSON, and loads nothing from the network.
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import importlib.resources
 import json
@@ -32,62 +33,25 @@ from ..model.mechanism import Mechanism
 COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 
 
-def _mm(v: float) -> float:
-    return v * 1e3
-
-
 def model(mech: Mechanism) -> dict[str, Any]:
-    """``mech`` as design.js reads it: file units (mm, deg), one entry per block."""
+    """``mech`` as design.js reads it: file units (mm, deg), one entry per block with its
+    fields as the block's dataclass names them, each number in the unit its ``numbers`` says."""
     steps: list[dict[str, Any]] = []
     for s in mech.steps:
-        if isinstance(s, Crank):
-            phase = None if s.phase is None else math.degrees(s.phase)
-            steps.append(
-                dict(kind="crank", point=s.point, pivot=s.pivot, length=_mm(s.length), ratio=s.ratio, phase=phase)
-            )
-        elif isinstance(s, Dyad):
-            steps.append(
-                dict(
-                    kind="dyad",
-                    point=s.point,
-                    a=s.a,
-                    b=s.b,
-                    length_a=_mm(s.length_a),
-                    length_b=_mm(s.length_b),
-                    sign=s.sign,
-                )
-            )
-        elif isinstance(s, Attached):
-            z = None if s.z is None else _mm(s.z)
-            steps.append(
-                dict(
-                    kind="attached",
-                    point=s.point,
-                    origin=s.origin,
-                    toward=s.toward,
-                    angle=math.degrees(s.angle),
-                    length=_mm(s.length),
-                    z=z,
-                )
-            )
-        elif isinstance(s, Slider):
-            steps.append(
-                dict(
-                    kind="slider",
-                    point=s.point,
-                    start=s.start,
-                    length=_mm(s.length),
-                    guide=list(s.guide),
-                    toward=s.toward,
-                )
-            )
-        else:  # a block type the port does not know: refuse rather than draw something else
+        if not isinstance(s, Crank | Dyad | Attached | Slider):  # no port: refuse, never draw another
             raise TypeError(f"design.js has no port of the {type(s).__name__} block")
+        entry: dict[str, Any] = {"kind": s.kind}
+        for f in dataclasses.fields(s):
+            v = getattr(s, f.name)
+            if f.name in s.numbers and v is not None:
+                v = v / s.numbers[f.name][0]  # SI to the file's unit
+            entry[f.name] = list(v) if isinstance(v, tuple) else v
+        steps.append(entry)
     return {
         "name": mech.name,
         "phi0": math.degrees(mech.phi0),
         "turns": round(mech.period / (2.0 * math.pi)),
-        "ground": {k: [_mm(float(v)) for v in p] for k, p in mech.ground.items()},
+        "ground": {k: [float(v) * 1e3 for v in p] for k, p in mech.ground.items()},
         "steps": steps,
         "thread": list(mech.thread) if mech.thread else None,
         "key": analysis.key_point(mech),
