@@ -100,6 +100,8 @@ def _head_report_and_page(run_figures) -> None:
     page = (out / "index.html").read_text()
     assert "Timing over one stitch" in page and "needle bar rise when the hook meets the needle" in page
     assert "thread_balance.png: needle thread balance" in page and "cyclogram.png: timing diagram" in page
+    # The timing at a glance in the first screen's summary, as the study metric timing_ok.
+    assert "data-metric='timing_ok'>1</td><td>" in page and page.index("timing_ok") < page.index("id='timing'")
     assert {"cyclogram.png", "thread_balance.png"} <= set(figs)
     assert "Timing over one stitch" in printed
 

@@ -156,6 +156,16 @@ def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
         f"<td>{e(r.unit)}</td></tr>"
         for r in d.headline
     )
+    head = getattr(result, "timing", None)
+    if head is not None:  # a sewing head: its timing at a glance, the table below
+        counted = [r for r in head.rows if r.counts]
+        met = sum(r.ok for r in counted)
+        ok = int(met == len(counted))
+        rows += (
+            f"<tr><td><a href='#timing'>timing checks met</a> ({e(head.target)} settings and the general "
+            f"ones; 1 when all are)</td><td class='num' data-metric='timing_ok'>{ok}</td>"
+            f"<td>{met} of {len(counted)}</td></tr>"
+        )
     dims = "".join(
         f"<tr><td>{e(p)}</td><td class='num' data-param='{e(p)}'>{_value(v)}</td><td>{e(u)}</td></tr>"
         for p, v, u in d.dimensions
