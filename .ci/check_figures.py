@@ -57,6 +57,15 @@ def run(args: list[str]) -> tuple[int, list[tuple[str, str]], str]:
     return status, found, (err.getvalue().strip().splitlines() or [""])[-1]
 
 
+def report(label: str, status: int, found: list[tuple[str, str]], last: str) -> bool:
+    """Print one run's verdict and its defects; True if it failed."""
+    failed = status != 0 or bool(found)
+    print(f"{label}: {'FAILED' if failed else 'ok'}" + (f" ({last})" if status else ""))
+    for fig, d in found:
+        print(f"  {fig}: {d}")
+    return failed
+
+
 def main_check(names: list[str]) -> int:
     workers.start = lambda jobs: None  # draw here, where the figures can be kept
     mechs = catalogue.names()
@@ -70,14 +79,7 @@ def main_check(names: list[str]) -> int:
                 mech = validation.get(name)
                 if mech.steady is not None or mech.dynamics.motor is not None:
                     # steady.png is the steady command's own figure: checked too.
-                    status, found, last = run(["steady", name, "--out", str(out / "steady")])
-                    print(
-                        f"{name} (steady): {'ok' if status == 0 and not found else 'FAILED'}"
-                        + (f" ({last})" if status else "")
-                    )
-                    for fig, d in found:
-                        print(f"  {fig}: {d}")
-                    bad += status != 0 or bool(found)
+                    bad += report(f"{name} (steady)", *run(["steady", name, "--out", str(out / "steady")]))
             else:
                 copy = out / f"{name}.toml"
                 copy.write_text(cut_budget((catalogue.STUDIES_DIR / f"{name}.toml").read_text(), catalogue.STUDIES_DIR))
@@ -85,12 +87,8 @@ def main_check(names: list[str]) -> int:
             status, found, last = run(args)
             if status != 0 and "no feasible design" in last:
                 # The cut budget found nothing to draw: the study as shipped, on the cores.
-                args = ["study", name, "--out", str(out / "shipped")]
-                status, found, last = run(args)
-            print(f"{name}: {'ok' if status == 0 and not found else 'FAILED'}" + (f" ({last})" if status else ""))
-            for fig, d in found:
-                print(f"  {fig}: {d}")
-            bad += status != 0 or bool(found)
+                status, found, last = run(["study", name, "--out", str(out / "shipped")])
+            bad += report(name, status, found, last)
     print(f"{bad} run(s) with a defect or an error" if bad else "every figure passes")
     return 1 if bad else 0
 

@@ -396,23 +396,29 @@ def energy_cycle(mech: Mechanism, omega: float, per_turn: int = 720) -> tuple[np
     return np.append(phi, phi[0] + sense * mech.period), e
 
 
-def segments(mech: Mechanism) -> list[tuple[str, str]]:
-    """Point pairs to draw, one polyline per link, following how each point was built.
+def link_segments(mech: Mechanism) -> list[tuple[str, str, str]]:
+    """Point pairs to draw, each with the link it belongs to, ``(link, a, b)``: one polyline per
+    link, following how each point was built.
 
     Joining a point to the link point it was constructed from shows the link's real shape
     (e.g. a lever's arm from its joint, not a chord from its first point); points built
     from nothing on their own link hang off the link's first point.
     """
     built = {s.point: s for s in mech.steps}
-    pairs: list[tuple[str, str]] = []
+    out: list[tuple[str, str, str]] = []
     for link in mech.links:
         pts = [p for p in link.points if p != link.com]
         if link.guide:
             # A slider body: its points in listed order; there is no pivot to radiate from.
-            pairs += list(pairwise(pts))
+            out += [(link.name, a, b) for a, b in pairwise(pts)]
             continue
         for p in pts[1:]:
             cand = built[p].drawn_from if p in built else ()
             parent = next((c for c in cand if c in pts and c != p), pts[0])
-            pairs.append((parent, p))
-    return pairs
+            out.append((link.name, parent, p))
+    return out
+
+
+def segments(mech: Mechanism) -> list[tuple[str, str]]:
+    """The point pairs of :func:`link_segments`, without their links."""
+    return [(a, b) for _, a, b in link_segments(mech)]

@@ -26,7 +26,7 @@ import tomllib
 from typing import Any
 
 from .. import analysis
-from ..analysis import segments, summary
+from ..analysis import link_segments, summary
 from ..model.blocks import Attached, Crank, Dyad, Slider
 from ..model.mechanism import Mechanism
 
@@ -88,11 +88,10 @@ def design_html(mech: Mechanism, text: str) -> str:
     e = html.escape
     m = model(mech)
     coms = analysis.mass_centres(mech)
-    pairs = segments(mech)
-    colors = [
-        COLORS[next((i for i, l in enumerate(mech.links) if a in l.points and b in l.points), 0) % len(COLORS)]
-        for a, b in pairs
-    ]
+    index = {link.name: i for i, link in enumerate(mech.links)}
+    drawn = link_segments(mech)
+    pairs = [(a, b) for _, a, b in drawn]
+    colors = [COLORS[index[link] % len(COLORS)] for link, _, _ in drawn]
     data = {
         "model": m,
         "raw": tomllib.loads(text),

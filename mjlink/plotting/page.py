@@ -144,6 +144,16 @@ def _value(v: float) -> str:
     return f"{v:.4g}" if abs(v) < 1e4 else f"{v:.0f}"
 
 
+def _metric_rows(rows: Iterable[Any]) -> str:
+    """Table rows of summary rows: words, the value on an element naming its study metric, unit."""
+    e = html.escape
+    return "".join(
+        f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'>{_value(r.value)}</td>"
+        f"<td>{e(r.unit)}</td></tr>"
+        for r in rows
+    )
+
+
 def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
     """The first screen: the drawing at the crank's setting, the headline numbers and the file's
     dimensions (each value on an element naming its study metric or parameter path)."""
@@ -151,11 +161,7 @@ def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
     d = result.design
     rpm = abs(d.speed) * 60.0 / (2.0 * math.pi)
     sense = "counter-clockwise" if d.speed > 0 else "clockwise"
-    rows = "".join(
-        f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'>{_value(r.value)}</td>"
-        f"<td>{e(r.unit)}</td></tr>"
-        for r in d.headline
-    )
+    rows = _metric_rows(d.headline)
     head = getattr(result, "timing", None)
     if head is not None:  # a sewing head: its timing at a glance, the table below
         counted = [r for r in head.rows if r.counts]
@@ -201,12 +207,7 @@ def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
 
 
 def _strokes(result: Any) -> list[str]:
-    e = html.escape
-    rows = "".join(
-        f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'>{_value(r.value)}</td>"
-        f"<td>{e(r.unit)}</td></tr>"
-        for r in result.design.points
-    )
+    rows = _metric_rows(result.design.points)
     return [
         "<section id='strokes'><h2>Strokes of the moving points</h2><div class='columns'>",
         "<table><thead><tr><th>point</th><th>value</th><th>unit</th></tr></thead><tbody>",

@@ -77,8 +77,7 @@ class keep_figures:
 def warm() -> None:
     """Draw a small figure with text and mathtext into memory once, so that the processes
     forked afterwards to draw the real figures inherit matplotlib's loaded fonts, glyph
-    caches and mathtext parser rather than each paying for them at its first figure (60 ms
-    of CPU a worker)."""
+    caches and mathtext parser rather than each paying for them at its first figure."""
 
     fig, ax = subplots(figsize=(2.0, 1.5))
     ax.plot([0.0, 1.0], [0.0, 1.0])

@@ -78,7 +78,7 @@ class SpectralDynamics:
     """J, J', Q as trigonometric interpolants over one period: the ODE's fast path.
 
     The ODE needs these at scalar angles tens of thousands of times; evaluating the blocks
-    there costs ~0.3 ms a call, the interpolant ~10 us. They are smooth and periodic, so the
+    there costs far more a call than the interpolant. They are smooth and periodic, so the
     interpolant converges spectrally; ``error`` is its measured maximum deviation from the
     direct evaluation at the midpoints between samples, relative to each function's range
     (tests check it against the plain twin, :func:`reduced` at scalar angles). Forces given

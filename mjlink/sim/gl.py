@@ -129,7 +129,7 @@ def _egl_in_process() -> str | None:
     makes one (device displays, the same configuration), else why not; without importing
     mujoco or PyOpenGL, so that a failure leaves the choice of osmesa open. It costs the
     driver's loading, which the renderer would pay anyway, instead of a fresh interpreter
-    importing mujoco (0.5 s of CPU)."""
+    importing mujoco."""
     # Loaded by their sonames (dlopen), not through ctypes.util.find_library, which runs
     # ldconfig in a subprocess: PyOpenGL needs libOpenGL or libGL beside libEGL at import.
     try:

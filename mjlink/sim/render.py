@@ -454,7 +454,7 @@ def _frames(
 
 def _gl_renderer() -> bytes:
     """GL_RENDERER of the current OpenGL context (b"" if none can be read): through the GL
-    library's C entry point, as importing PyOpenGL's GL module costs 90 ms; PyOpenGL where
+    library's C entry point, which is cheaper than importing PyOpenGL's GL module; PyOpenGL where
     neither library loads (a system without glvnd's libOpenGL or libGL, e.g. macOS)."""
     osmesa = os.environ.get("MUJOCO_GL", "").lower() == "osmesa"  # its own GL entry points
     for lib in ("libOSMesa.so.8", "libOSMesa.so") if osmesa else ("libOpenGL.so.0", "libGL.so.1"):

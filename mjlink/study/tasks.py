@@ -40,8 +40,8 @@ _NOMINAL: list[tuple[Study, bytes, _batch.Batch]] = []
 def _nominal(study: Study) -> _batch.Batch:
     """The nominal design's batch, solved once per study in this process (an optimization
     evaluates many small generations of the same study). Found by identity first (in process
-    and in an actor the same study comes every time; pickling it to hash is 0.2 ms, 5 % of
-    a small generation), then by content: a task on a cluster brings its own copy."""
+    and in an actor the same study comes every time, and pickling it to hash is a noticeable
+    share of a small generation), then by content: a task on a cluster brings its own copy."""
     for s, _, b in _NOMINAL:
         if s is study:
             return b
@@ -77,10 +77,9 @@ class StudyWorker:
     """One study held on a worker for many small batches of its variants: a Dask actor.
 
     An optimization evaluates a generation (a fraction of a second of work) at a time. As
-    tasks, every generation pays the scheduler's round trip (measured 25 to 28 ms for four
-    tasks on this project's 2-core machines, where scheduler, client and workers share the
-    cores); an actor's method is called from the client straight to its worker (6 to 7 ms
-    for four calls), and the study travels once, not with every task."""
+    tasks, every generation pays the scheduler's round trip (scheduler, client and workers
+    share the cores); an actor's method is called from the client straight to its worker, a
+    few times cheaper, and the study travels once, not with every task."""
 
     def __init__(self, study: Study):
         self.study = study
