@@ -80,3 +80,21 @@ def test_bad_export_arguments_are_one_line_and_write_nothing(tmp_path, args, sta
     lines = r.stderr.strip().splitlines()
     assert r.returncode == status and len(lines) == 1 and message in lines[0], r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_existing_file_is_kept_unless_force_is_given(tmp_path):
+    """export and design never replace a file the user did not ask them to: one line, status 1,
+    the file untouched; --force replaces it."""
+    mine = tmp_path / "mine.dxf"
+    mine.write_text("my drawing")
+    page = tmp_path / "mine.html"
+    page.write_text("my page")
+    for args, path, text in (
+        (["export", "takeup", "--dxf", str(mine)], mine, "my drawing"),
+        (["design", "takeup", "-o", str(page)], page, "my page"),
+    ):
+        r = in_process(*args)
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 1 and len(lines) == 1 and "exists: give --force to replace it" in lines[0], r.stderr
+        assert path.read_text() == text
+        assert in_process(*args, "--force").returncode == 0 and path.read_text() != text

@@ -309,13 +309,14 @@ def _export_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--angle", type=quantity_arg("deg"), help="the input crank's angle, deg (default: the file's phi0, its setting)"
     )
+    p.add_argument("--force", action="store_true", help="replace files that exist")
 
 
 def _export(args: argparse.Namespace) -> int:
     from ..pipeline import export  # here: it reads the reference and ezdxf, which list and --help do without
 
     mech = validation.get(args.mechanism)
-    res = export.export(mech, args.angle, args.dxf, args.points)
+    res = export.export(mech, args.angle, args.dxf, args.points, force=args.force)
     wrote = ", ".join(str(p) for p in (res.dxf, res.points_file) if p is not None)
     print(f"wrote {wrote} ({mech.name} at input crank angle {res.angle_deg:g} deg, mm)", file=sys.stderr)
     return 0
@@ -325,6 +326,7 @@ def _export(args: argparse.Namespace) -> int:
 def _design_arguments(p: argparse.ArgumentParser) -> None:
     _mechanism(p)
     p.add_argument("-o", "--output", type=path_arg, help="HTML file to write (default: renders/NAME-design.html)")
+    p.add_argument("--force", action="store_true", help="replace the file if it exists")
 
 
 def _design(args: argparse.Namespace) -> int:
@@ -334,6 +336,8 @@ def _design(args: argparse.Namespace) -> int:
     mech = validation.get(args.mechanism)
     assert mech.path is not None  # a mechanism is read from its file
     path = args.output or Path("renders") / f"{mech.name}-design.html"
+    if path.exists() and not args.force:
+        raise MjlinkError(f"{path} exists: give --force to replace it")
     output.write_text(path, design_page.design_html(mech, mech.path.read_text(encoding="utf-8")))
     print(
         f"wrote {path}: open it in a browser (offline; drag the pivots, edit the numbers, save as TOML)",

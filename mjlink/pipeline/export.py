@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from .. import output, reference
-from ..analysis import mass_centres, segments
+from ..analysis import link_segments, mass_centres
 from ..errors import MjlinkError
 from ..model.mechanism import Mechanism
 from ..units import DEG, to_mm
@@ -74,13 +74,8 @@ def dxf_text(mech: Mechanism, angle_deg: float) -> str:
     for i, name in enumerate([*LAYERS, *(link.name for link in mech.links)]):
         doc.layers.add(name, color=1 + i % 254)
     msp = doc.modelspace()
-    link_of: dict[str, str] = {}
-    for link in mech.links:
-        for p in link.points:
-            link_of.setdefault(p, link.name)
-    for a, b in segments(mech):
-        layer = next((l.name for l in mech.links if a in l.points and b in l.points), link_of.get(b, "POINTS"))
-        msp.add_line(at[a], at[b], dxfattribs={"layer": layer})
+    for link, a, b in link_segments(mech):
+        msp.add_line(at[a], at[b], dxfattribs={"layer": link})
     size = max(1.0, 0.02 * _extent(at))
     for name, xyz in at.items():
         msp.add_point(xyz, dxfattribs={"layer": "POINTS"})
@@ -114,13 +109,19 @@ def points_text(at: dict[str, tuple[float, float, float]], mech: Mechanism, fmt:
     return out.getvalue()
 
 
-def export(mech: Mechanism, angle_deg: float | None, dxf: Path | None, points: Path | None) -> ExportResult:
+def export(
+    mech: Mechanism, angle_deg: float | None, dxf: Path | None, points: Path | None, *, force: bool = False
+) -> ExportResult:
     """Write the DXF to ``dxf`` and the points file to ``points`` (CSV or JSON by its
     extension), each whole or not at all, for the input crank at ``angle_deg`` (deg; None: the
     file's ``phi0``). Raises MjlinkError (one line) for an angle that is not a number, a
-    points file of another extension, or no output asked for."""
+    points file of another extension, no output asked for, or a file that exists (unless
+    ``force``): nothing is replaced that the user did not ask to replace."""
     if dxf is None and points is None:
         raise MjlinkError("export: nothing to write: give --dxf FILE.dxf and/or --points FILE.csv|FILE.json")
+    for path in (dxf, points):
+        if path is not None and path.exists() and not force:
+            raise MjlinkError(f"{path} exists: give --force to replace it")
     if points is not None and points.suffix.lower() not in (".csv", ".json"):
         raise MjlinkError(f"--points {points}: must end in .csv or .json")
     angle = math.degrees(mech.phi0) if angle_deg is None else float(angle_deg)
