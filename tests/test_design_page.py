@@ -31,6 +31,22 @@ def browser():
         b.close()
 
 
+@pytest.fixture(scope="module")
+def pristine(browser, tmp_path_factory):
+    """One unedited page per mechanism, opened once for the tests that only read it (they
+    evaluate the port's pure functions and read the DOM; the tests that edit open their own)."""
+    pages: dict = {}
+
+    def get(name):
+        if name not in pages:
+            pages[name] = _open(browser, name, tmp_path_factory.mktemp(name))
+        return pages[name]
+
+    yield get
+    for page, _ in pages.values():
+        page.close()
+
+
 def _open(browser, name, tmp_path):
     path = catalogue.path_of(name)
     page_file = tmp_path / f"{name}-design.html"
@@ -58,8 +74,8 @@ def _port_error(page, mech) -> float:
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_the_browser_port_is_the_reference_on_the_design_and_random_variants(browser, name, tmp_path):
-    page, errors = _open(browser, name, tmp_path)
+def test_the_browser_port_is_the_reference_on_the_design_and_random_variants(pristine, name):
+    page, errors = pristine(name)
     mech = mechanism.load(catalogue.path_of(name))
     assert _port_error(page, mech) < 1e-9
     # Random variants: every dimension moved by up to 2 % (or 0.5 mm / 2 deg), those that
@@ -80,8 +96,8 @@ def test_the_browser_port_is_the_reference_on_the_design_and_random_variants(bro
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_every_dimension_is_an_input_and_every_number_the_study_metric(browser, name, tmp_path):
-    page, errors = _open(browser, name, tmp_path)
+def test_every_dimension_is_an_input_and_every_number_the_study_metric(pristine, name):
+    page, errors = pristine(name)
     mech = mechanism.load(catalogue.path_of(name))
     params = page.eval_on_selector_all("input[data-param]", "els => els.map(e => [e.dataset.param, Number(e.value)])")
     assert [p for p, _ in params] == [p for p, _, _ in summary.dimensions(mech)]

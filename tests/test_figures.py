@@ -169,6 +169,35 @@ def test_figure_content(run_figures):
     assert all(ax.get_aspect() == 1.0 for ax in polar.axes if ax.axison)
 
 
+def _boxes(fig) -> list:
+    """Every drawn text's box on the canvas at save's resolution, and every axes' place and ticks."""
+    fig.set_dpi(style.DPI)
+    r = fig.canvas.get_renderer()
+    out: list = [
+        (t.get_text(), tuple(np.round(t.get_window_extent(r).extents, 6)))
+        for t in fig.findobj(matplotlib.text.Text)
+        if t.get_visible() and t.get_text().strip()
+    ]
+    for ax in fig.axes:
+        out += [tuple(np.round(ax.get_position().extents, 9)), tuple(ax.get_xticks()), tuple(ax.get_yticks())]
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("run_figures", ["crank_slider"], indirect=True)
+def test_a_kept_figure_is_checked_as_it_was_written(run_figures):
+    """The figure checks read a figure save() wrote uncropped as it was drawn, without laying it
+    out again: laid out again, every text's box, every axes' place and every tick are the same.
+    (A cropped figure is laid out again by the checks: its layout after the crop differs.)"""
+    _, figs, _, _, _, _ = run_figures
+    kept = [(n, f) for n, f in figs.items() if f in style._SAVED_AS_DRAWN]
+    assert len(kept) >= len(figs) - 1
+    for name, fig in kept:
+        before = _boxes(fig)
+        fig.draw_without_rendering()
+        assert _boxes(fig) == before, name
+
+
 def _chromium() -> str:
     """Debian's Chromium, installed by this test on a fresh machine where it may (as root)."""
     exe = shutil.which("chromium") or shutil.which("chromium-browser")

@@ -405,22 +405,21 @@ def test_a_second_run_into_the_same_folder_is_refused_while_the_first_writes(tmp
 
 
 # ================================================================= 6. a replaced output is said so
-def test_a_rerun_says_what_it_replaced(tmp_path, capsys, monkeypatch):
-    # The command line in this process (what it prints does not depend on the process), its
-    # figures drawn here rather than in a forked plot worker: the same files are written.
-    from mjlink.pipeline import workers
-
-    monkeypatch.setattr(workers, "start", lambda jobs: None)
+def test_a_rerun_says_what_it_replaced(tmp_path, capsys):
+    # The command line in this process: what it prints does not depend on the process.
     out = tmp_path / "out"
-    common = ["simulate", str(CRANK_ROCKER), "--no-video", "--no-dynamics", "--out", str(out)]
+    # The first run writes the dynamic run's files, the second does not: they are named as removed.
+    common = ["simulate", str(CRANK_ROCKER), "--no-video", "--no-plots", "--out", str(out)]
     assert main(common) == 0
     first = capsys.readouterr().err
     assert "replaced" not in first, first
-    assert main([*common, "--no-plots"]) == 0
+    assert (out / "crank_rocker" / "dynamics.csv").is_file()
+    assert main([*common, "--no-dynamics"]) == 0
     again = capsys.readouterr().err
     lines = [line for line in again.splitlines() if "replaced the previous output" in line]
     assert len(lines) == 1
-    assert str(out / "crank_rocker") in lines[0] and "simulate" in lines[0] and "positions.png" in lines[0]
+    assert str(out / "crank_rocker") in lines[0] and "simulate" in lines[0] and "dynamics.csv" in lines[0]
+    assert not (out / "crank_rocker" / "dynamics.csv").exists()
     assert "not written this time, so removed" in lines[0] and lines[0].startswith("mjlink: note: ")
 
 

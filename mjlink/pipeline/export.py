@@ -7,7 +7,9 @@ The DXF (R2010, millimetres, ``$INSUNITS`` = 4) holds, in the mechanism's own fr
 * ``PIVOTS``: a CIRCLE of radius :data:`PIVOT_MM` round every ground point, ``POINTS``: a POINT
   at every named point, ``LABELS``: each point's name beside it;
 * ``PATHS``: the closed path over the period of every moving point that is not merely a
-  link's centre of mass, as a closed 3D polyline of :data:`PATH_SAMPLES` vertices.
+  link's centre of mass, as a closed polyline of :data:`PATH_SAMPLES` vertices: an LWPOLYLINE at
+  the path's elevation where the path keeps one z (every planar path; one entity, as a CAD
+  user draws an outline), a 3D POLYLINE where its z varies.
 
 The points file lists every named point at that angle: name, whether it is on the ground, x, y,
 z in mm (CSV, or JSON by the file's extension). Positions are the reference's
@@ -85,7 +87,12 @@ def dxf_text(mech: Mechanism, angle_deg: float) -> str:
         if name in mech.ground:
             msp.add_circle(xyz, PIVOT_MM, dxfattribs={"layer": "PIVOTS"})
     for xyz in _paths(mech).values():
-        msp.add_polyline3d([tuple(map(float, v)) for v in xyz[:-1]], close=True, dxfattribs={"layer": "PATHS"})
+        ring = np.asarray(xyz[:-1], dtype=float)
+        if np.all(ring[:, 2] == ring[0, 2]):
+            attribs = {"layer": "PATHS", "elevation": float(ring[0, 2])}
+            msp.add_lwpolyline(ring[:, :2].tolist(), format="xy", close=True, dxfattribs=attribs)
+        else:
+            msp.add_polyline3d([tuple(map(float, v)) for v in ring], close=True, dxfattribs={"layer": "PATHS"})
     stream = io.StringIO()
     doc.write(stream)
     return stream.getvalue()
@@ -142,7 +149,7 @@ def read_back(path: Path) -> dict[str, Any]:
     """A DXF written by :func:`dxf_text` read back with ezdxf: its units, layers, and the
     entities per type as coordinate arrays (mm); for tests and for a user's own check."""
     import ezdxf
-    from ezdxf.entities import Polyline
+    from ezdxf.entities import LWPolyline, Polyline
 
     doc = ezdxf.readfile(str(path))
     msp = doc.modelspace()
@@ -154,9 +161,12 @@ def read_back(path: Path) -> dict[str, Any]:
         "points": [tuple(e.dxf.location) for e in msp.query("POINT")],
         "labels": {e.dxf.text: tuple(e.dxf.insert) for e in msp.query("TEXT")},
         "circles": [(tuple(e.dxf.center), e.dxf.radius) for e in msp.query("CIRCLE")],
-        "paths": [
-            np.array([tuple(v.dxf.location) for v in e.vertices])
-            for e in msp.query("POLYLINE")
-            if isinstance(e, Polyline)
-        ],
+        "paths": [_vertices(e) for e in msp.query("POLYLINE LWPOLYLINE") if isinstance(e, (Polyline, LWPolyline))],
     }
+
+
+def _vertices(e: Any) -> np.ndarray:
+    """(N, 3) vertices of a path read back: a 3D POLYLINE's, or an LWPOLYLINE's at its elevation."""
+    if e.dxftype() == "LWPOLYLINE":
+        return np.array([(x, y, e.dxf.elevation) for x, y in e.get_points(format="xy")])
+    return np.array([tuple(v.dxf.location) for v in e.vertices])

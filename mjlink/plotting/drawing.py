@@ -97,7 +97,7 @@ def _rotation_arrow(ax, mech: Mechanism, size: float) -> None:
         zorder=6,
     )
     t = ax.annotate(
-        f"$n_1$, {direction(mech.speed)}",
+        f"n₁, {direction(mech.speed)}",
         c + np.array([0.0, -1.35 * r]),
         ha="center",
         va="top",
@@ -243,7 +243,7 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
             color="orange",
             lw=2.0,
             zorder=3,
-            label="thread at $\\varphi_0$ (" + "–".join(mech.thread) + ")",
+            label="thread at φ₀ (" + "–".join(mech.thread) + ")",
         )
 
     for k, link in enumerate(mech.links):
@@ -255,7 +255,9 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         ax.plot([P[p][0, 0] for p in pts], [P[p][0, 1] for p in pts], "o", ms=5, mfc="white", mec=c, mew=1.5, zorder=5)
         if link.com is not None:
             s = P[link.com][0]
-            ax.plot(s[0], s[1], marker="$\\oplus$", ms=8, color=c, zorder=5, ls="none")
+            # The centre of mass: a circle with a cross (⊕) from two plain markers.
+            ax.plot(s[0], s[1], "o", ms=7, mfc="white", mec=c, mew=1.2, zorder=5)
+            ax.plot(s[0], s[1], "+", ms=7, color=c, mew=1.2, zorder=5)
 
     pivots = {p for l in mech.links for p in l.points if p in mech.ground}
     for g, xyz in mech.ground.items():
@@ -300,7 +302,7 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         "|",
         color="k",
         ms=7,
-        label="crank angle every 30° along the path\n(from $\\varphi_0$, labelled every 90°)",
+        label="crank angle every 30° along the path\n(from φ₀, labelled every 90°)",
     )
     fig.legend(
         *ax.get_legend_handles_labels(),
@@ -325,12 +327,12 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         side.tick_params(labelsize=8)
         side.set_title(
             f"path of {key} enlarged: Δx {np.ptp(xy[:, 0]):.2f} mm, Δy {np.ptp(xy[:, 1]):.2f} mm\n"
-            f"ticks every 30° of crank angle from $\\varphi_0$, {direction(mech.speed)}",
+            f"ticks every 30° of crank angle from φ₀, {direction(mech.speed)}",
             fontsize=8.5,
         )
     # Left-aligned: a tall drawing's axes are narrower than the title, which runs on over the legend.
     ax.set_title(
-        title(mech, f"{n} positions over one period, bold: $\\varphi_0$ = {math.degrees(mech.phi0):g}°"),
+        title(mech, f"{n} positions over one period, bold: φ₀ = {math.degrees(mech.phi0):g}°"),
         fontsize=10,
         loc="left",
     )
@@ -402,7 +404,7 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
                 ms=4 if first else 3,
                 mfc="white",
                 mec=c,
-                label=f"$\\varphi_1$ = {math.degrees(phi[i]):g}°" + (" ($\\varphi_0$)" if first else ""),
+                label=f"φ₁ = {math.degrees(phi[i]):g}°" + (" (φ₀)" if first else ""),
             )
         for g in guides:
             ax.plot(P[g][0, 0], P[g][0, j], "s", ms=8, mfc="white", mec="k", mew=1.3, zorder=7)

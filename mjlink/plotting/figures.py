@@ -47,6 +47,7 @@ from .style import (
     residual,
     save,
     subplots,
+    subscript,
     title,
 )
 
@@ -112,11 +113,11 @@ def kinematics_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, poi
             kin_mj.accelerations[point],
             kin_ref.accelerations[point],
             1.0,
-            "m/s$^2$",
+            "m/s²",
             "acceleration",
             lim.acceleration,
             1.0,
-            "m/s$^2$",
+            "m/s²",
         ),
     )
     comps = [
@@ -202,9 +203,9 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         place(fig, axs[0].get_gridspec(), left=1.05, top=0.75, bottom=0.6, hgap=0.2)
         # Velocity and acceleration reverse within a stroke: a zero line shows where.
         panels = (
-            ("position $s$ along the guide [mm]", to_mm, "tab:blue"),
-            ("velocity $ds/dt$ [m/s]", None, "tab:purple"),
-            ("acceleration $d^2s/dt^2$ [m/s$^2$]", None, "tab:red"),
+            ("position s along the guide [mm]", to_mm, "tab:blue"),
+            ("velocity ds/dt [m/s]", None, "tab:purple"),
+            ("acceleration d²s/dt² [m/s²]", None, "tab:red"),
         )
         residual(axs[3], xm, to_um(sm[0] - sr[0]), "µm", compare.POSITION_UM, what="MuJoCo − ref., s")
         for ax, a, b, (lab, scale, c) in zip(axs[:3], sm, sr, panels):
@@ -244,15 +245,15 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
                 )
             else:
                 ax.set_xlabel("harmonic k of the crank rotation, its order [-]")
-            ax.set_ylabel(f"amplitude of $d^2s/dt^2$ of {p} [m/s$^2$]")
+            ax.set_ylabel(f"amplitude of d²s/dt² of {p} [m/s²]")
             ax.grid(True, which="major", axis="y", alpha=0.3)
             ks = f"2..{len(ar)}"
             txt = (
                 f"higher harmonics k = {ks} relative to the first, "
-                f"$\\sqrt{{\\Sigma A_k^2}}\\,/\\,A_1$:\n"
+                f"√(ΣAₖ²) / A₁:\n"
                 f"MuJoCo {100 * analysis.higher_harmonics_share(am):.1f} %, "
                 f"reference {100 * analysis.higher_harmonics_share(ar):.1f} %\n"
-                f"$A_2/A_1$ = {100 * ar[1] / ar[0]:.1f} %,  $A_1$ = {ar[0]:.4g} m/s$^2$ (reference)"
+                f"A₂/A₁ = {100 * ar[1] / ar[0]:.1f} %,  A₁ = {ar[0]:.4g} m/s² (reference)"
             )
             ax.text(
                 0.98,
@@ -292,8 +293,8 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
         ymax = top
         if mech.synthesis is not None:
             lim = math.degrees(mech.synthesis.max_pressure_angle)
-            ax.axhline(lim, color="tab:red", lw=1.5, label=f"allowed [$\\theta$] = {lim:g}°")
-            ax.text(xr[0], lim, " [$\\theta$]", color="tab:red", va="bottom", fontsize=9)
+            ax.axhline(lim, color="tab:red", lw=1.5, label=f"allowed [θ] = {lim:g}°")
+            ax.text(xr[0], lim, " [θ]", color="tab:red", va="bottom", fontsize=9)
             ymax = max(ymax, lim)
         ax.set_ylim(0.0, min(90.0, 1.18 * ymax + 1.0))
         ax.set_ylabel(f"pressure angle at {p} [deg]\n(rod {sl.start}–{p} to the guide)")
@@ -329,15 +330,15 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
         "µm",
         compare.THREAD_UM,
         color=palette.THREAD,
-        what="MuJoCo − ref., $P_d$",
+        what="MuJoCo − ref., Pd",
     )
     pair(axs[0], xm, to_mm(Lm), xr, to_mm(Lr), "tab:orange")
-    axs[0].set_ylabel(f"thread length $l_F$ [mm]\n{'–'.join(mech.thread)}")
+    axs[0].set_ylabel(f"thread length l_F [mm]\n{'–'.join(mech.thread)}")
     pair(axs[1], xm, to_mm(dm), xr, to_mm(dr), "tab:orange")
-    axs[1].set_ylabel("$\\Delta l_F = l_F(\\varphi) - l_F(\\varphi_0)$ [mm]")
+    axs[1].set_ylabel("Δl_F = l_F(φ) − l_F(φ₀) [mm]")
     pair(axs[2], xm, to_mm(fm), xr, to_mm(fr), "tab:red")
     axs[2].axhline(0.0, color="k", lw=0.9, zorder=0)
-    axs[2].set_ylabel(f"feed $P_d = \\Delta l_F - \\Delta P$ [mm]\n($\\Delta P$ = {to_mm(dp):g} mm)")
+    axs[2].set_ylabel(f"feed Pd = Δl_F − ΔP [mm]\n(ΔP = {to_mm(dp):g} mm)")
     pd = to_mm(fr)
     for ax in axs[:3]:
         ax.grid(True, alpha=0.3)
@@ -360,7 +361,7 @@ def thread_feed_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) ->
     axs[0].set_title(
         title(
             mech,
-            f"needle-thread feed over one turn: $P_d$ from {pd.min():+.2f} "
+            f"needle-thread feed over one turn: Pd from {pd.min():+.2f} "
             f"to {pd.max():+.2f} mm (swing {np.ptp(pd):.2f} mm)",
         ),
         fontsize=10,
@@ -396,7 +397,7 @@ def phase_study_plot(
     drawn = []
     for off in offsets_deg:
         ph = (crank.phase or 0.0) + math.radians(off)  # a geared crank always has its phase
-        lab = f"$\\varphi_{{0{i_in}}}$ = {math.degrees(mech.phi0):g}°, $\\varphi_{{0{i_g}}}$ = {math.degrees(ph):g}°"
+        lab = f"φ{subscript(0, i_in)} = {math.degrees(mech.phi0):g}°, φ{subscript(0, i_g)} = {math.degrees(ph):g}°"
         try:
             xy = to_mm(analysis.geared_path(mech, crank, ph, point, phi)[:, :2])
         except AssemblyError:
@@ -420,7 +421,7 @@ def phase_study_plot(
         pad = 0.08 * float(max(hi - lo))
         ax.set_xlim(lo[0] - pad, hi[0] + pad)
         ax.set_ylim(lo[1] - pad, hi[1] + pad)
-    ax.plot([], [], "o", color="0.4", ms=5, label="position at $\\varphi_{01}$")
+    ax.plot([], [], "o", color="0.4", ms=5, label="position at φ₀₁")
     ax.set_aspect("equal", adjustable="box", anchor="NW")  # blank space to the right: cropped on saving
     ax.grid(True, alpha=0.3)
     ax.set_xlabel("x [mm]")
@@ -453,7 +454,7 @@ def link_motion_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, li
             axs[1],
             kin_mj.link_omega,
             kin_ref.link_omega,
-            f"angular velocity $\\omega$ of {link} [rad/s]",
+            f"angular velocity ω of {link} [rad/s]",
             "tab:blue",
             "rad/s",
         ),
@@ -462,9 +463,9 @@ def link_motion_plot(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir, li
             axs[3],
             kin_mj.link_eps,
             kin_ref.link_eps,
-            f"angular acceleration $\\varepsilon$ of {link} [rad/s$^2$]",
+            f"angular acceleration ε of {link} [rad/s²]",
             "tab:red",
-            "rad/s$^2$",
+            "rad/s²",
         ),
     ):
         ax.plot(xr, ref[link], label=REF_LABEL, **REF_STYLE)

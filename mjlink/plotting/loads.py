@@ -69,7 +69,7 @@ def torque_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_dir
     a1.plot([], [], " ", label=f"peak |M₁| {cycle.peak:.4g} N·m (triangle)")
     a1.plot([], [], " ", label=f"RMS {cycle.rms:.4g} N·m")
     a1.plot([], [], " ", label=f"mean power {cycle.power:.4g} W")
-    a1.set_ylabel("driving torque $M_1$ [N·m]")
+    a1.set_ylabel("driving torque M₁ [N·m]")
     a1.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="over one period", title_fontsize=8)
     residual(ar, x, torque - rx.torque, "N·m", compare.torque_limit(rx.torque), what="MuJoCo − ref.")
     power_ref = analysis.drive_power(rx.torque, kin_mj.omega)
@@ -95,7 +95,7 @@ def torque_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_dir
     )
     a3.axhline(energy[lo], color="0.6", lw=0.6, ls=":")
     a3.axhline(0.0, color="0.5", lw=0.6)
-    a3.set_ylabel("energy fluctuation\n$\\int (M_1 - \\bar M_1)\\,d\\varphi$ [J]")
+    a3.set_ylabel("energy fluctuation\n∫ (M₁ − mean M₁) dφ [J]")
     a3.set_title(
         f"energy swing ΔE = {cycle.energy:.4g} J over one period (arrow): a flywheel of J = ΔE / (δ ω²) = "
         f"{j_fly:.3g} kg·m²\n(all rotating inertia reduced to the crank) keeps δ = {target:g} at {abs(w):.4g} rad/s",
@@ -209,8 +209,8 @@ def reactions_plot(mech: Mechanism, kin_mj: Trace, rx: reference.Reactions, out_
             ax.grid(True, alpha=0.3)
             frame = "fixed axes (frame pivot)" if pl.frame == GROUND else f"axes of {pl.frame}"
             ax.set_title(f"{pl.label}\npeak {pl.magnitude[i]:.4g} N; {frame}", fontsize=8.5)
-            ax.set_xlabel("$F_x$ [N]", fontsize=8.5)
-            ax.set_ylabel("$F_y$ [N]", fontsize=8.5)
+            ax.set_xlabel("Fx [N]", fontsize=8.5)
+            ax.set_ylabel("Fy [N]", fontsize=8.5)
         for k in range(len(loads), rows * cols):
             axs[k // cols, k % cols].axis("off")
         fig.suptitle(
@@ -251,11 +251,11 @@ def steady_plot(
         rax.plot(np.degrees(a), np.abs(to_rpm(omega)) - np.abs(to_rpm(at)), color=color, lw=1.0, label=what)
     rax.axhline(0.0, color="0.5", lw=0.6)
     rax.set_gid(RESIDUAL_GID)
-    rax.set_ylabel("MuJoCo − ref.\n$|n_1|$ [rpm]", fontsize=8.5)
+    rax.set_ylabel("MuJoCo − ref.\n|n₁| [rpm]", fontsize=8.5)
     rax.grid(True, alpha=0.3)
     rax.legend(loc="best", fontsize=7.5)
-    rax.set_xlabel(f"crank angle turned from $\\varphi_{{01}}$ = {math.degrees(mech.phi0):g}° within the period [deg]")
-    ax.set_ylabel("crank speed $|n_1|$ [rpm]")
+    rax.set_xlabel(f"crank angle turned from φ₀₁ = {math.degrees(mech.phi0):g}° within the period [deg]")
+    ax.set_ylabel("crank speed |n₁| [rpm]")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     # The two flywheel figures a run reports, tied together: torque.png's classical estimate is
@@ -305,8 +305,8 @@ def shaking_plot(mech: Mechanism, kin_mj: Trace, ref: FrameLoads, got: FrameLoad
     a1.plot(*ref.force[0], "s", color="tab:red", ms=6, label="start (phi01)")
     a1.plot(0, 0, "+", color="0.4", ms=10)
     a1.set_aspect("equal", adjustable="datalim")
-    a1.set_xlabel("$F_x$ on the frame [N]")
-    a1.set_ylabel("$F_y$ on the frame [N]")
+    a1.set_xlabel("Fx on the frame [N]")
+    a1.set_ylabel("Fy on the frame [N]")
     a1.legend(loc="best", fontsize=8)
     a1.grid(alpha=0.3)
     a1.set_title("force on the frame: shaking (inertia) + gravity + forces", fontsize=9)

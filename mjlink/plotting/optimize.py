@@ -131,7 +131,7 @@ def before_after(
     ax0.set_ylabel("y [mm]")
     ax0.grid(True, alpha=0.3)
     ax0.legend(fontsize=8, loc="best")
-    ax0.set_title("at $\\varphi_0$, with the paths of " + ", ".join(traced), fontsize=9)
+    ax0.set_title("at φ₀, with the paths of " + ", ".join(traced), fontsize=9)
     theta = np.degrees(b.theta)
     first = None
     for i, cv in enumerate(curves):
@@ -146,7 +146,7 @@ def before_after(
         ax.grid(True, alpha=0.3)
         ax.set_xlim(theta[0], theta[-1] + (theta[1] - theta[0]))
         if i == n - 1:
-            ax.set_xlabel("input crank angle from $\\varphi_0$ [deg]")
+            ax.set_xlabel("input crank angle from φ₀ [deg]")
         ax.legend(fontsize=7.5, loc="best")
     opt = st.optimize
     assert opt is not None

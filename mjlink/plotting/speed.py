@@ -103,8 +103,8 @@ def speed_plots(
             if xk is not None:
                 ax_n.plot(xk, nk, label=rk4_label, **RK4_STYLE)
                 ax_e.plot(xk, ek, **RK4_STYLE)
-            ax_n.set_ylabel("crank speed $|n_1|$ [rpm]")
-            ax_e.set_ylabel("crank acceleration $\\varepsilon_1$ [rad/s$^2$]")
+            ax_n.set_ylabel("crank speed |n₁| [rpm]")
+            ax_e.set_ylabel("crank acceleration ε₁ [rad/s²]")
             for ax in (ax_n, ax_e):
                 ax.grid(True, alpha=0.3)
         # A start transient (a run-up in milliseconds, a jump of the load at t = 0) dwarfs
@@ -153,7 +153,7 @@ def speed_plots(
         z_e.set_xlabel(short)
         # The zoom spans a few turns of a long run: its ticks are long numbers, five at most.
         z_e.xaxis.set_major_locator(MaxNLocator(5))
-        residual(a_r, xm, dyn_mj.omega - dyn_ref.omega, "rad/s", limit, what="MuJoCo − ref. $\\omega_1$")
+        residual(a_r, xm, dyn_mj.omega - dyn_ref.omega, "rad/s", limit, what="MuJoCo − ref. ω₁")
         a_r.set_xlabel(xlabel)
         if rk4 is not None and xk is not None:
             tight = np.interp(rk4.t[:k], dyn_ref.time, dyn_ref.omega)
@@ -161,7 +161,7 @@ def speed_plots(
             a_k.plot(xk, diff, **dict(RK4_STYLE, ls="-"))
             a_k.axhline(0.0, color="0.5", lw=0.6)
             rel = float(np.max(np.abs(diff)) / np.max(np.abs(to_rpm(tight))))
-            a_k.set_ylabel("paper's RK4 − reference\n$|n_1|$ [rpm]", fontsize=8.5)
+            a_k.set_ylabel("paper's RK4 − reference\n|n₁| [rpm]", fontsize=8.5)
             a_k.text(
                 0.005,
                 0.96,
@@ -202,15 +202,15 @@ def speed_plots(
         d = mech.dynamics
         motor = getattr(d, "motor", None)
         drive = (
-            f"motor $M_1$ = {motor.stall_torque:g} N·m × (1 − ω / {motor.no_load_speed:g} rad/s)"
+            f"motor M₁ = {motor.stall_torque:g} N·m × (1 − ω / {motor.no_load_speed:g} rad/s)"
             if motor is not None
-            else f"$M_1$ = {d.moment:g} N·m"
+            else f"M₁ = {d.moment:g} N·m"
         )
         fig.suptitle(
             title(
                 mech,
                 f"run-up, crank turning {sense} (speeds as magnitudes), {drive}, "
-                f"b = {d.damping:g} N·m·s, $\\omega_0$ = {d.omega0:g} rad/s",
+                f"b = {d.damping:g} N·m·s, ω₀ = {d.omega0:g} rad/s",
             ),
             fontsize=10,
         )

@@ -56,6 +56,10 @@ RESIDUAL_GID = "residual"  # every residual panel's Axes carries this gid (the f
 
 _KEEP: list[tuple[str, Figure]] | None = None
 _SAVED_TIGHT: weakref.WeakSet[Figure] = weakref.WeakSet()  # figures save() cropped to their drawing
+# Figures save() drew at DPI uncropped and kept open (keep_figures): their texts and ticks are
+# laid out as written, so the checks read them without laying them out again. A cropped one
+# is laid out again: its layout after the crop is not the one written.
+_SAVED_AS_DRAWN: weakref.WeakSet[Figure] = weakref.WeakSet()
 
 
 class keep_figures:
@@ -75,16 +79,26 @@ class keep_figures:
 
 
 def warm() -> None:
-    """Draw a small figure with text and mathtext into memory once, so that the processes
-    forked afterwards to draw the real figures inherit matplotlib's loaded fonts, glyph
-    caches and mathtext parser rather than each paying for them at its first figure."""
+    """Draw a small figure with text into memory once, so that the processes forked afterwards
+    to draw the real figures inherit matplotlib's loaded fonts and glyph caches rather than
+    each paying for them at its first figure."""
 
     fig, ax = subplots(figsize=(2.0, 1.5))
     ax.plot([0.0, 1.0], [0.0, 1.0])
-    ax.set_title("crank $\\omega_1$ [rad/s$^2$]", fontsize=9)
-    ax.set_xlabel("$\\varphi$ [deg]")
+    ax.set_title("crank ω₁ [rad/s²]", fontsize=9)
+    ax.set_xlabel("φ [deg]")
     fig.savefig(io.BytesIO(), format="png", dpi=DPI, pil_kwargs=PNG_OPTIONS)
     plt.close(fig)
+
+
+_SUBSCRIPT = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
+
+
+def subscript(*parts: object) -> str:
+    """``parts`` joined as Unicode subscript digits: ``subscript(0, 4)`` is '₀₄' (phi04). The
+    figures write symbols as plain Unicode text (φ₀₁, ω₁, m/s²) rather than mathtext, which
+    matplotlib parses anew for every label."""
+    return "".join(str(p) for p in parts).translate(_SUBSCRIPT)
 
 
 def figure(**kwargs: Any) -> Figure:
@@ -121,6 +135,8 @@ def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Pa
             _SAVED_TIGHT.add(fig)
         with atomic_path(path, suffix=".png") as tmp:
             fig.savefig(tmp, format="png", dpi=DPI, pil_kwargs=PNG_OPTIONS, **crop)
+        if _KEEP is not None and not tight:
+            _SAVED_AS_DRAWN.add(fig)
     finally:
         if _KEEP is not None:
             _KEEP.append((name, fig))
@@ -169,7 +185,7 @@ def user_text(text: str) -> str:
     """Text from a mechanism file (or any user) made safe to draw: every ``$`` escaped, so that
     matplotlib's mathtext never parses it (a title like 'a $5 part, $x^$' would crash the
     figure), and control characters shown as escapes. Every style helper that draws user text
-    passes it through here; mathtext that mjlink writes itself (``$\\omega_0$``) stays as is."""
+    passes it through here."""
     shown = "".join(c if c.isprintable() else ascii(c)[1:-1] for c in text)
     return shown.replace("$", r"\$")
 
@@ -270,8 +286,13 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
     annotations, free texts and legends (a legend counts as one box); tick labels are laid out
     by matplotlib and not checked. Empty when nothing collides. ``pad`` pixels shrink every
     box before testing (touching is not overlapping). The figure is laid out as it is drawn,
-    without rasterizing it (matplotlib's ``draw_without_rendering``)."""
-    fig.draw_without_rendering()
+    without rasterizing it (matplotlib's ``draw_without_rendering``), unless :func:`save` has
+    just written it uncropped and kept it (:class:`keep_figures`): then it is read at DPI as
+    written (the same boxes, tested on every shipped figure in tests/test_figures.py)."""
+    if fig in _SAVED_AS_DRAWN:
+        fig.set_dpi(DPI)
+    else:
+        fig.draw_without_rendering()
     r = fig.canvas.get_renderer()  # type: ignore[attr-defined]
     boxes = []
     legends = [lg for ax in fig.axes if (lg := ax.get_legend()) is not None] + list(fig.legends)
@@ -384,7 +405,7 @@ def crank_axis(mech: Mechanism, phi: np.ndarray) -> tuple[Callable[[Any], np.nda
     clockwise = "" if sense > 0 else " clockwise"
     return (
         lambda p: deg(sense * (np.asarray(p, dtype=float) - mech.phi0)),
-        f"crank angle turned{clockwise} from $\\varphi_{{01}}$ = {math.degrees(mech.phi0):g}° [deg]",
+        f"crank angle turned{clockwise} from φ₀₁ = {math.degrees(mech.phi0):g}° [deg]",
     )
 
 
