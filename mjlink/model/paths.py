@@ -98,6 +98,25 @@ def catalogue(mech: Mechanism) -> dict[str, Param]:
         nominal = math.nan if si_value is None else float(si_value) / scale
         out[path] = Param(path, unit, scale, nominal, positive)
 
+    _entries(mech, add)
+    return out
+
+
+def nominal_values(mech: Mechanism) -> dict[str, float]:
+    """Every path of ``mech`` a study may vary -> its nominal value in the file's units: the
+    numbers of :func:`catalogue` without its :class:`Param` objects (a study compares them
+    per variant)."""
+    out: dict[str, float] = {}
+
+    def add(path: str, scale: float, unit: str, positive: bool, si_value: float | None) -> None:
+        out[path] = math.nan if si_value is None else float(si_value) / scale
+
+    _entries(mech, add)
+    return out
+
+
+def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None], None]) -> None:
+    """Call ``add(path, scale, unit, positive, si_value)`` for every path of ``mech``, in order."""
     for name, p in mech.ground.items():
         for i, ax in enumerate(_AXES):
             add(f"ground.{name}.{ax}", MM, "mm", False, p[i])
@@ -146,7 +165,6 @@ def catalogue(mech: Mechanism) -> dict[str, Param]:
         add("synthesis.stroke", MM, "mm", True, sy.stroke)
         add("synthesis.offset", MM, "mm", False, sy.offset)
         add("synthesis.lambda", 1.0, "", True, sy.ratio)
-    return out
 
 
 def resolve(mech: Mechanism, path: str) -> Param:

@@ -120,7 +120,7 @@ def _expanded(
             invalid[i] = str(e)
             found.append({})
             continue
-        found.append({k: p.nominal for k, p in paths.catalogue(v).items()})
+        found.append(paths.nominal_values(v))
     changed = [
         k
         for k, p in nominal.items()
