@@ -2,11 +2,13 @@
 
 import math
 
+import numpy as np
 import pytest
 
 from mjlink import validation
 from mjlink.errors import MjlinkError
 from mjlink.model import catalogue as registry
+from mjlink.model import synthesis as quartic
 from mjlink.model.mechanism import Crank, Slider, parse
 from mjlink.reference import synthesis
 
@@ -58,3 +60,14 @@ def test_design_file_round_trips():
 def test_no_admissible_design_is_an_error():
     with pytest.raises(MjlinkError, match="no admissible design"):
         synthesis.design_file(registry.path_of("crank_slider").read_text(), 0.045, 0.015, 0.6, TH, "x")
+
+
+def test_the_closed_form_quartic_is_numpys_roots():
+    """The synthesis quartic solved as a quadratic in l^2 against its plain twin, numpy's
+    general polynomial roots, over random strokes, offsets and ratios (real and complex roots)."""
+    rng = np.random.default_rng(5)
+    for S, e, lam in zip(rng.uniform(0.005, 0.1, 500), rng.uniform(0.0, 0.05, 500), rng.uniform(0.01, 0.99, 500)):
+        twin = np.roots([4 * lam**2 / S**2, 0.0, 2 * lam - (1 + lam) ** 2, 0.0, S**2 / 4 + e**2])
+        got = quartic._quartic_roots(S, e, lam)
+        for z in twin:
+            assert min(abs(z - g) for g in got) <= 1e-12 * abs(z), (S, e, lam)
