@@ -288,7 +288,8 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
     box before testing (touching is not overlapping). The figure is laid out as it is drawn,
     without rasterizing it (matplotlib's ``draw_without_rendering``), unless :func:`save` has
     just written it uncropped and kept it (:class:`keep_figures`): then it is read at DPI as
-    written (the same boxes, tested on every shipped figure in tests/test_figures.py)."""
+    written (tests/test_figures.py lays each shipped mechanism's busiest figure out again and
+    finds every box, axes and tick where it was)."""
     if fig in _SAVED_AS_DRAWN:
         fig.set_dpi(DPI)
     else:
