@@ -812,9 +812,9 @@ def test_ctrl_c_prints_at_most_three_lines_and_the_study_resumes(tmp_path):
     cluster: three lines at most after the plan, status 130, no worker left, the finished
     chunks kept; the same command then resumes and gives the uninterrupted study's numbers."""
     study = tmp_path / "s.toml"
-    # 235 chunks: after the third is written, the rest and the publication take seconds of wall
-    # time on one worker (more than on the two they were measured on, also with both cores
-    # loaded), against the 0.05 s poll below, so the interrupt lands with chunks left.
+    # 235 chunks: after the third is written, the rest and the publication outlast the 0.05 s
+    # poll below many times over (also with both cores loaded), so the interrupt lands with
+    # chunks left.
     study.write_text(SMALL.replace("samples = 40", "samples = 60000"))
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MJLINK_PROGRESS_SECONDS": "1000"}
