@@ -11,8 +11,8 @@ variables read when a process (or numpy) starts: nothing here calls into a libra
   on arrays of variants x crank angles, and every jet operation allocates and frees temporaries
   of hundreds of kilobytes. By default glibc serves blocks above its mmap threshold with fresh
   mappings and trims freed memory at the top of its heap, so the next call faults the same pages
-  in again, and a Dask worker's task thread gets an arena of its own (measured: a study chunk
-  28 % slower in a thread than in the main thread, twice as slow with the nanny's 64 KiB trim
+  in again, and a Dask worker's task thread gets an arena of its own (a study chunk ran slower
+  in a worker's thread than in the main thread, and slower still with the nanny's 64 KiB trim
   threshold). glibc reads these variables (its documented tunables) when a process starts: the
   study engine gives them to the workers it spawns. Elsewhere (musl, macOS) they mean nothing.
 """
@@ -36,7 +36,7 @@ MALLOC_ENV = {
 
 def one_blas_thread() -> None:
     """Set :data:`BLAS_ENV` in ``os.environ`` where the user has not set them: effective only
-    before numpy is first imported (measured: OpenBLAS's spinning threads took 0.3 s of the
-    CPU of a ``simulate takeup`` of about 6 s, on the core the plot workers need)."""
+    before numpy is first imported (OpenBLAS's idle threads spin on the core the plot workers
+    need)."""
     for k, v in BLAS_ENV.items():
         os.environ.setdefault(k, v)

@@ -125,7 +125,7 @@ class SpectralDynamics:
         """The series at angles phi (N,): (rows, N). e^(i n x) as e^(i 16 q x) e^(i r x)
         (n = 16 q + r), both exact exponentials: 1/16 + 16/n of the exponentials of the
         plain outer product for one rounding more, and in chunks of 1024 angles, so that
-        the (harmonics, angles) factor stays in cache (12x faster with 742 harmonics)."""
+        the (harmonics, angles) factor stays in cache."""
         x = 2 * np.pi * (np.atleast_1d(np.asarray(phi, dtype=float)) - self.phi0) / self.period
         k, step = self._k, 16
         q, r = np.arange(-(-k // step)), np.arange(step)
@@ -198,9 +198,9 @@ def _rhs(sd: SpectralDynamics):
 
 # The "tight" solution's relative tolerance (LSODA, scipy's odeint: its stepping is compiled,
 # only the right-hand side is Python): at 1e-11 it agrees with DOP853 at 1e-12 to 6e-9 of
-# omega on the take-up, five orders below the MuJoCo threshold, 3.9x faster than DOP853 at
-# 1e-10 (0.24 vs 0.94 CPU s; that one agreed to 1.7e-8, so this is closer at a quarter of the
-# cost). DOP853 at 1e-12 is the tested twin (tests/test_dynamics.py).
+# omega on the take-up, five orders below the MuJoCo threshold, and closer than DOP853 at
+# 1e-10 (which agreed to 1.7e-8) at a fraction of its cost: the compiled stepper calls the
+# Python right-hand side less often. DOP853 at 1e-12 is the tested twin (tests/test_dynamics.py).
 TIGHT_RTOL = 1e-11
 
 

@@ -7,7 +7,7 @@ each Assur group's equations involve only its own pairs and those of the groups 
 :func:`solve` permutes the pattern into block-triangular form once (a maximum matching puts a
 structural nonzero on the diagonal; the strongly connected components of the result are the
 diagonal blocks, solved in dependency order; both graph searches in plain Python, for tens of
-unknowns, where scipy.sparse's would cost its import, 0.2 s, in every command), then solves every diagonal block for all rows
+unknowns, where scipy.sparse's would cost its import in every command), then solves every diagonal block for all rows
 at once by Gaussian elimination with partial pivoting written as array operations across the
 rows (the same algorithm as LAPACK's dgesv, vectorized the other way round), substituting the
 solved unknowns into the later blocks. The plain twin is ``numpy.linalg.solve``; the two agree

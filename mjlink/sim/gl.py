@@ -60,8 +60,8 @@ def ensure_gl_backend() -> str:
       ``'none'`` if mujoco has no usable context class). Rendering then fails with a
       :class:`RenderError` if that backend cannot work here, e.g. glfw without a display.
     * Otherwise, on Linux: ``'egl'`` then ``'osmesa'`` are tried (:func:`_probe`: EGL first in
-      this process through its C library, 0.1 s; where that says no, and for OSMesa, in a short
-      subprocess that imports mujoco and makes a 16x16 context current, about 0.5 s) and the
+      this process through its C library, the cheap probe; where that says no, and for OSMesa,
+      in a short subprocess that imports mujoco and makes a 16x16 context current) and the
       first that works is written to ``os.environ['MUJOCO_GL']``. On other systems mujoco's
       own default (cgl on macOS, glfw elsewhere) is returned and nothing is set, since EGL
       and OSMesa are Linux-only there.
