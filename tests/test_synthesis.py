@@ -71,3 +71,43 @@ def test_the_closed_form_quartic_is_numpys_roots():
         got = quartic._quartic_roots(S, e, lam)
         for z in twin:
             assert min(abs(z - g) for g in got) <= 1e-12 * abs(z), (S, e, lam)
+
+
+def test_a_studys_re_synthesis_is_its_per_variant_twin(monkeypatch):
+    """A study varying the synthesis inputs: the numbers re-synthesized from r and l alone (the
+    fast path of reference.batch) against each variant built whole (paths.apply, then the
+    catalogue's numbers), bit for bit, with admissible, inadmissible and invalid variants and a
+    plain parameter beside them; a plain parameter the synthesis sets forces the whole variant."""
+    from mjlink.model import paths
+    from mjlink.reference import batch
+
+    mech = validation.get("crank_slider")
+    cat = paths.catalogue(mech)
+    crank_len = f"construct.{mech.input_crank.point}.length"
+    params = [cat["synthesis.stroke"], cat["links.crank.mass" if "links.crank.mass" in cat else "input.speed"]]
+    params += [cat["synthesis.lambda"], cat["synthesis.offset"]]
+    rng = np.random.default_rng(3)
+    V = 200
+    values = np.column_stack(
+        [
+            rng.uniform(0.5, 1.5, V) * params[0].nominal,
+            rng.uniform(0.5, 1.5, V) * params[1].nominal,
+            rng.uniform(0.05, 0.9, V),
+            rng.uniform(0.0, 30.0, V),
+        ]
+    )
+    values[3, 0] = -1.0  # invalid: a negative stroke
+    fast = batch._expanded(mech, list(params), values.copy())
+    monkeypatch.setattr(batch, "_resynthesized", lambda *a: None)
+    whole = batch._expanded(mech, list(params), values.copy())
+    assert fast[2] == whole[2] and any(fast[2]) and "no crank-slider has stroke" in "".join(fast[2])
+    assert sum(not r for r in fast[2]) >= V // 4, "too few admissible variants to compare"
+    ok = np.array([not r for r in fast[2]])  # solve_batch puts the nominal into invalid rows
+    got = {p.path: fast[1][ok, j] for j, p in enumerate(fast[0])}
+    for j, p in enumerate(whole[0]):
+        assert np.array_equal(got[p.path], whole[1][ok, j], equal_nan=True), p.path
+    assert len(got) == len(whole[0]), "a parameter listed twice"
+    assert {p.path for p in fast[0]} == {p.path for p in whole[0]} and crank_len in got
+    monkeypatch.undo()
+    plain = [cat[crank_len], cat["synthesis.lambda"]]
+    assert batch._resynthesized(mech, plain, values[:, :2], [1], [0], [""] * V) is None

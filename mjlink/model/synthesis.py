@@ -198,35 +198,67 @@ def design_file(
     return tomlio.dumps(d, header)
 
 
-def redesigned(mech: Mechanism, stroke: float, offset: float, ratio: float) -> Mechanism:
-    """A crank-slider mechanism re-synthesized for stroke and offset (m) and lambda = r / l.
+@dataclass(frozen=True)
+class Resized:
+    """What a re-synthesis of a crank-slider changes: the ``crank`` and the ``slider`` (their
+    lengths become r and l), the ground points of the ``guide`` (their y becomes -e), and the
+    points attached along the crank or the rod (``along_crank``, ``along_rod``: their length
+    scales with the crank's or the rod's, so a centre of mass stays at its fraction)."""
 
-    As :func:`design_file` (``synth --write``), on the objects: the accepted root with the
-    smallest pressure angle sets the crank r and the rod l, the guide moves to y = -e, and
-    points attached along the crank or the rod (their centres of mass) stay at the same
-    fraction of its length. The pressure-angle limit is not applied (a design study shows
-    theta_max as a metric and its limit as a bound). Raises MjlinkError if no root is real
-    and gives the stroke.
-    """
+    crank: Any
+    slider: Any
+    guide: tuple[str, ...]
+    along_crank: tuple[Any, ...]
+    along_rod: tuple[Any, ...]
+
+
+def resized(mech: Mechanism) -> Resized:
+    """The steps and ground points of ``mech`` that a re-synthesis changes (see :class:`Resized`)."""
+    crank = mech.input_crank
+    slider = blocks.sliders(mech.steps)[0]
+    attached = [s for s in mech.steps if s.kind == "attached"]
+    return Resized(
+        crank,
+        slider,
+        tuple(g for g in slider.guide if g in mech.ground),
+        tuple(s for s in attached if s.inputs == (crank.pivot, crank.point)),
+        tuple(s for s in attached if s.inputs == (slider.start, slider.point)),
+    )
+
+
+def lengths(stroke: float, offset: float, ratio: float) -> tuple[float, float]:
+    """The crank r and the rod l (m) of the accepted root with the smallest pressure angle for
+    stroke and offset (m) and lambda = r / l, the pressure-angle limit not applied (a design
+    study shows theta_max as a metric and its limit as a bound). Raises MjlinkError if no root
+    is real and gives the stroke."""
     root = best(stroke, offset, ratio, math.radians(89.99))
     if root is None:
         raise MjlinkError(
             f"no crank-slider has stroke {stroke * 1e3:g} mm with offset {offset * 1e3:g} mm and lambda {ratio:g}"
         )
-    r, l = root.r.real, root.l.real
-    crank = mech.input_crank
-    slider = blocks.sliders(mech.steps)[0]
+    return root.r.real, root.l.real
+
+
+def redesigned(mech: Mechanism, stroke: float, offset: float, ratio: float) -> Mechanism:
+    """A crank-slider mechanism re-synthesized for stroke and offset (m) and lambda = r / l.
+
+    As :func:`design_file` (``synth --write``), on the objects: the crank r and the rod l of
+    :func:`lengths`, the guide moved to y = -e, and the points attached along the crank or the
+    rod (their centres of mass) kept at the same fraction of its length (:func:`resized`).
+    Raises MjlinkError if no root is real and gives the stroke.
+    """
+    r, l = lengths(stroke, offset, ratio)
+    rs = resized(mech)
     ground = dict(mech.ground)
-    for g in slider.guide:
-        if g in ground:
-            ground[g] = np.array([ground[g][0], -offset, ground[g][2]])
-    along = {(crank.pivot, crank.point): r / crank.length, (slider.start, slider.point): l / slider.length}
+    for g in rs.guide:
+        ground[g] = np.array([ground[g][0], -offset, ground[g][2]])
+    factor = {id(s): r / rs.crank.length for s in rs.along_crank} | {id(s): l / rs.slider.length for s in rs.along_rod}
     steps = []
     for s in mech.steps:
-        if s is crank or s is slider:
-            s = dataclasses.replace(cast(Any, s), length=r if s is crank else l)
-        elif s.inputs in along and s.kind == "attached":
-            s = dataclasses.replace(cast(Any, s), length=cast(Any, s).length * along[s.inputs])
+        if s is rs.crank or s is rs.slider:
+            s = dataclasses.replace(cast(Any, s), length=r if s is rs.crank else l)
+        elif id(s) in factor:
+            s = dataclasses.replace(cast(Any, s), length=cast(Any, s).length * factor[id(s)])
         steps.append(s)
     assert mech.synthesis is not None
     new = dataclasses.replace(mech.synthesis, stroke=stroke, offset=offset, ratio=ratio)

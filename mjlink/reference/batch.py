@@ -18,8 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import MjlinkError
 from ..model import paths
+from ..model import synthesis as synth
 from ..model.mechanism import COUNTERWEIGHT, Mechanism
+from ..units import MM
 from .dynamics import reduced
 from .kinematics import Kinematics, solve
 
@@ -109,29 +112,81 @@ def _expanded(
     if not whole:
         return params, values, invalid
     nominal = paths.catalogue(mech)
-    found: list[dict[str, float]] = []
-    for i, row in enumerate(values):
-        if invalid[i]:
-            found.append({})
-            continue
-        try:
-            v = variant(mech, params, row)
-        except paths.PathError as e:
-            invalid[i] = str(e)
-            found.append({})
-            continue
-        found.append(paths.nominal_values(v))
+    keep = [j for j in range(len(params)) if j not in whole]
+    found = _resynthesized(mech, params, values, whole, keep, invalid)
+    if found is None:  # a plain parameter moves what the synthesis sets: variant by variant
+        found = []
+        for i, row in enumerate(values):
+            if invalid[i]:
+                found.append({})
+                continue
+            try:
+                v = variant(mech, params, row)
+            except paths.PathError as e:
+                invalid[i] = str(e)
+                found.append({})
+                continue
+            found.append(paths.nominal_values(v))
+    kept = {params[j].path for j in keep}
     changed = [
         k
         for k, p in nominal.items()
-        if any(f and not _same(f[k], p.nominal) for f in found) and k.split(".", 1)[0] != "synthesis"
+        if k not in kept
+        and k.split(".", 1)[0] != "synthesis"
+        and any(f and not _same(f.get(k, p.nominal), p.nominal) for f in found)
     ]
-    keep = [j for j in range(len(params)) if j not in whole]
     plain = [params[j] for j in keep] + [nominal[k] for k in changed]
     out = np.column_stack(
         [values[:, keep]] + [np.array([f.get(k, nominal[k].nominal) for f in found])[:, None] for k in changed]
     )
     return plain, out, invalid
+
+
+def _resynthesized(
+    mech: Mechanism,
+    params: list[paths.Param],
+    values: np.ndarray,
+    whole: list[int],
+    keep: list[int],
+    invalid: list[str],
+) -> list[dict[str, float]] | None:
+    """The numbers a re-synthesis sets in each variant (file units, by path; ``{}`` for an
+    invalid variant, and a variant without an admissible design made invalid), computed from
+    the synthesis's r and l alone: the same numbers as ``paths.nominal_values(variant(...))``
+    (tested against it), without building each variant's mechanism. None when a plain
+    parameter (``keep``) moves a number the synthesis reads or sets: then only the whole
+    variant is right."""
+    rs = synth.resized(mech)
+    touched = {f"construct.{s.point}.length" for s in (rs.crank, rs.slider, *rs.along_crank, *rs.along_rod)}
+    if any(
+        params[j].path in touched or params[j].path.split(".")[:2] in [["ground", g] for g in rs.guide] for j in keep
+    ):
+        return None
+    sy = mech.synthesis
+    assert sy is not None
+    given = {params[j].path.split(".", 1)[1]: (params[j].scale, j) for j in whole}
+    crank = f"construct.{rs.crank.point}.length"
+    rod = f"construct.{rs.slider.point}.length"
+    out: list[dict[str, float]] = []
+    for i, row in enumerate(values):
+        if invalid[i]:
+            out.append({})
+            continue
+        # As paths.apply converts a file value to SI, so that the numbers are the same bits.
+        si = {k: float(row[j]) * scale for k, (scale, j) in given.items()}
+        e = si.get("offset", sy.offset)
+        try:
+            r, l = synth.lengths(si.get("stroke", sy.stroke), e, si.get("lambda", sy.ratio))
+        except MjlinkError as err:
+            invalid[i] = str(err)
+            out.append({})
+            continue
+        f = {crank: r / MM, rod: l / MM}
+        f.update({f"ground.{g}.y": float(-e) / MM for g in rs.guide})
+        f.update({f"construct.{s.point}.length": s.length * (r / rs.crank.length) / MM for s in rs.along_crank})
+        f.update({f"construct.{s.point}.length": s.length * (l / rs.slider.length) / MM for s in rs.along_rod})
+        out.append(f)
+    return out
 
 
 def _same(a: float, b: float) -> bool:
