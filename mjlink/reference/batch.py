@@ -105,8 +105,9 @@ def _expanded(
     mech: Mechanism, params: list[paths.Param], values: np.ndarray
 ) -> tuple[list[paths.Param], np.ndarray, list[str]]:
     """Parameters that act through a whole-variant rule (a synthesis input re-synthesizes the
-    crank-slider) replaced by the plain numbers they set, one variant at a time; the rest are
-    kept. Returns the plain parameters, their (V, P') values and each variant's invalidity."""
+    crank-slider) replaced by the plain numbers they set in each variant (:func:`_resynthesized`,
+    else variant by variant); the rest are kept. Returns the plain parameters, their (V, P')
+    values and each variant's invalidity."""
     invalid = paths.invalid(params, values)
     whole = [j for j, p in enumerate(params) if p.section == "synthesis"]
     if not whole:
@@ -128,10 +129,12 @@ def _expanded(
                 continue
             found.append(paths.nominal_values(v))
     kept = {params[j].path for j in keep}
+    set_by_any = set().union(*found)
     changed = [
         k
         for k, p in nominal.items()
-        if k not in kept
+        if k in set_by_any
+        and k not in kept
         and k.split(".", 1)[0] != "synthesis"
         and any(f and not _same(f.get(k, p.nominal), p.nominal) for f in found)
     ]
