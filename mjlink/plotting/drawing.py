@@ -304,7 +304,7 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         ms=7,
         label="crank angle every 30° along the path\n(from φ₀, labelled every 90°)",
     )
-    fig.legend(
+    legend = fig.legend(
         *ax.get_legend_handles_labels(),
         loc="upper left",
         bbox_to_anchor=(0.0, 1.0),
@@ -314,6 +314,14 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
         framealpha=0.9,
     )
     fig.axes[-1].axis("off")
+    if side is not None:
+        # The legend hangs from the top of its cell, which starts below the figure's title; a
+        # long one (a head's dozen links) would run into the enlarged path's title below it: its
+        # row is made as tall as the title's room, the legend and the path's title are.
+        tall = legend.get_window_extent().height / fig.dpi
+        whole = fig.get_figheight()
+        top = min(max(tall + 1.3, 0.5 * whole), whole - 3.0)
+        gs.set_height_ratios([top, whole - top])
     if side is not None and key is not None and key_xy is not None:
         xy = key_xy
         side.plot(xy[:, 0], xy[:, 1], color="#c51b7d", lw=1.8)

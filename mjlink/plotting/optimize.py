@@ -60,8 +60,12 @@ def convergence(title: str, res: Result, out_dir: Path) -> Path:
             continue
         y = sign * h[:, 2]
         if many:
-            final = y[np.isfinite(y)][-1] if np.isfinite(y).any() else np.nan
-            y = np.maximum(np.abs(y / final - 1.0), 1e-9)
+            seen = y[np.isfinite(y)]
+            final = seen[-1] if len(seen) else np.nan
+            # Relative to the final value; a run that ends at exactly 0 (an objective that
+            # reaches its floor), relative to the run's largest value instead.
+            ref = abs(final) if final != 0 else (float(np.max(np.abs(seen))) or 1.0)
+            y = np.maximum(np.abs(y - final) / ref, 1e-9)
         positive &= bool(np.all(y[np.isfinite(y)] > 0))
         ax.step(h[:, 1], y, where="post", lw=1.6 if k == 0 else 1.1, label=user_text(r.name), color=f"C{k % 10}")
     if many or (positive and opt.sense == "min"):
