@@ -115,6 +115,12 @@ def test_the_head_checks_and_its_mjcf_runs_in_plain_mujoco(head):
         ('hook_point = "HP"', 'hook_point = "NT"', "must be the point of a geared crank"),
         ("hook_rise = [1.8, 2.2]", "hook_rise = [2.2, 1.8]", "lo 2.2 mm is above hi 1.8 mm"),
         ('needle_eye = "NE"', 'needle_eye = "NX"', "names point 'NX', which is not defined"),
+        ('target = "juki"', 'target = "juki"\nstitch = "401"', "[timing] stitch: '401' is not a stitch type mjlink"),
+        (
+            'target = "juki"',
+            'target = "juki"\nstitch = "101"',
+            "[balance]: unknown key 'bobbin_case' (valid keys: stitch_length, looper",
+        ),
     ],
 )
 def test_a_bad_timing_table_is_one_line(tmp_path, old, new, message):
@@ -381,3 +387,72 @@ def test_the_eyelet_take_up_sized_for_the_head_meets_every_check_under_its_toler
         tv = head_timing(paths.apply(sized, dev))
         assert tv.failures() == ()  # the shortfall within what the thread stretches, every window met
         assert _row(tv, "thread_slack").value <= 7.0e-3
+
+
+CHAIN = shipped("mechanisms") / "examples" / "chainstitch_head.toml"
+
+
+@pytest.fixture(scope="module")
+def chain():
+    return mechanism.load(CHAIN)
+
+
+def test_a_chain_stitch_heads_needle_goes_down_through_the_held_loop(chain):
+    """The single-thread chain stitch (101): its looper casts the held loop off as it takes the
+    next (the release is the pick-up), and while the needle goes down through the held loop the
+    demand grows exactly as the eye sinks below the fabric's top (the held loop, its hole and
+    the thread along the fabric's top stay as they are: the closed form of docs/head.md's
+    straight path with a circular loop, here with the loop held still), to 1e-9 m."""
+    t = head_timing(chain)
+    b = t.balance
+    ev = t.events
+    assert ev["loop released"] == ev["hook picks the loop"]
+    enters, pick = b.phases["needle through the held loop"]
+    tm = chain.timing
+    inside = ((t.theta - enters) % 360 > 1.0) & ((t.theta - enters) % 360 < (pick - enters) % 360 - 1.0)
+    i = np.nonzero(inside)[0]
+    depth = (tm.plate + tm.fabric) - t.positions["NE"][i, 1]
+    i, depth = i[depth > 0], depth[depth > 0]  # the eye in the fabric or under it
+    assert len(i) > 500
+    np.testing.assert_allclose(b.demand[i] * 1e-3 - depth, b.demand[i[0]] * 1e-3 - depth[0], atol=1e-9)
+    # The looper's loop is a circle's: no bobbin case in the file, its diameter a study parameter.
+    from mjlink.model import paths
+
+    assert paths.resolve(chain, "balance.looper").nominal == pytest.approx(10.0)
+    assert "balance.bobbin_case" not in paths.catalogue(chain)
+
+
+def test_a_chain_stitch_holds_three_stitch_lengths_and_twice_the_fabric_of_thread(chain):
+    """A 101 stitch's thread: the stitch length on top, the fabric down and up, and the loop
+    under the fabric reaching back over the stitch length, 3 s + 2 t (the 101 consumption
+    equation C = 3 + 2 T S per inch of seam, T the thickness and S the stitches per inch)."""
+    t = head_timing(chain)
+    s, th = chain.balance.stitch_length * 1e3, chain.timing.fabric * 1e3
+    assert t.balance.per_stitch == pytest.approx(3 * s + 2 * th)
+
+
+def test_the_lockstitch_take_up_on_a_chain_stitch_head_fails_as_timed_and_gives_too_much_slack_retimed(chain):
+    """lockstitch_head's take-up, unchanged, on the chain-stitch head: it reaches its top about
+    246 deg after the held loop is cast off and holds back more thread than the thread
+    stretches; turned on the shaft so that its top follows the cast-off within half a turn, it
+    leaves several times the slack a check spring takes up (docs/head.md, A chain-stitch head)."""
+    from mjlink.model import paths
+
+    t = head_timing(chain)
+    assert not _row(t, "take_up_after_release").ok and not _row(t, "thread_shortfall").ok
+    assert _row(t, "take_up_after_release").value == pytest.approx(math.radians(245.7), abs=math.radians(0.5))
+    turned = paths.apply(chain, {paths.resolve(chain, "construct.P2.angle"): 30.0})
+    r = head_timing(turned)
+    assert _row(r, "take_up_after_release").ok and _row(r, "thread_shortfall").ok
+    assert _row(r, "thread_slack").value > 5 * chain.balance.check_spring_travel
+
+
+def test_the_chain_stitch_heads_own_take_up_meets_every_check():
+    """chainstitch_head_sized.toml, the winner of studies/chainstitch_head_takeup.toml: every
+    timing window (its take-up's top soon after the cast-off), at most the study's 0.5 mm of
+    shortfall (here on simulate's finer grid) and a slack within the check spring's travel."""
+    t = head_timing(mechanism.load(CHAIN.with_name("chainstitch_head_sized.toml")))
+    assert t.failures() == ()
+    assert _row(t, "thread_shortfall").value <= 0.51e-3
+    assert _row(t, "thread_slack").ok and _row(t, "thread_slack").value < 1.0e-3
+    assert _row(t, "take_up_after_release").value < math.radians(30.0)

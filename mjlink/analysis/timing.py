@@ -236,7 +236,12 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
     picks = cross[above]
     pick = float(picks[np.argmin((picks - theta[bdc]) % 360.0)]) if len(picks) else math.nan
     ratio = abs(hook.ratio)
-    release = (pick + math.degrees(tm.loop_release) / ratio) % 360.0 if math.isfinite(pick) else math.nan
+    if tm.stitch == "101":
+        # A chain stitch's looper holds its loop until it takes the next: the held loop is cast
+        # off at the pick-up (the needle has passed through it), and the take-up draws it tight.
+        release = pick
+    else:
+        release = (pick + math.degrees(tm.loop_release) / ratio) % 360.0 if math.isfinite(pick) else math.nan
     j = int(np.argmax(take))
     a, b, c = take[j - 1], take[j], take[(j + 1) % len(take)]
     # The top between samples: the vertex of the parabola through the best one and its neighbours.
@@ -382,6 +387,7 @@ class TimingChecks(Metric):
                         vb,
                         stitch_length=_of(vb.stitch_length, i, b),
                         bobbin_case=_of(vb.bobbin_case, i, b),
+                        looper=_of(vb.looper, i, b),
                         check_spring_travel=_of(vb.check_spring_travel, i, b),
                         stretch=_of(vb.stretch, i, b),
                     ),
@@ -471,6 +477,10 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     L at the take-up's top minus L; the demand is the thread below the eye minus its value at
     the take-up's top. From the release to the take-up's next top the take-up draws the loop
     tight and the stitch's thread from the spool: no balance there.
+
+    A chain stitch (``[timing] stitch = "101"``) is followed as :func:`_chain_below` says: its
+    looper holds the loop until it takes the next one, so the balance runs from the setting
+    to the next pick-up, where the held loop is cast off and drawn tight.
     """
     tm, bal = mech.timing, mech.balance
     assert tm is not None and bal is not None and mech.thread
@@ -479,38 +489,23 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     for a, b in itertools.pairwise(mech.thread):
         path += np.linalg.norm(P[b] - P[a], axis=1)
     hook = hook_crank(mech)
-    sense = math.copysign(1.0, hook.ratio * (mech.speed or 1.0))
-    nt, eye, hp = P[tm.roles["needle_point"]], P[tm.roles["needle_eye"]], P[tm.roles["hook_point"]]
-    centre = P[hook.pivot][0, :2]
-    x_n = nt[:, 0]
-    bottom = np.column_stack([x_n, np.full(len(th), tm.plate)])
-    top_y = tm.plate + tm.fabric
-    # The fabric's travel since the take-up's top: the dog's advance while it is up, scaled to
-    # the stitch length.
-    adv = head.curves["dog advance"] * MM
-    up = head.curves["dog height"] > 0
-    step = np.diff(np.append(adv, adv[0]))
     pick, release = ev["hook picks the loop"], ev["loop released"]
-    # The stitch is set where the path is longest between the loop's release and the needle's
-    # entry into the fabric: the take-up has drawn the most thread.
+    # The stitch is set where the path is longest between the loop's release (a chain stitch:
+    # the held loop's cast-off) and the needle's entry into the fabric: the take-up has drawn
+    # the most thread.
     entry = _crossing(th, head.curves["needle point"], tm.fabric / MM, True)
     enters = float(entry[0]) if len(entry) else ev["needle point through the plate, down"]
     window = _between(th, release, enters)
     i0 = int(np.argmax(np.where(window, path, -np.inf)))
     drawn = float(th[i0])
-    moved = np.roll(np.cumsum(np.roll(np.where(up & (step > 0), step, 0.0), -i0)), i0)
-    moved = moved / moved.max() * bal.stitch_length if moved.max() > 0 else moved
-    along = moved  # the last stitch's end, behind the needle's line along the feed
-    y_eye = eye[:, 1]
-    above = y_eye >= top_y
-    below = np.where(above, np.hypot(eye[:, 0] - x_n - along, y_eye - top_y), (top_y - y_eye) + along)
-    loop = _between(th, pick, release)
-    turned = np.radians((th - pick) % 360.0) * abs(hook.ratio)
-    r = bal.bobbin_case / 2.0
-    leg_eye = wrapped(eye[:, :2], hp[:, :2], centre, r, turned, sense)
-    leg_fabric = wrapped(bottom, hp[:, :2], centre, r, turned, sense)
-    below = np.where(loop, leg_eye + leg_fabric + tm.fabric + along, below)
-    forming = _between(th, drawn, release)
+    if tm.stitch == "101":
+        below = _chain_below(mech, head, hook)
+        forming = _between(th, drawn, pick)
+        per_stitch = 3.0 * bal.stitch_length + 2.0 * tm.fabric
+    else:
+        below = _lock_below(mech, head, hook, i0)
+        forming = _between(th, drawn, release)
+        per_stitch = bal.stitch_length + tm.fabric
     path_at, below_at = path[i0], below[i0]
     if not window[(i0 + 1) % len(th)] and path[(i0 + 1) % len(th)] > path[i0]:
         # Still drawing as the needle enters the fabric: the stitch is set at the entry itself,
@@ -521,8 +516,9 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     demand = below - below_at
     balance = np.where(forming, supply - demand, np.nan)
     diff = supply - demand
-    # The phase ends at the release, between two samples: the balance there, extrapolated from
-    # the phase's last two samples, is a candidate too (a coarse grid would stop short of it).
+    # The phase ends at the release (a chain stitch: the next pick-up), between two samples: the
+    # balance there, extrapolated from the phase's last two samples, is a candidate too (a
+    # coarse grid would stop short of it).
     k = int(np.nonzero(forming & ~np.roll(forming, -1))[0][0]) if forming.any() and not forming.all() else -1
     at_end = diff[k] + (diff[k] - diff[k - 1]) * ((release - th[k]) % 360.0) / ((th[k] - th[k - 1]) % 360.0)
     short = max(_peak(-diff, forming), -float(at_end))
@@ -541,15 +537,115 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
             "thread_slack", BALANCE["thread_slack"], None, slack, Window(None, bal.check_spring_travel), "mm", False
         ),
     )
-    phases = {
-        "needle descending": (drawn, enters),
-        "needle in the fabric": (enters, pick),
-        "loop taken and enlarged around the bobbin": (pick, release),
-        "loop cast off, stitch set": (release, drawn),
-    }
-    return ThreadBalance(
-        th, path / MM, supply / MM, demand / MM, balance / MM, phases, (bal.stitch_length + tm.fabric) / MM, rows
+    if tm.stitch == "101":
+        spread = (pick + math.degrees(tm.loop_release) / abs(hook.ratio)) % 360.0
+        phases = {}
+        if _between(np.array([spread]), drawn, enters)[0]:
+            phases["loop spread on the looper"] = (drawn, spread)
+        phases["loop held, fabric fed"] = (spread if phases else drawn, enters)
+        phases["needle through the held loop"] = (enters, pick)
+        phases["next loop taken, held loop cast off and set"] = (pick, drawn)
+    else:
+        phases = {
+            "needle descending": (drawn, enters),
+            "needle in the fabric": (enters, pick),
+            "loop taken and enlarged around the bobbin": (pick, release),
+            "loop cast off, stitch set": (release, drawn),
+        }
+    return ThreadBalance(th, path / MM, supply / MM, demand / MM, balance / MM, phases, per_stitch / MM, rows)
+
+
+def _travel(head: HeadTiming, start: int, stitch_length: float) -> np.ndarray:
+    """(N,) m: how far the feed has carried the fabric since sample ``start``: the dog's advance
+    while it is up, summed round the stitch and scaled to the stitch length."""
+    adv = head.curves["dog advance"] * MM
+    up = head.curves["dog height"] > 0
+    step = np.diff(np.append(adv, adv[0]))
+    moved = np.roll(np.cumsum(np.roll(np.where(up & (step > 0), step, 0.0), -start)), start)
+    out: np.ndarray = moved / moved.max() * stitch_length if moved.max() > 0 else moved
+    return out
+
+
+def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, i0: int) -> np.ndarray:
+    """(N,) m: a lockstitch's needle thread below the eye (:func:`thread_balance`), the stitch
+    set at sample ``i0``."""
+    tm, bal = mech.timing, mech.balance
+    assert tm is not None and bal is not None
+    P, th, ev = head.positions, head.theta, head.events
+    sense = math.copysign(1.0, hook.ratio * (mech.speed or 1.0))
+    nt, eye, hp = P[tm.roles["needle_point"]], P[tm.roles["needle_eye"]], P[tm.roles["hook_point"]]
+    centre = P[hook.pivot][0, :2]
+    x_n = nt[:, 0]
+    bottom = np.column_stack([x_n, np.full(len(th), tm.plate)])
+    top_y = tm.plate + tm.fabric
+    pick, release = ev["hook picks the loop"], ev["loop released"]
+    along = _travel(head, i0, bal.stitch_length)  # the last stitch's end, behind the needle's line
+    y_eye = eye[:, 1]
+    above = y_eye >= top_y
+    below = np.where(above, np.hypot(eye[:, 0] - x_n - along, y_eye - top_y), (top_y - y_eye) + along)
+    loop = _between(th, pick, release)
+    turned = np.radians((th - pick) % 360.0) * abs(hook.ratio)
+    r = bal.bobbin_case / 2.0
+    leg_eye = wrapped(eye[:, :2], hp[:, :2], centre, r, turned, sense)
+    leg_fabric = wrapped(bottom, hp[:, :2], centre, r, turned, sense)
+    out: np.ndarray = np.where(loop, leg_eye + leg_fabric + tm.fabric + along, below)
+    return out
+
+
+def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank) -> np.ndarray:
+    """(N,) m: a single-thread chain stitch's (101) needle thread below the eye, up to a
+    constant (docs/head.md, A chain-stitch head).
+
+    Each loop is taken by the looper's point at the pick-up and carried round the looper's body
+    (a circle of the ``looper`` diameter on the looper's shaft) for ``loop_release`` of looper
+    turn, then held there, spread, while the needle rises, the feed carries the loop's hole on
+    by the stitch length and the needle comes down through the held loop; the looper casts it
+    off as it takes the next loop, and the take-up draws it tight round that one. Both legs of
+    the loop come up through its hole: from the eye the thread runs down the needle to the
+    loop's hole (the needle in it), or straight to the hole's top (the needle out), or along the
+    fabric's top from the needle's new hole back to it (the needle down again); then through
+    the fabric, round the looper's point and back up through the fabric. The looper's twist of
+    the loop and the loop's slip around the body while held are not modelled."""
+    tm, bal = mech.timing, mech.balance
+    assert tm is not None and bal is not None
+    P, th, ev = head.positions, head.theta, head.events
+    sense = math.copysign(1.0, hook.ratio * (mech.speed or 1.0))
+    nt, eye, hp = P[tm.roles["needle_point"]], P[tm.roles["needle_eye"]], P[tm.roles["hook_point"]]
+    centre = P[hook.pivot][0, :2]
+    x_n, y_eye = nt[:, 0], eye[:, 1]
+    top_y = tm.plate + tm.fabric
+    pick = ev["hook picks the loop"]
+    ratio = abs(hook.ratio)
+    # The needle point leaves the fabric, rising: from then on the loop's hole moves with it.
+    out_of = _crossing(th, head.curves["needle point"], tm.fabric / MM, False)
+    leaves = float(out_of[0]) if len(out_of) else ev["needle point through the plate, up"]
+    start = int(np.argmin((th - leaves) % 360.0))
+    in_own_hole = ~_between(th, leaves, pick)  # from the pick-up until the needle leaves the loop's hole
+    off = np.where(in_own_hole, 0.0, _travel(head, start, bal.stitch_length))
+    hole = np.column_stack([x_n + off, np.full(len(th), tm.plate)])  # the hole's underside
+    # The looper's point carries the loop for loop_release of its turn, then holds it there.
+    turn = np.minimum(np.radians((th - pick) % 360.0) * ratio, tm.loop_release)
+    spread = (pick + math.degrees(tm.loop_release) / ratio) % 360.0
+    held = np.array([_at(th, hp[:, 0], spread), _at(th, hp[:, 1], spread)])
+    carrying = _between(th, pick, spread)
+    point = np.where(carrying[:, None], hp[:, :2], held[None, :])
+    r = bal.looper / 2.0
+    leg = wrapped(hole, point, centre, r, turn, sense)
+    # From the eye to the hole's underside.
+    to_hole = np.where(
+        in_own_hole,
+        y_eye - tm.plate,  # down the needle in the loop's own hole
+        np.where(
+            y_eye >= top_y,
+            np.hypot(eye[:, 0] - x_n - off, y_eye - top_y),  # straight to the hole's top
+            (top_y - y_eye) + off,  # the needle down again: up it and along the fabric's top
+        )
+        + tm.fabric,
     )
+    below_plate = in_own_hole & (y_eye < tm.plate)
+    eye_leg = np.where(below_plate, wrapped(eye[:, :2], point, centre, r, turn, sense), to_hole + leg)
+    out: np.ndarray = eye_leg + leg + tm.fabric
+    return out
 
 
 def _of(x: Any, i: int, b: Batch) -> float:

@@ -157,7 +157,10 @@ def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None
         add("timing.fabric", MM, "mm", False, mech.timing.fabric)
     if mech.balance is not None:
         add("balance.stitch_length", MM, "mm", True, mech.balance.stitch_length)
-        add("balance.bobbin_case", MM, "mm", True, mech.balance.bobbin_case)
+        if mech.timing is not None and mech.timing.stitch == "101":  # drawn round a looper, not a bobbin case
+            add("balance.looper", MM, "mm", True, mech.balance.looper)
+        else:
+            add("balance.bobbin_case", MM, "mm", True, mech.balance.bobbin_case)
         add("balance.check_spring_travel", MM, "mm", False, mech.balance.check_spring_travel)
         add("balance.stretch", 1.0, "", False, mech.balance.stretch)
     if mech.synthesis is not None:

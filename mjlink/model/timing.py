@@ -5,6 +5,10 @@ The checks themselves (``mjlink.analysis.timing``) measure events over one stitc
 reference; this module only reads and validates the table. Lengths in the file are mm and
 angles deg; here m and rad, like the rest of :class:`~mjlink.model.mechanism.Mechanism`.
 
+A chain-stitch head (stitch type 101) names its looper's point as ``hook_point``: the timing's
+"hook" is then the looper, and ``loop_release`` the looper's turn from picking the loop up to
+holding it spread (docs/head.md, A chain-stitch head).
+
 A file names its roles once and ships one table per maker::
 
     [timing]
@@ -19,6 +23,7 @@ A file names its roles once and ships one table per maker::
     loop_release = 270.0     # deg of hook turn from picking the loop up to releasing it
     feed_in_fabric = 0.2     # mm: most feed allowed while the needle is in the fabric
     target = "juki"          # the settings the head is built to
+    stitch = "301"           # the stitch type (ISO 4915): "301" lockstitch, "101" chain stitch
 
     [timing.juki]
     source = "..."
@@ -38,6 +43,9 @@ from .reader import Reader
 
 ROLES = ("needle_bar", "needle_point", "needle_eye", "hook_point", "feed_dog", "take_up")
 """The points a head's ``[timing]`` table names."""
+
+STITCHES = {"301": "lockstitch", "101": "single-thread chain stitch"}
+"""The stitch types (ISO 4915) whose needle thread mjlink follows."""
 
 SETTINGS = {
     "hook_rise": "needle bar rise from its bottom dead centre when the hook point reaches the needle's centre line",
@@ -71,7 +79,8 @@ class MakerSettings:
 
 @dataclass(frozen=True)
 class Timing:
-    """A head's ``[timing]`` table in SI units (m, rad)."""
+    """A head's ``[timing]`` table in SI units (m, rad); ``stitch`` its stitch type (a key of
+    :data:`STITCHES`)."""
 
     roles: dict[str, str]
     plate: float
@@ -80,6 +89,7 @@ class Timing:
     feed_in_fabric: float
     target: str
     settings: tuple[MakerSettings, ...]
+    stitch: str = "301"
 
     def maker(self, name: str) -> MakerSettings:
         return next(s for s in self.settings if s.name == name)
@@ -95,7 +105,7 @@ def read(r: Reader, raw: Any, known: set[str], hook_cranks: set[str]) -> Timing:
         scalars,
         "[timing]",
         [*ROLES, "plate", "target"],
-        ["fabric", "loop_release", "feed_in_fabric"],
+        ["fabric", "loop_release", "feed_in_fabric", "stitch"],
     )
     roles = {}
     for role in ROLES:
@@ -114,6 +124,10 @@ def read(r: Reader, raw: Any, known: set[str], hook_cranks: set[str]) -> Timing:
     target = r.string(scalars, "target", "[timing]")
     if target not in makers:
         raise r.fail("[timing] target", f"'{target}' is not one of the settings tables {', '.join(makers)}")
+    stitch = r.string(scalars, "stitch", "[timing]", default="301")
+    if stitch not in STITCHES:
+        kinds = ", ".join(f"'{k}' ({v})" for k, v in STITCHES.items())
+        raise r.fail("[timing] stitch", f"'{stitch}' is not a stitch type mjlink follows: {kinds}")
     return Timing(
         roles,
         r.number(scalars, "plate", "[timing]", scale=MM, unit=" mm"),
@@ -122,6 +136,7 @@ def read(r: Reader, raw: Any, known: set[str], hook_cranks: set[str]) -> Timing:
         r.number(scalars, "feed_in_fabric", "[timing]", nonneg=True, scale=MM, unit=" mm", default=0.2),
         target,
         settings,
+        stitch,
     )
 
 
@@ -149,25 +164,28 @@ def _maker(r: Reader, name: str, raw: Any) -> MakerSettings:
 @dataclass(frozen=True)
 class Balance:
     """A head's ``[balance]`` table in SI units: the stitch (``stitch_length``; the fabric's
-    thickness is the ``[timing]`` table's), the bobbin case's diameter the loop is drawn
-    around, the check spring (its point on the ``[thread]`` path and its travel) and the
-    thread's ``stretch`` at its working tension (a fraction: what the take-up may hold back is
-    what the thread in the path stretches)."""
+    thickness and the stitch type are the ``[timing]`` table's), the diameter of what the loop
+    is drawn around (a lockstitch's ``bobbin_case``, a chain stitch's ``looper``; the other is
+    0), the check spring (its point on the ``[thread]`` path and its travel) and the thread's
+    ``stretch`` at its working tension (a fraction: what the take-up may hold back is what the
+    thread in the path stretches)."""
 
     stitch_length: float
     bobbin_case: float
     check_spring: str
     check_spring_travel: float
     stretch: float = 0.01  # the thread's elastic elongation at its working tension, a fraction
+    looper: float = 0.0
 
 
 def read_balance(r: Reader, raw: Any, thread: tuple[str, ...] | None, timing: Timing | None) -> Balance:
     """The ``[balance]`` table: needs ``[timing]`` (the needle, hook and plate) and a
     ``[thread]`` path that ends at the needle's eye and holds the check spring's point."""
     t = r.table(raw, "[balance]")
-    r.keys(t, "[balance]", ["stitch_length", "bobbin_case", "check_spring", "check_spring_travel"], ["stretch"])
     if timing is None:
         raise r.fail("[balance]", "needs a [timing] table (the needle, the hook and the plate)")
+    body = "looper" if timing.stitch == "101" else "bobbin_case"
+    r.keys(t, "[balance]", ["stitch_length", body, "check_spring", "check_spring_travel"], ["stretch"])
     if not thread or thread[-1] != timing.roles["needle_eye"]:
         raise r.fail(
             "[balance]",
@@ -177,10 +195,12 @@ def read_balance(r: Reader, raw: Any, thread: tuple[str, ...] | None, timing: Ti
     spring = r.name(t["check_spring"], "[balance] check_spring")
     if spring not in thread:
         raise r.fail("[balance] check_spring", f"'{spring}' is not a point of the [thread] path")
+    diameter = r.number(t, body, "[balance]", positive=True, scale=MM, hi=200.0, unit=" mm")
     return Balance(
         r.number(t, "stitch_length", "[balance]", positive=True, scale=MM, hi=50.0, unit=" mm"),
-        r.number(t, "bobbin_case", "[balance]", positive=True, scale=MM, hi=200.0, unit=" mm"),
+        diameter if body == "bobbin_case" else 0.0,
         spring,
         r.number(t, "check_spring_travel", "[balance]", nonneg=True, scale=MM, hi=100.0, unit=" mm"),
         r.number(t, "stretch", "[balance]", nonneg=True, hi=0.2, default=0.01),
+        diameter if body == "looper" else 0.0,
     )

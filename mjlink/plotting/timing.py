@@ -148,7 +148,9 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
         for a0, a1 in spans:
             for a in (ax, bx):
                 a.axvspan(a0, a1, color=shades[k % 2], lw=0, zorder=0)
-        mid = (lo + ((hi - lo) % 360.0) / 2.0) % 360.0
+        # A phase that wraps past 0 deg is named over its longer part, inside the axes.
+        a0, a1 = max(spans, key=lambda sp: sp[1] - sp[0])
+        mid = (a0 + a1) / 2.0
         rotation = 90 if (hi - lo) % 360.0 < 60.0 else 0
         _label(ax, name, mid, dy=-4, ha="center", fontsize=7.5, rotation=rotation, color="0.25")
     short = next(r for r in head.rows if r.key == "thread_shortfall")
