@@ -20,7 +20,7 @@ import numpy as np
 from .. import reference
 from ..model.blocks import Crank
 from ..model.mechanism import Mechanism
-from ..model.timing import SETTINGS, Timing, Window
+from ..model.timing import SETTINGS, Balance, Timing, Window
 from ..reference.batch import Batch
 from ..units import DEG, MM
 from .metric_base import Column, Curve, Loads, Metric, MetricError
@@ -566,15 +566,26 @@ def _travel(head: HeadTiming, start: int, stitch_length: float) -> np.ndarray:
     return out
 
 
+def _geometry(
+    mech: Mechanism, head: HeadTiming, hook: Crank
+) -> tuple[Timing, Balance, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What the thread below the eye is measured from: the head's ``[timing]`` and ``[balance]``,
+    the hook's (a looper's) sense of rotation (+1 counter-clockwise), the needle's point, the
+    top of its eye and the hook's point over the stitch ((N, 3) m each) and the hook shaft's
+    centre ((2,) m)."""
+    tm, bal = mech.timing, mech.balance
+    assert tm is not None and bal is not None
+    P = head.positions
+    sense = math.copysign(1.0, hook.ratio * (mech.speed or 1.0))
+    nt, eye, hp = P[tm.roles["needle_point"]], P[tm.roles["needle_eye"]], P[tm.roles["hook_point"]]
+    return tm, bal, sense, nt, eye, hp, P[hook.pivot][0, :2]
+
+
 def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, i0: int) -> np.ndarray:
     """(N,) m: a lockstitch's needle thread below the eye (:func:`thread_balance`), the stitch
     set at sample ``i0``."""
-    tm, bal = mech.timing, mech.balance
-    assert tm is not None and bal is not None
-    P, th, ev = head.positions, head.theta, head.events
-    sense = math.copysign(1.0, hook.ratio * (mech.speed or 1.0))
-    nt, eye, hp = P[tm.roles["needle_point"]], P[tm.roles["needle_eye"]], P[tm.roles["hook_point"]]
-    centre = P[hook.pivot][0, :2]
+    tm, bal, sense, nt, eye, hp, centre = _geometry(mech, head, hook)
+    th, ev = head.theta, head.events
     x_n = nt[:, 0]
     bottom = np.column_stack([x_n, np.full(len(th), tm.plate)])
     top_y = tm.plate + tm.fabric
@@ -606,12 +617,8 @@ def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank) -> np.ndarray:
     fabric's top from the needle's new hole back to it (the needle down again); then through
     the fabric, round the looper's point and back up through the fabric. The looper's twist of
     the loop and the loop's slip around the body while held are not modelled."""
-    tm, bal = mech.timing, mech.balance
-    assert tm is not None and bal is not None
-    P, th, ev = head.positions, head.theta, head.events
-    sense = math.copysign(1.0, hook.ratio * (mech.speed or 1.0))
-    nt, eye, hp = P[tm.roles["needle_point"]], P[tm.roles["needle_eye"]], P[tm.roles["hook_point"]]
-    centre = P[hook.pivot][0, :2]
+    tm, bal, sense, nt, eye, hp, centre = _geometry(mech, head, hook)
+    th, ev = head.theta, head.events
     x_n, y_eye = nt[:, 0], eye[:, 1]
     top_y = tm.plate + tm.fabric
     pick = ev["hook picks the loop"]
