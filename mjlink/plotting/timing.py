@@ -110,10 +110,15 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
                 a.axvline(x, color="0.45", lw=0.8, ls="--")
         a.grid(alpha=0.3)
     top = axes[0]
+    # Events at one angle share one tag (a chain stitch's loop is released as the next is picked).
+    tags: dict[float, list[str]] = {}
     for key, tag in _EVENTS.items():
         x = head.events.get(key)
         if x is not None and np.isfinite(x):
-            _label(top, tag, x, dx=2, ha="left", fontsize=8, rotation=90, color="0.3")
+            at = next((a for a in tags if abs(a - x) < 0.5), x)
+            tags.setdefault(at, []).append(tag)
+    for x, names in tags.items():
+        _label(top, " / ".join(names), x, dx=2, ha="left", fontsize=8, rotation=90, color="0.3")
     fig.suptitle(
         title(mech, f"timing diagram over one stitch; shaded: the {head.target} settings' windows"), fontsize=11
     )
