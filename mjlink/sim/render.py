@@ -493,8 +493,8 @@ def _open_writer(path: Path, fps: float):
         ) from e
     try:
         # macro_block_size=2: sizes are already even, so imageio must not rescale the frames.
-        # x264's "veryfast" preset: the same file size at this quality for about half the
-        # encoder's CPU of its default preset.
+        # x264's "veryfast" preset: the same file size at this quality for less of the
+        # encoder's CPU than its default preset.
         # One encoder thread: the frames come no faster than one thread encodes them, the
         # other core is drawing figures, and x264's threads decide differently with the
         # number of cores: with one, the same frames give the same file on every machine.

@@ -35,8 +35,8 @@ from .optimize import CHUNK_ROWS, budget, needed
 from .spec import Study
 from .tasks import mujoco_chunk, reference_chunk
 
-MUJOCO_STEPS_PER_S = 60_000.0  # RK4 steps per second per core, measured on the take-up's kinematic run
-MUJOCO_BUILD_S = 0.03  # seconds to build and compile one model, measured on the take-up
+MUJOCO_STEPS_PER_S = 60_000.0  # RK4 steps per second per core the plan assumes (bench/bench_study.py)
+MUJOCO_BUILD_S = 0.03  # seconds the plan assumes to build and compile one model
 TABLE_BYTES_PER_VALUE = 120.0  # a results table's value as Python objects and CSV text while written
 SAMPLE_BYTES = 8.0 * 24  # MuJoCo's recorded values per model step (position, velocity of a few points)
 CLUSTER_START_S = 2.0  # a local Dask cluster's start
