@@ -48,6 +48,7 @@ from ..units import DEG, MM, G
 from . import synthesis as synth
 from . import tomlio
 from .mechanism import Counterweight, Force, Mechanism, parse
+from .timing import LOOP_BODY
 
 _AXES = ("x", "y", "z")
 # section -> key -> (SI per file unit, file unit, must be positive)
@@ -157,10 +158,8 @@ def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None
         add("timing.fabric", MM, "mm", False, mech.timing.fabric)
     if mech.balance is not None:
         add("balance.stitch_length", MM, "mm", True, mech.balance.stitch_length)
-        if mech.timing is not None and mech.timing.stitch == "101":  # drawn round a looper, not a bobbin case
-            add("balance.looper", MM, "mm", True, mech.balance.looper)
-        else:
-            add("balance.bobbin_case", MM, "mm", True, mech.balance.bobbin_case)
+        body = LOOP_BODY[mech.timing.stitch if mech.timing is not None else "301"]
+        add(f"balance.{body}", MM, "mm", True, getattr(mech.balance, body))
         add("balance.check_spring_travel", MM, "mm", False, mech.balance.check_spring_travel)
         add("balance.stretch", 1.0, "", False, mech.balance.stretch)
     if mech.synthesis is not None:

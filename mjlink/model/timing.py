@@ -47,6 +47,10 @@ ROLES = ("needle_bar", "needle_point", "needle_eye", "hook_point", "feed_dog", "
 STITCHES = {"301": "lockstitch", "101": "single-thread chain stitch"}
 """The stitch types (ISO 4915) whose needle thread mjlink follows."""
 
+LOOP_BODY = {"301": "bobbin_case", "101": "looper"}
+"""Per stitch type, the ``[balance]`` key (and :class:`Balance` field) of what the needle's loop
+is drawn round: a lockstitch's bobbin case, a chain stitch's looper."""
+
 SETTINGS = {
     "hook_rise": "needle bar rise from its bottom dead centre when the hook point reaches the needle's centre line",
     "hook_above_eye": "height of the hook point above the top of the needle's eye at that moment",
@@ -184,7 +188,7 @@ def read_balance(r: Reader, raw: Any, thread: tuple[str, ...] | None, timing: Ti
     t = r.table(raw, "[balance]")
     if timing is None:
         raise r.fail("[balance]", "needs a [timing] table (the needle, the hook and the plate)")
-    body = "looper" if timing.stitch == "101" else "bobbin_case"
+    body = LOOP_BODY[timing.stitch]
     r.keys(t, "[balance]", ["stitch_length", body, "check_spring", "check_spring_travel"], ["stretch"])
     if not thread or thread[-1] != timing.roles["needle_eye"]:
         raise r.fail(
