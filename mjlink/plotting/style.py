@@ -298,13 +298,11 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
     boxes = []
     legends = [lg for ax in fig.axes if (lg := ax.get_legend()) is not None] + list(fig.legends)
     inside = {id(t) for lg in legends for t in lg.get_texts()} | {id(lg.get_title()) for lg in legends}
+    found = fig.findobj(matplotlib.text.Text)  # first: finding them makes any tick the view lacks
     ticks = {
-        id(t)
-        for ax in fig.axes
-        for axis in (ax.xaxis, ax.yaxis)
-        for t in [*axis.get_ticklabels(), *axis.get_ticklabels(minor=True), axis.get_offset_text()]
+        id(t) for ax in fig.axes for axis in (ax.xaxis, ax.yaxis) for t in [*_tick_labels(axis), axis.get_offset_text()]
     }
-    for t in fig.findobj(matplotlib.text.Text):
+    for t in found:
         if id(t) in inside or id(t) in ticks or not t.get_visible() or not t.get_text().strip():
             continue
         boxes.append((t.get_text(), t.get_window_extent(r)))
@@ -321,6 +319,13 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
 
 
 UNIT = re.compile(r"\[[^\]]+\]")  # an axis label's unit: "crank angle [deg]", "ratio [-]"
+
+
+def _tick_labels(axis: matplotlib.axis.Axis) -> list[matplotlib.text.Text]:
+    """Every tick label Text ``axis`` holds, drawn or not, read from its ``majorTicks`` and
+    ``minorTicks`` lists as they are: ``get_ticklabels`` would run the locator and formatter
+    again for every axis of the figure."""
+    return [t for tick in [*axis.majorTicks, *axis.minorTicks] for t in (tick.label1, tick.label2)]
 
 
 def _has_data(ax: Axes) -> bool:
@@ -360,9 +365,7 @@ def figure_defects(fig: Figure) -> list[str]:
     hidden = [ax for ax in fig.axes if not ax.get_visible()]
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
-            ticks |= {
-                id(t) for tick in [*axis.get_major_ticks(), *axis.get_minor_ticks()] for t in (tick.label1, tick.label2)
-            }
+            ticks |= {id(t) for t in _tick_labels(axis)}
             shown = _shown_tick_labels(axis) if ax.get_visible() and ax.axison and axis.get_visible() else []
             texts += shown
             if not shown or not _has_data(ax):
