@@ -27,7 +27,6 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, PathPatch
 from matplotlib.path import Path as MplPath
 from matplotlib.ticker import MaxNLocator
-from scipy import ndimage
 
 from .study_base import (
     ADMISSIBLE_FACE,
@@ -622,6 +621,8 @@ def _metric_panel(
     # Each cell takes its nearest variant's value where there is none: the colours reach the
     # cell edges, where the hatched (or pale) cells on top begin, rather than stopping one
     # half-cell short. The filled values are always covered.
+    from scipy import ndimage  # here: scipy.ndimage, only for a filled grid
+
     idx = ndimage.distance_transform_edt(~have, return_distances=False, return_indices=True)
     zf = z[tuple(idx)]
     small = gx.size < 2 or gy.size < 2
