@@ -26,7 +26,7 @@ from playwright.sync_api import sync_playwright  # noqa: E402
 
 from mjlink.analysis import summary  # noqa: E402
 from mjlink.model import catalogue, mechanism  # noqa: E402
-from mjlink.plotting import design_page  # noqa: E402
+from mjlink.pages import design as design_page  # noqa: E402
 
 
 def main() -> None:

@@ -17,7 +17,7 @@ from test_figures import _chromium
 from mjlink import reference, study, validation
 from mjlink.analysis import summary
 from mjlink.model import catalogue, mechanism
-from mjlink.plotting import design_page
+from mjlink.pages import design as design_page
 
 NAMES = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting", "lockstitch_head"]
 pytestmark = pytest.mark.slow

@@ -331,14 +331,14 @@ def _design_arguments(p: argparse.ArgumentParser) -> None:
 
 def _design(args: argparse.Namespace) -> int:
     from .. import output
-    from ..plotting import design_page  # here: the page's module, which list and --help do without
+    from ..pages import design  # here: the page's module, which list and --help do without
 
     mech = validation.get(args.mechanism)
     assert mech.path is not None  # a mechanism is read from its file
     path = args.output or Path("renders") / f"{mech.name}-design.html"
     if path.exists() and not args.force:
         raise MjlinkError(f"{path} exists: give --force to replace it")
-    output.write_text(path, design_page.design_html(mech, mech.path.read_text(encoding="utf-8")))
+    output.write_text(path, design.design_html(mech, mech.path.read_text(encoding="utf-8")))
     print(
         f"wrote {path}: open it in a browser (offline; drag the pivots, edit the numbers, save as TOML)",
         file=sys.stderr,

@@ -59,7 +59,7 @@ def model(mech: Mechanism) -> dict[str, Any]:
 
 
 def _script() -> str:
-    return importlib.resources.files("mjlink.plotting").joinpath("design.js").read_text(encoding="utf-8")
+    return importlib.resources.files("mjlink.pages").joinpath("design.js").read_text(encoding="utf-8")
 
 
 _CSS = """

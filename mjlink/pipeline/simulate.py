@@ -20,6 +20,7 @@ from ..analysis import summary
 from ..analysis.timing import head_timing
 from ..errors import SimulationError
 from ..model.mechanism import Mechanism
+from ..pages import design, index
 from ..runs import DYNAMIC, Settings, Trace
 from ..sim import builder, simulate
 from ..units import RunKind
@@ -205,13 +206,11 @@ def run(
         # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.
         xml = dyn.model.spec.to_xml() if dyn is not None else builder.to_xml(mech, DYNAMIC)
         output.write_text(stage / "model.xml", xml, in_stage=True)
-        from ..plotting import design_page, page  # here: matplotlib, not for --no-plots
-
         if mech.path is not None:  # drag-to-design edits the file as written
-            html = design_page.design_html(mech, mech.path.read_text(encoding="utf-8"))
+            html = design.design_html(mech, mech.path.read_text(encoding="utf-8"))
             output.write_text(stage / "design.html", html, in_stage=True)
         written = [p.name for p in stage.iterdir() if p.name != output.MARKER] + ["index.html"]
-        output.write_text(stage / "index.html", page.index_html(result, written), in_stage=True)
+        output.write_text(stage / "index.html", index.index_html(result, written), in_stage=True)
         files = tuple(sorted(p.name for p in stage.iterdir() if p.name != output.MARKER))
     return dataclasses.replace(result, files=files)
 
