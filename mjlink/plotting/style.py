@@ -298,7 +298,7 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
     boxes = []
     legends = [lg for ax in fig.axes if (lg := ax.get_legend()) is not None] + list(fig.legends)
     inside = {id(t) for lg in legends for t in lg.get_texts()} | {id(lg.get_title()) for lg in legends}
-    found = fig.findobj(matplotlib.text.Text)  # first: finding them makes any tick the view lacks
+    found = fig.findobj(matplotlib.text.Text)  # first: see _tick_labels
     ticks = {
         id(t) for ax in fig.axes for axis in (ax.xaxis, ax.yaxis) for t in [*_tick_labels(axis), axis.get_offset_text()]
     }
@@ -323,8 +323,9 @@ UNIT = re.compile(r"\[[^\]]+\]")  # an axis label's unit: "crank angle [deg]", "
 
 def _tick_labels(axis: matplotlib.axis.Axis) -> list[matplotlib.text.Text]:
     """Every tick label Text ``axis`` holds, drawn or not, read from its ``majorTicks`` and
-    ``minorTicks`` lists as they are: ``get_ticklabels`` would run the locator and formatter
-    again for every axis of the figure."""
+    ``minorTicks`` lists as they are (after the figure's texts were found, which makes any
+    tick the view lacks): ``get_ticklabels`` would run the locator and formatter again for
+    every axis of the figure."""
     return [t for tick in [*axis.majorTicks, *axis.minorTicks] for t in (tick.label1, tick.label2)]
 
 
@@ -365,7 +366,9 @@ def figure_defects(fig: Figure) -> list[str]:
     hidden = [ax for ax in fig.axes if not ax.get_visible()]
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
-            ticks |= {id(t) for t in _tick_labels(axis)}
+            ticks |= {
+                id(t) for tick in [*axis.get_major_ticks(), *axis.get_minor_ticks()] for t in (tick.label1, tick.label2)
+            }
             shown = _shown_tick_labels(axis) if ax.get_visible() and ax.axison and axis.get_visible() else []
             texts += shown
             if not shown or not _has_data(ax):
