@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import functools
 import os
 import re
 import sys
@@ -70,6 +71,9 @@ class _Version(argparse.Action):
         parser.exit(0)
 
 
+# Built once per process: a parser keeps nothing from one parse to the next, and a script or
+# a test suite may call main() many times (the help's width is still the terminal's when shown).
+@functools.cache
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="python -m mjlink",
