@@ -367,10 +367,10 @@ def _frames(
     renderer = writer = None
     shown = False
     try:
-        # A software rasterizer (Mesa llvmpipe, OSMesa: every machine here) pays about three
-        # times per frame for 4x multisampling, for an image that changes by 0.4/255 on average
-        # at these line widths: the first context is made without it, and only a hardware
-        # one is made again with the model's setting.
+        # A software rasterizer (Mesa llvmpipe, OSMesa: every machine here) pays several times
+        # per frame for 4x multisampling, for an image that changes by 0.4/255 on average at
+        # these line widths: the first context is made without it, and only a hardware one is
+        # made again with the model's setting.
         samples = int(model.vis.quality.offsamples)
         model.vis.quality.offsamples = 0
         # Capsules and cylinders with 16 slices and 8 stacks instead of MuJoCo's 28 and 16: a
@@ -406,7 +406,7 @@ def _frames(
             model.vis.quality.numslices, model.vis.quality.numstacks = slices
             renderer = _new_renderer(model, height, width)
         # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
-        # yet the 4096^2 shadow map costs ~2/3 of a frame on a software (Mesa) renderer.
+        # yet the 4096^2 shadow map is most of a frame's work on a software (Mesa) renderer.
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
         # The skybox's textured sphere is half of a software-rendered frame:
         # a flat backdrop behind the mechanism gives the same light ground (_decorate).

@@ -155,10 +155,9 @@ class Forces:
         ahead (qpos + qvel dt / 2: every joint is a hinge or a slide) gives the crank angle
         for the force tables and the points' lever arms, and the force is held through the
         step's Runge-Kutta stages (second order in the step, like the midpoint rule), instead
-        of a Python callback at every stage: that cost 255 us a step (5 s of a
-        takeup_eyelets run); this costs 2 kinematics passes a step, and omega still agrees
-        with the reference within 1.9e-5 of its range there (9.1e-6 with the per-stage
-        callback; threshold 5e-4). Holding the force of the step's start instead missed the
+        of a Python callback at every stage, which dominated a takeup_eyelets run; this costs
+        2 kinematics passes a step, and omega still agrees with the reference within 1.9e-5
+        of its range there (9.1e-6 with the per-stage callback; threshold 5e-4). Holding the force of the step's start instead missed the
         threshold (1.5e-3): the lever arm and the table lag by half a step. MuJoCo has no
         native element for a force that is a table of the crank angle (an actuator's gain and
         bias are affine in its own length and speed), and rollout's open-loop controls would
