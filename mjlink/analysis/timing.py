@@ -235,13 +235,12 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
     above = np.array([_at(theta, hp[:, 1] - centre[1], t) > 0 for t in cross], dtype=bool)
     picks = cross[above]
     pick = float(picks[np.argmin((picks - theta[bdc]) % 360.0)]) if len(picks) else math.nan
-    ratio = abs(hook.ratio)
     if tm.stitch == "101":
         # A chain stitch's looper holds its loop until it takes the next: the held loop is cast
         # off at the pick-up (the needle has passed through it), and the take-up draws it tight.
         release = pick
     else:
-        release = (pick + math.degrees(tm.loop_release) / ratio) % 360.0 if math.isfinite(pick) else math.nan
+        release = _carried(tm, hook, pick) if math.isfinite(pick) else math.nan
     j = int(np.argmax(take))
     a, b, c = take[j - 1], take[j], take[(j + 1) % len(take)]
     # The top between samples: the vertex of the parabola through the best one and its neighbours.
@@ -538,7 +537,7 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         ),
     )
     if tm.stitch == "101":
-        spread = (pick + math.degrees(tm.loop_release) / abs(hook.ratio)) % 360.0
+        spread = _carried(tm, hook, pick)
         phases = {}
         if _between(np.array([spread]), drawn, enters)[0]:
             phases["loop spread on the looper"] = (drawn, spread)
@@ -553,6 +552,12 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
             "loop cast off, stitch set": (release, drawn),
         }
     return ThreadBalance(th, path / MM, supply / MM, demand / MM, balance / MM, phases, per_stitch / MM, rows)
+
+
+def _carried(tm: Timing, hook: Crank, pick: float) -> float:
+    """The crank angle (deg) at which the hook has carried the loop ``loop_release`` of its own
+    turn from the pick-up at ``pick``: a lockstitch's release, a chain stitch's loop spread."""
+    return (pick + math.degrees(tm.loop_release) / abs(hook.ratio)) % 360.0
 
 
 def _travel(head: HeadTiming, start: int, stitch_length: float) -> np.ndarray:
@@ -632,7 +637,7 @@ def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank) -> np.ndarray:
     hole = np.column_stack([x_n + off, np.full(len(th), tm.plate)])  # the hole's underside
     # The looper's point carries the loop for loop_release of its turn, then holds it there.
     turn = np.minimum(np.radians((th - pick) % 360.0) * ratio, tm.loop_release)
-    spread = (pick + math.degrees(tm.loop_release) / ratio) % 360.0
+    spread = _carried(tm, hook, pick)
     held = np.array([_at(th, hp[:, 0], spread), _at(th, hp[:, 1], spread)])
     carrying = _between(th, pick, spread)
     point = np.where(carrying[:, None], hp[:, :2], held[None, :])
