@@ -44,16 +44,18 @@ def test_list_and_help():
 
 
 def test_errors_are_one_line_and_nonzero(tmp_path):
+    # A real process: the status the entry point exits with; the messages in this process.
     r = in_a_process("simulate", "nosuch", "--out", str(tmp_path))
     assert r.returncode == 1
     assert r.stderr.strip().count("\n") == 0 and "unknown mechanism 'nosuch'" in r.stderr
     bad = tmp_path / "bad.toml"
     bad.write_text("[mechanism]\nname = 'x'\n")
-    r = in_a_process("simulate", str(bad), "--out", str(tmp_path), "--no-video")
+    r = mjlink("simulate", str(bad), "--out", str(tmp_path), "--no-video")
     assert r.returncode == 1 and "Traceback" not in r.stderr and str(bad) in r.stderr
+    assert r.stderr.strip().count("\n") == 0
     assert not (tmp_path / "x").exists()
-    r = in_a_process("simulate", "takeup", "--speed", "0rad/s", "--out", str(tmp_path))
-    assert r.returncode == 1 and "--speed" in r.stderr
+    r = mjlink("simulate", "takeup", "--speed", "0rad/s", "--out", str(tmp_path))
+    assert r.returncode == 1 and "--speed" in r.stderr and r.stderr.strip().count("\n") == 0
 
 
 def test_synth_prints_the_table_and_writes_a_runnable_file(tmp_path):

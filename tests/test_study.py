@@ -297,11 +297,11 @@ def test_a_real_two_worker_dask_cluster_gives_the_same_bits(two_workers: Any) ->
 def test_dask_cluster_gives_the_same_optimum(two_workers: Any) -> None:
     """An optimization's generations on a real cluster: the in-process winner and archive."""
     from distributed import Client
-    from test_optimize import CIRCLE, _study
+    from test_optimize import CIRCLE, _short, _study
 
     from mjlink.study import optimize
 
-    st = _study(CIRCLE.replace("generations = 120", "generations = 10"))
+    st = _study(_short(CIRCLE, **{"generations = 120": "generations = 10"}))
     here = optimize.run(st)
     with Client(two_workers) as client:
         there = optimize.run(st, client=client, workers=2)
