@@ -15,6 +15,9 @@ Sections (each a function returning table rows), side by side in one run:
   threads, against a plain C loop ``mj_step(m, d, nstep=N)`` on the same models, side by side
   in one run: wall and CPU seconds, and the ratios that matter (rollout per thread against
   the C loop; 2 threads against 1).
+* :func:`bench_scatter`: the study's scatter matrix of 10,000 variants of 7 parameters and 7
+  metrics (6 x 6 panels drawn, about a tenth infeasible), written as its PNG: its goal is
+  3 s of CPU.
 * :func:`bench_verify`: :func:`mjlink.sim.batch.verify` of take-up tolerance variants (every
   block's ``length``, ``length_a``, ``length_b`` and the x, y of the ground pivots P1 and P4
   deviating uniformly within +-0.02 mm), building and compiling included, with its time split.
@@ -348,6 +351,47 @@ def bench_study(samples: int = 1000, repeat: int = 2) -> list[Row]:
     ]
 
 
+SCATTER_GOAL_S = 3.0  # CPU seconds for the scatter matrix of 10,000 variants
+
+
+def bench_scatter(variants: int = 10_000, repeat: int = 3) -> list[Row]:
+    """The study's scatter matrix of ``variants`` variants (7 parameters, 7 metrics: 6 x 6
+    panels drawn), drawn and written ``repeat`` times after one warm-up: the best wall and CPU
+    seconds against its goal."""
+    import tempfile
+
+    from mjlink.plotting import study as sp
+
+    rng = np.random.default_rng(0)
+    params = [
+        sp.Column(
+            f"construct.P{i}.length_a", f"l{i} (construct.P{i}.length_a)", "mm", 20 + 0.05 * rng.normal(size=variants)
+        )
+        for i in range(7)
+    ]
+    feasible = rng.random(variants) > 0.1
+    metrics = [
+        sp.Column(f"metric_{k}", f"metric {k}", "mm", np.where(feasible, 40 + 2 * (params[k].values - 20), np.nan))
+        for k in range(7)
+    ]
+    verified = np.full(variants, -1, dtype=np.int8)
+    verified[:60:2] = 1
+    times = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(repeat + 1):
+            times.append(_timed(lambda: sp.scatter_matrix("bench", params, metrics, feasible, verified, Path(tmp))))
+    wall, cpu = min(t[0] for t in times[1:]), min(t[1] for t in times[1:])
+    verdict = "within" if cpu <= SCATTER_GOAL_S else "OVER"
+    return [
+        (
+            f"scatter matrix, {variants} variants (6 x 6 panels)",
+            f"{wall:.2f}",
+            f"{cpu:.2f}",
+            f"best of {repeat}; {verdict} the {SCATTER_GOAL_S:g} s goal",
+        )
+    ]
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run every section and print one table."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -362,6 +406,7 @@ def main(argv: list[str] | None = None) -> None:
     rows += bench_rollout(20 if a.quick else 200, repeat=1 if a.quick else 3)
     rows += bench_verify(n, a.threads)
     rows += bench_study(40 if a.quick else 1000, repeat=1 if a.quick else 2)
+    rows += bench_scatter(repeat=1 if a.quick else 3)
     width = max(len(r[0]) for r in rows)
     print(f"load average before the runs: {load:.2f} on {os.cpu_count()} cores")
     print(f"{'':<{width}}  {'wall s':>8}  {'CPU s':>8}  note")

@@ -4,7 +4,6 @@ text (rendered extents of neighbouring panels' texts apart) and the drawing time
 from __future__ import annotations
 
 import itertools
-import time
 from pathlib import Path
 from typing import Any
 
@@ -127,16 +126,15 @@ def assert_legible(fig: Figure) -> None:
 
 
 # ----------------------------------------------------------------------------- scatter matrix
-def test_scatter_matrix_of_10000_variants_is_fast_complete_and_legible(tmp_path: Path, figures: list[Figure]) -> None:
+def test_scatter_matrix_of_10000_variants_is_complete_and_legible(tmp_path: Path, figures: list[Figure]) -> None:
     V = 10_000
     params, metrics, feasible = _study(V, P=7, M=7)
     verified = np.full(V, -1, dtype=np.int8)
     verified[:60:2] = 1
     verified[1:12:2] = 0
     nominal = {c.name: 20.0 for c in params} | {"metric_0": 40.0}
-    t0 = time.process_time()
+    # Its speed (a goal of 3 s of CPU) is measured by bench/bench_study.py, not here.
     path = sp.scatter_matrix(NASTY, params, metrics, feasible, verified, tmp_path, nominal=nominal)
-    assert time.process_time() - t0 < 3.0, "10,000 variants, 6 x 6 panels must draw in under 3 s"
     _png(path)
     (fig,) = figures
     axes = [ax for ax in fig.axes if ax.get_visible()]
