@@ -133,7 +133,7 @@ def test_scatter_matrix_of_10000_variants_is_complete_and_legible(tmp_path: Path
     verified[:60:2] = 1
     verified[1:12:2] = 0
     nominal = {c.name: 20.0 for c in params} | {"metric_0": 40.0}
-    # Its speed (a goal of 3 s of CPU) is measured by bench/bench_study.py, not here.
+    # Its speed goal is measured by bench/bench_study.py (bench_scatter), not here.
     path = sp.scatter_matrix(NASTY, params, metrics, feasible, verified, tmp_path, nominal=nominal)
     _png(path)
     (fig,) = figures
