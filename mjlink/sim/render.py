@@ -367,8 +367,8 @@ def _frames(
     renderer = writer = None
     shown = False
     try:
-        # A software rasterizer (Mesa llvmpipe, OSMesa: every machine here) pays several times
-        # per frame for 4x multisampling, for an image that changes by 0.4/255 on average at
+        # A software rasterizer (Mesa llvmpipe, OSMesa: every machine here) pays for 4x
+        # multisampling in every frame, for an image that changes by 0.4/255 on average at
         # these line widths: the first context is made without it, and only a hardware one is
         # made again with the model's setting.
         samples = int(model.vis.quality.offsamples)
@@ -379,7 +379,7 @@ def _frames(
         slices = (int(model.vis.quality.numslices), int(model.vis.quality.numstacks))
         model.vis.quality.numslices, model.vis.quality.numstacks = min(slices[0], 16), min(slices[1], 8)
         # No shadow map either: shadows are switched off below, and MuJoCo would still
-        # allocate the 4096^2 map with the context (a third of a software context's making).
+        # allocate the 4096^2 map with the context, for nothing.
         model.vis.quality.shadowsize = 0
         if not hasattr(mujoco, "GLContext"):  # MUJOCO_GL turned OpenGL off
             raise context_failure(backend, None)
@@ -406,9 +406,9 @@ def _frames(
             model.vis.quality.numslices, model.vis.quality.numstacks = slices
             renderer = _new_renderer(model, height, width)
         # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
-        # yet the 4096^2 shadow map is most of a frame's work on a software (Mesa) renderer.
+        # yet a software (Mesa) renderer would draw the 4096^2 shadow map for every frame.
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
-        # The skybox's textured sphere is half of a software-rendered frame:
+        # The skybox's textured sphere would be rasterized in software for every frame:
         # a flat backdrop behind the mechanism gives the same light ground (_decorate).
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
         from PIL import ImageFont  # here: only for a video's overlay

@@ -41,7 +41,7 @@ TABLE_BYTES_PER_VALUE = 120.0  # a results table's value as Python objects and C
 SAMPLE_BYTES = 8.0 * 24  # MuJoCo's recorded values per model step (position, velocity of a few points)
 CLUSTER_START_S = 2.0  # a local Dask cluster's start
 # An optimization's generation below this much work runs faster in this process than on a
-# local cluster, whose calls cost milliseconds each way and whose polish runs here anyway
+# local cluster, whose every call makes a round trip and whose polish runs here anyway
 # (bench/bench_optimize.py compares the two).
 SMALL_GENERATION_S = 0.1
 CALIBRATION_VARIANTS = 16
