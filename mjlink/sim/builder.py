@@ -187,7 +187,7 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         diffuse=[0.7, 0.7, 0.7],
         type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
         castshadow=False,
-    )  # no shadows: nothing for them to fall on, and a software renderer pays most of a frame for them
+    )  # no shadows: nothing for them to fall on, and a software renderer would draw them every frame
     # Looking down -Z with Y up; far enough to hold the swept box in a 4:3 frame.
     fovy = 40.0
     half_h = 0.5 * max(hi[1] - lo[1], (hi[0] - lo[0]) * 3.0 / 4.0) + 8 * r_link
