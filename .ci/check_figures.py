@@ -28,8 +28,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 from mjlink import validation  # noqa: E402
 from mjlink.cli import main  # noqa: E402
 from mjlink.model import catalogue  # noqa: E402
-from mjlink.pipeline import workers  # noqa: E402
 from mjlink.plotting import style  # noqa: E402
+from mjlink.runtime import workers  # noqa: E402
 
 # At most this many of each (a study keeps its own smaller numbers). The head's eyelet
 # take-up needs a larger population to find a feasible design at all.

@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import peer_pylinkage as peer  # noqa: E402  (the problem's single definition)
 
-from mjlink.study import engine as study_engine  # noqa: E402
+from mjlink.runtime import cluster  # noqa: E402
 from mjlink.study import optimize  # noqa: E402
 from mjlink.study.spec import load, parse  # noqa: E402
 
@@ -164,7 +164,7 @@ def seeds(quick: bool) -> list[str]:
     # The engine's own local cluster, as `study --workers 2` starts it (its workers' allocator
     # set before they start, mjlink imported and warmed).
     tops = [ceiling(rb)]  # before and after the runs: the host's share drifts within minutes
-    with study_engine.client_for(workers=2) as (client, _):
+    with cluster.client_for(workers=2) as (client, _):
         times = {}
         for engine in ("in process", "Dask 2 workers", "in process", "Dask 2 workers"):
             c0, w0, t0 = time.process_time(), _workers_cpu(client), time.perf_counter()

@@ -40,7 +40,7 @@ import tempfile
 import time
 from pathlib import Path
 
-# As the command line runs (mjlink.memory.one_blas_thread): the in-process contenders, mjlink's and the
+# As the command line runs (mjlink.runtime.environment.one_blas_thread): the in-process contenders, mjlink's and the
 # peers' alike, with numpy's OpenBLAS on one thread. Set before numpy is loaded.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 

@@ -1,6 +1,6 @@
 """``python -m mjlink`` and the ``mjlink`` command: the command line's entry point, :func:`entry`.
 
-It sets what the process needs before numpy loads (:func:`mjlink.memory.one_blas_thread`), runs
+It sets what the process needs before numpy loads (:func:`mjlink.runtime.environment.one_blas_thread`), runs
 :func:`mjlink.cli.main`, and exits with its status.
 """
 
@@ -10,7 +10,7 @@ import os
 import sys
 from typing import NoReturn
 
-from . import memory
+from .runtime import environment
 
 
 def entry() -> NoReturn:
@@ -21,7 +21,7 @@ def entry() -> NoReturn:
     its output is flushed: a Ctrl-C that reached Python code called from C (MuJoCo's bindings)
     leaves CPython believing the interruption unhandled, and a normal exit would then end the
     process by re-raising SIGINT on itself (status -2, not the documented 130)."""
-    memory.one_blas_thread()
+    environment.one_blas_thread()
     from .cli import main  # after one_blas_thread: the command line loads numpy
 
     status = main()

@@ -115,7 +115,7 @@ class Check:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Agreement:
     """Worst-case agreement of one run; see the module docstring for definitions."""
 
@@ -285,19 +285,19 @@ def agreement(
         lw = max(np.abs(mj.link_omega[l] - ref.link_omega[l]).max() for l in links) / sw if sw > 0 else 0.0
         le = max(np.abs(mj.link_eps[l] - ref.link_eps[l]).max() for l in links) / se if se > 0 else 0.0
     return Agreement(
-        mj.kind,
-        len(mj.time),
-        tuple(pts),
-        max(p.position_um for p in pts),
-        max(p.velocity_rel for p in pts),
-        max(p.acceleration_rel for p in pts),
-        loop,
-        thread,
-        w_abs,
-        w_rel,
-        lw,
-        le,
-        float(np.abs(mj.omega - mj.omega[0]).max() / abs(mj.omega[0]))
+        kind=mj.kind,
+        samples=len(mj.time),
+        points=tuple(pts),
+        position_um=max(p.position_um for p in pts),
+        velocity_rel=max(p.velocity_rel for p in pts),
+        acceleration_rel=max(p.acceleration_rel for p in pts),
+        loop_um=loop,
+        thread_um=thread,
+        omega_abs=w_abs,
+        omega_rel=w_rel,
+        link_omega_rel=lw,
+        link_eps_rel=le,
+        speed_rel=float(np.abs(mj.omega - mj.omega[0]).max() / abs(mj.omega[0]))
         if mj.kind == RunKind.KINEMATICS and mj.omega[0] != 0
         else None,
     )

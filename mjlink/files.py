@@ -3,7 +3,7 @@
 Every file mjlink writes is complete or absent: a file on its own is written to a temporary
 name beside it and renamed into place (:func:`atomic_path`, :func:`write_text`); the files of an
 output folder are written into its staging folder (``write_text(..., in_stage=True)``), which
-:func:`mjlink.output.staged_dir` publishes whole. CSV files are written by :func:`write_table`
+:func:`mjlink.runtime.staging.staged_dir` publishes whole. CSV files are written by :func:`write_table`
 alone, report files by :func:`write_json`. A single file is replaced only if it is a regular
 file (a FIFO, a device or a folder is refused; a symbolic link is written through, its target
 replaced).

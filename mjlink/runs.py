@@ -16,7 +16,7 @@ from .errors import MjlinkError
 from .units import Integrator, RunKind, Source
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Settings:
     """Numerical settings of a model.
 
@@ -48,7 +48,7 @@ KINEMATIC = Settings(timestep=5e-5, solref=(2e-4, 1.0))
 DYNAMIC = Settings(timestep=5e-5, solref=(1e-4, 1.0))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Trace:
     """A run sampled in time. ``source`` 'mujoco' or 'reference'; ``kind`` 'kinematics' or
     'dynamics'. ``time`` s, ``phi`` rad (unwrapped input angle), ``omega`` rad/s, ``eps``

@@ -103,19 +103,19 @@ def block_angles(mech: Mechanism, kin: reference.Kinematics | None = None) -> tu
         fails = reference.angle_ranges(phi, ~closes) if not closes.all() else ""
         out.append(
             BlockAngle(
-                s.kind,
-                s.point,
-                s.label(),
-                s.carriers(mech.links),
-                dp.quantity,
-                worst,
-                mg,
-                at,
-                dp.limit_deg,
-                bool(closes.all()),
-                fails,
-                s,
-                dp.required_margin_deg,
+                kind=s.kind,
+                point=s.point,
+                label=s.label(),
+                links=s.carriers(mech.links),
+                quantity=dp.quantity,
+                worst_deg=worst,
+                margin_deg=mg,
+                phi_deg=at,
+                limit_deg=dp.limit_deg,
+                closes=bool(closes.all()),
+                fails_deg=fails,
+                block=s,
+                required_margin_deg=dp.required_margin_deg,
             )
         )
     return tuple(out)
@@ -129,7 +129,7 @@ def _wrap(mech: Mechanism, phi: float) -> float:
 
 
 # --------------------------------------------------------------------------- degrees of freedom
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Mobility:
     """Degrees of freedom: the Chebyshev-Gruebler count ``W = 3 n - 2 p``, backed by the rank
     of the constraint Jacobian.
@@ -186,7 +186,7 @@ def mobility(mech: Mechanism, kin: reference.Kinematics | None = None) -> Mobili
     revolute = sum(k + (1 if p in mech.ground else 0) - 1 for p, k in bodies.items())
     prismatic = sum(1 for l in mech.links if l.guide)
     gears = len(mech.geared)
-    count = Mobility(len(mech.links), revolute, prismatic, gears)
+    count = Mobility(moving_links=len(mech.links), revolute=revolute, prismatic=prismatic, gears=gears)
     try:
         actual, free, redundant = _rank_mobility(mech, kin)
     except (MechanismFileError, AssemblyError, KeyError, StopIteration, IndexError):
@@ -614,7 +614,7 @@ class GearInfo:
     phase: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CheckReport:
     """Everything :func:`check` found. ``problems`` are (error class name, one-line message)
     pairs in the order :func:`mjlink.validate` checks them; ``notes`` are remarks
@@ -731,19 +731,19 @@ def check(mech: Mechanism) -> CheckReport:
         notes.append(f"{', '.join(point_masses)}: mass without inertia, treated as a point mass at its 'com'")
     notes += plausibility(mech)
     return CheckReport(
-        mech.name,
-        mech.title,
-        str(mech.path or "<string>"),
-        points,
-        links,
-        tuple(pairs),
-        gears,
-        mobility(mech, cycle.kin),
-        full,
-        ranges,
-        angles,
-        probs,
-        tuple(notes),
-        math.degrees(mech.period),
-        head_timing(mech) if mech.timing is not None and full and not probs else None,
+        name=mech.name,
+        title=mech.title,
+        path=str(mech.path or "<string>"),
+        points=points,
+        links=links,
+        pairs=tuple(pairs),
+        gears=gears,
+        mobility=mobility(mech, cycle.kin),
+        full_turn=full,
+        assembly_ranges=ranges,
+        angles=angles,
+        problems=probs,
+        notes=tuple(notes),
+        period_deg=math.degrees(mech.period),
+        timing=head_timing(mech) if mech.timing is not None and full and not probs else None,
     )

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 # One OpenBLAS thread (numpy's BLAS) in the test processes, as the command line sets for itself
-# before numpy loads (mjlink.memory.one_blas_thread): with two xdist workers on two cores, its
+# before numpy loads (mjlink.runtime.environment.one_blas_thread): with two xdist workers on two cores, its
 # idle threads spun on the other worker's core. Set before any test imports numpy; a value set by
 # the user is kept. The subprocesses the tests start inherit it as a user's setting; the check of
 # the command line's own setting (test_cli) removes it from its child's environment, and nothing

@@ -148,7 +148,7 @@ def test_command_line_runs_openblas_on_one_thread():
     """The command line's entry point, before it imports numpy, leaves numpy's OpenBLAS with one
     thread (its idle threads spun on a core the plot workers need), unless the user set a number."""
     code = (
-        "import os, mjlink.__main__, mjlink.memory; mjlink.memory.one_blas_thread(); import mjlink.cli; "
+        "import os, mjlink.__main__, mjlink.runtime.environment; mjlink.runtime.environment.one_blas_thread(); import mjlink.cli; "
         "import numpy as np; a = np.ones((600, 600)); a @ a; "
         "print(os.environ['OPENBLAS_NUM_THREADS'], len(os.listdir('/proc/self/task')))"
     )

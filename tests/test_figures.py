@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 from test_plots import KNOWN, _check_png, _expected
 
-from mjlink import output
+from mjlink import files
 from mjlink.cli import main
 from mjlink.model import catalogue, mechanism
-from mjlink.pipeline import workers
 from mjlink.plotting import figures, style
+from mjlink.runtime import markers, workers
 
 MECHS = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting", "lockstitch_head"]
 SPEED_AND_LOADS = {
@@ -121,7 +121,7 @@ def test_every_mechanism_gets_its_figures(run_figures):
     assert pngs == set(figs), "unreported figure files"
     for name in pngs:
         _check_png(out / name)
-    assert not [p.name for p in out.iterdir() if p.name.startswith(".") and p.name != output.MARKER], "temporary files"
+    assert not [p.name for p in out.iterdir() if p.name.startswith(".") and p.name != markers.MARKER], "temporary files"
     if mech.timing is not None:  # a sewing head: its timing and thread balance, reported
         _head_report_and_page(run_figures)
 
@@ -234,7 +234,7 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
     assert rep["agreement"]["dynamics"]["omega_rel"] <= 5e-4
     assert rep["video"]["frames"] == 30
     assert "Agreement of MuJoCo" in stdout and "thresholds" in stdout
-    kin = output.read_csv(out / "kinematics.csv")
+    kin = files.read_csv(out / "kinematics.csv")
     for col in (
         "time_s",
         "phi1_deg",
@@ -248,7 +248,7 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
     ):
         assert col in kin
     assert kin["phi1_deg"][-1] - kin["phi1_deg"][0] >= 359.0
-    ref = output.read_csv(out / "reference_kinematics.csv")
+    ref = files.read_csv(out / "reference_kinematics.csv")
     assert np.abs(kin["P5_x_mm"] - ref["P5_x_mm"]).max() < 1e-3  # mm; same times, same crank law
     mujoco.MjModel.from_xml_path(str(out / "model.xml"))
     page = out / "index.html"

@@ -27,12 +27,12 @@ from pathlib import Path
 import pytest
 from conftest import ROOT
 
-from mjlink import output, pipeline, validation
+from mjlink import files, pipeline, validation
 from mjlink.cli import main
 from mjlink.errors import OutputError
 from mjlink.model import catalogue
 from mjlink.model.mechanism import parse
-from mjlink.pipeline import workers
+from mjlink.runtime import markers, signals, staging, workers
 
 EXAMPLE_PATH = catalogue.MECHANISMS_DIR / "examples" / "crank_rocker.toml"
 EXAMPLE = EXAMPLE_PATH.read_text()
@@ -66,7 +66,7 @@ def dead_pid():
 def test_a_run_replaces_its_own_files_and_keeps_the_users(tmp_path, mech):
     first = pipeline.run(mech, tmp_path, pipeline.Options(dynamics=False, plots=False, video=False, loads=True))
     out = first.out_dir
-    marker = output.read_marker(out)
+    marker = markers.read_marker(out)
     assert marker is not None and marker["kind"] == "simulate" and marker["mechanism"] == "crank_rocker"
     assert marker["files"] == sorted(first.files) and "loads.csv" in marker["files"]
     (out / "notes.txt").write_text("my notes\n")
@@ -81,7 +81,7 @@ def test_a_run_replaces_its_own_files_and_keeps_the_users(tmp_path, mech):
     assert (out / "notes.txt").read_text() == "my notes\n" and (out / "notes.txt").stat().st_ino == inode
     assert (out / "mine" / "fit.py").read_text() == "print(1)\n"
     assert os.readlink(out / "notes_link") == "notes.txt"
-    assert output.read_marker(out)["files"] == sorted(second.files)  # the user's files are not claimed
+    assert markers.read_marker(out)["files"] == sorted(second.files)  # the user's files are not claimed
     assert hidden(tmp_path) == []
 
 
@@ -101,26 +101,26 @@ def test_a_folder_mjlink_did_not_write_is_refused_in_one_line(tmp_path, mech):
     assert (user / "thesis.tex").read_text() == "\\begin{document}\n"
     assert json.loads((user / "report.json").read_text())["mechanism"] == "crank_rocker"
     assert set(res.files) | {"thesis.tex", ".mjlink-output.json"} == set(names(user))
-    assert "thesis.tex" not in output.read_marker(user)["files"]
+    assert "thesis.tex" not in markers.read_marker(user)["files"]
     pipeline.run(mech, tmp_path, FAST)  # now it is mjlink's: no --force needed, thesis.tex still kept
     assert (user / "thesis.tex").read_text() == "\\begin{document}\n"
     (tmp_path / "empty" / "crank_rocker").mkdir(parents=True)  # an empty folder has nothing to lose
-    assert output.read_marker(pipeline.run(mech, tmp_path / "empty", FAST).out_dir)["kind"] == "simulate"
+    assert markers.read_marker(pipeline.run(mech, tmp_path / "empty", FAST).out_dir)["kind"] == "simulate"
 
 
 def test_a_users_file_with_the_name_of_a_new_output_is_not_replaced(tmp_path):
     dest = tmp_path / "x"
-    with output.staged_dir(dest, kind="simulate", mechanism="x") as stage:
+    with staging.staged_dir(dest, kind="simulate", mechanism="x") as stage:
         (stage / "a.csv").write_text("1\n")
     (dest / "b.png").write_text("the user's picture")
     with pytest.raises(OutputError, match=r"b\.png in it was not written by mjlink; .*--force") as e:
-        with output.staged_dir(dest, kind="simulate", mechanism="x") as stage:
+        with staging.staged_dir(dest, kind="simulate", mechanism="x") as stage:
             (stage / "a.csv").write_text("2\n")
             (stage / "b.png").write_text("mjlink's plot")
     assert "\n" not in str(e.value)
     assert (dest / "b.png").read_text() == "the user's picture" and (dest / "a.csv").read_text() == "1\n"
     assert hidden(tmp_path) == []
-    with output.staged_dir(dest, kind="simulate", mechanism="x", force=True) as stage:
+    with staging.staged_dir(dest, kind="simulate", mechanism="x", force=True) as stage:
         (stage / "b.png").write_text("mjlink's plot")
     assert names(dest) == [".mjlink-output.json", "b.png"]  # a.csv was mjlink's and is not written again
     assert (dest / "b.png").read_text() == "mjlink's plot"
@@ -129,7 +129,7 @@ def test_a_users_file_with_the_name_of_a_new_output_is_not_replaced(tmp_path):
 def test_commands_never_write_into_each_others_folders(tmp_path, mech):
     loads = pipeline.loads(mech, tmp_path, plots=False)
     folder = loads.out_dir
-    assert folder.name == "crank_rocker_loads" and output.read_marker(folder)["kind"] == "loads"
+    assert folder.name == "crank_rocker_loads" and markers.read_marker(folder)["kind"] == "loads"
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     # A mechanism named like the torque command's folder: simulate must not replace it.
     impostor = validation.validate(
@@ -143,15 +143,15 @@ def test_commands_never_write_into_each_others_folders(tmp_path, mech):
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
     # Nor may the steady study, or the same command for another mechanism.
     with pytest.raises(OutputError, match="--force"):
-        with output.staged_dir(folder, kind="steady", mechanism="crank_rocker") as stage:
+        with staging.staged_dir(folder, kind="steady", mechanism="crank_rocker") as stage:
             (stage / "steady.png").write_text("x")
     with pytest.raises(OutputError, match="for crank_rocker, not for other"):
-        with output.staged_dir(folder, kind="loads", mechanism="other") as stage:
+        with staging.staged_dir(folder, kind="loads", mechanism="other") as stage:
             (stage / "loads.csv").write_text("x")
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before and hidden(tmp_path) == []
     # The same command again replaces its own folder.
     assert pipeline.loads(mech, tmp_path, plots=False).out_dir == folder
-    assert output.read_marker(folder)["kind"] == "loads"
+    assert markers.read_marker(folder)["kind"] == "loads"
 
 
 # ============================================================================ 10: non-regular targets
@@ -167,7 +167,7 @@ def test_build_refuses_a_fifo(tmp_path, capsys):
 def test_the_writer_refuses_a_folder(tmp_path):
     (tmp_path / "model.xml").mkdir()
     with pytest.raises(OutputError, match=r"model\.xml is a folder, not a regular file: refusing to replace it$"):
-        output.write_text(tmp_path / "model.xml", "<mujoco/>")
+        files.write_text(tmp_path / "model.xml", "<mujoco/>")
     assert names(tmp_path) == ["model.xml"] and names(tmp_path / "model.xml") == []
 
 
@@ -177,7 +177,7 @@ def test_build_refuses_dev_null(capsys):
     # The writer itself first, with a body that aborts: even if it failed to refuse, /dev/null
     # would not be replaced (tests run as root here, where that would succeed).
     with pytest.raises(OutputError, match="is a character device"):
-        with output.atomic_path("/dev/null"):
+        with files.atomic_path("/dev/null"):
             raise AssertionError("/dev/null was not refused")
     assert main(["build", str(EXAMPLE_PATH), "-o", "/dev/null"]) == 1
     err = capsys.readouterr().err
@@ -374,8 +374,8 @@ def test_sigkill_takes_the_worker_along_and_the_next_run_removes_the_stage(tmp_p
     killed = out / f".takeup.partial-{dead}-x"
     killed.mkdir()
     (killed / "kinematics.csv").write_text("half")
-    marker = json.loads((out / stale / output.MARKER).read_text())
-    (killed / output.MARKER).write_text(json.dumps({**marker, "stage": killed.name, "pid": dead}))
+    marker = json.loads((out / stale / markers.MARKER).read_text())
+    (killed / markers.MARKER).write_text(json.dumps({**marker, "stage": killed.name, "pid": dead}))
     mine = out / f".takeup.partial-{dead}-z"
     mine.mkdir()
     (mine / "notes.txt").write_text("the user's")
@@ -394,10 +394,10 @@ def test_an_interrupted_publication_is_put_back_by_the_next_run(tmp_path, mech):
     first = pipeline.run(mech, tmp_path, FAST)
     (first.out_dir / "notes.txt").write_text("mine")
     os.rename(first.out_dir, tmp_path / f".crank_rocker.old-{dead_pid()}")
-    with output.staged_dir(tmp_path / "other", kind="simulate", mechanism="other") as stage:
+    with staging.staged_dir(tmp_path / "other", kind="simulate", mechanism="other") as stage:
         (stage / "a.csv").write_text("1\n")
     assert hidden(tmp_path) == [] and (first.out_dir / "notes.txt").read_text() == "mine"
-    assert output.read_marker(first.out_dir)["files"] == sorted(first.files)
+    assert markers.read_marker(first.out_dir)["files"] == sorted(first.files)
 
 
 @linux_only
@@ -441,7 +441,7 @@ def test_a_failing_run_stops_its_worker_before_removing_the_stage(tmp_path):
     pidfile = tmp_path / "worker.pid"
     out = tmp_path / "out"
     with pytest.raises(RuntimeError, match="the video failed"):
-        with output.staged_dir(out / "x", kind="simulate") as stage:
+        with staging.staged_dir(out / "x", kind="simulate") as stage:
             worker = workers.start([functools.partial(_slow_plot, stage, pidfile, 1.0)])
             assert worker is not None and _until(pidfile.exists, timeout=30)
             raise RuntimeError("the video failed")
@@ -452,12 +452,12 @@ def test_a_failing_run_stops_its_worker_before_removing_the_stage(tmp_path):
 
 @linux_only
 def test_the_workers_error_and_success_reach_the_run(tmp_path):
-    with output.staged_dir(tmp_path / "ok", kind="simulate") as stage:
+    with staging.staged_dir(tmp_path / "ok", kind="simulate") as stage:
         worker = workers.start([functools.partial(_slow_plot, stage, tmp_path / "pid", 0.0)])
         workers.finish(worker)
     assert (tmp_path / "ok" / "late.png").is_file() and _stat(worker.pid) is None
     with pytest.raises(OutputError, match=r"positions\.png: cannot write plot: No space left on device$"):
-        with output.staged_dir(tmp_path / "bad", kind="simulate") as stage:
+        with staging.staged_dir(tmp_path / "bad", kind="simulate") as stage:
             workers.finish(workers.start([functools.partial(_failing_plot, stage)]))
     assert names(tmp_path) == ["ok", "pid"]
 
@@ -468,13 +468,15 @@ def test_terminated_unwinds_a_staged_run(tmp_path):
     if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
         pytest.skip("SIGTERM has a handler here already; staged_dir leaves it alone")
     dest = tmp_path / "x"
-    with output.staged_dir(dest, kind="simulate") as stage:
+    with staging.staged_dir(dest, kind="simulate") as stage:
         (stage / "a.csv").write_text("old\n")
-    with pytest.raises(output.Terminated):
-        with output.staged_dir(dest, kind="simulate") as stage:
+    with pytest.raises(signals.Terminated):
+        with staging.staged_dir(dest, kind="simulate") as stage:
             (stage / "a.csv").write_text("half")
             handler = signal.getsignal(signal.SIGTERM)
-            assert callable(handler) and handler.__module__ == "mjlink.output"  # else SIGTERM would kill pytest
+            assert (
+                callable(handler) and handler.__module__ == "mjlink.runtime.signals"
+            )  # else SIGTERM would kill pytest
             os.kill(os.getpid(), signal.SIGTERM)
             _until(lambda: False, timeout=5)  # the handler raises within a few bytecodes
     assert hidden(tmp_path) == [] and (dest / "a.csv").read_text() == "old\n"
@@ -490,7 +492,7 @@ def test_a_swallowed_or_disguised_interruption_still_ends_the_run(tmp_path):
     if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
         pytest.skip("SIGTERM has a handler here already; interruptible leaves it alone")
     with pytest.raises(KeyboardInterrupt):
-        with output.staged_dir(tmp_path / "x", kind="simulate") as stage:
+        with staging.staged_dir(tmp_path / "x", kind="simulate") as stage:
             (stage / "a.csv").write_text("1\n")
             try:
                 os.kill(os.getpid(), signal.SIGINT)
@@ -498,12 +500,12 @@ def test_a_swallowed_or_disguised_interruption_still_ends_the_run(tmp_path):
             except KeyboardInterrupt:
                 pass
     assert names(tmp_path) == []
-    with pytest.raises(output.Terminated) as e:
-        with output.interruptible():
+    with pytest.raises(signals.Terminated) as e:
+        with signals.interruptible():
             try:
                 os.kill(os.getpid(), signal.SIGTERM)
                 _until(lambda: False, timeout=5)
-            except output.Terminated as t:
+            except signals.Terminated as t:
                 raise RuntimeError(f"argument 2: {t!r}") from t
     assert isinstance(e.value.__cause__, RuntimeError)
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
@@ -524,8 +526,8 @@ def test_an_interruption_in_unraisable_code_is_not_printed(monkeypatch):
             os.kill(os.getpid(), signal.SIGTERM)
             _until(lambda: False, timeout=5)  # the handler raises Terminated in here
 
-    with pytest.raises(output.Terminated):
-        with output.interruptible():
+    with pytest.raises(signals.Terminated):
+        with signals.interruptible():
             Dying()  # collected at once: Terminated is raised inside __del__, unraisable
             _until(lambda: False, timeout=0.2)
     assert reported == []

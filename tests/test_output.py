@@ -17,11 +17,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mjlink import output, pipeline, validation
+from mjlink import files as mjfiles
+from mjlink import pipeline, validation
 from mjlink.errors import MechanismFileError, OutputError, SimulationError
 from mjlink.model import catalogue as registry
 from mjlink.model.mechanism import parse
 from mjlink.model.names import NAME_RE as _NAME_RE
+from mjlink.runtime import markers, staging
 from mjlink.sim import builder, simulate
 
 EXAMPLE = (registry.MECHANISMS_DIR / "examples" / "crank_rocker.toml").read_text()
@@ -43,7 +45,7 @@ def previous(tmp_path):
     """An existing, complete output folder from an earlier run of mjlink (it carries the marker
     that lets a later run of the same command replace mjlink's own files in it)."""
     old = tmp_path / "crank_rocker"
-    with output.staged_dir(old, kind="simulate", mechanism="crank_rocker") as stage:
+    with staging.staged_dir(old, kind="simulate", mechanism="crank_rocker") as stage:
         (stage / "report.json").write_text('{"earlier": true}\n')
         (stage / "stale.png").write_text("from an older run")
     return old
@@ -51,7 +53,7 @@ def previous(tmp_path):
 
 def files(folder):
     """The folder's entries, mjlink's marker aside."""
-    return sorted(p.name for p in folder.iterdir() if p.name != output.MARKER)
+    return sorted(p.name for p in folder.iterdir() if p.name != markers.MARKER)
 
 
 # ----------------------------------------------------------------------------- unwritable
@@ -79,7 +81,7 @@ def test_output_path_that_is_a_file_fails_before_running(tmp_path, mech, monkeyp
 
 # ----------------------------------------------------------------------------- failed runs
 def test_full_disk_mid_run_leaves_nothing_and_keeps_the_previous_output(tmp_path, mech, previous, monkeypatch):
-    real = output.write_csv
+    real = mjfiles.write_csv
     calls = []
 
     def full(path, *a, **k):
@@ -88,7 +90,7 @@ def test_full_disk_mid_run_leaves_nothing_and_keeps_the_previous_output(tmp_path
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
         return real(path, *a, **k)
 
-    monkeypatch.setattr(output, "write_csv", full)
+    monkeypatch.setattr(pipeline.simulate, "write_csv", full)
     with pytest.raises(
         OutputError,
         match=r"^cannot write outputs to .*crank_rocker: No space left on device "
@@ -120,7 +122,7 @@ def test_simulation_failure_keeps_the_previous_output(tmp_path, mech, previous, 
 
 def test_interrupt_mid_run_leaves_nothing(tmp_path, previous):
     with pytest.raises(KeyboardInterrupt):
-        with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
+        with staging.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
             (stage / "kinematics.csv").write_text("half")
             raise KeyboardInterrupt
     assert leftovers(tmp_path) == [] and files(previous) == ["report.json", "stale.png"]
@@ -137,14 +139,14 @@ def test_successful_run_replaces_the_previous_output_whole(tmp_path, mech, previ
 
 
 def test_replacing_without_atomic_exchange(tmp_path, previous, monkeypatch):
-    monkeypatch.setattr(output, "_exchange", lambda a, b: False)
-    with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
+    monkeypatch.setattr(staging, "_exchange", lambda a, b: False)
+    with staging.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
         (stage / "new.txt").write_text("new")
     assert files(previous) == ["new.txt"] and leftovers(tmp_path) == []
 
 
 def test_failed_final_rename_puts_the_previous_output_back(tmp_path, previous, monkeypatch):
-    monkeypatch.setattr(output, "_exchange", lambda a, b: False)
+    monkeypatch.setattr(staging, "_exchange", lambda a, b: False)
     real = os.replace
 
     def flaky(src, dst):
@@ -152,9 +154,9 @@ def test_failed_final_rename_puts_the_previous_output_back(tmp_path, previous, m
             raise OSError(errno.EIO, os.strerror(errno.EIO), str(dst))
         return real(src, dst)
 
-    monkeypatch.setattr(output.os, "replace", flaky)
+    monkeypatch.setattr(staging.os, "replace", flaky)
     with pytest.raises(OutputError, match="cannot write outputs to"):
-        with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
+        with staging.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
             (stage / "new.txt").write_text("new")
     assert files(previous) == ["report.json", "stale.png"]
     assert leftovers(tmp_path) == []
@@ -164,9 +166,9 @@ def test_atomic_exchange_is_used_on_linux(tmp_path, previous, monkeypatch):
     if not os.uname().sysname == "Linux":
         pytest.skip("renameat2 exchange is Linux only")
     used = []
-    real = output._exchange
-    monkeypatch.setattr(output, "_exchange", lambda a, b: used.append(real(a, b)) or used[-1])
-    with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
+    real = staging._exchange
+    monkeypatch.setattr(staging, "_exchange", lambda a, b: used.append(real(a, b)) or used[-1])
+    with staging.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
         (stage / "new.txt").write_text("new")
     assert used == [True] and files(previous) == ["new.txt"]
 
@@ -279,8 +281,8 @@ def test_csv_numbers_read_back_exactly(tmp_path, values, width):
     table = np.resize(np.array(values, dtype=float), (rows, width))
     cols = [table[:, 0], table[:, 1:]] if width > 1 else [table[:, 0]]
     names = [f"c{i}" for i in range(width)]
-    output.write_table(tmp_path / "t.csv", names, cols)
-    back = output.read_csv(tmp_path / "t.csv")
+    mjfiles.write_table(tmp_path / "t.csv", names, cols)
+    back = mjfiles.read_csv(tmp_path / "t.csv")
     got = np.column_stack([np.atleast_1d(back[n]) for n in names])
     assert np.array_equal(got, table, equal_nan=True)
     finite = ~np.isnan(table)
@@ -294,7 +296,7 @@ def test_csv_of_many_blocks_matches_one_block(tmp_path):
     rng = np.random.default_rng(3)
     table = rng.standard_normal((30_000, 3)) * 10.0 ** rng.integers(-12, 12, (30_000, 3))
     table[17, 1], table[29_999, 2] = np.nan, -np.inf
-    output.write_table(tmp_path / "t.csv", ["a", "b", "c"], [table])
+    mjfiles.write_table(tmp_path / "t.csv", ["a", "b", "c"], [table])
     lines = (tmp_path / "t.csv").read_text().splitlines()
     assert lines[0] == "a,b,c" and len(lines) == 30_001 and all(line.count(",") == 2 for line in lines)
     assert np.array_equal(np.loadtxt(tmp_path / "t.csv", delimiter=",", skiprows=1), table, equal_nan=True)
@@ -304,5 +306,5 @@ def test_csv_refuses_names_that_do_not_match_the_columns(tmp_path):
     import numpy as np
 
     with pytest.raises(ValueError, match="3 column names"):
-        output.write_table(tmp_path / "t.csv", ["a", "b", "c"], [np.ones(4), np.ones((4, 1))])
-    assert output.write_table(tmp_path / "e.csv", ["a", "b"], []).read_text() == "a,b\n"
+        mjfiles.write_table(tmp_path / "t.csv", ["a", "b", "c"], [np.ones(4), np.ones((4, 1))])
+    assert mjfiles.write_table(tmp_path / "e.csv", ["a", "b"], []).read_text() == "a,b\n"

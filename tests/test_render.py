@@ -179,7 +179,17 @@ def test_bad_arguments(mech, trace, tmp_path):
         render.render_video(mech, trace, tmp_path / "v.mp4", width=321, height=240, progress=False)
     with pytest.raises(RenderError, match="at least one frame"):
         render.render_video(mech, trace, tmp_path / "v.mp4", seconds=0.0, progress=False)
-    ref = simulate.Trace("reference", "kinematics", trace.time, trace.phi, trace.omega, trace.eps, {}, {}, {})
+    ref = simulate.Trace(
+        source="reference",
+        kind="kinematics",
+        time=trace.time,
+        phi=trace.phi,
+        omega=trace.omega,
+        eps=trace.eps,
+        points={},
+        velocities={},
+        accelerations={},
+    )
     with pytest.raises(RenderError, match="no joint positions"):
         render.render_video(mech, ref, tmp_path / "v.mp4", progress=False)
     assert list(tmp_path.iterdir()) == []
@@ -330,8 +340,11 @@ def test_video_file_is_the_same_on_one_core_or_all():
 def test_a_signal_while_the_renderer_is_made_acts_once_it_exists(monkeypatch):
     """SIGTERM (or Ctrl-C) landing inside the GL context's constructor would leave a half-made
     context whose ``__del__`` prints an AttributeError after the run's one-line message (mujoco
-    3.8's EGL context): the renderer is made whole first, then the handler runs."""
+    3.8's EGL context): the renderer is made whole first, then the handler runs (with the
+    holding the command line passes)."""
     import signal
+
+    from mjlink.runtime.signals import uninterrupted
 
     made: list[object] = []
 
@@ -350,7 +363,7 @@ def test_a_signal_while_the_renderer_is_made_acts_once_it_exists(monkeypatch):
     old = signal.signal(signal.SIGTERM, handler)
     try:
         with pytest.raises(RuntimeError, match="1 made"):
-            render._new_renderer(None, 16, 16)
+            render._new_renderer(None, 16, 16, uninterrupted)
     finally:
         signal.signal(signal.SIGTERM, old)
     assert len(made) == 1

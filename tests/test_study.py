@@ -17,10 +17,12 @@ import numpy as np
 import pytest
 from conftest import environment_back, in_process
 
-from mjlink import analysis, memory, reference, validation
+from mjlink import analysis, reference, validation
 from mjlink.errors import MjlinkError
 from mjlink.model import paths
 from mjlink.reference import batch, dynamics, kinetostatics
+from mjlink.runtime import cluster as runtime_cluster
+from mjlink.runtime import environment
 from mjlink.study import engine, spec, tasks
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -235,15 +237,15 @@ def test_interrupted_study_resumes_from_its_finished_chunks(tmp_path: Path) -> N
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        engine.run(st, workers=0, cache_dir=tmp_path / "c", progress=stop_after_two)
-    again = engine.run(st, workers=0, cache_dir=tmp_path / "c")
-    fresh = engine.run(st, workers=0)
+        engine.run(st, cache_dir=tmp_path / "c", progress=stop_after_two)
+    again = engine.run(st, cache_dir=tmp_path / "c")
+    fresh = engine.run(st)
     assert again.resumed == 2 and fresh.resumed == 0
     assert np.array_equal(again.columns["thread_range"], fresh.columns["thread_range"])
     changed = spec.parse(
         study_text(base=BASE.replace("samples = 40", "samples = 200").replace("seed = 7", "seed = 8")), "s.toml"
     )
-    assert engine.run(changed, workers=0, cache_dir=tmp_path / "c").resumed == 0  # another study: cache not used
+    assert engine.run(changed, cache_dir=tmp_path / "c").resumed == 0  # another study: cache not used
 
 
 @pytest.fixture(scope="module")
@@ -270,14 +272,15 @@ def test_a_real_two_worker_dask_cluster_gives_the_same_bits(two_workers: Any) ->
     )
     from distributed import get_task_stream
 
-    local = engine.run(st, workers=0)
+    local = engine.run(st)
     cluster = two_workers
     with Client(cluster) as client:
         assert len(client.scheduler_info()["workers"]) == 2
         time.sleep(3.0)  # past the active memory manager's pass, which dropped scattered replicas
         with get_task_stream(client) as ts:
             remote = engine.run(st, client=client)
-        by_address = engine.run(st, scheduler=cluster.scheduler_address)
+        with runtime_cluster.client_for(cluster.scheduler_address) as (by_client, what):
+            by_address = engine.run(st, client=by_client, what=what)
 
         def fails(study, values):
             raise ValueError("no such thing")
@@ -322,11 +325,11 @@ def test_the_actor_pool_on_a_real_cluster_survives_a_lost_worker() -> None:
     parts = [(0, 16), (16, 32), (32, 48), (48, 64)]
     local = tasks.reference_chunk(st, values)
     before = dict(os.environ)
-    with engine.client_for(workers=2) as (client, _):
+    with runtime_cluster.client_for(workers=2) as (client, _):
         # The workers have the allocator settings; this process, whose nanny set them before
         # spawning each worker, has its own environment back.
-        assert set(client.run(lambda: tuple(os.environ.get(k) for k in memory.MALLOC_ENV)).values()) == {
-            tuple(memory.MALLOC_ENV.values())
+        assert set(client.run(lambda: tuple(os.environ.get(k) for k in environment.MALLOC_ENV)).values()) == {
+            tuple(environment.MALLOC_ENV.values())
         }
         assert dict(os.environ) == before
         with engine.Pool(client, st) as pool:
@@ -346,10 +349,11 @@ def test_the_actor_pool_on_a_real_cluster_survives_a_lost_worker() -> None:
 
 
 def test_an_unreachable_scheduler_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(engine, "CONNECT_TIMEOUT_S", 1.0)
+    monkeypatch.setattr(runtime_cluster, "CONNECT_TIMEOUT_S", 1.0)
     st = spec.parse(BASE, "s.toml")
     with pytest.raises(engine.EngineError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"):
-        engine.run(st, scheduler="tcp://127.0.0.1:9")
+        with runtime_cluster.client_for("tcp://127.0.0.1:9") as (client, _):
+            engine.run(st, client=client)
 
 
 # ------------------------------------------------------------------------------- command
@@ -467,7 +471,7 @@ def test_shaking_from_the_links_equals_the_ground_pairs_reactions(name: str) -> 
 
 def test_a_client_registration_race_is_retried_once() -> None:
     """distributed's client fails with a bare AssertionError when the scheduler's first reply
-    batch holds more than its stream-start (a race under load): the engine connects once more,
+    batch holds more than its stream-start (a race under load): the cluster module connects once more,
     and only once."""
     calls: list[str] = []
 
@@ -477,11 +481,11 @@ def test_a_client_registration_race_is_retried_once() -> None:
             if len(calls) == 1:
                 raise AssertionError
 
-    assert isinstance(engine._connect(Flaky, "tcp://x:1"), Flaky) and calls == ["tcp://x:1"] * 2
+    assert isinstance(runtime_cluster._connect(Flaky, "tcp://x:1"), Flaky) and calls == ["tcp://x:1"] * 2
 
     class Broken:
         def __init__(self, address: str, timeout: str) -> None:
             raise AssertionError
 
     with pytest.raises(AssertionError):
-        engine._connect(Broken, "tcp://x:1")
+        runtime_cluster._connect(Broken, "tcp://x:1")

@@ -24,9 +24,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjlink import output, validation
+from mjlink import validation
 from mjlink.cli import main
 from mjlink.errors import MjlinkError
+from mjlink.runtime import cluster as runtime_cluster
+from mjlink.runtime import markers, staging
 from mjlink.study import engine, optimize, spec
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -153,7 +155,7 @@ def test_a_killed_runs_marked_stage_is_removed_and_a_copied_output_is_not_delete
     dead = _dead_pid()
     stage = tmp_path / f".crank_rocker.partial-{dead}-zz"
     stage.mkdir()
-    (stage / output.MARKER).write_text(
+    (stage / markers.MARKER).write_text(
         json.dumps(
             {
                 "written_by": "mjlink",
@@ -167,7 +169,7 @@ def test_a_killed_runs_marked_stage_is_removed_and_a_copied_output_is_not_delete
     )
     copy = tmp_path / f".crank_rocker.old-{dead}"  # a copy of an output, not the folder's previous one
     copy.mkdir()
-    (copy / output.MARKER).write_text((first.out_dir / output.MARKER).read_text())
+    (copy / markers.MARKER).write_text((first.out_dir / markers.MARKER).read_text())
     (copy / "kept.txt").write_text("mine")
     pipeline.run(mech, tmp_path, fast)
     assert not stage.exists()
@@ -184,7 +186,7 @@ def _interrupted(st: spec.Study, folder: Path, after: int = 2) -> None:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        engine.run(st, workers=0, cache_dir=folder, progress=stop)
+        engine.run(st, cache_dir=folder, progress=stop)
 
 
 BIG = SMALL.replace("samples = 40", "samples = 120")
@@ -209,11 +211,11 @@ def test_a_cache_for_another_study_mechanism_or_code_is_discarded(tmp_path, monk
     else:
         monkeypatch.setattr(cache, "code_digest", lambda: "another mjlink")
     with caplog.at_level("INFO", logger="mjlink"):
-        again = engine.run(st, workers=0, cache_dir=folder)
+        again = engine.run(st, cache_dir=folder)
     assert again.resumed == 0
     what = {"study": "the study file", "mechanism": "the mechanism file", "code": "mjlink's code"}[change]
     assert any("discarding the" in r.message and what in r.message for r in caplog.records)
-    fresh = engine.run(st, workers=0)
+    fresh = engine.run(st)
     assert np.array_equal(again.columns["thread_range"], fresh.columns["thread_range"], equal_nan=True)
 
 
@@ -235,9 +237,9 @@ def test_a_damaged_chunk_is_recomputed_not_a_traceback(tmp_path, caplog, damage)
     else:
         chunk.write_bytes(b"")
     with caplog.at_level("INFO", logger="mjlink"):
-        again = engine.run(st, workers=0, cache_dir=folder)
+        again = engine.run(st, cache_dir=folder)
     assert any(f"cached chunk {chunk.name} is damaged" in r.message for r in caplog.records)
-    fresh = engine.run(st, workers=0)
+    fresh = engine.run(st)
     assert np.array_equal(again.columns["thread_range"], fresh.columns["thread_range"], equal_nan=True)
     assert again.resumed >= 1
 
@@ -393,7 +395,7 @@ def test_a_second_run_into_the_same_folder_is_refused_while_the_first_writes(tmp
     out = tmp_path / "out"
     study = tmp_path / "small.toml"
     study.write_text(SMALL)
-    with output.staged_dir(out / "small-study", kind="study", mechanism="small", command="python -m mjlink study x"):
+    with staging.staged_dir(out / "small-study", kind="study", mechanism="small", command="python -m mjlink study x"):
         t = time.monotonic()
         r = _mjlink("study", str(study), "--workers", "0", "--no-plots", "--out", str(out))
         err = [line for line in r.stderr.splitlines() if not line.startswith("mjlink: plan:")]
@@ -790,11 +792,11 @@ def test_the_plan_measures_and_scales():
 def test_a_cluster_without_workers_fails_within_a_timeout(monkeypatch):
     from distributed import LocalCluster
 
-    monkeypatch.setattr(engine, "WORKERS_TIMEOUT_S", 2.0)
+    monkeypatch.setattr(runtime_cluster, "WORKERS_TIMEOUT_S", 2.0)
     with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
         t = time.monotonic()
         with pytest.raises(engine.SchedulerError, match="has no workers"):
-            with engine.client_for(cluster.scheduler_address):
+            with runtime_cluster.client_for(cluster.scheduler_address):
                 pass
         assert time.monotonic() - t < 15
 
@@ -861,7 +863,7 @@ def test_ctrl_c_prints_at_most_three_lines_and_the_study_resumes(tmp_path):
     summ = json.loads((out / "small-study" / "summary.json").read_text())
     assert summ["resumed_chunks"] >= kept and not cache_dir.exists()
     st = spec.load(study)
-    fresh = engine.run(st, workers=0)
+    fresh = engine.run(st)
     import csv
 
     with open(out / "small-study" / "results.csv", newline="") as fh:
@@ -901,7 +903,7 @@ def test_two_local_studies_at_once_print_no_port_warning(tmp_path):
 
 # ================================================================= 14. progress without a terminal
 def test_progress_without_a_terminal_is_a_line_at_a_steady_pace(tmp_path):
-    from mjlink.pipeline.progress import Lines
+    from mjlink.runtime.progress import Lines
 
     class Sink:
         def __init__(self) -> None:

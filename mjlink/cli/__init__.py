@@ -22,7 +22,7 @@ from typing import Any, NoReturn
 
 from .. import notes
 from ..errors import MjlinkError
-from ..output import Terminated, interruptible
+from ..runtime.signals import Terminated, interruptible
 from ..version import __version__
 from .commands import COMMANDS, EXAMPLES
 from .text import error_line, format_report

@@ -23,12 +23,14 @@ from typing import TYPE_CHECKING
 
 from .. import validation
 from ..errors import InputError, MjlinkError
+from ..files import write_text
 from ..model import catalogue
 from ..model.catalogue import STUDIES_DIR
 from ..model.limits import MAX_CYCLES, MAX_FPS
 from ..model.mechanism import load
 from ..quantity import QuantityError
 from ..quantity import parse as parse_quantity
+from ..runtime.signals import uninterrupted
 from ..units import from_rpm
 from . import text
 
@@ -330,7 +332,6 @@ def _design_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _design(args: argparse.Namespace) -> int:
-    from .. import output
     from ..pages import design  # here: the page's module, which list and --help do without
 
     mech = validation.get(args.mechanism)
@@ -338,7 +339,7 @@ def _design(args: argparse.Namespace) -> int:
     path = args.output or Path("renders") / f"{mech.name}-design.html"
     if path.exists() and not args.force:
         raise MjlinkError(f"{path} exists: give --force to replace it")
-    output.write_text(path, design.design_html(mech, mech.path.read_text(encoding="utf-8")))
+    write_text(path, design.design_html(mech, mech.path.read_text(encoding="utf-8")))
     print(
         f"wrote {path}: open it in a browser (offline; drag the pivots, edit the numbers, save as TOML)",
         file=sys.stderr,
@@ -447,7 +448,7 @@ def _simulate(args: argparse.Namespace) -> int:
     if not args.no_video:
         from ..sim.render import check_backend  # here: MuJoCo, only for a video
 
-        check_backend()  # no OpenGL: fail now, not after the runs
+        check_backend(held=uninterrupted)  # no OpenGL: fail now, not after the runs
     _notes(mech, args, (("--speed", "speed"), ("--omega0", "omega0"), ("--no-load-speed", "no_load_speed")))
     print(f"mjlink: simulating {mech.name} ({mech.title})", file=sys.stderr)
     _long_run(estimate)

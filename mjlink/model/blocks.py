@@ -70,7 +70,7 @@ class DeadPoint:
     limit_deg: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class BlockAngle:
     """How close one dyad or slider comes to a dead point over the input's period.
 

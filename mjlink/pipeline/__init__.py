@@ -2,9 +2,11 @@
 
 Each layer lives in its own package: :mod:`mjlink.sim` (MuJoCo runs and video),
 :mod:`mjlink.reference` (the vector-method analysis), :mod:`mjlink.compare` (agreement and every
-threshold), :mod:`mjlink.output` (files), :mod:`mjlink.plotting` (figures). The modules here only
+threshold), :mod:`mjlink.files` (files), :mod:`mjlink.plotting` (figures). The modules here only
 order and time them, and return frozen dataclasses; the command line (:mod:`mjlink.cli`) parses
-arguments, calls one function here and prints what it returns.
+arguments, calls one function here and prints what it returns. How a run is carried out safely
+(output folders staged and locked, signals, the figures' worker process, the Dask cluster) is
+:mod:`mjlink.runtime`'s, used here and by the command line only.
 
 =====================  ===================  ==========================================
 function               command              result, output
@@ -20,13 +22,12 @@ function               command              result, output
 
 The modules, one concept each: :mod:`.options` (what a run is asked to do, the drive
 overrides), :mod:`.cost` (what it will cost, checked before it starts), :mod:`.results` (the
-typed results and their reports), :mod:`.simulate` (the ``simulate`` run), :mod:`.workers` (the
-figures' worker process), :mod:`.loads` (torque, reactions, steady motion), :mod:`.design`
-(``build`` and ``synth``), :mod:`.study`, :mod:`.optimize`, :mod:`.winner` and
-:mod:`.progress` (design studies and optimal synthesis).
+typed results and their reports), :mod:`.simulate` (the ``simulate`` run), :mod:`.loads`
+(torque, reactions, steady motion), :mod:`.design` (``build`` and ``synth``), :mod:`.study`,
+:mod:`.optimize` and :mod:`.winner` (design studies and optimal synthesis).
 
-Every output folder is all or nothing (:func:`mjlink.output.staged_dir`), every single file too
-(:func:`mjlink.output.write_text`). Units SI (m, rad, s, kg, N, N*m, W) unless a name says
+Every output folder is all or nothing (:func:`mjlink.runtime.staging.staged_dir`), every single
+file too (:func:`mjlink.files.write_text`). Units SI (m, rad, s, kg, N, N*m, W) unless a name says
 otherwise (``speed_rpm``). Errors are one-line :class:`~mjlink.errors.MjlinkError` subclasses;
 where the value at fault can come from a command-line option, the message names the option.
 """

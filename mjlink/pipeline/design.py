@@ -7,8 +7,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .. import output, validation
+from .. import validation
 from ..errors import MjlinkError
+from ..files import write_text
 from ..model import catalogue, names, synthesis
 from ..model.limits import (
     MAX_LENGTH_MM,
@@ -37,7 +38,7 @@ def build(mech: Mechanism, *, kinematic: bool = False, path: Path | None = None)
     settings = simulate.kinematic_case(mech).settings if kinematic else DYNAMIC
     xml = builder.to_xml(mech, settings)
     if path is not None:
-        output.write_text(path, xml)
+        write_text(path, xml)
     return BuildResult(mech.name, settings, xml, path)
 
 
@@ -81,7 +82,17 @@ def synthesize(
         at_top = synthesis.best(S, e, top, th)
         nxt = synthesis.roots(S, e, round(top + 0.01, 10), th)[0]
         beyond = None if math.isnan(nxt.theta_max) else nxt
-    return SynthResult(S, e, lam, th, table, best, top, at_top, beyond)
+    return SynthResult(
+        stroke=S,
+        offset=e,
+        ratio=lam,
+        max_pressure_angle=th,
+        table=table,
+        best=best,
+        largest_ratio=top,
+        at_largest=at_top,
+        beyond_largest=beyond,
+    )
 
 
 def write_design(result: SynthResult, path: Path) -> Path:
@@ -97,4 +108,4 @@ def write_design(result: SynthResult, path: Path) -> Path:
     base_text = catalogue.path_of("crank_slider").read_text(encoding="utf-8")
     text = synthesis.design_file(base_text, result.stroke, result.offset, result.ratio, result.max_pressure_angle, name)
     validation.validate(parse(text, path))
-    return output.write_text(path, text)
+    return write_text(path, text)

@@ -28,9 +28,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import output, reference
+from .. import reference
 from ..analysis import link_segments, mass_centres
 from ..errors import MjlinkError
+from ..files import write_text
 from ..model.mechanism import Mechanism
 from ..units import DEG, to_mm
 
@@ -141,7 +142,7 @@ def export(
     if points is not None:
         texts.append((points, points_text(at, mech, points.suffix.lower()[1:])))
     for path, text in texts:
-        output.write_text(path, text)
+        write_text(path, text)
     return ExportResult(mech.name, angle, at, dxf, points)
 
 

@@ -9,15 +9,17 @@ import functools
 from collections.abc import Sequence
 from pathlib import Path
 
-from .. import analysis, compare, output, reference
+from .. import analysis, compare, reference
 from ..errors import MjlinkError
+from ..files import write_json, write_loads_csv, write_steady_csv
 from ..model.mechanism import Mechanism
 from ..runs import Trace
+from ..runtime import staging
+from ..runtime.workers import PlotJob, run_jobs
 from ..sim import simulate
 from .cost import enough_samples, estimate
 from .options import DEFAULT_TARGET_DELTA, Drive, Options, check_speed, has_mass, with_drive
 from .results import LoadsResult, LoadsSummary, SteadyResult, SteadySummary, provenance
-from .workers import PlotJob, run_jobs
 
 
 # ============================================================================ loads and steady motion
@@ -35,8 +37,8 @@ def loads_stage(
     frames = compare.frame_reference(mech, kin_mj, at), compare.frame_mujoco(mech, kin_mj)
     cmp = compare.loads(mech, kin_mj, rx=rx, frames=frames)
     assert kin_mj.torque is not None  # compare.loads has refused a run without recorded loads
-    output.write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
-    output.write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
+    write_loads_csv(stage / "loads.csv", kin_mj, kin_mj.torque, kin_mj.reactions, kin_mj.moments)
+    write_loads_csv(stage / "reference_loads.csv", kin_mj, rx.torque, rx.forces, rx.moments)
     if plots is not None:
         from ..plotting import loads as loads_plots  # here: matplotlib, not for --no-plots
 
@@ -47,18 +49,18 @@ def loads_stage(
     # and its end, and counting that end twice biases means of large periodic torques.
     cycle = analysis.torque_cycle(mech, cmp.speed)
     return LoadsSummary(
-        cmp.speed,
-        cycle.peak,
-        cycle.rms,
-        cycle.power,
-        cmp.torque_rel,
-        cmp.force_rel,
-        cmp.pairs,
-        compare.TORQUE_REL,
-        compare.FORCE_REL,
-        tuple(cmp.failures()),
-        cmp.shaking_force_rel,
-        cmp.shaking_moment_rel,
+        speed=cmp.speed,
+        torque_peak=cycle.peak,
+        torque_rms=cycle.rms,
+        power_mean=cycle.power,
+        torque_error=cmp.torque_rel,
+        force_error=cmp.force_rel,
+        pairs=cmp.pairs,
+        torque_threshold=compare.TORQUE_REL,
+        force_threshold=compare.FORCE_REL,
+        failures=tuple(cmp.failures()),
+        shaking_force_error=cmp.shaking_force_rel,
+        shaking_moment_error=cmp.shaking_moment_rel,
     )
 
 
@@ -71,7 +73,7 @@ def steady_stage(mech: Mechanism, stage: Path, plots: list[PlotJob] | None) -> S
     plain = reference.steady_motion(mv)
     J_fly, fly = reference.flywheel_for(mv, target)
     runs = (simulate.steady_run(mv, plain), simulate.steady_run(mv, fly))
-    output.write_steady_csv(stage / "reference_steady.csv", plain, fly)
+    write_steady_csv(stage / "reference_steady.csv", plain, fly)
     if plots is not None:
         from ..plotting import loads as loads_plots  # here: matplotlib, not for --no-plots
 
@@ -82,17 +84,17 @@ def steady_stage(mech: Mechanism, stage: Path, plots: list[PlotJob] | None) -> S
     for name, st, mj in (("without flywheel", plain, runs[0]), ("with flywheel", fly, runs[1])):
         failures += compare.steady_failures(name, mj.delta, st.delta)
     return SteadySummary(
-        motor.stall_torque,
-        motor.no_load_speed,
-        plain.omega_mean,
-        plain.delta,
-        runs[0].delta,
-        target,
-        J_fly,
-        fly.delta,
-        runs[1].delta,
-        fly.omega_mean,
-        tuple(failures),
+        stall_torque=motor.stall_torque,
+        no_load_speed=motor.no_load_speed,
+        omega_mean=plain.omega_mean,
+        delta=plain.delta,
+        delta_mujoco=runs[0].delta,
+        target_delta=target,
+        flywheel=J_fly,
+        delta_with_flywheel=fly.delta,
+        delta_with_flywheel_mujoco=runs[1].delta,
+        omega_mean_with_flywheel=fly.omega_mean,
+        failures=tuple(failures),
     )
 
 
@@ -112,7 +114,7 @@ def loads(
     (kinetostatics), ``report.json`` (:meth:`LoadsResult.as_dict`) and, with ``plots``,
     ``torque.png`` and ``reactions.png``, and its marker (kind ``loads``: torque and reactions
     share the folder; a folder mjlink did not write for them is refused unless ``force``, see
-    :func:`output.staged_dir`). Raises MjlinkError if no link has a mass, the speed is out of
+    :func:`mjlink.runtime.staging.staged_dir`). Raises MjlinkError if no link has a mass, the speed is out of
     range or the run would cost beyond the limits (:func:`estimate`).
     """
     if not has_mass(mech):
@@ -123,7 +125,7 @@ def loads(
     case = simulate.kinematic_case(mech, speed=speed)
     enough_samples(mech, case, "[input] cycles")
     out_dir = Path(out_root) / f"{mech.name}_loads"
-    with output.staged_dir(out_dir, kind="loads", force=force, mechanism=mech.name, command=command) as stage:
+    with staging.staged_dir(out_dir, kind="loads", force=force, mechanism=mech.name, command=command) as stage:
         kin = simulate.run(mech, case)
         jobs: list[PlotJob] = []
         result = LoadsResult(
@@ -133,7 +135,7 @@ def loads(
             provenance(command, {"speed": speed, "plots": plots}),
         )
         run_jobs(jobs)
-        output.write_json(stage / "report.json", result.as_dict())
+        write_json(stage / "report.json", result.as_dict())
     return result
 
 
@@ -153,7 +155,7 @@ def steady(
     motor for this study only). The folder holds ``reference_steady.csv``, ``report.json``
     (:meth:`SteadyResult.as_dict`) and, with ``plots``, ``steady.png``, and its marker (kind
     ``steady``; a folder mjlink did not write for it is refused unless ``force``, see
-    :func:`output.staged_dir`). Raises MjlinkError if there is no motor (neither in the file nor
+    :func:`mjlink.runtime.staging.staged_dir`). Raises MjlinkError if there is no motor (neither in the file nor
     in ``drive``).
     """
     mech = with_drive(mech, drive, steady=True)
@@ -164,7 +166,7 @@ def steady(
         )
     estimate(mech, Options(dynamics=False, video=False, steady=True), kinematic=False)
     out_dir = Path(out_root) / f"{mech.name}_steady"
-    with output.staged_dir(out_dir, kind="steady", force=force, mechanism=mech.name, command=command) as stage:
+    with staging.staged_dir(out_dir, kind="steady", force=force, mechanism=mech.name, command=command) as stage:
         jobs: list[PlotJob] = []
         result = SteadyResult(
             mech.name,
@@ -173,5 +175,5 @@ def steady(
             provenance(command, {**dataclasses.asdict(drive), "plots": plots}),
         )
         run_jobs(jobs)
-        output.write_json(stage / "report.json", result.as_dict())
+        write_json(stage / "report.json", result.as_dict())
     return result

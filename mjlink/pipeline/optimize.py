@@ -34,19 +34,20 @@ from typing import Any
 
 import numpy as np
 
-from .. import compare, output
+from .. import compare
 from ..analysis import metrics as _metrics
+from ..files import write_json, write_parquet, write_records, write_text
 from ..model.mechanism import Mechanism
 from ..reference import batch
 from ..reference.dynamics import flywheel_for, steady_motion, steady_variant
-from ..study import engine
+from ..runtime import cluster, staging
+from ..runtime.progress import optimize_progress
 from ..study import optimize as _opt
 from ..study.spec import Study
 from ..study.tasks import Verified
 from ..version import __version__
 from . import winner as _winner
 from .columns import column_name, versions
-from .progress import optimize_progress
 
 
 @dataclass(frozen=True)
@@ -62,7 +63,7 @@ class Flywheel:
     omega_mean: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class OptimizeResult:
     """A finished optimization: the optimizer's :class:`~mjlink.study.optimize.Result` (its
     ``winner`` and ``front`` the designs as written), the MuJoCo check of the winner
@@ -108,10 +109,10 @@ def run(
     update, close = optimize_progress(f"study {st.name}", sign) if progress else (None, lambda: None)
     try:
         if client is not None:
-            with output.staged_dir(dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
+            with staging.staged_dir(dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
                 return _run(st, dest, stage, client, "the given Dask client", update, plots, command)
-        with engine.client_for(scheduler, workers) as (c, what):
-            with output.staged_dir(dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
+        with cluster.client_for(scheduler, workers) as (c, what):
+            with staging.staged_dir(dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
                 return _run(st, dest, stage, c, what, update, plots, command)
     finally:
         close()
@@ -149,25 +150,31 @@ def _run(
     ver = _verified([won, *front])
     summ = summary(written, ver, fly, command, won, rejected, res)
     files: list[Path] = []
-    files.append(output.write_text(stage / "winner.toml", _file(st, written, won, 0, ver, fly, summ), in_stage=True))
+    files.append(write_text(stage / "winner.toml", _file(st, written, won, 0, ver, fly, summ), in_stage=True))
     for i, w in enumerate(front):
         files.append(
-            output.write_text(
-                stage / f"pareto-{i + 1:02d}.toml", _file(st, written, w, i + 1, ver, None, summ), in_stage=True
-            )
+            write_text(stage / f"pareto-{i + 1:02d}.toml", _file(st, written, w, i + 1, ver, None, summ), in_stage=True)
         )
     if front:
-        files.append(output.write_records(stage / "front.csv", front_table(written, ver)))
+        files.append(write_records(stage / "front.csv", front_table(written, ver)))
     cols = archive_table(res)
-    files.append(output.write_records(stage / "results.csv", cols))
-    files.append(output.write_parquet(stage / "results.parquet", cols))
-    files.append(output.write_json(stage / "summary.json", summ))
+    files.append(write_records(stage / "results.csv", cols))
+    files.append(write_parquet(stage / "results.parquet", cols))
+    files.append(write_json(stage / "summary.json", summ))
     if plots:
         files += _plots(written, ver, stage)
     names = [f.name for f in files] + ["index.html"]
-    files.append(output.write_text(stage / "index.html", page(summ, names), in_stage=True))
+    files.append(write_text(stage / "index.html", page(summ, names), in_stage=True))
     return OptimizeResult(
-        written, ver, fly, dest, dest / "winner.toml", [dest / f.name for f in files], summ, res.winner, tuple(rejected)
+        result=written,
+        verified=ver,
+        flywheel=fly,
+        out_dir=dest,
+        winner_file=dest / "winner.toml",
+        files=[dest / f.name for f in files],
+        summary=summ,
+        optimum=res.winner,
+        rejected=tuple(rejected),
     )
 
 

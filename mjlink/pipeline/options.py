@@ -26,7 +26,7 @@ from ..units import to_rpm
 DEFAULT_TARGET_DELTA = SteadyCase.target_delta  # the file format's default coefficient of speed fluctuation
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Options:
     """What :func:`run` does (:func:`estimate` says what it will cost, and refuses the absurd).
 
@@ -54,7 +54,7 @@ class Options:
     steady: bool = False
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Drive:
     """Drive, load and duration of the dynamic runs in place of the file's (None: the file's).
 

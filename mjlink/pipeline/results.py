@@ -90,7 +90,7 @@ class Rk4Comparison:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class DynamicsSummary:
     """The forward-dynamics MuJoCo run and the reference's solution of the equation of motion.
 
@@ -138,7 +138,7 @@ class DynamicsSummary:
         return d
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LoadsSummary:
     """Driving torque and pair reactions of the constant-speed run, MuJoCo against kinetostatics.
 
@@ -192,7 +192,7 @@ class LoadsSummary:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SteadySummary:
     """Steady motion under the motor characteristic, and the flywheel for the target.
 
@@ -239,7 +239,7 @@ class SteadySummary:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class VideoSummary:
     """The MP4: ``file`` name in the output folder, ``frames``, ``fps`` frames/s, ``width`` x
     ``height`` pixels, the OpenGL ``backend`` and ``slowed_down_by`` (video seconds per
@@ -264,7 +264,7 @@ class VideoSummary:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Timings:
     """Wall-clock seconds of each stage of :func:`run`, rounded to 0.1 ms; None for a stage that
     did not run. With both a video and plots, the plots are drawn in a forked worker while the
@@ -319,7 +319,7 @@ def provenance(command: Sequence[str] = (), options: Mapping[str, Any] | None = 
     return Provenance(versions, tuple(command), dict(options or {}))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SimulateResult:
     """What :func:`run` did for one mechanism, all written under ``out_dir``.
 
@@ -434,7 +434,7 @@ class BuildResult:
     path: Path | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SynthResult:
     """Metric synthesis of the offset crank-slider (seed 002) for one requirement.
 

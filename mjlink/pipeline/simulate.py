@@ -1,7 +1,7 @@
 """The ``simulate`` run: the kinematic run and its reference and agreement; then, as the
 options say and the file allows, the forward dynamics, the loads, the steady motion, the
-figures (drawn in a worker process beside the runs, :mod:`.workers`) and the video, into one
-output folder published whole (:func:`mjlink.output.staged_dir`).
+figures (drawn in a worker process beside the runs, :mod:`mjlink.runtime.workers`) and the video, into one
+output folder published whole (:func:`mjlink.staging.staged_dir`).
 """
 
 from __future__ import annotations
@@ -15,16 +15,20 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import compare, output, reference
+from .. import compare, reference
 from ..analysis import summary
 from ..analysis.timing import head_timing
 from ..errors import SimulationError
+from ..files import write_csv, write_json, write_text
 from ..model.mechanism import Mechanism
 from ..pages import design, index
 from ..runs import DYNAMIC, Settings, Trace
+from ..runtime import staging, workers
+from ..runtime.markers import MARKER
+from ..runtime.signals import uninterrupted
+from ..runtime.workers import PlotJob, run_jobs
 from ..sim import builder, simulate
 from ..units import RunKind
-from . import workers
 from .cost import enough_samples, estimate
 from .loads import loads_stage, steady_stage
 from .options import Options, has_mass, has_masses
@@ -37,7 +41,6 @@ from .results import (
     VideoSummary,
     provenance,
 )
-from .workers import PlotJob, run_jobs
 
 
 class _Clock:
@@ -83,7 +86,7 @@ def run(
     loads, the steady-motion study, plots and video as ``opts`` says and the file allows. The
     folder holds the traces as CSV, ``report.json`` (:meth:`SimulateResult.as_dict`),
     ``model.xml`` (the dynamic model) and the figures and video, and its marker
-    (:func:`output.staged_dir`, kind ``simulate``): it replaces the files an earlier ``simulate``
+    (:func:`mjlink.runtime.staging.staged_dir`, kind ``simulate``): it replaces the files an earlier ``simulate``
     wrote there and keeps any other file, or is not written at all if anything fails. A folder
     mjlink did not write for ``simulate`` of this mechanism is refused unless ``force``.
 
@@ -93,7 +96,7 @@ def run(
     estimate(mech, opts)  # the absurd is refused before anything starts, whoever calls
     clock = _Clock()
     out_dir = Path(out_root) / mech.name
-    with output.staged_dir(out_dir, kind="simulate", force=force, mechanism=mech.name, command=command) as stage:
+    with staging.staged_dir(out_dir, kind="simulate", force=force, mechanism=mech.name, command=command) as stage:
         kcase = simulate.kinematic_case(mech, speed=opts.speed, cycles=opts.cycles)
         enough_samples(mech, kcase, "--cycles")
         kin_mj = simulate.run(mech, kcase, progress=_tell(progress, "kinematic run"))
@@ -109,8 +112,8 @@ def run(
         kin_at = compare.reference_at(mech, kin_mj, at_kin)
         agreements = [compare.agreement(mech, kin_mj, ref=kin_at)]
         clock.lap("reference_kinematics")
-        output.write_csv(stage / "kinematics.csv", mech, kin_mj)
-        output.write_csv(stage / "reference_kinematics.csv", mech, kin_ref)
+        write_csv(stage / "kinematics.csv", mech, kin_mj)
+        write_csv(stage / "reference_kinematics.csv", mech, kin_ref)
         kinematics = KinematicsSummary(kcase.omega0, kcase.duration, kcase.settings)
 
         # Figures are drawn in forked workers while this process goes on (two cores): those of
@@ -202,16 +205,16 @@ def run(
             timing=head,
             design=summary.summarize(mech),
         )
-        output.write_json(stage / "report.json", result.as_dict())
+        write_json(stage / "report.json", result.as_dict())
         # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.
         xml = dyn.model.spec.to_xml() if dyn is not None else builder.to_xml(mech, DYNAMIC)
-        output.write_text(stage / "model.xml", xml, in_stage=True)
+        write_text(stage / "model.xml", xml, in_stage=True)
         if mech.path is not None:  # drag-to-design edits the file as written
             html = design.design_html(mech, mech.path.read_text(encoding="utf-8"))
-            output.write_text(stage / "design.html", html, in_stage=True)
-        written = [p.name for p in stage.iterdir() if p.name != output.MARKER] + ["index.html"]
-        output.write_text(stage / "index.html", index.index_html(result, written), in_stage=True)
-        files = tuple(sorted(p.name for p in stage.iterdir() if p.name != output.MARKER))
+            write_text(stage / "design.html", html, in_stage=True)
+        written = [p.name for p in stage.iterdir() if p.name != MARKER] + ["index.html"]
+        write_text(stage / "index.html", index.index_html(result, written), in_stage=True)
+        files = tuple(sorted(p.name for p in stage.iterdir() if p.name != MARKER))
     return dataclasses.replace(result, files=files)
 
 
@@ -245,8 +248,8 @@ def _forward_dynamics(
     rk4 = reference.rk4_dynamics(mech, steps, sd=sd) if steps and dcase.duration == mech.dynamics.duration else None
     agreement = compare.agreement(mech, dyn_mj, motion, ref=compare.reference_at(mech, dyn_mj, at_dyn))
     clock.lap("reference_dynamics")
-    output.write_csv(stage / "dynamics.csv", mech, dyn_mj)
-    output.write_csv(stage / "reference_dynamics.csv", mech, dyn_ref)
+    write_csv(stage / "dynamics.csv", mech, dyn_mj)
+    write_csv(stage / "reference_dynamics.csv", mech, dyn_ref)
     paper = None
     if rk4 is not None:
         tight = on_grid(motion, rk4.t) or reference.forward_dynamics(mech, rk4.t, sd=sd)
@@ -259,17 +262,17 @@ def _forward_dynamics(
             len(rk4.t) - 1,
         )
     summary = DynamicsSummary(
-        mech.dynamics.moment,
-        mech.dynamics.damping,
-        dcase.duration,
-        dcase.settings,
-        float(dyn_mj.omega[-1]),
-        float(motion.omega[-1]),
-        reference.TIGHT_RTOL,
-        sd.harmonics,
-        sd.error,
-        paper,
-        motion.method,
+        moment=mech.dynamics.moment,
+        damping=mech.dynamics.damping,
+        duration=dcase.duration,
+        settings=dcase.settings,
+        omega_final_mujoco=float(dyn_mj.omega[-1]),
+        omega_final_reference=float(motion.omega[-1]),
+        ode_rtol=reference.TIGHT_RTOL,
+        spectral_harmonics=sd.harmonics,
+        spectral_error=sd.error,
+        rk4=paper,
+        ode_method=motion.method,
     )
     return _DynamicRun(summary, agreement, dyn_mj, dyn_ref, rk4, built)
 
@@ -291,8 +294,17 @@ def _video(
         height=opts.height,
         settings=settings,
         progress=progress,
+        held=uninterrupted,
     )
-    return VideoSummary(file, info.frames, info.fps, info.width, info.height, info.backend, info.time_scale)
+    return VideoSummary(
+        file=file,
+        frames=info.frames,
+        fps=info.fps,
+        width=info.width,
+        height=info.height,
+        backend=info.backend,
+        slowed_down_by=info.time_scale,
+    )
 
 
 def _same_branch(mech: Mechanism, trace: Trace, at: reference.Kinematics | None = None) -> None:

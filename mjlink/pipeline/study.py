@@ -10,7 +10,6 @@ outputs are published, so an interrupted study resumes where it stopped.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import platform
 import time
@@ -22,16 +21,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .. import compare, output
+from .. import compare
 from ..errors import InputError, OutputError
+from ..files import write_json, write_parquet, write_records
 from ..notes import note
+from ..runtime import cluster, staging
+from ..runtime.progress import study_progress
 from ..study import cache, engine, plan
 from ..study.plan import Plan
 from ..study.spec import Study, load
 from ..version import __version__
 from . import optimize
 from .columns import column_name, versions
-from .progress import study_progress
 
 if TYPE_CHECKING:
     from .optimize import OptimizeResult
@@ -225,14 +226,14 @@ def prepare(
     dest = out_root / f"{st.name}-study"
     cache_dir = out_root / f".{st.name}-study.chunks"
     try:
-        output.check_destination(dest, kind="study", mechanism=st.name, force=force)
+        staging.check_destination(dest, kind="study", mechanism=st.name, force=force)
     except OutputError as e:
         raise InputError(str(e)) from None
     if st.optimize is None:
         cache.check(cache_dir)
     address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS") if client is None else None
     if address:
-        engine.check_reachable(engine.check_address(address))
+        cluster.check_reachable(engine.check_address(address))
     if workers is not None and workers < 0:
         raise InputError(f"--workers must be 0 or more, got {workers}")
     local: int | None
@@ -241,7 +242,7 @@ def prepare(
     elif workers == 0:
         local = 0
     else:
-        local = engine.local_workers(workers)
+        local = cluster.local_workers(workers)
     lanes = local if local is not None else (len(client.scheduler_info()["workers"]) if client is not None else 1)
     p = plan.estimate(st, workers=lanes, limit=max_memory, cluster=bool(local))
     if workers is None and local and plan.small(p, st):
@@ -271,7 +272,7 @@ def run(
     Args:
       study: the study, a study file's path or shipped name, or a :class:`Prepared` one.
       out_root: outputs go to ``out_root/NAME-study/``.
-      scheduler: an existing Dask scheduler's address (see :func:`mjlink.study.engine.client_for`).
+      scheduler: an existing Dask scheduler's address (see :func:`mjlink.runtime.cluster.client_for`).
       workers: local cluster worker processes (default: one per core, or this process for a study
         too small to gain from a cluster, :func:`mjlink.study.plan.small`; 0: in this process).
       client: a ``distributed.Client`` to use instead.
@@ -311,23 +312,20 @@ def run(
     try:
         with _client(client, pre.scheduler, pre.workers) as (c, what):
             started = time.perf_counter() - t
-            with output.staged_dir(pre.dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
+            with staging.staged_dir(pre.dest, kind="study", mechanism=st.name, force=force, command=command) as stage:
                 try:
-                    # c is None where the study runs in this process (workers 0): say so, or
-                    # the engine would start a local cluster of its own.
-                    o = engine.run(st, client=c, workers=0, cache_dir=pre.cache_dir, progress=update)
+                    o = engine.run(st, client=c, what=what, cache_dir=pre.cache_dir, progress=update)
                 except KeyboardInterrupt:
                     _kept(pre.cache_dir)
                     raise
-                o = dataclasses.replace(o, engine=what if client is None else o.engine)
                 if client is None and pre.workers != 0:
                     o.timing["cluster start"] = started
                 summ = summary(o, command)
                 files: list[Path] = []
                 cols = table(o)
-                files.append(output.write_records(stage / "results.csv", cols))
-                files.append(output.write_parquet(stage / "results.parquet", cols))
-                files.append(output.write_json(stage / "summary.json", summ))
+                files.append(write_records(stage / "results.csv", cols))
+                files.append(write_parquet(stage / "results.parquet", cols))
+                files.append(write_json(stage / "summary.json", summ))
                 if plots:
                     files += _plots(o, stage)
     finally:
@@ -349,7 +347,7 @@ def _client(client: Any, scheduler: str | None, workers: int | None) -> Iterator
     if client is not None:
         yield client, "the given Dask client"
         return
-    with engine.client_for(scheduler, workers) as got:
+    with cluster.client_for(scheduler, workers) as got:
         yield got
 
 

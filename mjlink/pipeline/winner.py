@@ -44,7 +44,7 @@ from ..study.tasks import Evaluated, Verified, mujoco_chunk, reference_chunk
 TRIES = 16  # candidates held to the checks before the study gives up with the reasons
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Written:
     """A design as written: ``values`` (P,) the varied parameters rounded (file units), its
     file ``text`` (without the header), the mechanism read back from it (``mech``), every
@@ -183,7 +183,19 @@ def _attempt(
     if opt.pareto is None:
         objective = float(s.objective[j]) * (-1.0 if opt.sense == "max" else 1.0)
     cols = {c: float(v[0]) for c, v in ev.columns.items()}
-    return Written(xr, np.asarray(x, dtype=float), text, mech, cols, objective, ver), None, xr
+    return (
+        Written(
+            values=xr,
+            optimum=np.asarray(x, dtype=float),
+            text=text,
+            mech=mech,
+            columns=cols,
+            objective=objective,
+            verified=ver,
+        ),
+        None,
+        xr,
+    )
 
 
 def choose(

@@ -39,8 +39,8 @@ from matplotlib.typing import ColorType
 
 from .. import palette
 from ..errors import OutputError
+from ..files import atomic_path
 from ..model.mechanism import Mechanism
-from ..output import atomic_path
 from ..runs import Trace
 
 DPI = 120

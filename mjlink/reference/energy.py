@@ -98,7 +98,7 @@ def _tail(values: np.ndarray) -> np.ndarray:
     return np.abs(coef).max(axis=-1)
 
 
-@dataclass
+@dataclass(kw_only=True)
 class _Block:
     """One solved block: panel edges ``a``, ``b`` (p,) in s, nodal s, T, t, J (p, n), and the
     integrating factor's exponent over it (``decay``, 0 without damping)."""
@@ -217,7 +217,7 @@ def _solve_block(
         _tail(rate * (0.5 * (b - a))[:, None]) > RESOLVED * span
     ).any():
         return "resolution"
-    return _Block(a, b, s, T, t, J, decay)
+    return _Block(a=a, b=b, s=s, T=T, t=t, J=J, decay=decay)
 
 
 def solve(

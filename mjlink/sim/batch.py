@@ -61,7 +61,7 @@ _FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
 _BUILD_ERRORS = (MjlinkError, ValueError, ArithmeticError)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Verification:
     """One variant's batched MuJoCo run against the reference (maxima over the run).
 
@@ -86,7 +86,7 @@ class Verification:
     reason: str = ""
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Timing:
     """Wall-clock seconds of :func:`verify_timed` per stage, summed over the variants.
 
@@ -381,7 +381,16 @@ def judge(mech: Mechanism, built: builder.Built, rows: np.ndarray) -> Verificati
     if not math.isnan(thread):
         checks.append(compare.Check(_RUN, "thread length", thread * 1e6, "um", compare.THREAD_UM))
     failures = tuple(_failure(c) for c in checks if c.passed is False)
-    return Verification(pos, vel, float(gap.max(initial=0.0)), thread, speed, n, not failures, failures)
+    return Verification(
+        position_error=pos,
+        velocity_error=vel,
+        loop_gap=float(gap.max(initial=0.0)),
+        thread_error=thread,
+        speed_error=speed,
+        samples=n,
+        passed=not failures,
+        failures=failures,
+    )
 
 
 def _failure(c: compare.Check) -> str:
@@ -404,7 +413,17 @@ def _same_size(first: _Variant, i: int, mech: Mechanism, model: mujoco.MjModel) 
 
 def _no_result(reason: str) -> Verification:
     nan = math.nan
-    return Verification(nan, nan, nan, nan, nan, 0, False, (), reason)
+    return Verification(
+        position_error=nan,
+        velocity_error=nan,
+        loop_gap=nan,
+        thread_error=nan,
+        speed_error=nan,
+        samples=0,
+        passed=False,
+        failures=(),
+        reason=reason,
+    )
 
 
 def _one_line(e: BaseException) -> str:

@@ -55,7 +55,7 @@ def _colors(n: int) -> list[tuple[float, float, float, float]]:
     return [palette.rgba(palette.link(i)) for i in range(n)]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Built:
     """A compiled model of a mechanism and the ids of its elements.
 
@@ -92,7 +92,7 @@ class Built:
     sensors: dict[tuple[str, str], int]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class _Elements:
     input_joint: mujoco.MjsJoint
     drive: mujoco.MjsActuator
@@ -422,18 +422,18 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
         bodies[pr.child].add_site(name=names.load_site(pr.child), pos=[0.0, 0.0, 0.0], **hidden)
     sensors = _add_sensors(spec, mech, input_joint, [pr for pr, _ in tree], [pr for pr, _ in loops], full=not batch)
     return spec, _Elements(
-        input_joint,
-        act,
-        sites,
-        {k: v for k, v in bodies.items() if k is not None},
-        tuple(tree),
-        tuple(loops),
-        tuple(gears),
-        t,
-        front,
-        oblique,
-        sensors,
-        tuple(drawn),
+        input_joint=input_joint,
+        drive=act,
+        sites=sites,
+        bodies={k: v for k, v in bodies.items() if k is not None},
+        tree=tuple(tree),
+        loops=tuple(loops),
+        gears=tuple(gears),
+        thread=t,
+        front=front,
+        oblique=oblique,
+        sensors=sensors,
+        drawn=tuple(drawn),
     )
 
 
@@ -590,22 +590,22 @@ def make(mech: Mechanism, settings: Settings = KINEMATIC) -> Built:
 def _built(spec: mujoco.MjSpec, el: _Elements, model: mujoco.MjModel, physics: mujoco.MjModel, dof: int) -> Built:
     """The :class:`Built` of compiled ``model`` and ``physics``: the ids of the elements ``el``."""
     return Built(
-        spec,
-        model,
-        physics,
-        el.input_joint.id,
-        dof,
-        int(model.jnt_qposadr[el.input_joint.id]),
-        el.drive.id,
-        {k: v.id for k, v in el.sites.items()},
-        {k: v.id for k, v in el.bodies.items()},
-        tuple((p, j.id) for p, j in el.tree),
-        tuple((p, e.id) for p, e in el.loops),
-        tuple(e.id for e in el.gears),
-        -1 if el.thread is None else el.thread.id,
-        el.front.id,
-        el.oblique.id,
-        {k: int(model.sensor_adr[v.id]) for k, v in el.sensors.items()},
+        spec=spec,
+        model=model,
+        physics=physics,
+        input_joint=el.input_joint.id,
+        input_dof=dof,
+        input_qpos=int(model.jnt_qposadr[el.input_joint.id]),
+        drive=el.drive.id,
+        sites={k: v.id for k, v in el.sites.items()},
+        bodies={k: v.id for k, v in el.bodies.items()},
+        tree=tuple((p, j.id) for p, j in el.tree),
+        loops=tuple((p, e.id) for p, e in el.loops),
+        gears=tuple(e.id for e in el.gears),
+        thread=-1 if el.thread is None else el.thread.id,
+        front=el.front.id,
+        oblique=el.oblique.id,
+        sensors={k: int(model.sensor_adr[v.id]) for k, v in el.sensors.items()},
     )
 
 

@@ -21,13 +21,16 @@ import math
 import os
 import sys
 import time
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .. import analysis, output, palette, reference
+from .. import analysis, palette, reference
 from ..errors import OutputError, RenderError
+from ..files import atomic_path
 from ..model.mechanism import Mechanism
 from ..runs import Settings, Trace
 from . import builder, simulate
@@ -38,7 +41,7 @@ PROGRESS_AFTER = 1.0  # s of rendering before a progress line is worth printing
 
 
 # ----------------------------------------------------------------------------- video
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class VideoInfo:
     """What :func:`render_video` wrote.
 
@@ -147,25 +150,31 @@ def overlay_lines(trace: Trace, times: np.ndarray, time_scale: float, phi0: floa
     return out
 
 
-def _new_renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
+Held = Callable[[], AbstractContextManager[object]]
+"""What holds SIGINT and SIGTERM back while a GL context is made: the command line passes
+its own (:func:`mjlink.runtime.signals.uninterrupted`); a script's default holds nothing."""
+
+
+def _new_renderer(model: mujoco.MjModel, height: int, width: int, held: Held) -> mujoco.Renderer:
     """``mujoco.Renderer(model, height, width)`` with SIGINT and SIGTERM acted on once it exists.
 
     Why: a GL context whose constructor an interruption cuts short (mujoco 3.8's EGL context
     sets its ``_context`` last) prints an ``AttributeError`` from its ``__del__`` after the
     run's one-line message; held back, the signal ends the run right after, cleanly."""
-    with output.uninterrupted():
+    with held():
         return mujoco.Renderer(model, height, width)
 
 
-def check_backend() -> str:
+def check_backend(*, held: Held = contextlib.nullcontext) -> str:
     """The OpenGL backend rendering will use, tried now: one the environment chose
     (``MUJOCO_GL``) makes a 16x16 context current here, as the video will (a probed one already
-    did); raises the one-line :class:`RenderError` a render would, before any run."""
+    did); raises the one-line :class:`RenderError` a render would, before any run. ``held``
+    holds signals back while the context is made (see :func:`_new_renderer`)."""
     backend = ensure_gl_backend()
     if not hasattr(mujoco, "GLContext"):  # MUJOCO_GL turned OpenGL off
         raise context_failure(backend, None)
     try:
-        with output.uninterrupted():  # see _new_renderer
+        with held():  # see _new_renderer
             ctx = mujoco.GLContext(16, 16)
         ctx.make_current()
         ctx.free()
@@ -185,6 +194,7 @@ def render_video(
     height: int = 480,
     settings: Settings | None = None,
     progress: bool = True,
+    held: Held = contextlib.nullcontext,
 ) -> VideoInfo:
     """Render ``trace`` of ``mech`` to an MP4 (H.264, yuv420p) at ``path``.
 
@@ -201,7 +211,8 @@ def render_video(
 
     The file is written to a temporary name in the same folder and renamed at the end, so
     ``path`` is either complete or untouched. With ``progress``, a frame counter goes to
-    stderr once rendering has taken more than about 1 s.
+    stderr once rendering has taken more than about 1 s. ``held`` holds SIGINT and SIGTERM back
+    while a GL context is made (:data:`Held`).
 
     Raises :class:`RenderError` if the trace cannot be rendered, no OpenGL context can be
     made or encoding fails, :class:`OutputError` if the folder cannot be written.
@@ -242,7 +253,9 @@ def render_video(
     if spatial:
         for row in lines:
             row.append("axes: x red, y green, z blue; floor grid under the mechanism")
-    extras = Extras(key, trail, size, pts.min(axis=0), pts.max(axis=0), spatial, lines)
+    extras = Extras(
+        key=key, trail=trail, size=size, lo=pts.min(axis=0), hi=pts.max(axis=0), spatial=spatial, lines=lines
+    )
     # The builder sizes the offscreen buffer for 1080p; a larger video only needs a larger one.
     model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
     model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
@@ -255,12 +268,12 @@ def render_video(
     if not path.parent.is_dir():
         raise OutputError(f"{path}: folder {path.parent} does not exist")
 
-    with output.atomic_path(path, suffix=".mp4") as tmp:
-        _frames(model, data, qpos, camera, extras, option, tmp, fps, width, height, backend, progress)
-    return VideoInfo(path, n, fps, width, height, time_scale, backend)
+    with atomic_path(path, suffix=".mp4") as tmp:
+        _frames(model, data, qpos, camera, extras, option, tmp, fps, width, height, backend, progress, held)
+    return VideoInfo(path=path, frames=n, fps=fps, width=width, height=height, time_scale=time_scale, backend=backend)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Extras:
     """What a frame shows beyond the model: the key point's trail (frames, samples, 3) m, the
     swept box (m) for the floor grid and axis triad of a 3D view, the overlay text per frame."""
@@ -361,6 +374,7 @@ def _frames(
     height: int,
     backend: str,
     progress: bool,
+    held: Held,
 ) -> None:
     """Render every frame into an H.264 file at ``tmp`` (complete when this returns)."""
     n = len(qpos)
@@ -384,7 +398,7 @@ def _frames(
         if not hasattr(mujoco, "GLContext"):  # MUJOCO_GL turned OpenGL off
             raise context_failure(backend, None)
         try:
-            renderer = _new_renderer(model, height, width)
+            renderer = _new_renderer(model, height, width, held)
         except ImportError as e:  # the backend's library is missing (mujoco's placeholder context)
             raise context_failure(backend, e) from None
         except Exception as e:
@@ -404,7 +418,7 @@ def _frames(
             renderer.close()
             model.vis.quality.offsamples = samples
             model.vis.quality.numslices, model.vis.quality.numstacks = slices
-            renderer = _new_renderer(model, height, width)
+            renderer = _new_renderer(model, height, width, held)
         # The planar linkage has no surface for shadows to fall on (<0.1 % of pixels change),
         # yet a software (Mesa) renderer would draw the 4096^2 shadow map for every frame.
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False

@@ -92,22 +92,22 @@ def evaluate(
     mets = tuple(_metrics.read(mech, dict(m), i) for i, m in enumerate(metrics))
     _metrics.columns(mets)
     st = Study(
-        "api",
-        "",
-        None,
-        mech,
-        "grid",
-        tuple(Varied(p) for p in params),
-        len(table),
-        0,
-        "sobol",
-        mets,
-        (),
-        per_turn,
-        "none",
-        0,
-        "",
-        "",
+        name="api",
+        title="",
+        path=None,
+        mechanism=mech,
+        method="grid",
+        varied=tuple(Varied(p) for p in params),
+        samples=len(table),
+        seed=0,
+        sequence="sobol",
+        metrics=mets,
+        bounds=(),
+        per_turn=per_turn,
+        verify="none",
+        count=0,
+        by="",
+        digest="",
     )
     return reference_chunk(st, table)
 

@@ -40,9 +40,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..files import read_json
+from ..files import atomic_path, read_json
 from ..notes import note
-from ..output import atomic_path
 from ..version import __version__
 from .spec import Study
 

@@ -4,11 +4,10 @@ A study's variants are cut into chunks of a size that depends only on the number
 (not on the workers), so a chunk's result is the same whatever runs it, and an interrupted
 study, run again, finds its finished chunks in the cache and skips them. Chunks run:
 
-* on a Dask cluster: an existing one (``scheduler='tcp://HOST:PORT'``, or the
-  ``DASK_SCHEDULER_ADDRESS`` environment variable, Dask's own convention), whose workers must
-  have mjlink installed; or, by default, a ``distributed.LocalCluster`` started here with one
-  single-threaded worker process per core and closed at the end;
-* or in this process (``workers=0``): one chunk after the other; MuJoCo's rollout then uses a
+* on a Dask cluster, through the client the caller gives: an existing cluster, whose workers
+  must have mjlink installed, or a local one (the command line opens either with
+  :func:`mjlink.runtime.cluster.client_for`);
+* or in this process (no client): one chunk after the other; MuJoCo's rollout then uses a
   thread per core itself.
 
 An optimization's generations, small batches one after the other, go to :class:`Pool`: the
@@ -21,13 +20,9 @@ its batch either, but the engine does not promise more than the thresholds).
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import logging
 import os
 import re
-import socket
-import sys
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -37,18 +32,14 @@ from typing import Any
 
 import numpy as np
 
-from .. import memory
 from ..errors import InputError, MjlinkError
 from ..model.reader import shown
-from ..notes import note
 from .cache import Cache
 from .spec import Study
 from .tasks import Evaluated, StudyWorker, Verified, mujoco_chunk, reference_chunk
 
 REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
 MUJOCO_CHUNK = (4, 128)  # variants per MuJoCo task (one rollout of that many models)
-CONNECT_TIMEOUT_S = 10.0  # to an existing scheduler, before a one-line error
-WORKERS_TIMEOUT_S = 10.0  # for a connected cluster's first worker, before a one-line error
 PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx", "inproc")  # Dask's address schemes
 
 
@@ -66,7 +57,7 @@ def chunking() -> dict[str, list[int]]:
     return {"reference": list(REFERENCE_CHUNK), "mujoco": list(MUJOCO_CHUNK)}
 
 
-_ADDRESS = re.compile(
+ADDRESS = re.compile(
     r"(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+)(?::(?P<port>[0-9]+))?/?"
 )
 
@@ -76,7 +67,7 @@ def check_address(address: str) -> str:
     a one-line SchedulerError saying how to write one. Nothing is contacted."""
     if isinstance(address, str) and address.strip().lower().startswith("inproc://") and address.strip()[9:]:
         return address.strip()  # an in-process scheduler's (tests, notebooks): HOST/PID/N
-    m = _ADDRESS.fullmatch(address.strip()) if isinstance(address, str) else None
+    m = ADDRESS.fullmatch(address.strip()) if isinstance(address, str) else None
     scheme = (m["scheme"] or "tcp").lower() if m else ""
     port = int(m["port"]) if m and m["port"] and len(m["port"]) <= 5 else None
     if m is None or scheme not in PROTOCOLS or (m["port"] and (port is None or not 0 < port < 65536)):
@@ -110,7 +101,7 @@ class Timing:
             self.stages[name] = self.stages.get(name, 0.0) + time.perf_counter() - t
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Outcome:
     """Everything a study computed, per variant (V of them, in the study's order).
 
@@ -173,209 +164,6 @@ def _unpack_mj(z: dict[str, np.ndarray]) -> Verified:
     )
 
 
-# ------------------------------------------------------------------------------ clients
-def _connect(client_class: Any, address: str) -> Any:
-    """A client of the scheduler at ``address``. distributed (2026.8) checks that its first
-    read after registering holds the scheduler's stream-start alone, and fails with a bare
-    AssertionError when the scheduler's batched sends put another message in the same read
-    (a race seen once under load, with other clients on the scheduler): a second attempt
-    registers anew."""
-    try:
-        return client_class(address, timeout=f"{CONNECT_TIMEOUT_S}s")
-    except AssertionError:
-        return client_class(address, timeout=f"{CONNECT_TIMEOUT_S}s")
-
-
-def check_reachable(address: str, timeout: float | None = None) -> None:
-    """Whether anything listens at a TCP scheduler address (a plain connection, no Dask): a
-    scheduler that refuses or does not answer is a one-line SchedulerError at once, before the
-    study is sized and planned. Other schemes are left to Dask's own connection."""
-    m = _ADDRESS.fullmatch(address.strip())
-    if m is None or (m["scheme"] or "tcp").lower() not in ("tcp", "tls", "ws", "wss"):
-        return
-    host = m["host"].strip("[]")
-    port = int(m["port"] or 8786)
-    try:
-        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S if timeout is None else timeout).close()
-    except OSError as e:
-        why = "no answer" if isinstance(e, TimeoutError) else (e.strerror or type(e).__name__)
-        raise SchedulerError(
-            f"cannot reach the Dask scheduler at {address}: {why} (within {CONNECT_TIMEOUT_S:g} s); "
-            "is it running, and is the address right?"
-        ) from None
-
-
-def _not_dask(e: BaseException) -> str:
-    """What a failed connection to a scheduler says, in one line (a peer that answers in
-    another protocol makes Dask's reader fail in odd ways: a huge allocation, a decode)."""
-    if isinstance(e, MemoryError | ValueError | UnicodeError | EOFError):
-        return "something answers there, but not as a Dask scheduler"
-    return _one_line(e)
-
-
-@contextmanager
-def client_for(scheduler: str | None = None, workers: int | None = None) -> Iterator[tuple[Any, str]]:
-    """A Dask client and a description of it (None and 'in process' for ``workers=0``).
-
-    ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) connects to an existing cluster: an address
-    that is not one, a scheduler that does not answer within :data:`CONNECT_TIMEOUT_S` and a
-    cluster that has no worker within :data:`WORKERS_TIMEOUT_S` are one-line SchedulerErrors.
-    Otherwise a LocalCluster of ``workers`` single-threaded processes (default: one per core)
-    is started and closed on exit. Its scheduler's HTTP server listens on a free port of
-    localhost (never Dask's 8787: a second study at the same time finds it taken); its worker
-    processes write to /dev/null, not to this terminal (``MJLINK_WORKER_LOGS=1`` keeps their
-    stderr), and each leaves the terminal's process group once started, so that a Ctrl-C
-    reaches this process alone, which stops them cleanly.
-    """
-    address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS")
-    if workers == 0 and not scheduler:
-        yield None, "in process"
-        return
-    try:
-        from distributed import Client, LocalCluster  # here: Dask, only for a cluster
-    except ImportError as e:  # pragma: no cover - a dependency
-        raise EngineError(f"Dask distributed is not installed ({e}): pip install 'dask[distributed]'") from None
-    if address:
-        address = check_address(address)
-        try:
-            client = _connect(Client, address)
-        except Exception as e:
-            raise SchedulerError(
-                f"cannot reach the Dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {_not_dask(e)}"
-            ) from None
-        try:
-            try:
-                client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
-            except Exception:
-                raise SchedulerError(
-                    f"the Dask cluster at {address} has no workers (none joined within {WORKERS_TIMEOUT_S:g} s): "
-                    f"start some (dask worker {address}) or give another --scheduler"
-                ) from None
-            try:
-                client.run(_warm)  # mjlink importable on every worker, its allocator settings made
-            except Exception as e:
-                raise EngineError(
-                    f"the workers of the Dask cluster at {address} cannot run mjlink: {_one_line(e)}"
-                ) from None
-            n = len(client.scheduler_info()["workers"])
-            yield client, f"Dask cluster at {address} ({n} workers)"
-        finally:
-            _close_quietly(client)
-        return
-    n = workers or os.cpu_count() or 1
-    import dask  # here: Dask, only for a cluster
-
-    # glibc reads these when a process starts (see mjlink.memory): the nanny's
-    # pre-spawn environment is the only place to set them before a worker exists.
-    # A worker never renders: it imports mujoco without probing OpenGL.
-    environ = {**memory.MALLOC_ENV, "MJLINK_NO_GL": "1"}
-    # Dask's nanny sets its pre-spawn environment in this process too, before each worker it
-    # spawns ("even if this means poisoning the process running the Nanny", its documentation):
-    # the workers' allocator, BLAS, no-GL and hash-seed settings must not stay in a user's
-    # process and reach every program it starts afterwards. Put back once started and once
-    # closed (a lost worker's restart sets them again).
-    before = dict(os.environ)
-    try:
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), _workers_stderr():
-            cluster = LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                silence_logs=logging.ERROR,
-            )
-    finally:
-        _restore(before)
-    client = Client(cluster)
-    try:
-        client.run(_warm_local)  # imports on every worker now, not inside the first timed task
-        yield client, f"Dask LocalCluster ({n} worker processes x 1 thread)"
-    finally:
-        _close_quietly(client, cluster)
-        _restore(before)
-
-
-def local_workers(workers: int | None) -> int:
-    """The worker processes of a local cluster for ``--workers``: one per core by default; more
-    than the cores is clamped to them, with a note (a study's tasks are CPU-bound: more
-    processes than cores only share them)."""
-    cores = os.cpu_count() or 1
-    if workers is None:
-        return cores
-    if workers > cores:
-        note(f"--workers {workers} is more than this machine's {cores} cores: using {cores}")
-        return cores
-    return workers
-
-
-def _restore(before: dict[str, str]) -> None:
-    """Set ``os.environ`` back to ``before``: what was added since is removed, what changed is
-    set back."""
-    for k in [k for k in os.environ if k not in before]:
-        del os.environ[k]
-    for k, v in before.items():
-        if os.environ.get(k) != v:
-            os.environ[k] = v
-
-
-@contextmanager
-def _workers_stderr() -> Iterator[None]:
-    """While the body starts worker processes, their inherited stderr is /dev/null (unless
-    ``MJLINK_WORKER_LOGS`` is set): a worker interrupted or stopped must not write Dask's
-    tracebacks into the user's terminal. This process's stderr is back when the body ends."""
-    if os.environ.get("MJLINK_WORKER_LOGS"):
-        yield
-        return
-    sys.stderr.flush()
-    saved = os.dup(2)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-        os.close(devnull)
-
-
-def _close_quietly(client: Any, cluster: Any = None) -> None:
-    """Close the client (and the local cluster) without Dask's log lines about connections
-    closed under it (an interrupted run closes in the middle of its tasks)."""
-    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
-    levels = [lg.level for lg in loggers]
-    for lg in loggers:
-        lg.setLevel(logging.CRITICAL + 1)
-    try:
-        with contextlib.suppress(Exception):
-            client.close()
-        if cluster is not None:
-            with contextlib.suppress(Exception):
-                cluster.close()
-    finally:
-        for lg, level in zip(loggers, levels, strict=True):
-            lg.setLevel(level)
-
-
-def _one_line(e: BaseException) -> str:
-    text = " ".join(str(e).split()) or type(e).__name__
-    return text if len(text) <= 200 else text[:197] + "..."
-
-
-def _warm() -> None:
-    """Run on every worker at start: its imports made now, not inside the first timed task."""
-    import mjlink.sim.batch
-    import mjlink.study.tasks  # noqa: F401
-
-
-def _warm_local() -> None:
-    """:func:`_warm`, and out of the terminal's process group: a worker of the local cluster is
-    stopped by this process, not by the terminal's Ctrl-C (which would make it print)."""
-    _warm()
-    with contextlib.suppress(OSError):
-        os.setpgrp()
-
-
 # --------------------------------------------------------------------------------- running
 Progress = Callable[[str, int, int], None]  # (stage, done, total) in variants
 
@@ -384,8 +172,7 @@ def run(
     study: Study,
     *,
     client: Any = None,
-    scheduler: str | None = None,
-    workers: int | None = None,
+    what: str | None = None,
     cache_dir: Path | None = None,
     progress: Progress | None = None,
 ) -> Outcome:
@@ -394,10 +181,10 @@ def run(
 
     Args:
       study: the study.
-      client: a ``distributed.Client`` to run on (overrides ``scheduler``/``workers``).
-      scheduler: address of an existing Dask scheduler.
-      workers: worker processes of the local cluster (default one per core); 0 runs in this
-        process without Dask.
+      client: a ``distributed.Client`` to run on; None runs in this process, one chunk after
+        the other (the command line opens the client: :mod:`mjlink.runtime.cluster`).
+      what: the client as the summary names it (``"Dask LocalCluster (2 worker processes x 1
+        thread)"``; default "in process", or "the given Dask client").
       cache_dir: where finished chunks are kept (None: no cache; :mod:`.cache`); the caller
         removes it (:meth:`.cache.Cache.remove`) once the study's outputs are safely written.
       progress: called with (stage, variants done, variants in the stage) as chunks finish.
@@ -408,14 +195,9 @@ def run(
     with timing.stage("sampling"):
         values = study.values()
     cache = Cache(cache_dir, study, len(values), chunking())
-    if client is not None:
-        out = _run(study, values, client, "the given Dask client", cache, progress, timing)
-    else:
-        t = time.perf_counter()
-        with client_for(scheduler, workers) as (c, what):
-            timing.stages["cluster start"] = time.perf_counter() - t
-            out = _run(study, values, c, what, cache, progress, timing)
-    return out
+    if what is None:
+        what = "in process" if client is None else "the given Dask client"
+    return _run(study, values, client, what, cache, progress, timing)
 
 
 def _run(
@@ -500,18 +282,18 @@ def _run(
                 mj_reason[i] = r
     timing.stages["total"] = time.perf_counter() - timing.start
     return Outcome(
-        study,
-        values,
-        cols,
-        feasible,
-        reason,
-        verified,
-        mj,
-        tuple(mj_reason),
-        what,
-        len(ref_chunks),
-        resumed,
-        dict(timing.stages),
+        study=study,
+        values=values,
+        columns=cols,
+        feasible=feasible,
+        reason=reason,
+        verified=verified,
+        mujoco=mj,
+        mujoco_reason=tuple(mj_reason),
+        engine=what,
+        chunks=len(ref_chunks),
+        resumed=resumed,
+        timing=dict(timing.stages),
     )
 
 

@@ -89,7 +89,7 @@ class Scores:
     reason: tuple[str, ...]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Archive:
     """Every candidate evaluated: ``run`` index, ``generation``, ``values`` (E, P) file
     units, ``columns`` metric -> (E,), ``objective`` (E,), ``violation`` (E,), ``reason``."""
@@ -103,7 +103,7 @@ class Archive:
     reason: tuple[str, ...]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Result:
     """An optimization's outcome.
 
@@ -286,7 +286,7 @@ class Evaluator:
         return Scores(np.asarray(obj, dtype=float), cols, violation, tuple(reason))
 
 
-@dataclass
+@dataclass(kw_only=True)
 class _Book:
     """What every run records: the archive's rows as they arrive."""
 
@@ -312,13 +312,13 @@ class _Book:
         names = [c.name for c in study.columns]
         cat = np.concatenate
         return Archive(
-            cat(self.run) if self.run else np.zeros(0, int),
-            cat(self.generation) if self.generation else np.zeros(0, int),
-            cat(self.values) if self.values else np.zeros((0, P)),
-            {c: cat([d[c] for d in self.columns]) if self.columns else np.zeros(0) for c in names},
-            cat(self.objective) if self.objective else np.zeros(0),
-            cat(self.violation) if self.violation else np.zeros(0),
-            tuple(self.reason),
+            run=cat(self.run) if self.run else np.zeros(0, int),
+            generation=cat(self.generation) if self.generation else np.zeros(0, int),
+            values=cat(self.values) if self.values else np.zeros((0, P)),
+            columns={c: cat([d[c] for d in self.columns]) if self.columns else np.zeros(0) for c in names},
+            objective=cat(self.objective) if self.objective else np.zeros(0),
+            violation=cat(self.violation) if self.violation else np.zeros(0),
+            reason=tuple(self.reason),
         )
 
 
@@ -489,24 +489,24 @@ def _run(study: Study, ev: Evaluator, here: Evaluator, engine: str, progress: Pr
         why += (spread.text(),)
     notes = caveats(study, here, winner, objective, spread)
     return Result(
-        study,
-        winner,
-        value,
-        {c: float(v[0]) for c, v in final.columns.items()},
-        {c: float(v[0]) for c, v in nominal.columns.items()},
-        front,
-        front_cols,
-        file_value,
-        {c: float(v[0]) for c, v in fs0.columns.items()},
-        runs,
-        book.archive(study),
-        ev.evaluations + here.evaluations,
-        engine,
-        {"search": t_search, "reference": ev.seconds + here.seconds, "total": time.perf_counter() - t0},
-        not why,
-        criterion(study),
-        why,
-        notes,
+        study=study,
+        winner=winner,
+        objective=value,
+        columns={c: float(v[0]) for c, v in final.columns.items()},
+        nominal_columns={c: float(v[0]) for c, v in nominal.columns.items()},
+        front=front,
+        front_columns=front_cols,
+        file_objective=file_value,
+        file_columns={c: float(v[0]) for c, v in fs0.columns.items()},
+        runs=runs,
+        archive=book.archive(study),
+        evaluations=ev.evaluations + here.evaluations,
+        engine=engine,
+        timing={"search": t_search, "reference": ev.seconds + here.seconds, "total": time.perf_counter() - t0},
+        converged=not why,
+        criterion=criterion(study),
+        not_converged=why,
+        caveats=notes,
     )
 
 

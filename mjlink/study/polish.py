@@ -42,7 +42,7 @@ FTOL = 1e-12  # relative change of the values below which it is converged by its
 PENALTY = 1e3  # objective per (fraction of the range)^2 outside the box, for ranking only
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Polished:
     """What the polish found: ``u`` (P,) in the unit cube and its objective ``f``, from ``f0``;
     ``evaluations``, ``generations``, the final ``step`` (fraction of the ranges), whether it
@@ -162,4 +162,13 @@ def polish(
         if len(history) >= window and feasible.all() and max(recent) - min(recent) <= tol and float(np.ptp(f)) <= tol:
             stopped = "values"
             break
-    return Polished(best_u, best_f, float(f0), used, gen, sigma * float(D.max()), stopped != "evaluations", stopped)
+    return Polished(
+        u=best_u,
+        f=best_f,
+        f0=float(f0),
+        evaluations=used,
+        generations=gen,
+        step=sigma * float(D.max()),
+        converged=stopped != "evaluations",
+        stopped_by=stopped,
+    )

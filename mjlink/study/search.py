@@ -38,7 +38,7 @@ COLLAPSED = 1e-4  # a population within this fraction of every range has settled
 SIGMA0 = (1e-3, 0.05)  # the polish's first step, a fraction of the ranges: the population's spread, within
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Run:
     """One run: its best feasible candidate ``x`` (P,) and objective ``f`` (what was
     minimized), ``seed``, generations and evaluations (the polish's included), how the global
@@ -107,7 +107,7 @@ def search(
     P = len(lo)
     cache: dict[bytes, tuple[float, float]] = {}
     t0 = time.perf_counter()
-    run = Run(name, np.full(P, np.nan), math.inf, 0, 0, False, seed=seed)
+    run = Run(name=name, x=np.full(P, np.nan), f=math.inf, generations=0, evaluations=0, converged=False, seed=seed)
     gen = -1
     improved_at = [0, math.inf]  # generation of the last improvement beyond ftol, and the value then
 

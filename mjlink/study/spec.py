@@ -75,7 +75,7 @@ RESOLUTION = {"mm": 0.01, "deg": 0.01}
 RESOLUTION_DIGITS = 8
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Optimize:
     """An optimization's ``[optimize]`` table (see :mod:`mjlink.study.optimize`).
 
@@ -137,7 +137,7 @@ class Robust:
     seed: int
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Study:
     """A validated study. ``per_turn`` crank angles per input turn; ``verify`` one of
     'all', 'none', 'best', 'worst' (``count`` variants by metric column ``by``)."""
@@ -434,27 +434,27 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
 
     digest = hashlib.sha256(text.encode() + b"\0" + mtext).hexdigest()[:16]
     return Study(
-        name,
-        title,
-        Path(path) if path != "<string>" else None,
-        mech,
-        method,
-        tuple(varied),
-        samples,
-        seed,
-        sequence,
-        mets,
-        tuple(bounds),
-        per_turn,
-        mode,
-        count,
-        by,
-        digest,
-        optimize,
-        robust,
-        fixed,
-        hashlib.sha256(text.encode()).hexdigest()[:16],
-        hashlib.sha256(mtext).hexdigest()[:16],
+        name=name,
+        title=title,
+        path=Path(path) if path != "<string>" else None,
+        mechanism=mech,
+        method=method,
+        varied=tuple(varied),
+        samples=samples,
+        seed=seed,
+        sequence=sequence,
+        metrics=mets,
+        bounds=tuple(bounds),
+        per_turn=per_turn,
+        verify=mode,
+        count=count,
+        by=by,
+        digest=digest,
+        optimize=optimize,
+        robust=robust,
+        fixed=fixed,
+        definition_digest=hashlib.sha256(text.encode()).hexdigest()[:16],
+        mechanism_digest=hashlib.sha256(mtext).hexdigest()[:16],
     )
 
 
@@ -632,23 +632,25 @@ def _optimize(src: object, raw: Any, names: list[str], n_params: int) -> Optimiz
             resolution[unit] = step
     seeds_default = 1 if pareto else 3
     return Optimize(
-        objective,
-        sense,
-        pareto,
-        _integer(src, raw, "points", where, 3, 64, default=7),
-        _integer(src, raw, "population", where, 5, 100_000, default=max(16, 10 * n_params)),
-        _integer(src, raw, "generations", where, 1, 100_000, default=200),
-        _integer(src, raw, "seed", where, 0, 2**62, default=0),
-        tol,
-        atol,
-        init,
-        delta,
-        _integer(src, raw, "seeds", where, 1, 32, default=seeds_default),
-        _integer(src, raw, "stall", where, 2, 100_000, default=30),
-        ftol,
-        _integer(src, raw, "polish_evaluations", where, 0, 10_000_000, default=2000 * max(1, n_params)),
-        xtol,
-        tuple(sorted(resolution.items())),
+        objective=objective,
+        sense=sense,
+        pareto=pareto,
+        points=_integer(src, raw, "points", where, 3, 64, default=7),
+        population=_integer(src, raw, "population", where, 5, 100_000, default=max(16, 10 * n_params)),
+        generations=_integer(src, raw, "generations", where, 1, 100_000, default=200),
+        seed=_integer(src, raw, "seed", where, 0, 2**62, default=0),
+        tol=tol,
+        atol=atol,
+        init=init,
+        flywheel_delta=delta,
+        seeds=_integer(src, raw, "seeds", where, 1, 32, default=seeds_default),
+        stall=_integer(src, raw, "stall", where, 2, 100_000, default=30),
+        ftol=ftol,
+        polish_evaluations=_integer(
+            src, raw, "polish_evaluations", where, 0, 10_000_000, default=2000 * max(1, n_params)
+        ),
+        xtol=xtol,
+        resolution=tuple(sorted(resolution.items())),
     )
 
 

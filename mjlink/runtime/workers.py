@@ -8,7 +8,7 @@ the worker's result (nothing, or the error with its traceback) comes back throug
 
 The worker is part of the run and never outlives it: it ignores SIGINT and SIGTERM (the run
 decides), a failing, interrupted or terminated run kills and reaps it before its stage is
-removed (:func:`mjlink.output.on_discard`), so it cannot re-create the stage, and a thread of
+removed (:func:`.staging.on_discard`), so it cannot re-create the stage, and a thread of
 its own ends it within :data:`WATCH_S` of its parent's death (it polls ``os.getppid()``: a
 killed run leaves no worker drawing). Where ``fork`` is unavailable the plots are drawn in this
 process, in order.
@@ -28,8 +28,9 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any
 
-from .. import output
 from ..errors import MjlinkError
+from .signals import uninterrupted
+from .staging import on_discard
 
 # A plot to draw later, with its arguments bound.
 PlotJob = Callable[[], object]
@@ -97,7 +98,7 @@ def start(jobs: list[PlotJob]) -> PlotWorker | None:
             gc.unfreeze()
         sink.close()
         worker = PlotWorker(process, result)
-        worker.cancel = output.on_discard(worker.stop)
+        worker.cancel = on_discard(worker.stop)
         return worker
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
@@ -146,7 +147,7 @@ def finish(worker: PlotWorker) -> None:
         got = True
     except EOFError:  # it ended without a word: killed, or exited
         report, got = None, False
-    with output.uninterrupted():
+    with uninterrupted():
         worker.process.join()
         worker.reaped = True
         worker.cancel()

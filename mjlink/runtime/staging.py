@@ -2,8 +2,7 @@
 
 A run writes into a hidden staging folder beside its destination and renames it into place only
 when everything is written (:func:`staged_dir`); single files are written atomically by
-:mod:`mjlink.files` (re-exported here: :func:`write_text`, :func:`write_table`, :func:`write_json`
-and the CSV writers).
+:mod:`mjlink.files`.
 
 What mjlink may touch in an output folder, and when it checks:
 
@@ -18,31 +17,22 @@ What mjlink may touch in an output folder, and when it checks:
   name (nothing on disk; the kernel releases it when the run ends, however it ends).
 * **Only what mjlink created and marked is ever removed**: a staging folder carries a marker
   naming itself from the moment it is made; the tidying of what killed runs left behind
-  (:func:`remove_stale`) removes a staging folder only if it carries that marker and its
+  (:func:`.lock.remove_stale`) removes a staging folder only if it carries that marker and its
   process is gone, and never touches an entry without it (a user's folder, file or link whose
   name merely looks like one). The previous output is replaced only in the files its marker
   lists; everything else in the folder is kept.
 * **A replaced output is said so**, in one line (:mod:`mjlink.notes`): when it was written,
   by which command, and which of its files this run did not write again (gone now).
 
-A run ends cleanly on SIGINT and SIGTERM (:func:`interruptible`, :class:`Terminated`).
+A run ends cleanly on SIGINT and SIGTERM (:mod:`.signals`).
 """
-
-from __future__ import annotations
 
 import contextlib
 import ctypes
-import datetime
 import errno
-import functools
-import hashlib
-import json
 import os
-import re
 import secrets
 import shutil
-import signal
-import socket
 import stat
 import sys
 import tempfile
@@ -52,164 +42,15 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from .errors import OutputError
-from .files import (
-    atomic_path,
-    columns,
-    kind_of,
-    read_csv,
-    read_json,
-    write_csv,
-    write_json,
-    write_loads_csv,
-    write_parquet,
-    write_records,
-    write_steady_csv,
-    write_table,
-    write_text,
-)
-from .notes import note
+from ..errors import OutputError
+from ..files import kind_of
+from ..notes import note
+from .lock import FolderLock, remove_stale
+from .markers import MARKER, command_name, read_marker, stage_marker, write_marker
+from .markers import marker as folder_marker
+from .signals import interruptible, raise_if_signalled, uninterrupted
 
-__all__ = [
-    "MARKER",
-    "Terminated",
-    "atomic_path",
-    "check_destination",
-    "columns",
-    "interruptible",
-    "on_discard",
-    "read_csv",
-    "read_marker",
-    "remove_stale",
-    "staged_dir",
-    "uninterrupted",
-    "write_csv",
-    "write_json",
-    "write_loads_csv",
-    "write_parquet",
-    "write_records",
-    "write_steady_csv",
-    "write_table",
-    "write_text",
-]
-
-
-# ============================================================================ interruption
-class Terminated(BaseException):
-    """SIGTERM arrived while :func:`interruptible` was in force. Like KeyboardInterrupt it is no
-    Exception: only cleanups (``finally``, ``with``) run as it unwinds, which remove the staging
-    folder and stop the plot worker. The command line exits 143 (128 + SIGTERM)."""
-
-
-_signalled: list[int] = []  # SIGINT / SIGTERM received during the current interruptible run
-
-
-def _interruption(signum: int) -> BaseException:
-    return Terminated(f"terminated by signal {signum}") if signum == signal.SIGTERM else KeyboardInterrupt()
-
-
-def _on_signal(signum: int, frame: object) -> None:
-    if signum == signal.SIGTERM and signum in _signalled:
-        return  # once: a second SIGTERM must not cut short the clean-up the first one started
-    _signalled.append(signum)
-    raise _interruption(signum)
-
-
-def _main_thread() -> bool:
-    return threading.current_thread() is threading.main_thread()
-
-
-def _quiet_interruption(hook: Callable[[Any], Any], unraisable: Any) -> None:
-    """An unraisable exception goes to ``hook`` unless it is the interruption itself."""
-    if isinstance(unraisable.exc_value, KeyboardInterrupt | Terminated):
-        return
-    hook(unraisable)
-
-
-@contextmanager
-def interruptible() -> Iterator[None]:
-    """Make SIGINT and SIGTERM end the body cleanly, whatever code they land in.
-
-    For its duration (main thread only) SIGTERM raises :class:`Terminated`, as SIGINT raises
-    KeyboardInterrupt, so that a terminated run cleans up like an interrupted one instead of
-    dying in the middle of its work; a second SIGTERM is ignored while that happens. The
-    signals are also recorded: code that catches the exception and fails otherwise (a C
-    library's callback turning it into an ordinary error) or swallows it cannot hide it, since
-    the body then ends with KeyboardInterrupt or Terminated all the same (chained to the other
-    error), and :func:`staged_dir` publishes nothing once a signal came. Nothing changes in
-    another thread, or for a signal whose handler is not Python's default (an embedding
-    program's choice, an ignored signal, or an outer ``interruptible``).
-    """
-    install: dict[int, Any] = {}  # signal -> the handler to put back
-    if _main_thread():
-        if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
-            install[signal.SIGTERM] = signal.SIG_DFL
-        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-            install[signal.SIGINT] = signal.default_int_handler
-    if not install:
-        yield
-        return
-    _signalled.clear()
-    for sig in install:
-        signal.signal(sig, _on_signal)
-    # A signal that lands in code whose exceptions Python can only print (an import lock's
-    # weakref callback, a __del__) would show as "Exception ignored ... Traceback" on stderr;
-    # it is recorded above and re-raised when the body ends, so it is not printed there.
-    before = sys.unraisablehook
-    sys.unraisablehook = functools.partial(_quiet_interruption, before)
-    try:
-        yield
-    except BaseException as e:
-        if _signalled and not isinstance(e, KeyboardInterrupt | Terminated):
-            raise _interruption(_signalled[0]) from e
-        raise
-    else:
-        if _signalled:
-            raise _interruption(_signalled[0])
-    finally:
-        sys.unraisablehook = before
-        for sig, old in install.items():
-            signal.signal(sig, old)
-        _signalled.clear()
-
-
-@contextmanager
-def uninterrupted() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back while the body runs (their Python handlers, in the main
-    thread), so that a cleanup or a publication is not cut in half by a second Ctrl-C. A signal
-    that came meanwhile is acted on when the body returns (its handler runs then: raises
-    KeyboardInterrupt or :class:`Terminated`); if the body raised, that exception goes on and the
-    signal is dropped, since the run is ending anyway."""
-    if not _main_thread():
-        yield
-        return
-    came: list[int] = []
-    held: dict[int, Callable[[int, Any], Any]] = {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        handler = signal.getsignal(sig)
-        if callable(handler):
-            held[sig] = handler
-            signal.signal(sig, lambda signum, frame: came.append(signum))
-    try:
-        yield
-    finally:
-        for sig, handler in held.items():
-            signal.signal(sig, handler)
-    for signum in came[:1]:
-        held[signum](signum, None)
-
-
-# ============================================================================ output folders
-MARKER = ".mjlink-output.json"
-"""The file every output folder carries: ``written_by`` "mjlink", ``kind`` and ``command`` (what
-wrote it), ``mechanism``, ``files`` (the names mjlink wrote there; the marker itself is not
-listed), ``written`` (when, ISO 8601) and ``command_line``; ``previous`` names where the output
-it replaced went while it was being removed. It is what allows a later run to replace those
-files and only those. A staging folder carries one from its creation, with ``stage`` = its own
-name, ``pid`` and ``host``: what lets a later run recognise it as mjlink's."""
-
-# The command that writes each kind of output folder, for markers and messages.
-COMMANDS = {"simulate": "simulate", "loads": "torque/reactions", "steady": "steady", "study": "study"}
+__all__ = ["check_destination", "on_discard", "staged_dir"]
 
 _stages = threading.local()  # per thread: the stop hooks of each open staged_dir, innermost last
 
@@ -342,22 +183,21 @@ def staged_dir(
     stack: list[list[Callable[[], None]]] = _stages.__dict__.setdefault("hooks", [])
     hooks: list[Callable[[], None]] = []
     stage: Path | None = None
-    lock: _Lock | None = None
+    lock: FolderLock | None = None
     with interruptible():
         stack.append(hooks)
         try:
             try:
                 parent.mkdir(parents=True, exist_ok=True)
-                lock = _Lock(dest, kind, line)
+                lock = FolderLock(dest, kind, line)
                 remove_stale(parent)
                 stage = Path(tempfile.mkdtemp(prefix=f".{dest.name}.partial-{os.getpid()}-", dir=parent))
                 stage.chmod(0o755)  # mkdtemp's 0700 would make the published folder private
-                _write_marker(stage, _stage_marker(stage, kind, mechanism, line))
+                write_marker(stage, stage_marker(stage, kind, mechanism, line))
             except OSError as e:
                 raise OutputError(f"cannot write to output folder {parent}: {_why(e)}") from None
             yield stage
-            if _signalled:  # interrupted, though the body swallowed it: publish nothing
-                raise _interruption(_signalled[0])
+            raise_if_signalled()  # interrupted, though the body swallowed it: publish nothing
             with uninterrupted():
                 _stop(hooks)
                 _publish(stage, dest, kind, mechanism, force, line)
@@ -387,51 +227,6 @@ def _why(e: OSError) -> str:
     return f"{what} ({Path(e.filename).name})" if e.filename else what
 
 
-def _now() -> str:
-    return datetime.datetime.now().astimezone().isoformat(timespec="seconds")
-
-
-def _marker(kind: str, mechanism: str | None, files: list[str], line: str | None, **more: Any) -> dict[str, Any]:
-    """A folder's :data:`MARKER` (a stage's carries ``stage``, ``pid`` and ``host`` as ``more``)."""
-    return {
-        "written_by": "mjlink",
-        "kind": kind,
-        "command": f"mjlink {COMMANDS.get(kind, kind)}",
-        "mechanism": mechanism,
-        "files": files,
-        "written": _now(),
-        "command_line": line,
-        **more,
-    }
-
-
-def _stage_marker(stage: Path, kind: str, mechanism: str | None, line: str | None) -> dict[str, Any]:
-    return _marker(kind, mechanism, [], line, stage=stage.name, pid=os.getpid(), host=socket.gethostname())
-
-
-def _write_marker(folder: Path, data: dict[str, Any]) -> None:
-    (folder / MARKER).write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
-
-
-def read_marker(folder: Path | str) -> dict[str, Any] | None:
-    """The :data:`MARKER` of an output folder, or None if it has none that mjlink wrote (absent,
-    not a regular file, not JSON, or without ``written_by``, ``kind`` and ``files``)."""
-    data = read_json(Path(folder) / MARKER)
-    if not (
-        isinstance(data, dict)
-        and data.get("written_by") == "mjlink"
-        and isinstance(data.get("kind"), str)
-        and isinstance(data.get("files"), list)
-        and all(isinstance(f, str) for f in data["files"])
-    ):
-        return None
-    return data
-
-
-def _command(kind: str) -> str:
-    return f"'mjlink {COMMANDS[kind]}'" if kind in COMMANDS else f"kind '{kind}'"
-
-
 def _shown(names: Sequence[str]) -> str:
     """File names for a one-line message (at most three, non-printable ones quoted)."""
     shown = [n if n.isprintable() else repr(n) for n in names[:3]]
@@ -451,9 +246,11 @@ def _owned(dest: Path, kind: str, mechanism: str | None, force: bool) -> set[str
         why = f"it was not written by mjlink (it has no {MARKER})"
     else:
         other = marker.get("mechanism")
-        why = f"it holds the output of {_command(marker['kind'])}{f' for {other}' if other else ''}, not of {_command(kind)}"
+        why = f"it holds the output of {command_name(marker['kind'])}{f' for {other}' if other else ''}, not of {command_name(kind)}"
         if mechanism is not None and marker["kind"] == kind:
-            why = f"it holds the output of {_command(kind)} for {other or 'no named mechanism'}, not for {mechanism}"
+            why = (
+                f"it holds the output of {command_name(kind)} for {other or 'no named mechanism'}, not for {mechanism}"
+            )
     raise OutputError(
         f"cannot write outputs to {dest}: {why}; move it away, or use --force to write mjlink's files into it "
         "(other files are kept)"
@@ -464,9 +261,9 @@ def _publish(stage: Path, dest: Path, kind: str, mechanism: str | None, force: b
     """Put the complete ``stage`` at ``dest`` with its marker, keeping every entry of an existing
     ``dest`` that mjlink did not write (see :func:`staged_dir`)."""
     new = sorted(e for e in os.listdir(stage) if e != MARKER)
-    marker = _marker(kind, mechanism, new, line)
+    marker = folder_marker(kind, mechanism, new, line)
     if not os.path.lexists(dest):
-        _write_marker(stage, marker)
+        write_marker(stage, marker)
         os.replace(stage, dest)
         return
     if not dest.is_dir():
@@ -489,12 +286,12 @@ def _publish(stage: Path, dest: Path, kind: str, mechanism: str | None, force: b
         os.chmod(stage, stat.S_IMODE(os.stat(dest).st_mode))  # the folder keeps its permissions
     # Where the previous output waits until it is deleted, in the marker: a run killed in that
     # instant leaves it under a name the next run can check against this marker (remove_stale).
-    _write_marker(stage, {**marker, "previous": stage.name})
+    write_marker(stage, {**marker, "previous": stage.name})
     if _exchange(stage, dest):
         old = stage  # now holds the previous output
     else:
         old = _free_name(dest.parent, f".{dest.name}.old-{os.getpid()}-")
-        _write_marker(stage, {**marker, "previous": old.name})
+        write_marker(stage, {**marker, "previous": old.name})
         os.replace(dest, old)
         try:
             os.replace(stage, dest)
@@ -555,77 +352,6 @@ def _hard_link(src: str | Path, dst: str | Path) -> str | Path:
     return dst
 
 
-# ------------------------------------------------------------------------------ what killed runs left
-_STALE = re.compile(r"\.(?P<name>.+)\.(?:partial-(?P<pid>[0-9]+)-[^.]+|old-(?P<old>[0-9]+)(?:-[0-9a-f]+)?)", re.S)
-
-
-def remove_stale(folder: Path | str) -> list[str]:
-    """Remove what killed runs left in ``folder``; returns the names removed or put back.
-
-    Only folders mjlink created and marked are touched, and only once their process is gone (or
-    a zombie): a staging folder ``.NAME.partial-<pid>-<random>`` whose marker names it as a
-    stage made on this host, or that the marker of ``NAME`` names as its previous output (the
-    old output, exchanged into the stage's place, not yet deleted), is deleted; an old output
-    ``.NAME.old-<pid>[-<random>]`` with mjlink's marker is renamed back to ``NAME`` if ``NAME``
-    is missing (the previous output cut off in mid-publication), or deleted if ``NAME``'s marker
-    names it as its previous output. Anything else, whatever its name (a user's folder, file or
-    link that looks like one of these), is left alone; errors are ignored (this is tidying,
-    not the run's work).
-    """
-    removed: list[str] = []
-    try:
-        entries = list(os.scandir(folder))
-    except OSError:
-        return removed
-    host = socket.gethostname()
-    for entry in entries:
-        m = _STALE.fullmatch(entry.name)
-        if m is None:
-            continue
-        try:
-            if not entry.is_dir(follow_symlinks=False) or _alive(int(m["pid"] or m["old"])):
-                continue
-            path, dest = Path(entry.path), Path(folder) / m["name"]
-            marker = read_marker(path)
-            if marker is None:
-                continue  # not mjlink's, whatever its name says
-            previous = (read_marker(dest) or {}).get("previous") if os.path.isdir(dest) else None
-            if m["pid"]:
-                ours = marker.get("stage") == entry.name and marker.get("host") == host
-                if not (ours or previous == entry.name):
-                    continue
-                shutil.rmtree(path)
-            elif not os.path.lexists(dest):
-                os.rename(path, dest)
-            elif previous == entry.name:
-                shutil.rmtree(path)
-            else:
-                continue
-            removed.append(entry.name)
-        except OSError:
-            continue
-    return removed
-
-
-def _alive(pid: int) -> bool:
-    """Whether process ``pid`` may still be running (True when in doubt)."""
-    if os.name != "posix" or pid <= 0:
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (OSError, OverflowError):
-        return True  # EPERM: another user's live process
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as f:
-            st = f.read()
-    except OSError:
-        return True
-    state = st[st.rfind(b")") + 2 : st.rfind(b")") + 3]
-    return state not in (b"Z", b"X")
-
-
 def _exchange(a: Path, b: Path) -> bool:
     """Swap two existing paths atomically (Linux ``renameat2`` RENAME_EXCHANGE).
 
@@ -647,53 +373,3 @@ def _exchange(a: Path, b: Path) -> bool:
     if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP, errno.ENOTSUP):
         return False
     raise OSError(err, os.strerror(err), str(b))
-
-
-# ------------------------------------------------------------------------------ one run per folder
-class _Lock:
-    """The lock of output folder ``dest`` while a run writes it: on Linux an abstract-namespace
-    Unix socket bound to a name derived from the folder's real path. Binding fails while
-    another process holds the name, and the kernel releases it when the holder ends, however
-    it ends: a killed run never blocks the next one, and nothing is left on disk. The holder is
-    named from its staging folder's marker. Elsewhere (no abstract namespace) there is no lock:
-    two runs into one folder then each publish whole, the later one replacing the earlier.
-    """
-
-    def __init__(self, dest: Path, kind: str, line: str | None):
-        self.dest = dest
-        self.sock: socket.socket | None = None
-        if not sys.platform.startswith("linux"):
-            return
-        where = os.path.join(os.path.realpath(dest.parent), dest.name)
-        name = "\0mjlink-output:" + hashlib.sha256(os.fsencode(where)).hexdigest()
-        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)  # close-on-exec, as Python makes it
-        try:
-            sock.bind(name)
-        except OSError as e:
-            sock.close()
-            if e.errno != errno.EADDRINUSE:
-                return  # no abstract namespace here: run without the lock
-            raise OutputError(
-                f"cannot write outputs to {dest}: another mjlink run is writing there{self._holder()}; "
-                "wait for it to end, or give another --out"
-            ) from None
-        self.sock = sock
-
-    def _holder(self) -> str:
-        """' (process N, 'COMMAND', since TIME)' from the live run's staging folder, if found."""
-        with contextlib.suppress(OSError):
-            for entry in os.scandir(self.dest.parent):
-                m = _STALE.fullmatch(entry.name)
-                if m is None or not m["pid"] or m["name"] != self.dest.name or not _alive(int(m["pid"])):
-                    continue
-                marker = read_marker(entry.path)
-                if marker is not None and marker.get("stage") == entry.name:
-                    since = str(marker.get("written", "")).replace("T", " ")[:19]
-                    who = marker.get("command_line") or f"mjlink {COMMANDS.get(marker['kind'], marker['kind'])}"
-                    return f" (process {marker.get('pid')}, '{who}', since {since})"
-        return ""
-
-    def release(self) -> None:
-        if self.sock is not None:
-            self.sock.close()
-            self.sock = None

@@ -14,7 +14,7 @@ variables read when a process (or numpy) starts: nothing here calls into a libra
   in again, and a Dask worker's task thread gets an arena of its own (a study chunk ran slower
   in a worker's thread than in the main thread, and slower still with the nanny's 64 KiB trim
   threshold). glibc reads these variables (its documented tunables) when a process starts: the
-  study engine gives them to the workers it spawns. Elsewhere (musl, macOS) they mean nothing.
+  local cluster (:mod:`.cluster`) gives them to the workers it spawns. Elsewhere (musl, macOS) they mean nothing.
 """
 
 from __future__ import annotations
