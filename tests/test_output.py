@@ -1,16 +1,19 @@
 """Output safety: unwritable folders, a full disk, replacing an existing output whole, failed
-runs that leave nothing behind, and names from a file that can neither escape the output
-folder nor break the MJCF.
+runs that leave nothing behind, every output of a run from the mechanism it loaded (not its
+file read again), and names from a file that can neither escape the output folder nor break
+the MJCF.
 
 Tests run as root, so a read-only folder made with chmod would still be writable: an
 unwritable output is made as a path under a regular file (or under /proc) instead.
 """
 
 import errno
+import json
 import operator
 import os
 import re
 import string
+import tomllib
 
 import mujoco
 import pytest
@@ -169,6 +172,37 @@ def test_atomic_exchange_is_used_on_linux(tmp_path, previous, monkeypatch):
     with output.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
         (stage / "new.txt").write_text("new")
     assert used == [True] and files(previous) == ["new.txt"]
+
+
+# ----------------------------------------------------------------------------- one loaded mechanism
+def page_data(html):
+    """The mechanism data design.html embeds (its JSON script)."""
+    m = re.search(r"""id=['"]mechanism-data['"]>(.*?)</script>""", html, re.S)
+    assert m is not None
+    return json.loads(m[1])
+
+
+@pytest.mark.parametrize("change", ["edited", "deleted", "made invalid"])
+def test_every_output_of_a_run_comes_from_the_mechanism_it_loaded(tmp_path, change):
+    """The file changes after it was loaded and before the run writes its outputs: the page
+    and the report still describe the loaded design, and nothing reads the file again (an
+    invalid file would raise TOMLDecodeError, a deleted one FileNotFoundError)."""
+    import mjlink
+
+    src = tmp_path / "mine.toml"
+    text = EXAMPLE.replace('title = "Plain crank-rocker (example)"', 'title = "the loaded design"')
+    src.write_text(text)
+    mech = mjlink.load(src)
+    if change == "edited":
+        src.write_text(text.replace("the loaded design", "another design").replace("length = 15.0", "length = 12.0"))
+    elif change == "deleted":
+        src.unlink()
+    else:
+        src.write_text("[mechanism\nname = ")
+    res = pipeline.run(mech, tmp_path / "out", FAST)
+    data = page_data((res.out_dir / "design.html").read_text())
+    assert data["raw"] == tomllib.loads(text)
+    assert json.loads((res.out_dir / "report.json").read_text())["title"] == "the loaded design"
 
 
 # ----------------------------------------------------------------------------- names
