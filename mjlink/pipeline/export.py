@@ -2,8 +2,9 @@
 
 The DXF (R2010, millimetres, ``$INSUNITS`` = 4) holds, in the mechanism's own frame:
 
-* one layer per link (its name in the file), the link's centre lines as LINEs, joining each of
-  its points to the point it was built from (the shape the drawings show);
+* one layer per link (:func:`layer_names`: its name in the file, unless DXF forbids that name
+  or another layer already has it, ignoring case), the link's centre lines as LINEs, joining
+  each of its points to the point it was built from (the shape the drawings show);
 * ``PIVOTS``: a CIRCLE of radius :data:`PIVOT_MM` round every ground point, ``POINTS``: a POINT
   at every named point, ``LABELS``: each point's name beside it;
 * ``PATHS``: the closed path over the period of every moving point that is not merely a
@@ -37,6 +38,10 @@ from ..units import DEG, to_mm
 PIVOT_MM = 2.0  # radius of the circle drawn round a ground pivot, mm
 PATH_SAMPLES = 361  # vertices of a point's path over the period (closed)
 LAYERS = ("PIVOTS", "POINTS", "LABELS", "PATHS")  # besides one per link
+# Layers every DXF has (a CAD program gives them their own meaning), and the characters a layer
+# name may not hold (besides control characters): a link's layer never takes them.
+STANDARD_LAYERS = ("0", "Defpoints")
+_NOT_IN_LAYER_NAMES = frozenset('<>/\\":;?*|,=`')
 
 
 @dataclass(frozen=True)
@@ -65,6 +70,26 @@ def _paths(mech: Mechanism) -> dict[str, np.ndarray]:
     return {p: to_mm(kin.position(p)) for p in moving}
 
 
+def layer_names(mech: Mechanism) -> dict[str, str]:
+    """Link name -> its DXF layer: the link's name, with any character a layer name may not hold
+    replaced by ``_``; a name that a layer already has, ignoring case as DXF does (``0``,
+    ``Defpoints``, :data:`LAYERS`, a link listed before it), gets the first free suffix of
+    ``_2``, ``_3``, ... (``PATHS`` -> ``PATHS_2``; ``lever`` and ``Lever`` -> ``lever``,
+    ``Lever_2``). One layer per link, every name valid and readable."""
+    taken = {n.casefold() for n in (*STANDARD_LAYERS, *LAYERS)}
+    names: dict[str, str] = {}
+    for link in mech.links:
+        base = "".join("_" if c in _NOT_IN_LAYER_NAMES or not c.isprintable() else c for c in link.name)
+        base = base.strip() or "_"
+        name, i = base, 1
+        while name.casefold() in taken:
+            i += 1
+            name = f"{base}_{i}"
+        taken.add(name.casefold())
+        names[link.name] = name
+    return names
+
+
 def dxf_text(mech: Mechanism, angle_deg: float) -> str:
     """The DXF document of ``mech`` at ``angle_deg`` as text (see the module's docstring)."""
     import ezdxf  # here: only this command needs it
@@ -73,11 +98,12 @@ def dxf_text(mech: Mechanism, angle_deg: float) -> str:
     doc = ezdxf.new("R2010")
     doc.header["$INSUNITS"] = 4  # millimetres
     doc.header["$MEASUREMENT"] = 1  # metric
-    for i, name in enumerate([*LAYERS, *(link.name for link in mech.links)]):
+    layer = layer_names(mech)
+    for i, name in enumerate([*LAYERS, *layer.values()]):
         doc.layers.add(name, color=1 + i % 254)
     msp = doc.modelspace()
     for link, a, b in link_segments(mech):
-        msp.add_line(at[a], at[b], dxfattribs={"layer": link})
+        msp.add_line(at[a], at[b], dxfattribs={"layer": layer[link]})
     size = max(1.0, 0.02 * _extent(at))
     for name, xyz in at.items():
         msp.add_point(xyz, dxfattribs={"layer": "POINTS"})
