@@ -72,6 +72,10 @@ def test_the_points_file_of_the_crank_slider_is_its_closed_form(tmp_path):
         ([], 1, "nothing to write"),
         (["--points", "p.txt"], 1, "must end in .csv or .json"),
         (["--dxf", "x.dxf", "--angle", "ninety"], 2, "is not a number with a unit: write e.g. 12deg"),
+        # The bound of every crank angle (mechanisms/README.md, Limits: 720 deg, as phi0).
+        (["--dxf", "x.dxf", "--angle", "1e17"], 1, "--angle must be finite and at most 720 deg in magnitude"),
+        (["--dxf", "x.dxf", "--angle", "-720.5deg"], 1, "--angle must be finite and at most 720 deg in magnitude"),
+        (["--dxf", "x.dxf", "--angle", "13rad"], 1, "--angle must be finite and at most 720 deg in magnitude"),
     ],
 )
 def test_bad_export_arguments_are_one_line_and_write_nothing(tmp_path, args, status, message):

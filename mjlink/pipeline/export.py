@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import output, reference
+from .. import output, reference, validation
 from ..analysis import link_segments, mass_centres
 from ..errors import MjlinkError
 from ..model.mechanism import Mechanism
@@ -147,7 +147,8 @@ def export(
 ) -> ExportResult:
     """Write the DXF to ``dxf`` and the points file to ``points`` (CSV or JSON by its
     extension), each whole or not at all, for the input crank at ``angle_deg`` (deg; None: the
-    file's ``phi0``). Raises MjlinkError (one line) for an angle that is not a number, a
+    file's ``phi0``). Raises MjlinkError (one line) for an angle that is not finite or beyond
+    the bound of every crank angle (:func:`mjlink.validation.check_angle`), a
     points file of another extension, no output asked for, or a file that exists (unless
     ``force``): nothing is replaced that the user did not ask to replace."""
     if dxf is None and points is None:
@@ -157,9 +158,7 @@ def export(
             raise MjlinkError(f"{path} exists: give --force to replace it")
     if points is not None and points.suffix.lower() not in (".csv", ".json"):
         raise MjlinkError(f"--points {points}: must end in .csv or .json")
-    angle = math.degrees(mech.phi0) if angle_deg is None else float(angle_deg)
-    if not math.isfinite(angle):
-        raise MjlinkError(f"--angle {angle_deg}: must be a finite number of degrees")
+    angle = math.degrees(mech.phi0) if angle_deg is None else validation.check_angle("--angle", float(angle_deg))
     at = positions(mech, angle)
     texts: list[tuple[Path, str]] = []
     if dxf is not None:
