@@ -15,6 +15,9 @@ The DXF (R2010, millimetres, ``$INSUNITS`` = 4) holds, in the mechanism's own fr
 The points file lists every named point at that angle: name, whether it is on the ground, x, y,
 z in mm (CSV, or JSON by the file's extension). Positions are the reference's
 (:func:`mjlink.reference.solve`), the same as ``simulate`` checks MuJoCo against.
+
+The two files are claimed before anything is computed (:func:`mjlink.files.claim_outputs`) and
+written together, both or neither (:func:`mjlink.files.write_files`).
 """
 
 from __future__ import annotations
@@ -29,9 +32,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import output, reference, validation
+from .. import reference, validation
 from ..analysis import link_segments, mass_centres
 from ..errors import MjlinkError
+from ..files import claim_outputs, write_files
 from ..model.mechanism import Mechanism
 from ..units import DEG, to_mm
 
@@ -146,27 +150,25 @@ def export(
     mech: Mechanism, angle_deg: float | None, dxf: Path | None, points: Path | None, *, force: bool = False
 ) -> ExportResult:
     """Write the DXF to ``dxf`` and the points file to ``points`` (CSV or JSON by its
-    extension), each whole or not at all, for the input crank at ``angle_deg`` (deg; None: the
-    file's ``phi0``). Raises MjlinkError (one line) for an angle that is not finite or beyond
-    the bound of every crank angle (:func:`mjlink.validation.check_angle`), a
-    points file of another extension, no output asked for, or a file that exists (unless
-    ``force``): nothing is replaced that the user did not ask to replace."""
+    extension), both or neither, for the input crank at ``angle_deg`` (deg; None: the file's
+    ``phi0``). Raises MjlinkError (one line), before anything is computed, for an angle that is
+    not finite or beyond the bound of every crank angle (:func:`mjlink.validation.check_angle`),
+    a points file of another extension, no output asked for, or outputs that cannot be claimed
+    (:func:`~mjlink.files.claim_outputs`: both the same file, the mechanism's own file, a file
+    that exists without ``force``): nothing is replaced that the user did not ask to replace."""
     if dxf is None and points is None:
         raise MjlinkError("export: nothing to write: give --dxf FILE.dxf and/or --points FILE.csv|FILE.json")
-    for path in (dxf, points):
-        if path is not None and path.exists() and not force:
-            raise MjlinkError(f"{path} exists: give --force to replace it")
     if points is not None and points.suffix.lower() not in (".csv", ".json"):
         raise MjlinkError(f"--points {points}: must end in .csv or .json")
     angle = math.degrees(mech.phi0) if angle_deg is None else validation.check_angle("--angle", float(angle_deg))
+    targets = claim_outputs({"--dxf": dxf, "--points": points}, [mech.path], force=force)
     at = positions(mech, angle)
     texts: list[tuple[Path, str]] = []
     if dxf is not None:
-        texts.append((dxf, dxf_text(mech, angle)))
+        texts.append((targets["--dxf"], dxf_text(mech, angle)))
     if points is not None:
-        texts.append((points, points_text(at, mech, points.suffix.lower()[1:])))
-    for path, text in texts:
-        output.write_text(path, text)
+        texts.append((targets["--points"], points_text(at, mech, points.suffix.lower()[1:])))
+    write_files(texts, force=force)
     return ExportResult(mech.name, angle, at, dxf, points)
 
 
