@@ -8,6 +8,11 @@ alone, report files by :func:`write_json`. A single file is replaced only if it 
 file (a FIFO, a device or a folder is refused; a symbolic link is written through, its target
 replaced).
 
+The files a user names on the command line (``build -o``, ``design -o``, ``export --dxf`` and
+``--points``, ``synth --write``) follow one rule, :func:`claim_outputs`, checked before any
+work: an existing file is kept unless ``--force``, a command's input is never an output, two
+outputs are never one file. They are written by :func:`write_files`, all of them or none.
+
 CSV columns carry their unit in their name (``P5_x_mm``, ``omega1_rad_s``, ``torque_N_m``) and
 are written at full double precision.
 """
@@ -62,19 +67,7 @@ def atomic_path(path: Path | str, suffix: str = ".tmp") -> Iterator[Path]:
     atomically in its own folder and the link is kept.
     """
     path = _write_target(Path(path))
-    tmp = None
-    for _ in range(100):
-        cand = path.with_name(f".{path.name}.{secrets.token_hex(4)}{suffix}")
-        try:
-            os.close(os.open(cand, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-            tmp = cand
-            break
-        except FileExistsError:
-            continue
-        except OSError as e:
-            raise OutputError(f"{path}: cannot write in {path.parent}: {e.strerror or e}") from None
-    if tmp is None:
-        raise OutputError(f"{path}: cannot find a free temporary name in {path.parent}")
+    tmp = _temporary(path, suffix)
     try:
         yield tmp
         os.replace(tmp, path)
@@ -86,6 +79,20 @@ def atomic_path(path: Path | str, suffix: str = ".tmp") -> Iterator[Path]:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+def _temporary(path: Path, suffix: str = ".tmp") -> Path:
+    """A new empty file beside ``path`` under a hidden free name, mode 0666 less the umask."""
+    for _ in range(100):
+        cand = path.with_name(f".{path.name}.{secrets.token_hex(4)}{suffix}")
+        try:
+            os.close(os.open(cand, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            return cand
+        except FileExistsError:
+            continue
+        except OSError as e:
+            raise OutputError(f"{path}: cannot write in {path.parent}: {e.strerror or e}") from None
+    raise OutputError(f"{path}: cannot find a free temporary name in {path.parent}")
 
 
 _FILE_KINDS = (
@@ -150,6 +157,176 @@ def write_text(path: Path | str, text: str | bytes | Iterable[bytes | memoryview
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         f.writelines(parts)
     return path
+
+
+def claim_outputs(
+    outputs: Mapping[str, Path | str | None], inputs: Iterable[Path | str | None] = (), *, force: bool = False
+) -> dict[str, Path]:
+    """The one rule for the files a command is asked to write by name (``build -o``, ``design
+    -o``, ``export --dxf/--points``, ``synth --write``), checked before any work.
+
+    Args:
+        outputs: option -> the path given with it (None: not asked for), for messages.
+        inputs: the files the command reads (the mechanism file; None skipped).
+        force: an existing regular file may be replaced.
+
+    Returns option -> the file to write: the path with every symbolic link resolved (a link
+    is written through, its target replaced). Raises a one-line OutputError naming the path
+    for an output that is a folder, a FIFO, a device or a socket; one that is one of
+    ``inputs`` (also with ``force``: a command never writes onto what it reads); two outputs
+    that are the same file (by name after resolving links, or by inode); a file that exists,
+    unless ``force`` (the message names ``--force``); a folder that does not exist, is not a
+    folder or cannot be written into. Creates nothing.
+    """
+    claimed: dict[str, tuple[Path, Path]] = {}
+    for option, given in outputs.items():
+        if given is None:
+            continue
+        path = Path(given)
+        target = Path(os.path.realpath(path))
+        try:
+            mode: int | None = os.stat(target).st_mode
+        except FileNotFoundError:
+            mode = None
+        except OSError as e:
+            raise OutputError(f"{path}: cannot write: {e.strerror or e}") from None
+        via = f" (a link to {target})" if path.is_symlink() else ""
+        if mode is not None and not stat.S_ISREG(mode):
+            raise OutputError(f"{path}{via} is {kind_of(mode)}, not a regular file: refusing to replace it")
+        if path.name in ("", ".", ".."):
+            raise OutputError(f"{option} {str(given)!r}: names no file: give a file's name")
+        for src in inputs:
+            if src is not None and _same_file(target, Path(src)):
+                which = "" if str(src) == str(path) else f" ({src})"
+                raise OutputError(
+                    f"{path}{via} is the file this command reads{which}: write to another file (--force never "
+                    "replaces a command's input)"
+                )
+        for other, (other_path, other_target) in claimed.items():
+            if _same_file(target, other_target):
+                raise OutputError(
+                    f"{other} {other_path} and {option} {path} are the same file: give each output its own file"
+                )
+        if mode is not None and not force:
+            raise OutputError(f"{path}{via} exists: give --force to replace it")
+        folder = target.parent
+        try:
+            fmode = os.stat(folder).st_mode
+        except FileNotFoundError:
+            raise OutputError(f"{path}: cannot write: the folder {folder} does not exist") from None
+        except OSError as e:
+            raise OutputError(f"{path}: cannot write in {folder}: {e.strerror or e}") from None
+        if not stat.S_ISDIR(fmode):
+            raise OutputError(f"{path}: cannot write: {folder} is {kind_of(fmode)}, not a folder")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise OutputError(f"{path}: cannot write in {folder}: permission denied")
+        claimed[option] = (path, target)
+    return {option: target for option, (_, target) in claimed.items()}
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` name one file: the same path once links are resolved, or the
+    same inode (a hard link) when both exist."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet): only its name can tell
+        return False
+
+
+def write_files(files: Sequence[tuple[Path, str | bytes]], *, force: bool = False) -> None:
+    """Write several whole files, all or none (``export``'s DXF and points file; one file is
+    the same rule): each ``(path, text)`` (text UTF-8, bytes as they are) at ``path``, the
+    targets :func:`claim_outputs` returned.
+
+    Every file is first written to a temporary beside its destination; nothing is replaced
+    until all are written. Then they are put in place one after the other, each previous file
+    kept under a hidden hard link until the last is in place: if one cannot be put in place
+    (or the run is interrupted), those already placed are put back as they were, byte for
+    byte, and files that did not exist are removed. Without ``force`` a file is placed only if
+    nothing has appeared at its name meanwhile. An OSError becomes a one-line OutputError.
+    """
+    staged: list[tuple[Path, Path]] = []  # (temporary, destination)
+    current: Path | None = None
+    try:
+        for path, text in files:
+            current = Path(path)
+            target = _write_target(current)
+            tmp = _temporary(target)
+            staged.append((tmp, target))
+            with open(tmp, "wb") as f:
+                f.write(text.encode("utf-8") if isinstance(text, str) else text)
+    except BaseException as e:
+        _remove(tmp for tmp, _ in staged)
+        if isinstance(e, OSError):
+            raise OutputError(f"{current}: cannot write: {e.strerror or e}") from None
+        raise
+    placed: list[tuple[Path, Path | None]] = []  # (destination, its previous file kept aside)
+    try:
+        for tmp, target in staged:
+            current = target
+            placed.append((target, _place(tmp, target, force)))
+        current = None
+    except BaseException as e:
+        for target, old in reversed(placed):
+            with contextlib.suppress(OSError):
+                if old is not None:
+                    os.replace(old, target)
+                else:
+                    target.unlink()
+        _remove(tmp for tmp, _ in staged)
+        if isinstance(e, FileExistsError):
+            raise OutputError(f"{current}: exists (it appeared meanwhile): give --force to replace it") from None
+        if isinstance(e, OSError):
+            raise OutputError(f"{current}: cannot write: {e.strerror or e}") from None
+        raise
+    _remove(old for _, old in placed if old is not None)
+
+
+def _place(tmp: Path, target: Path, force: bool) -> Path | None:
+    """Put the written ``tmp`` at ``target``; returns where the file it replaced is kept (a hard
+    link, or the file itself moved aside where links are not supported), None if there was
+    none. Without ``force``, FileExistsError if ``target`` exists."""
+    if not force:
+        try:
+            os.link(tmp, target)  # fails if anything is there: never replaces
+        except FileExistsError:
+            raise
+        except OSError:  # a file system without hard links
+            if os.path.lexists(target):
+                raise FileExistsError(target) from None
+            os.replace(tmp, target)
+        else:
+            tmp.unlink()
+        return None
+    if not os.path.lexists(target):
+        os.replace(tmp, target)
+        return None
+    old = _temporary(target, ".old")
+    try:
+        os.unlink(old)
+        os.link(target, old)
+    except OSError:  # no hard links: the previous file moves aside for the instant of the swap
+        os.replace(target, old)
+        try:
+            os.replace(tmp, target)
+        except BaseException:
+            os.replace(old, target)
+            raise
+        return old
+    try:
+        os.replace(tmp, target)
+    except BaseException:
+        os.unlink(old)
+        raise
+    return old
+
+
+def _remove(paths: Iterable[Path]) -> None:
+    for p in paths:
+        with contextlib.suppress(OSError):
+            os.unlink(p)
 
 
 def write_table(path: Path, names: Sequence[str], cols: Sequence[Any], scale: Sequence[float] | None = None) -> Path:

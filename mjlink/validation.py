@@ -546,21 +546,28 @@ def _compile_problem(mech: Mechanism) -> MechanismFileError | None:
     return None
 
 
+def check_angle(option: str, deg: float) -> float:
+    """``deg`` if it is an angle a crank may be set to: finite and at most MAX_ANGLE_DEG in
+    magnitude, the bound of every angle in a file (beyond a turn or two an angle only loses
+    precision); else MjlinkError naming ``option``."""
+    if not math.isfinite(deg) or abs(deg) > MAX_ANGLE_DEG:
+        raise MjlinkError(f"{option} must be finite and at most {MAX_ANGLE_DEG:g} deg in magnitude, got {deg:g}")
+    return deg
+
+
 def with_crank_settings(mech: Mechanism, phi0_deg: float | None = None, phase_deg: float | None = None) -> Mechanism:
     """``mech`` with another initial input angle (phi01) and/or geared-crank phase (phi04), deg.
 
     Raises MjlinkError if a phase is given for a mechanism without a geared crank.
     """
     if phi0_deg is not None:
-        if not math.isfinite(phi0_deg) or abs(phi0_deg) > MAX_ANGLE_DEG:
-            raise MjlinkError(f"--phi0 must be finite and at most {MAX_ANGLE_DEG:g} deg in magnitude, got {phi0_deg}")
+        check_angle("--phi0", phi0_deg)
         mech = dataclasses.replace(mech, phi0=math.radians(phi0_deg))
     if phase_deg is not None:
         geared = mech.geared
         if not geared:
             raise MjlinkError(f"{mech.name} has no geared crank: --phase/--phi04 does not apply")
-        if not math.isfinite(phase_deg) or abs(phase_deg) > MAX_ANGLE_DEG:
-            raise MjlinkError(f"--phase must be finite and at most {MAX_ANGLE_DEG:g} deg in magnitude, got {phase_deg}")
+        check_angle("--phase", phase_deg)
         new = dataclasses.replace(geared[0], phase=math.radians(phase_deg))
         mech = dataclasses.replace(mech, steps=tuple(new if s is geared[0] else s for s in mech.steps))
     return validate(mech) if (phi0_deg is not None or phase_deg is not None) else mech

@@ -4,6 +4,7 @@ it (the one-line errors and exit statuses of ``python -m mjlink``, numpy's threa
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -158,3 +159,55 @@ def test_command_line_runs_openblas_on_one_thread():
     env["OPENBLAS_NUM_THREADS"] = "2"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
     assert out.split()[0] == "2"
+
+
+# What the docs and the help say --strict does to the exit status, in each of the phrasings they
+# use; every mention of --strict near an exit status must be one of these (checked below), so a
+# new phrasing is read too rather than skipped.
+STRICT_STATEMENTS = (
+    r"--strict`?\)?:?,?\s+(?:it\s+)?exits?\s+(\d+)",  # "with `--strict` it exits 3", "--strict: exit 3"
+    r"--strict`?\s+makes\s+[^.]{0,40}?\bexit\s+(\d+)",  # "`--strict` makes the command exit 3"
+    r"with\s+`--strict`\s+it\s+is\s+(\d+)",  # "with `--strict` it is 3"
+    r"exit(?:\s+status)?\s+(\d+)\s+with\s+`?--strict",  # "(exit status 3 with `--strict`)"
+    r"--strict[^#]{0,40}#\s*exit\s+(\d+)",  # "simulate my.toml --strict   # exit 3 if ..."
+    r"unless\s+--strict:\s+then\s+(\d+)",  # the help's "unless --strict: then 3"
+)
+
+
+def strict_statements():
+    """(where, exit status) of every statement of what --strict exits with, in the guides and
+    in the --help of every command that has --strict."""
+    texts = {p.relative_to(ROOT): p.read_text() for p in sorted((ROOT / "docs").glob("*.md"))}
+    for p in ("README.md", "mechanisms/README.md", "studies/README.md"):
+        texts[p] = (ROOT / p).read_text()
+    for command in ((), ("simulate",), ("torque",), ("reactions",), ("steady",), ("study",)):
+        texts[" ".join(("mjlink", *command, "--help"))] = mjlink(*command, "--help").stdout
+    found = []
+    for where, text in texts.items():
+        flat = " ".join(text.split())  # sentences wrap across lines
+        spans = [(m.start(), m.end(), int(m[1])) for p in STRICT_STATEMENTS for m in re.finditer(p, flat)]
+        for m in re.finditer("--strict", flat):
+            if re.search(r"\bexit", flat[max(0, m.start() - 60) : m.end() + 100]):
+                assert any(a <= m.start() < b for a, b, _ in spans), (
+                    f"{where}: an unread statement: {flat[m.start() - 60 : m.end() + 100]!r}"
+                )
+        found += [(str(where), status) for _, _, status in spans]
+    return found
+
+
+def test_the_exit_status_the_docs_give_for_strict_is_the_one_a_run_exits_with(tmp_path):
+    """A head built to Juki's settings judged against Brother's windows misses a timing check
+    (docs/head.md): it exits 0, and with --strict what every statement in the docs and the help
+    says."""
+    found = strict_statements()
+    where = {w for w, _ in found}
+    assert {"docs/head.md", "docs/commands.md", "README.md", "mjlink simulate --help"} <= where, where
+    text = (ROOT / "mechanisms" / "lockstitch_head.toml").read_text()
+    head = tmp_path / "head.toml"
+    head.write_text(text.replace('target = "juki"', 'target = "brother"', 1))
+    args = ("simulate", str(head), "--out", str(tmp_path), "--no-video", "--no-plots", "--no-dynamics")
+    r = mjlink(*args)
+    assert r.returncode == 0 and "(brother)" in r.stdout, r.stdout
+    assert json.loads((tmp_path / "lockstitch_head" / "report.json").read_text())["failures"]
+    strict = mjlink(*args, "--strict").returncode
+    assert [(w, s) for w, s in found if s != strict] == []

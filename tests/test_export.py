@@ -72,6 +72,10 @@ def test_the_points_file_of_the_crank_slider_is_its_closed_form(tmp_path):
         ([], 1, "nothing to write"),
         (["--points", "p.txt"], 1, "must end in .csv or .json"),
         (["--dxf", "x.dxf", "--angle", "ninety"], 2, "is not a number with a unit: write e.g. 12deg"),
+        # The bound of every crank angle (mechanisms/README.md, Limits: 720 deg, as phi0).
+        (["--dxf", "x.dxf", "--angle", "1e17"], 1, "--angle must be finite and at most 720 deg in magnitude"),
+        (["--dxf", "x.dxf", "--angle", "-720.5deg"], 1, "--angle must be finite and at most 720 deg in magnitude"),
+        (["--dxf", "x.dxf", "--angle", "13rad"], 1, "--angle must be finite and at most 720 deg in magnitude"),
     ],
 )
 def test_bad_export_arguments_are_one_line_and_write_nothing(tmp_path, args, status, message):
@@ -98,3 +102,43 @@ def test_an_existing_file_is_kept_unless_force_is_given(tmp_path):
         assert r.returncode == 1 and len(lines) == 1 and "exists: give --force to replace it" in lines[0], r.stderr
         assert path.read_text() == text
         assert in_process(*args, "--force").returncode == 0 and path.read_text() != text
+
+
+EXAMPLE = (catalogue.MECHANISMS_DIR / "examples" / "crank_rocker.toml").read_text()
+
+
+@pytest.mark.parametrize(
+    ("crank", "coupler", "rocker", "layers"),
+    [
+        # Expected from the rule docs/outputs.md states: the link's name, or the first free
+        # suffix _2, _3, ... when a layer has it ignoring case (0, Defpoints, the four fixed
+        # layers, a link listed before).
+        ("PIVOTS", "POINTS", "LABELS", ["PIVOTS_2", "POINTS_2", "LABELS_2"]),
+        ("PATHS", "Defpoints", "defpoints", ["PATHS_2", "Defpoints_2", "defpoints_3"]),
+        ("lever", "Lever", "LEVER", ["lever", "Lever_2", "LEVER_3"]),
+        ("PATHS_2", "paths", "Paths", ["PATHS_2", "paths_3", "Paths_4"]),
+        ("pivots", "crank", "rocker", ["pivots_2", "crank", "rocker"]),
+    ],
+)
+def test_every_link_has_its_own_valid_layer(tmp_path, crank, coupler, rocker, layers):
+    """Links named like the export's own layers, DXF's standard ones, or each other but for
+    case: the DXF is written and read back (ezdxf.readfile), one layer per link, each link's
+    lines on its own layer."""
+    text = EXAMPLE
+    for old, new in (("crank", crank), ("coupler", coupler), ("rocker", rocker)):
+        text = text.replace(f"[links.{old}]", f"[links.{new}]")
+    src = tmp_path / "renamed.toml"
+    src.write_text(text)
+    dxf = tmp_path / "renamed.dxf"
+    r = in_process("export", str(src), "--dxf", str(dxf))
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    got = export.read_back(dxf)
+    expected = dict(zip((crank, coupler, rocker), layers, strict=True))
+    assert got["layers"] == {"0", "Defpoints", *export.LAYERS, *layers}
+    assert len({n.casefold() for n in got["layers"]}) == len(got["layers"])  # DXF compares ignoring case
+    mech = mechanism.load(src)
+    for layer, _, _ in got["lines"]:
+        assert layer in layers
+    for link in mech.links:
+        on = [(a, b) for layer, a, b in got["lines"] if layer == expected[link.name]]
+        assert on, f"no line on {link.name}'s layer"

@@ -4,6 +4,10 @@
   wrote there, keeps the rest, and refuses a folder it did not write (or another command's).
 * Non-regular targets: ``build -o`` and ``synth --write`` refuse a FIFO, a device or a folder,
   and write through a symbolic link instead of replacing it.
+* Files a user names (``build -o``, ``design -o``, ``export --dxf/--points``, ``synth
+  --write``): one that exists is kept unless ``--force``; a command's input is never an output
+  (also through a link, also with ``--force``); two outputs are never one file; ``design``
+  writes its page into ``simulate``'s folder under that folder's rules.
 * Leftovers and orphans: SIGTERM and SIGINT end ``simulate`` with 143 and 130 while its plot
   worker runs, leaving no staging folder and no process; SIGKILL takes the worker with it; a
   failed run's worker cannot re-create the staging folder; the next run removes a killed run's
@@ -25,7 +29,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, in_process
 
 from mjlink import files, pipeline, validation
 from mjlink.cli import main
@@ -192,7 +196,9 @@ def test_build_writes_through_a_symlink(tmp_path, capsys):
     (real / "target.xml").write_text("old")
     link = tmp_path / "model.xml"
     os.symlink(real / "target.xml", link)
-    assert main(["build", str(EXAMPLE_PATH), "-o", str(link)]) == 0, capsys.readouterr().err
+    assert main(["build", str(EXAMPLE_PATH), "-o", str(link)]) == 1  # it exists: kept
+    assert "--force" in capsys.readouterr().err and (real / "target.xml").read_text() == "old"
+    assert main(["build", str(EXAMPLE_PATH), "-o", str(link), "--force"]) == 0, capsys.readouterr().err
     assert os.path.islink(link) and os.readlink(link) == str(real / "target.xml")
     assert (real / "target.xml").read_text().startswith("<mujoco")
     assert names(tmp_path) == ["model.xml", "real"] and names(real) == ["target.xml"]  # no temporaries
@@ -208,6 +214,137 @@ def test_synth_write_refuses_a_fifo_and_writes_through_a_symlink(tmp_path, capsy
     os.symlink(tmp_path / "kept" / "designed.toml", link)  # dangling: the target is created
     assert main(["synth", "crank_slider", "--write", str(link)]) == 0, capsys.readouterr().err
     assert os.path.islink(link) and "[mechanism]" in (tmp_path / "kept" / "designed.toml").read_text()
+
+
+# ============================================================================ files a user names
+NAMED = ("build -o", "design -o", "export --dxf", "export --points", "synth --write")
+
+
+def named(command, out, mechanism=EXAMPLE_PATH):
+    """The arguments of ``command`` (one of NAMED) writing ``out``, reading ``mechanism``."""
+    what, option = command.split()
+    return ["synth", "crank_slider", option, str(out)] if what == "synth" else [what, str(mechanism), option, str(out)]
+
+
+def contents(folder):
+    """Every entry of ``folder``: a file's bytes, a link's target."""
+    return {p.name: os.readlink(p) if p.is_symlink() else p.read_bytes() for p in folder.iterdir()}
+
+
+def one_line(capsys):
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("mjlink: error: "), err
+    return err
+
+
+@pytest.mark.parametrize("via", ["the file", "a link to it"])
+@pytest.mark.parametrize("command", NAMED)
+def test_a_file_you_name_is_kept_unless_force_is_given(tmp_path, capsys, command, via):
+    """Every command that writes a file the user names keeps one that exists (one line naming
+    it and --force, status 1, the file byte for byte as it was); --force replaces it."""
+    mine = tmp_path / "mine.csv"  # an extension every command accepts; a stem synth accepts
+    mine.write_bytes(b"my own file\n")
+    out = mine
+    if via == "a link to it":
+        out = tmp_path / "link.csv"
+        os.symlink(mine, out)
+    before = names(tmp_path)
+    assert main(named(command, out)) == 1
+    err = one_line(capsys)
+    assert str(out) in err and "--force" in err
+    assert mine.read_bytes() == b"my own file\n" and names(tmp_path) == before
+    assert main([*named(command, out), "--force"]) == 0, capsys.readouterr().err
+    assert mine.read_bytes() != b"my own file\n" and names(tmp_path) == before
+    assert os.path.islink(out) == (via == "a link to it")
+
+
+@pytest.mark.parametrize(
+    ("command", "how"),
+    [
+        (c, h)
+        for c in NAMED[:4]
+        for h in ("its own name", "another spelling", "a link", "a hard link")
+        if c != "export --points" or "link" in h  # --points takes a .csv or .json name
+    ],
+)
+def test_no_command_writes_onto_the_file_it_reads(tmp_path, capsys, command, how):
+    """Not even with --force: the mechanism file is the command's input."""
+    src = tmp_path / "my_rocker.toml"
+    src.write_text(EXAMPLE)
+    (tmp_path / "sub").mkdir()
+    out = {
+        "its own name": src,
+        "another spelling": tmp_path / "sub" / ".." / "my_rocker.toml",
+        "a link": tmp_path / "out.csv",
+        "a hard link": tmp_path / "out.csv",
+    }[how]
+    if how == "a link":
+        os.symlink(src, out)
+    elif how == "a hard link":
+        os.link(src, out)
+    before = names(tmp_path)
+    assert main([*named(command, out, src), "--force"]) == 1
+    assert "is the file this command reads" in one_line(capsys)
+    assert src.read_text() == EXAMPLE and names(tmp_path) == before
+
+
+def test_synth_never_writes_onto_the_file_it_starts_from(tmp_path, capsys, monkeypatch):
+    """synth reads the shipped crank_slider.toml: --write through a link to it is refused with
+    --force (nothing is written even if the refusal failed: the writer is replaced)."""
+    monkeypatch.setattr(pipeline.design, "write_files", lambda *a, **k: pytest.fail("it wrote"))
+    link = tmp_path / "base.toml"
+    os.symlink(catalogue.path_of("crank_slider"), link)
+    assert main(["synth", "crank_slider", "--write", str(link), "--force"]) == 1
+    assert "is the file this command reads" in one_line(capsys)
+
+
+@pytest.mark.parametrize("how", ["one name", "another spelling", "a link", "hard links"])
+def test_two_outputs_of_one_command_are_never_one_file(tmp_path, capsys, monkeypatch, how):
+    """export --dxf X --points X is refused before any work (nothing computed, nothing written,
+    a file there kept), naming both options."""
+    from mjlink.pipeline import export
+
+    monkeypatch.setattr(export, "positions", lambda *a: pytest.fail("computed before refusing"))
+    x = tmp_path / "x.csv"
+    other = {"one name": x, "another spelling": tmp_path / "." / "x.csv", "a link": tmp_path / "y.csv"}
+    other["hard links"] = tmp_path / "y.csv"
+    if how == "a link":
+        os.symlink(x, other[how])
+    elif how == "hard links":
+        x.write_text("mine\n")
+        os.link(x, other[how])
+    before = contents(tmp_path)
+    assert main(["export", str(EXAMPLE_PATH), "--dxf", str(x), "--points", str(other[how]), "--force"]) == 1
+    err = one_line(capsys)
+    assert "--dxf" in err and "--points" in err and "same file" in err
+    assert contents(tmp_path) == before
+
+
+def test_design_writes_its_page_where_simulate_does(tmp_path, mech):
+    """One place for design.html: renders/NAME/design.html, the root created as simulate --out
+    creates it (outside a checkout there is no renders/); simulate's folder keeps its own rules:
+    design replaces only the page, keeping the run's files, and simulate takes it back."""
+    r = in_process("design", str(EXAMPLE_PATH), cwd=tmp_path)
+    folder = tmp_path / "renders" / "crank_rocker"
+    assert r.returncode == 0, r.stderr
+    assert (
+        names(folder) == [markers.MARKER, "design.html"] and str(Path("renders/crank_rocker/design.html")) in r.stderr
+    )
+    run = pipeline.run(mech, tmp_path / "renders", FAST)  # its own folder: no --force needed
+    assert "design.html" in run.files
+    kept = {n: (folder / n).stat().st_ino for n in run.files if n != "design.html"}
+    page = (folder / "design.html").stat().st_ino
+    r = in_process("design", str(EXAMPLE_PATH), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert {n: (folder / n).stat().st_ino for n in kept} == kept and (folder / "design.html").stat().st_ino != page
+    assert markers.read_marker(folder)["files"] == sorted(run.files) and hidden(folder.parent) == []
+    assert pipeline.run(mech, tmp_path / "renders", FAST).files == run.files  # simulate's own again
+    # A folder of the user's there is refused without --force, and kept.
+    mine = tmp_path / "other" / "crank_rocker"
+    mine.mkdir(parents=True)
+    (mine / "notes.txt").write_text("mine\n")
+    r = in_process("design", str(EXAMPLE_PATH), "--out", str(tmp_path / "other"))
+    assert r.returncode == 1 and "--force" in r.stderr and names(mine) == ["notes.txt"]
 
 
 # ============================================================================ 11: leftovers and orphans

@@ -1,19 +1,23 @@
 """Output safety: unwritable folders, a full disk, replacing an existing output whole, failed
-runs that leave nothing behind, and names from a file that can neither escape the output
-folder nor break the MJCF.
+runs that leave nothing behind, a command's several files written all or none, every output of
+a run from the mechanism it loaded (not its file read again), and names from a file that can
+neither escape the output folder nor break the MJCF.
 
 Tests run as root, so a read-only folder made with chmod would still be writable: an
 unwritable output is made as a path under a regular file (or under /proc) instead.
 """
 
 import errno
+import json
 import operator
 import os
 import re
 import string
+import tomllib
 
 import mujoco
 import pytest
+from conftest import in_process
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -171,6 +175,120 @@ def test_atomic_exchange_is_used_on_linux(tmp_path, previous, monkeypatch):
     with staging.staged_dir(previous, kind="simulate", mechanism="crank_rocker") as stage:
         (stage / "new.txt").write_text("new")
     assert used == [True] and files(previous) == ["new.txt"]
+
+
+# ----------------------------------------------------------------------------- several files: all or none
+def everything(folder):
+    """Every entry of ``folder``, hidden ones too, with its bytes."""
+    return {p.name: p.read_bytes() for p in folder.iterdir()}
+
+
+def fail_on(monkeypatch, module, name, k, error, only=lambda *a: True):
+    """Make ``module.name`` raise ``error`` on its k-th call (from 0) among those ``only`` accepts."""
+    real, calls = getattr(module, name), []
+
+    def flaky(*args, **kw):
+        if only(*args):
+            calls.append(args)
+            if len(calls) == k + 1:
+                raise error
+        return real(*args, **kw)
+
+    monkeypatch.setattr(module, name, flaky)
+
+
+DISK_FULL = OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+
+@pytest.mark.parametrize("error", [DISK_FULL, KeyboardInterrupt()], ids=["disk full", "interrupted"])
+@pytest.mark.parametrize("k", [0, 1, 2])
+@pytest.mark.parametrize("when", ["writing", "placing", "renaming"])
+def test_several_files_are_written_all_or_none(tmp_path, monkeypatch, when, k, error):
+    """Three files, two of them there before: whichever one fails, while the temporaries are
+    written or while they are put in place one after the other, the files there before are left
+    byte for byte, the absent one stays absent, and nothing is left behind."""
+    a, b, c = tmp_path / "a.dxf", tmp_path / "b.csv", tmp_path / "c.json"
+    a.write_bytes(b"my good drawing\n")
+    c.write_bytes(b'{"my": "points"}\n')
+    before = everything(tmp_path)
+    if when == "writing":
+        fail_on(monkeypatch, mjfiles, "_temporary", k, error)
+    elif when == "placing":
+        fail_on(monkeypatch, mjfiles, "_place", k, error)
+    else:  # the rename onto the destination itself, after the previous file was kept aside
+        fail_on(monkeypatch, os, "replace", k, error, only=lambda src, dst: str(src).endswith(".tmp"))
+    with pytest.raises(OutputError if isinstance(error, OSError) else KeyboardInterrupt) as e:
+        mjfiles.write_files([(a, "new a"), (b, "new b"), (c, b"new c")], force=True)
+    assert everything(tmp_path) == before
+    if isinstance(error, OSError):
+        assert "\n" not in str(e.value) and "No space left" in str(e.value)
+
+
+def test_several_files_all_written(tmp_path):
+    a, b = tmp_path / "a.dxf", tmp_path / "b.csv"
+    a.write_bytes(b"old")
+    mjfiles.write_files([(a, "new a"), (b, b"new b")], force=True)
+    assert everything(tmp_path) == {"a.dxf": b"new a", "b.csv": b"new b"}
+
+
+def test_a_file_that_appears_meanwhile_is_kept_without_force(tmp_path):
+    """Claimed while absent, there when the files are placed: kept, and the other file is not
+    written either."""
+    a, b = tmp_path / "a.dxf", tmp_path / "b.csv"
+    targets = mjfiles.claim_outputs({"--dxf": a, "--points": b})
+    b.write_bytes(b"appeared")
+    with pytest.raises(OutputError, match=r"b\.csv: exists .*--force"):
+        mjfiles.write_files([(targets["--dxf"], "new a"), (targets["--points"], "new b")])
+    assert everything(tmp_path) == {"b.csv": b"appeared"}
+
+
+def test_a_failed_export_keeps_the_earlier_good_files(tmp_path, monkeypatch):
+    """The issue's case (--points into a folder that does not exist, refused before any work)
+    and a second file that cannot be put in place after the first was: the earlier DXF and
+    points file stay byte for byte, nothing is left behind."""
+    dxf, pts = tmp_path / "A.dxf", tmp_path / "A.csv"
+    assert in_process("export", "takeup", "--dxf", str(dxf), "--points", str(pts)).returncode == 0
+    before = everything(tmp_path)
+    missing = str(tmp_path / "no" / "P.csv")
+    r = in_process("export", "takeup", "--angle", "30", "--dxf", str(dxf), "--points", missing, "--force")
+    assert r.returncode == 1 and "does not exist" in r.stderr and everything(tmp_path) == before
+    fail_on(monkeypatch, os, "replace", 1, DISK_FULL, only=lambda src, dst: str(src).endswith(".tmp"))
+    r = in_process("export", "takeup", "--angle", "30", "--dxf", str(dxf), "--points", str(pts), "--force")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "No space left" in r.stderr, r.stderr
+    assert everything(tmp_path) == before
+
+
+# ----------------------------------------------------------------------------- one loaded mechanism
+def page_data(html):
+    """The mechanism data design.html embeds (its JSON script)."""
+    m = re.search(r"""id=['"]mechanism-data['"]>(.*?)</script>""", html, re.S)
+    assert m is not None
+    return json.loads(m[1])
+
+
+@pytest.mark.parametrize("change", ["edited", "deleted", "made invalid"])
+def test_every_output_of_a_run_comes_from_the_mechanism_it_loaded(tmp_path, change):
+    """The file changes after it was loaded and before the run writes its outputs: the page
+    and the report still describe the loaded design, and nothing reads the file again (an
+    invalid file would raise TOMLDecodeError, a deleted one FileNotFoundError)."""
+    import mjlink
+
+    src = tmp_path / "mine.toml"
+    text = EXAMPLE.replace('title = "Plain crank-rocker (example)"', 'title = "the loaded design"')
+    src.write_text(text)
+    mech = mjlink.load(src)
+    if change == "edited":
+        src.write_text(text.replace("the loaded design", "another design").replace("length = 15.0", "length = 12.0"))
+    elif change == "deleted":
+        src.unlink()
+    else:
+        src.write_text("[mechanism\nname = ")
+    res = pipeline.run(mech, tmp_path / "out", FAST)
+    data = page_data((res.out_dir / "design.html").read_text())
+    assert data["raw"] == tomllib.loads(text)
+    assert json.loads((res.out_dir / "report.json").read_text())["title"] == "the loaded design"
+    page = pipeline.design.design_page(mech, tmp_path / "page.html")  # the design command's page too
+    assert page_data(page.read_text())["raw"] == tomllib.loads(text)
 
 
 # ----------------------------------------------------------------------------- names

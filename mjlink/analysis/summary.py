@@ -81,14 +81,10 @@ def design_summary(mech: Mechanism) -> tuple[Row, ...]:
 def chosen_guides(mech: Mechanism) -> list[str]:
     """The thread's ground points whose line in the mechanism file is marked ``[choice`` (placed
     by the file's author, not taken from its source), in the thread's order."""
-    if not mech.thread or mech.path is None:
-        return []
-    try:
-        text = mech.path.read_text(encoding="utf-8")
-    except OSError:
+    if not mech.thread or mech.text is None:  # the text it was read from, not the file again
         return []
     marked = set()
-    for line in text.splitlines():
+    for line in mech.text.splitlines():
         m = re.match(r"\s*([A-Za-z][A-Za-z0-9_]*)\s*=\s*\[[^\]]*\]\s*#.*\[choice", line)
         if m:
             marked.add(m[1])

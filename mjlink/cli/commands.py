@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING
 
 from .. import validation
 from ..errors import InputError, MjlinkError
-from ..files import write_text
 from ..model import catalogue
 from ..model.catalogue import STUDIES_DIR
 from ..model.limits import MAX_CYCLES, MAX_FPS
@@ -265,6 +264,7 @@ def _check(args: argparse.Namespace) -> int:
 def _build_arguments(p: argparse.ArgumentParser) -> None:
     _mechanism(p)
     p.add_argument("-o", "--output", type=path_arg, help="MJCF file to write (default: standard output)")
+    p.add_argument("--force", action="store_true", help="replace the file if it exists")
     p.add_argument(
         "--kinematic",
         action="store_true",
@@ -276,7 +276,7 @@ def _build(args: argparse.Namespace) -> int:
     from .. import pipeline  # here: it loads MuJoCo, which list, check and --help do without
 
     mech = validation.get(args.mechanism)
-    res = pipeline.build(mech, kinematic=args.kinematic, path=args.output)
+    res = pipeline.build(mech, kinematic=args.kinematic, path=args.output, force=args.force)
     if res.path is None:
         sys.stdout.write(res.xml)
     else:
@@ -327,19 +327,27 @@ def _export(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------- design
 def _design_arguments(p: argparse.ArgumentParser) -> None:
     _mechanism(p)
-    p.add_argument("-o", "--output", type=path_arg, help="HTML file to write (default: renders/NAME-design.html)")
-    p.add_argument("--force", action="store_true", help="replace the file if it exists")
+    p.add_argument(
+        "--out",
+        type=path_arg,
+        help="output root (default: renders/); the page goes to OUT/NAME/design.html, where simulate puts it",
+    )
+    p.add_argument("-o", "--output", type=path_arg, help="write the page to this HTML file instead")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the -o file if it exists; or write into an OUT/NAME/ folder mjlink did not write for simulate",
+    )
 
 
 def _design(args: argparse.Namespace) -> int:
-    from ..pages import design  # here: the page's module, which list and --help do without
+    from ..pipeline import design  # here: it loads MuJoCo, which list, check and --help do without
 
+    if args.output is not None and args.out is not None:
+        raise MjlinkError("design: give -o FILE or --out ROOT, not both")
     mech = validation.get(args.mechanism)
-    assert mech.path is not None  # a mechanism is read from its file
-    path = args.output or Path("renders") / f"{mech.name}-design.html"
-    if path.exists() and not args.force:
-        raise MjlinkError(f"{path} exists: give --force to replace it")
-    write_text(path, design.design_html(mech, mech.path.read_text(encoding="utf-8")))
+    root = args.out or Path("renders")
+    path = design.design_page(mech, args.output, out_root=root, force=args.force, command=args.command_line)
     print(
         f"wrote {path}: open it in a browser (offline; drag the pivots, edit the numbers, save as TOML)",
         file=sys.stderr,
@@ -554,11 +562,16 @@ def _synth_arguments(y: argparse.ArgumentParser) -> None:
     y.add_argument("--lambda", dest="ratio", type=float, help="lambda = r / l")
     y.add_argument("--max-pressure-angle", type=quantity_arg("deg"), help="allowed pressure angle [theta], deg")
     y.add_argument("--write", type=path_arg, metavar="FILE", help="save the accepted design as a mechanism file")
+    y.add_argument("--force", action="store_true", help="replace the --write file if it exists")
 
 
 def _synth(args: argparse.Namespace) -> int:
     from .. import pipeline  # here: it loads MuJoCo, which list, check and --help do without
 
+    if args.write is not None:  # refused before any work; checked again as it is written
+        from ..files import claim_outputs
+
+        claim_outputs({"--write": args.write}, [catalogue.path_of("crank_slider")], force=args.force)
     res = pipeline.synthesize(
         args.problem,
         stroke_mm=args.stroke,
@@ -568,7 +581,7 @@ def _synth(args: argparse.Namespace) -> int:
     )
     print(text.synthesis(res))
     if args.write is not None:  # after the table: a design that cannot be saved is still shown
-        pipeline.write_design(res, args.write)
+        pipeline.write_design(res, args.write, force=args.force)
         print(f"wrote {args.write}")
     return 0
 
@@ -706,7 +719,8 @@ COMMANDS: tuple[Command, ...] = (
     Command(
         "design",
         "drag-to-design: an offline HTML page to edit the mechanism and watch its paths and numbers",
-        "example: python -m mjlink design takeup -o takeup-design.html",
+        "examples:\n  python -m mjlink design takeup                        # renders/takeup/design.html\n"
+        "  python -m mjlink design takeup -o takeup-design.html",
         _design_arguments,
         _design,
     ),

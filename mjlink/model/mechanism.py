@@ -218,6 +218,9 @@ class Mechanism:
     counterweight: Counterweight | None = None
     timing: Timing | None = None  # a sewing head's [timing] table (mjlink.model.timing)
     balance: Balance | None = None  # its needle thread's [balance] (mjlink.model.timing)
+    # The text this mechanism was parsed from, read once: every output of a run (design.html's
+    # "Save as TOML") comes from it, never from the file read again, which may have changed.
+    text: str | None = field(default=None, repr=False, compare=False)
 
     @property
     def input_crank(self) -> Crank:
@@ -595,6 +598,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         _timing.read(r, data["timing"], set(known), {c.point for c in _blocks.geared(steps)})
         if "timing" in data
         else None,
+        text=text,
     )
     if "balance" in data:
         mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing))

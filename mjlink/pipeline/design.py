@@ -1,15 +1,22 @@
-"""The ``build`` and ``synth`` commands: a mechanism's MJCF, the metric synthesis of the offset
-crank-slider and its mechanism file.
+"""The ``build``, ``design`` and ``synth`` commands: a mechanism's MJCF, its drag-to-design
+page, the metric synthesis of the offset crank-slider and its mechanism file.
+
+A file the user names (``build -o``, ``design -o``, ``synth --write``) is claimed before any
+work (:func:`mjlink.files.claim_outputs`: kept if it exists unless ``force``, never the file the
+command reads) and written whole (:func:`mjlink.files.write_files`).
 """
 
 from __future__ import annotations
 
 import math
+import os
+import shutil
+from collections.abc import Sequence
 from pathlib import Path
 
 from .. import validation
 from ..errors import MjlinkError
-from ..files import write_text
+from ..files import claim_outputs, write_files, write_text
 from ..model import catalogue, names, synthesis
 from ..model.limits import (
     MAX_LENGTH_MM,
@@ -18,7 +25,10 @@ from ..model.limits import (
     MIN_BAR_MM,
 )
 from ..model.mechanism import Mechanism, parse
+from ..pages import design
 from ..runs import DYNAMIC
+from ..runtime import staging
+from ..runtime.markers import read_marker
 from ..sim import builder, simulate
 from ..units import DEG, MM
 from .results import BuildResult, SynthResult
@@ -26,20 +36,62 @@ from .results import BuildResult, SynthResult
 SYNTHESIS_PROBLEMS = ("crank_slider",)  # what synthesize knows how to solve
 
 
-def build(mech: Mechanism, *, kinematic: bool = False, path: Path | None = None) -> BuildResult:
+def build(mech: Mechanism, *, kinematic: bool = False, path: Path | None = None, force: bool = False) -> BuildResult:
     """The MJCF of ``mech``: the dynamic model, or with ``kinematic`` the kinematic run's (a
-    flywheel on the crank); written to ``path`` whole if given. Raises MjlinkError for a
-    ``path`` that names a folder (or nothing), before anything is built."""
-    if path is not None:
-        if not str(path) or path.is_dir():
-            raise MjlinkError(f"-o {str(path)!r}: is a folder, not a file: give the MJCF file's name, e.g. model.xml")
-        if not path.name:
-            raise MjlinkError(f"-o {str(path)!r}: names no file: give the MJCF file's name, e.g. model.xml")
+    flywheel on the crank); written to ``path`` whole if given. Raises OutputError for a
+    ``path`` that cannot be claimed (:func:`~mjlink.files.claim_outputs`: a folder, the
+    mechanism's own file, an existing file without ``force``), before anything is built."""
+    target = claim_outputs({"-o": path}, [mech.path], force=force).get("-o")
     settings = simulate.kinematic_case(mech).settings if kinematic else DYNAMIC
     xml = builder.to_xml(mech, settings)
-    if path is not None:
-        write_text(path, xml)
+    if target is not None:
+        write_files([(target, xml)], force=force)
     return BuildResult(mech.name, settings, xml, path)
+
+
+def design_page(
+    mech: Mechanism,
+    path: Path | None = None,
+    *,
+    out_root: Path | str = "renders",
+    force: bool = False,
+    command: Sequence[str] = (),
+) -> Path:
+    """Write ``mech``'s drag-to-design page (:func:`mjlink.pages.design.design_html`, from the
+    text ``mech`` was read from); returns where.
+
+    ``path`` None: at ``OUT_ROOT/NAME/design.html``, where ``simulate`` puts it, in the same
+    output folder and under the same rules (:func:`mjlink.runtime.staging.staged_dir`, kind
+    ``simulate``: the root is created, a folder mjlink did not write is refused unless
+    ``force``); the other files of a ``simulate`` output there are kept and stay that output's.
+    ``path`` given: that file, claimed first (:func:`~mjlink.files.claim_outputs`).
+    """
+    target = claim_outputs({"-o": path}, [mech.path], force=force).get("-o")
+    if mech.text is None:
+        raise MjlinkError(
+            f"{mech.name}: the page edits the text of a mechanism file, and this one was not read from one"
+        )
+    html = design.design_html(mech, mech.text)
+    if path is not None and target is not None:
+        write_files([(target, html)], force=force)
+        return path
+    dest = Path(out_root) / mech.name
+    with staging.staged_dir(dest, kind="simulate", force=force, mechanism=mech.name, command=command) as stage:
+        write_text(stage / "design.html", html, in_stage=True)
+        marker = read_marker(dest) if dest.is_dir() else None
+        if marker is not None and marker["kind"] == "simulate" and marker.get("mechanism") == mech.name:
+            for name in marker["files"]:  # the run's other files stay in its output, as they were
+                if name != "design.html" and os.path.lexists(dest / name):
+                    _link_into(dest / name, stage / name)
+    return dest / "design.html"
+
+
+def _link_into(src: Path, dst: Path) -> None:
+    """``src`` at ``dst`` as hard links (a folder as a tree of them): the same files, not copies."""
+    if src.is_dir() and not src.is_symlink():
+        shutil.copytree(src, dst, symlinks=True, copy_function=os.link)
+    else:
+        os.link(src, dst, follow_symlinks=False)
 
 
 def synthesize(
@@ -95,17 +147,22 @@ def synthesize(
     )
 
 
-def write_design(result: SynthResult, path: Path) -> Path:
+def write_design(result: SynthResult, path: Path, *, force: bool = False) -> Path:
     """Save the accepted design of ``result`` as a mechanism file at ``path`` (whole or not at
     all), named after the file's stem, after validating it. Raises MjlinkError if the stem is
-    not a valid mechanism name, no root is accepted or the design does not validate."""
+    not a valid mechanism name, no root is accepted or the design does not validate, and
+    OutputError for a ``path`` that cannot be claimed (:func:`~mjlink.files.claim_outputs`: an
+    existing file without ``force``, the shipped file the design starts from)."""
     name = path.stem
     if not names.is_valid(name):
         raise MjlinkError(
             f"--write: the file name '{path.name}' must make a valid mechanism name "
             "(a letter, then letters, digits or _)"
         )
-    base_text = catalogue.path_of("crank_slider").read_text(encoding="utf-8")
+    base = catalogue.path_of("crank_slider")
+    target = claim_outputs({"--write": path}, [base], force=force)["--write"]
+    base_text = base.read_text(encoding="utf-8")
     text = synthesis.design_file(base_text, result.stroke, result.offset, result.ratio, result.max_pressure_angle, name)
     validation.validate(parse(text, path))
-    return write_text(path, text)
+    write_files([(target, text)], force=force)
+    return path

@@ -2,8 +2,9 @@
 
 The DXF (R2010, millimetres, ``$INSUNITS`` = 4) holds, in the mechanism's own frame:
 
-* one layer per link (its name in the file), the link's centre lines as LINEs, joining each of
-  its points to the point it was built from (the shape the drawings show);
+* one layer per link (:func:`layer_names`: its name in the file, unless DXF forbids that name
+  or another layer already has it, ignoring case), the link's centre lines as LINEs, joining
+  each of its points to the point it was built from (the shape the drawings show);
 * ``PIVOTS``: a CIRCLE of radius :data:`PIVOT_MM` round every ground point, ``POINTS``: a POINT
   at every named point, ``LABELS``: each point's name beside it;
 * ``PATHS``: the closed path over the period of every moving point that is not merely a
@@ -14,6 +15,9 @@ The DXF (R2010, millimetres, ``$INSUNITS`` = 4) holds, in the mechanism's own fr
 The points file lists every named point at that angle: name, whether it is on the ground, x, y,
 z in mm (CSV, or JSON by the file's extension). Positions are the reference's
 (:func:`mjlink.reference.solve`), the same as ``simulate`` checks MuJoCo against.
+
+The two files are claimed before anything is computed (:func:`mjlink.files.claim_outputs`) and
+written together, both or neither (:func:`mjlink.files.write_files`).
 """
 
 from __future__ import annotations
@@ -28,16 +32,20 @@ from typing import Any
 
 import numpy as np
 
-from .. import reference
+from .. import reference, validation
 from ..analysis import link_segments, mass_centres
 from ..errors import MjlinkError
-from ..files import write_text
+from ..files import claim_outputs, write_files
 from ..model.mechanism import Mechanism
 from ..units import DEG, to_mm
 
 PIVOT_MM = 2.0  # radius of the circle drawn round a ground pivot, mm
 PATH_SAMPLES = 361  # vertices of a point's path over the period (closed)
 LAYERS = ("PIVOTS", "POINTS", "LABELS", "PATHS")  # besides one per link
+# Layers every DXF has (a CAD program gives them their own meaning), and the characters a layer
+# name may not hold (besides control characters): a link's layer never takes them.
+STANDARD_LAYERS = ("0", "Defpoints")
+_NOT_IN_LAYER_NAMES = frozenset('<>/\\":;?*|,=`')
 
 
 @dataclass(frozen=True)
@@ -66,6 +74,26 @@ def _paths(mech: Mechanism) -> dict[str, np.ndarray]:
     return {p: to_mm(kin.position(p)) for p in moving}
 
 
+def layer_names(mech: Mechanism) -> dict[str, str]:
+    """Link name -> its DXF layer: the link's name, with any character a layer name may not hold
+    replaced by ``_``; a name that a layer already has, ignoring case as DXF does (``0``,
+    ``Defpoints``, :data:`LAYERS`, a link listed before it), gets the first free suffix of
+    ``_2``, ``_3``, ... (``PATHS`` -> ``PATHS_2``; ``lever`` and ``Lever`` -> ``lever``,
+    ``Lever_2``). One layer per link, every name valid and readable."""
+    taken = {n.casefold() for n in (*STANDARD_LAYERS, *LAYERS)}
+    names: dict[str, str] = {}
+    for link in mech.links:
+        base = "".join("_" if c in _NOT_IN_LAYER_NAMES or not c.isprintable() else c for c in link.name)
+        base = base.strip() or "_"
+        name, i = base, 1
+        while name.casefold() in taken:
+            i += 1
+            name = f"{base}_{i}"
+        taken.add(name.casefold())
+        names[link.name] = name
+    return names
+
+
 def dxf_text(mech: Mechanism, angle_deg: float) -> str:
     """The DXF document of ``mech`` at ``angle_deg`` as text (see the module's docstring)."""
     import ezdxf  # here: only this command needs it
@@ -74,11 +102,12 @@ def dxf_text(mech: Mechanism, angle_deg: float) -> str:
     doc = ezdxf.new("R2010")
     doc.header["$INSUNITS"] = 4  # millimetres
     doc.header["$MEASUREMENT"] = 1  # metric
-    for i, name in enumerate([*LAYERS, *(link.name for link in mech.links)]):
+    layer = layer_names(mech)
+    for i, name in enumerate([*LAYERS, *layer.values()]):
         doc.layers.add(name, color=1 + i % 254)
     msp = doc.modelspace()
     for link, a, b in link_segments(mech):
-        msp.add_line(at[a], at[b], dxfattribs={"layer": link})
+        msp.add_line(at[a], at[b], dxfattribs={"layer": layer[link]})
     size = max(1.0, 0.02 * _extent(at))
     for name, xyz in at.items():
         msp.add_point(xyz, dxfattribs={"layer": "POINTS"})
@@ -121,28 +150,25 @@ def export(
     mech: Mechanism, angle_deg: float | None, dxf: Path | None, points: Path | None, *, force: bool = False
 ) -> ExportResult:
     """Write the DXF to ``dxf`` and the points file to ``points`` (CSV or JSON by its
-    extension), each whole or not at all, for the input crank at ``angle_deg`` (deg; None: the
-    file's ``phi0``). Raises MjlinkError (one line) for an angle that is not a number, a
-    points file of another extension, no output asked for, or a file that exists (unless
-    ``force``): nothing is replaced that the user did not ask to replace."""
+    extension), both or neither, for the input crank at ``angle_deg`` (deg; None: the file's
+    ``phi0``). Raises MjlinkError (one line), before anything is computed, for an angle that is
+    not finite or beyond the bound of every crank angle (:func:`mjlink.validation.check_angle`),
+    a points file of another extension, no output asked for, or outputs that cannot be claimed
+    (:func:`~mjlink.files.claim_outputs`: both the same file, the mechanism's own file, a file
+    that exists without ``force``): nothing is replaced that the user did not ask to replace."""
     if dxf is None and points is None:
         raise MjlinkError("export: nothing to write: give --dxf FILE.dxf and/or --points FILE.csv|FILE.json")
-    for path in (dxf, points):
-        if path is not None and path.exists() and not force:
-            raise MjlinkError(f"{path} exists: give --force to replace it")
     if points is not None and points.suffix.lower() not in (".csv", ".json"):
         raise MjlinkError(f"--points {points}: must end in .csv or .json")
-    angle = math.degrees(mech.phi0) if angle_deg is None else float(angle_deg)
-    if not math.isfinite(angle):
-        raise MjlinkError(f"--angle {angle_deg}: must be a finite number of degrees")
+    angle = math.degrees(mech.phi0) if angle_deg is None else validation.check_angle("--angle", float(angle_deg))
+    targets = claim_outputs({"--dxf": dxf, "--points": points}, [mech.path], force=force)
     at = positions(mech, angle)
     texts: list[tuple[Path, str]] = []
     if dxf is not None:
-        texts.append((dxf, dxf_text(mech, angle)))
+        texts.append((targets["--dxf"], dxf_text(mech, angle)))
     if points is not None:
-        texts.append((points, points_text(at, mech, points.suffix.lower()[1:])))
-    for path, text in texts:
-        write_text(path, text)
+        texts.append((targets["--points"], points_text(at, mech, points.suffix.lower()[1:])))
+    write_files(texts, force=force)
     return ExportResult(mech.name, angle, at, dxf, points)
 
 

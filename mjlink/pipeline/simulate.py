@@ -209,9 +209,8 @@ def run(
         # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.
         xml = dyn.model.spec.to_xml() if dyn is not None else builder.to_xml(mech, DYNAMIC)
         write_text(stage / "model.xml", xml, in_stage=True)
-        if mech.path is not None:  # drag-to-design edits the file as written
-            html = design.design_html(mech, mech.path.read_text(encoding="utf-8"))
-            write_text(stage / "design.html", html, in_stage=True)
+        if mech.text is not None:  # drag-to-design edits the file as it was read for this run
+            write_text(stage / "design.html", design.design_html(mech, mech.text), in_stage=True)
         written = [p.name for p in stage.iterdir() if p.name != MARKER] + ["index.html"]
         write_text(stage / "index.html", index.index_html(result, written), in_stage=True)
         files = tuple(sorted(p.name for p in stage.iterdir() if p.name != MARKER))
