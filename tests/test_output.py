@@ -289,6 +289,14 @@ def test_every_output_of_a_run_comes_from_the_mechanism_it_loaded(tmp_path, chan
     assert json.loads((res.out_dir / "report.json").read_text())["title"] == "the loaded design"
     page = pipeline.design.design_page(mech, tmp_path / "page.html")  # the design command's page too
     assert page_data(page.read_text())["raw"] == tomllib.loads(text)
+    # a study's variants and winner files are derived from the loaded text too
+    from mjlink.model import paths
+    from mjlink.model.mechanism import parse
+
+    length = paths.resolve(mech, "construct.B.length")
+    varied = parse(paths.file_text(mech, {length: 16.0}, "a variant"), "variant.toml")
+    assert varied.title == "the loaded design" and paths.catalogue(varied)["construct.B.length"].nominal == 16.0
+    paths.check_values(mech, {length: 16.0})
 
 
 # ----------------------------------------------------------------------------- names

@@ -38,7 +38,6 @@ import math
 import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
@@ -352,9 +351,9 @@ def check_values(mech: Mechanism, values: Mapping[Param, float]) -> None:
       PathError: ``mech`` was not read from a file (nothing to validate against).
     """
 
-    if mech.path is None:
+    if mech.text is None:
         raise PathError(f"{mech.name}: has no file to validate values against")
-    raw = tomllib.loads(Path(mech.path).read_text(encoding="utf-8"))
+    raw = tomllib.loads(mech.text)  # the text it was read from, not the file as it is now
     for p, v in values.items():
         parts = p.path.split(".")
         if parts[:2] == ["dynamics", "force"]:
@@ -367,7 +366,7 @@ def check_values(mech: Mechanism, values: Mapping[Param, float]) -> None:
             continue  # the file's [dynamics.motor] serves as its steady motor: no such table to write
         else:
             _set(raw, p.path, float(v))
-    parse(tomlio.dumps(raw, ""), mech.path)
+    parse(tomlio.dumps(raw, ""), mech.path or "<string>")
 
 
 def file_text(
@@ -386,7 +385,7 @@ def file_text(
     becomes the new file's leading comment.
 
     Args:
-      mech: the mechanism as read from its file (``mech.path`` set).
+      mech: the mechanism as read from its file (``mech.text`` set).
       values: parameter -> value, file units (scalars).
       header: lines for the leading comment (say what produced the file).
       name: the new file's ``[mechanism] name`` (default: unchanged).
@@ -397,9 +396,9 @@ def file_text(
       or as ``rounding`` rounds them).
     """
 
-    if mech.path is None:
+    if mech.text is None:
         raise PathError(f"{mech.name}: has no file to derive a new one from")
-    raw = tomllib.loads(Path(mech.path).read_text(encoding="utf-8"))
+    raw = tomllib.loads(mech.text)  # the text it was read from, not the file as it is now
     new = apply(mech, values)
     before, after = catalogue(mech), catalogue(new)
     for path, p in after.items():

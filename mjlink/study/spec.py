@@ -313,7 +313,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
     target = base / mref if (mref.endswith(".toml") or "/" in mref) and not Path(mref).is_absolute() else mref
     try:
         mech = validation.get(target)
-        mtext = Path(mech.path).read_bytes() if mech.path else b""
+        mtext = mech.text.encode("utf-8") if mech.text is not None else b""
     except MjlinkError as e:
         error = _limit if isinstance(e, InputError) else _fail
         raise error(src, "[study] mechanism", str(e)) from None
