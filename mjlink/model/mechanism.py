@@ -651,12 +651,10 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         synthesis,
         steady,
         _read_counterweight(r, data["counterweight"]) if "counterweight" in data else None,
-        _timing.read(r, data["timing"], set(known), {c.point for c in _blocks.geared(steps)})
-        if "timing" in data
-        else None,
+        _timing.read(r, data["timing"], set(ground), steps, links) if "timing" in data else None,
     )
     if "balance" in data:
-        mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing))
+        mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing, steps))
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))
     if mech.timing is not None and turns != 1:
