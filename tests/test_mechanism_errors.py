@@ -1,6 +1,9 @@
 """Bad mechanism files are rejected with one clear line naming the file, key and cause."""
 
 import math
+import os
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -504,3 +507,47 @@ def test_loads_at_their_limits_are_read():
     m = parse(text.replace("gravity = 9.81 ", "gravity = 100.0 ", 1), "f.toml")
     assert m.dynamics.moment == -1e6 and m.dynamics.damping == 1e6 and m.dynamics.gravity == 100.0
     assert parse(bad("target_delta = 0.02", "target_delta = 1.99"), "f.toml").steady.target_delta == 1.99
+
+
+# ----------------------------------------------------------------------------- not a file
+def test_a_fifo_a_device_or_a_dangling_link_is_named_for_what_it_is(tmp_path, monkeypatch, capsys):
+    """None of them is read (reading a FIFO would wait for a writer) nor called 'no such file'."""
+    from mjlink.cli import main
+    from mjlink.model.mechanism import load
+    from mjlink.study import spec
+
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)
+    dangling = tmp_path / "gone.toml"
+    dangling.symlink_to(tmp_path / "nothing.toml")
+    cases = [
+        (fifo, "is a FIFO (named pipe), not a mechanism file"),
+        (Path("/dev/null"), "is a character device, not a mechanism file"),
+        (dangling, "is a symbolic link to nothing, not a mechanism file"),
+        (tmp_path, "is a folder, not a mechanism file"),
+    ]
+    for p, what in cases:
+        for get in (validation.get, load, lambda p: validation.get(str(p))):
+            with pytest.raises(MjlinkError) as e:
+                get(p)
+            assert what in str(e.value) and "no such" not in str(e.value), str(e.value)
+        assert main(["check", str(p)]) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and what in err, err
+    monkeypatch.chdir(tmp_path)
+    os.mkfifo(tmp_path / "mypipe")
+    with pytest.raises(UnknownMechanismError, match="mypipe: is a FIFO \\(named pipe\\), not a mechanism file"):
+        validation.get("mypipe")  # a bare word that is no registered name
+    for p, what in [(fifo, "FIFO (named pipe)"), (Path("/dev/null"), "character device"), (dangling, "symbolic link")]:
+        with pytest.raises(MjlinkError, match=f"is a {re.escape(what)}.*, not a study file"):
+            spec.load(p)
+    study = tmp_path / "s.toml"
+    study.write_text(
+        (registry.STUDIES_DIR / "takeup_tolerance.toml")
+        .read_text()
+        .replace('mechanism = "takeup"', 'mechanism = "pipe.toml"')
+    )
+    with pytest.raises(
+        MjlinkError, match=r"\[study\] mechanism: .*pipe\.toml: is a FIFO \(named pipe\), not a mechanism"
+    ):
+        spec.load(study)

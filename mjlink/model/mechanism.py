@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import FileTooLargeError, MechanismFileError
 from ..units import DEG, MM, G
 from . import blocks as _blocks
+from . import catalogue as _catalogue
 from . import names as _names
 from . import timing as _timing
 from .blocks import Attached, Block, Crank, Dyad, Slider
@@ -676,6 +677,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
 def load(path: str | Path) -> Mechanism:
     """Read and validate a mechanism file. Raises MechanismFileError with a one-line message."""
     p = Path(path)
+    what = _catalogue.what_is(p)
+    if what is not None:
+        raise MechanismFileError(f"{p}: is {what}, not a mechanism file")
     try:
         size = p.stat().st_size
         if size > MAX_FILE_BYTES:
