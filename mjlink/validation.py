@@ -37,6 +37,7 @@ from .model.limits import (
     SAMPLES_PER_TURN,
     VERIFIED_CRANK_ACCELERATION,
     VERIFIED_SPEED,
+    above,
 )
 from .model.mechanism import Mechanism, load
 from .model.topology import pairs as all_pairs
@@ -552,14 +553,14 @@ def with_crank_settings(mech: Mechanism, phi0_deg: float | None = None, phase_de
     Raises MjlinkError if a phase is given for a mechanism without a geared crank.
     """
     if phi0_deg is not None:
-        if not math.isfinite(phi0_deg) or abs(phi0_deg) > MAX_ANGLE_DEG:
+        if not math.isfinite(phi0_deg) or above(abs(phi0_deg), MAX_ANGLE_DEG):
             raise MjlinkError(f"--phi0 must be finite and at most {MAX_ANGLE_DEG:g} deg in magnitude, got {phi0_deg}")
         mech = dataclasses.replace(mech, phi0=math.radians(phi0_deg))
     if phase_deg is not None:
         geared = mech.geared
         if not geared:
             raise MjlinkError(f"{mech.name} has no geared crank: --phase/--phi04 does not apply")
-        if not math.isfinite(phase_deg) or abs(phase_deg) > MAX_ANGLE_DEG:
+        if not math.isfinite(phase_deg) or above(abs(phase_deg), MAX_ANGLE_DEG):
             raise MjlinkError(f"--phase must be finite and at most {MAX_ANGLE_DEG:g} deg in magnitude, got {phase_deg}")
         new = dataclasses.replace(geared[0], phase=math.radians(phase_deg))
         mech = dataclasses.replace(mech, steps=tuple(new if s is geared[0] else s for s in mech.steps))

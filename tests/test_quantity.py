@@ -223,13 +223,17 @@ def test_a_value_truly_beyond_its_bound_is_refused(old, new, message):
     assert message in _file_refusal(old, new)
 
 
-def test_command_line_speeds_at_their_bound_are_accepted_and_beyond_refused():
+def test_command_line_values_at_their_bound_are_accepted_and_beyond_refused():
     from mjlink.pipeline.options import check_speed
 
     check_speed("--speed", speed_arg("9.5492965855rpm").rad_s)  # 1 rad/s to ten digits
     check_speed("--speed", speed_arg("-95492.96585513721rpm").rad_s)
     with pytest.raises(MjlinkError, match="--speed must be between 1 and 10000 rad/s"):
         check_speed("--speed", speed_arg("9.5rpm").rad_s)
+    r = in_process("synth", "crank_slider", "--stroke", "100um")  # 0.09999999999999999 mm: the 0.1 mm bound
+    assert r.returncode == 0, r.stderr
+    r = in_process("synth", "crank_slider", "--stroke", "99um")
+    assert r.returncode == 1 and "--stroke must be between 0.1 and 1000 mm, got 0.099 mm" in r.stderr
 
 
 def test_a_plain_number_option_takes_no_unit():
