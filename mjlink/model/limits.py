@@ -106,7 +106,7 @@ MAX_SYNTH_PRESSURE_DEG = 90.0
 # External forces and moments ([[dynamics.force]], [dynamics] moment, motor stall_torque): a
 # meganewton, a hundred-tonne press's, is far beyond the loads of a machine's linkage, and a
 # meganewton-metre is that force on the longest lever a file may hold (MAX_LENGTH_MM). Beyond,
-# numbers only overflow the solvers' sums (1e300 kN made every torque infinite).
+# a number is no load of a machine (1e300 kN passed check).
 MAX_FORCE_N = 1e6
 MAX_TORQUE_NM = 1e6
 # Viscous damping of the crank, N*m*s: the largest moment at the slowest speed a run makes.
@@ -154,7 +154,7 @@ HEAD: dict[str, Bound] = {
         0.0,
         20.0,
         "mm",
-        "fabric passes under the presser foot, which the knee lifter of a DDL-8700 class head raises 13 mm",
+        "the fabric passes under the raised presser foot, which sewing heads lift some 20 mm at most",
     ),
     "timing.loop_release": Bound(
         0.0,
@@ -181,7 +181,9 @@ HEAD: dict[str, Bound] = {
     "balance.check_spring_travel": Bound(
         0.0, 100.0, "mm", "a check spring's stroke, 6-8 mm on the shipped head's class"
     ),
-    "balance.stretch": Bound(0.0, 0.2, "", "a fraction: sewing threads break at about 20 % elongation or less"),
+    "balance.stretch": Bound(
+        0.0, 0.2, "", "a fraction: at its working tension a thread stretches a few %, and it breaks at some 15-30 %"
+    ),
 }
 """Every number of a head's ``[timing]`` and ``[balance]`` tables, by ``table.key``, with its
 range, unit and reason (``timing.window``: each end of a maker's window; ``balance.loop_body``:
