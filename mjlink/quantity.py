@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import re
+import reprlib
 
 from .errors import InputError
 
@@ -56,6 +57,15 @@ _TEXT = re.compile(rf"\s*({_NUMBER})\s*(\S*)\s*")
 _ANY_DIGITS = re.compile(r"\s*[-+]?[\d.]*\d")  # a number in any script's digits, at the start
 
 
+_REPR = reprlib.Repr()
+_REPR.maxstring = 60
+
+
+def _shown(text: str) -> str:
+    """``text`` as a message echoes it: repr-escaped and clipped (a file's string may be long)."""
+    return _REPR.repr(text)
+
+
 class QuantityError(InputError):
     """A quantity's text that is not a number with a unit of the expected kind."""
 
@@ -81,30 +91,30 @@ def read(text: str, unit: str) -> tuple[float, str]:
     digits = _ANY_DIGITS.match(text)
     if digits is not None and not digits[0].isascii():
         odd = next(c for c in digits[0] if not c.isascii())
-        raise QuantityError(f"{text!r}: write the number with the digits 0-9 ({odd!r} is not one of them)")
+        raise QuantityError(f"{_shown(text)}: write the number with the digits 0-9 ({_shown(odd)} is not one of them)")
     m = _TEXT.fullmatch(text)
     kind = kind_of(unit)
     if m is None:
         want = f": write e.g. 12{unit.strip()} or 12 {unit.strip()}" if unit.strip() else ": write e.g. 12 or 0.5"
-        raise NotANumberError(f"{text!r} is not a number{' with a unit' if unit.strip() else ''}{want}")
+        raise NotANumberError(f"{_shown(text)} is not a number{' with a unit' if unit.strip() else ''}{want}")
     value, written = float(m[1]), m[2]
     if not math.isfinite(value):
-        raise QuantityError(f"{text!r} is not finite")
+        raise QuantityError(f"{_shown(text)} is not finite")
     written = _ALIASES.get(written, written)
     if not written or written == unit.strip():
         return value, written
     if kind is None:
         if not unit.strip():
-            raise QuantityError(f"{text!r}: a plain number goes here, without a unit ('{written}')")
-        raise QuantityError(f"{text!r}: '{written}' is not a unit of {unit}")
+            raise QuantityError(f"{_shown(text)}: a plain number goes here, without a unit ({_shown(written)})")
+        raise QuantityError(f"{_shown(text)}: {_shown(written)} is not a unit of {unit}")
     if kind_of(written) != kind:
         same = [u for u in KINDS[kind] if u.lower() == written.lower()]
         if same:  # the one case rule: as listed, so that mm and Mm, ms and Ms never mean one thing
             raise QuantityError(
-                f"{text!r}: '{written}' is not a unit of {kind}: units are case-sensitive, write "
+                f"{_shown(text)}: {_shown(written)} is not a unit of {kind}: units are case-sensitive, write "
                 f"'{same[0]}'{_fits(kind)}"
             )
-        raise QuantityError(f"{text!r}: '{written}' is not a unit of {kind}{_fits(kind)}")
+        raise QuantityError(f"{_shown(text)}: {_shown(written)} is not a unit of {kind}{_fits(kind)}")
     return value, written
 
 
@@ -127,8 +137,11 @@ def parse(text: str, unit: str, *, require_unit: bool = False) -> float:
     if not written and require_unit:
         number = _TEXT.fullmatch(text)
         shown = number[1] if number else text.strip()
-        raise QuantityError(f"must be a number, not the text {text!r}: write {shown}, or '{shown}{unit}' with its unit")
+        raise QuantityError(
+            f"must be a number, not the text {_shown(text)}: write {_shown(shown)[1:-1]}, or "
+            f"'{_shown(shown)[1:-1]}{unit}' with its unit"
+        )
     out = convert(value, written, unit)
     if not math.isfinite(out):
-        raise QuantityError(f"{text!r} is not finite in {unit.strip()}")
+        raise QuantityError(f"{_shown(text)} is not finite in {unit.strip()}")
     return out

@@ -242,3 +242,11 @@ def test_a_plain_number_option_takes_no_unit():
         quantity_arg("")("2 mm")
     with pytest.raises(argparse.ArgumentTypeError, match="digits 0-9"):
         quantity_arg("")("２")
+
+
+@pytest.mark.parametrize("text", ["1" + "x" * 100_000, "1" * 100_000 + " mm", "x" * 100_000, "12 " + "m" * 100_000])
+def test_a_long_text_is_echoed_clipped_in_its_one_line(text):
+    with pytest.raises(quantity.QuantityError) as e:
+        quantity.parse(text, "mm", require_unit=True)
+    assert len(str(e.value)) < 300 and "\n" not in str(e.value)
+    assert len(_file_refusal("length = 30.0 ", f'length = "{text}" ')) < 400
