@@ -37,6 +37,7 @@ from .model.limits import (
     SAMPLES_PER_TURN,
     VERIFIED_CRANK_ACCELERATION,
     VERIFIED_SPEED,
+    above,
 )
 from .model.mechanism import Mechanism, load
 from .model.topology import pairs as all_pairs
@@ -550,7 +551,7 @@ def check_angle(option: str, deg: float) -> float:
     """``deg`` if it is an angle a crank may be set to: finite and at most MAX_ANGLE_DEG in
     magnitude, the bound of every angle in a file (beyond a turn or two an angle only loses
     precision); else MjlinkError naming ``option``."""
-    if not math.isfinite(deg) or abs(deg) > MAX_ANGLE_DEG:
+    if not math.isfinite(deg) or above(abs(deg), MAX_ANGLE_DEG):
         raise MjlinkError(f"{option} must be finite and at most {MAX_ANGLE_DEG:g} deg in magnitude, got {deg:g}")
     return deg
 

@@ -98,15 +98,33 @@ def failed(capsys, argv) -> str:
         ("955 rpm", 955 * 3.141592653589793 / 30),
         ("955rev/min", 955 * 3.141592653589793 / 30),
         ("955 r/min", 955 * 3.141592653589793 / 30),
-        ("+1e3RPM", 1000 * 3.141592653589793 / 30),
-        (" -.5 RAD/S ", -0.5),
+        ("+1e3rpm", 1000 * 3.141592653589793 / 30),
+        (" -.5 rad/s ", -0.5),
+        ("10rev/s", 20 * 3.141592653589793),
+        ("-90 deg/s", -3.141592653589793 / 2),
     ],
 )
 def test_speeds_are_read_with_their_unit_and_sign(text, rad_s):
     assert speed_arg(text).rad_s == pytest.approx(rad_s, rel=1e-15)
 
 
-@pytest.mark.parametrize("text", ["955", "-100", "1e3", "fast", "955 rps", "rpm", "nan rpm", "1e999rpm", "955 rpm/s"])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "955",
+        "-100",
+        "1e3",
+        "fast",
+        "955 rps",
+        "rpm",
+        "nan rpm",
+        "1e999rpm",
+        "955 rpm/s",
+        "955 RPM",
+        "10 Rev/s",
+        "1e308rev/s",
+    ],
+)
 def test_a_speed_without_a_unit_is_refused(text):
     with pytest.raises(argparse.ArgumentTypeError) as e:
         speed_arg(text)

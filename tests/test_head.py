@@ -456,3 +456,168 @@ def test_the_chain_stitch_heads_own_take_up_meets_every_check():
     assert _row(t, "thread_shortfall").value <= 0.51e-3
     assert _row(t, "thread_slack").ok and _row(t, "thread_slack").value < 1.0e-3
     assert _row(t, "take_up_after_release").value < math.radians(30.0)
+
+
+# ---------------------------------------------------------------- every number and role bounded
+def _head_text(table_key: str, value: str, chain: bool = False) -> str:
+    """The shipped head (or the chain-stitch example) with ``[table] key = value`` written in
+    place of the file's own line (or added to the table when the file leaves it at its default)."""
+    table, key = table_key.split(".")
+    text = (CHAIN if chain else HEAD).read_text()
+    body = r"(?:(?!\n\[)[\s\S])*?"  # within the table: no other table's header on the way
+    line = re.compile(rf"(\n\[{table}\]{body}\n){key} = [^\n]*")
+    new, n = line.subn(lambda m: f"{m[1]}{key} = {value}", text, count=1)
+    if n == 0:
+        new, n = re.subn(rf"\n\[{table}\]\n", lambda m: f"{m[0]}{key} = {value}\n", text, count=1)
+    assert n == 1, table_key
+    return new
+
+
+def _refusal(text: str) -> str:
+    with pytest.raises(MechanismFileError) as e:
+        mechanism.parse(text, "head.toml")
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith("head.toml: "), msg
+    return msg
+
+
+# The ranges of docs/head.md ("The timing table", "The thread balance"), in the file's units:
+# (table.key, accepted values, refused values). Every value as TOML writes it.
+HEAD_RANGES = [
+    ("timing.plate", ["-1000", "1000", "-100", '"-1 m"', '"-10cm"'], ["-1000.01", "1000.01", "1e300", "-1e300"]),
+    ("timing.fabric", ["0", "20", "1.5", '"2 cm"', '"0.5mm"'], ["-0.01", "20.01", "1e6", '"3 cm"']),
+    ("timing.loop_release", ["0.001", "359.99", "270", '"0.5 rev"', '"3 rad"'], ["0", "360", "990", "-270", '"1 rev"']),
+    ("timing.feed_in_fabric", ["0", "50", "0.2", '"5 cm"'], ["-0.001", "50.01", "1e300"]),
+    ("balance.stitch_length", ["0.1", "50", "3", '"100 um"', '"0.01 cm"'], ["0.099", "0", "-3", "50.01", '"99 um"']),
+    ("balance.bobbin_case", ["0.001", "26.99", "21", '"2 cm"'], ["0", "-21", "27", "30", "1e6"]),
+    ("balance.check_spring_travel", ["0", "100", "7", '"10 cm"'], ["-0.01", "100.01", "1e300"]),
+    ("balance.stretch", ["0", "0.2", "0.01"], ["-0.001", "0.21", "1", "1e300"]),
+]
+# What no key takes: not finite, not a number, a unit of another kind, digits other than 0-9.
+NOT_NUMBERS = ["nan", "inf", "-inf", "true", "[1.0]", '"abc"', '"12 s"', '"１２mm"', '"12 MM"', "{ a = 1 }"]
+
+
+@pytest.mark.parametrize(("key", "accepted", "refused"), HEAD_RANGES, ids=[k for k, *_ in HEAD_RANGES])
+def test_every_timing_and_balance_number_is_held_to_its_physical_range(key, accepted, refused):
+    table, name = key.split(".")
+    for v in accepted:
+        mechanism.parse(_head_text(key, v), "head.toml")
+    for v in [*refused, *NOT_NUMBERS]:
+        if name == "stretch" and v in ('"12 s"', '"１２mm"', '"12 MM"'):
+            continue  # a fraction has no unit: a string is refused as any text (below)
+        msg = _refusal(_head_text(key, v))
+        assert f"[{table}] {name}" in msg, (v, msg)
+    for v in ('"0.5"', '"abc"'):
+        assert f"[{table}] {name}" in _refusal(_head_text(key, v))
+
+
+def test_a_refused_number_says_its_range_its_unit_and_why():
+    msg = _refusal(_head_text("timing.loop_release", "990"))
+    assert "[timing] loop_release: must be above 0 and below 360 deg" in msg and "got 990 deg" in msg
+    assert "turn of the hook" in msg  # why: the loop leaves the hook within the turn, never wrapped
+    msg = _refusal(_head_text("timing.plate", "1e300"))
+    assert "[timing] plate: must be at least -1000 and at most 1000 mm" in msg and "got 1e+300 mm" in msg
+    msg = _refusal(_head_text("timing.fabric", "1e6"))
+    assert "[timing] fabric: must be at least 0 and at most 20 mm" in msg and "presser foot" in msg
+
+
+def test_a_chain_stitch_looper_is_held_to_its_range_and_the_looper_points_circle():
+    for v in ("0.001", "10", "26.99"):
+        mechanism.parse(_head_text("balance.looper", v, chain=True), "head.toml")
+    for v in ("0", "-10", "27", "200.5", "nan"):
+        assert "[balance] looper" in _refusal(_head_text("balance.looper", v, chain=True))
+    msg = _refusal(_head_text("balance.looper", "27", chain=True))
+    assert "does not fit inside the hook point's circle (27 mm across: 'HP' turns 13.5 mm about 'H')" in msg
+
+
+@pytest.mark.parametrize(
+    "window",
+    ["[-1000, 1000]", "[1.8, 2.2]", '["1.8mm", "0.22 cm"]', "[2.0, 2.0]"],
+)
+def test_a_makers_window_within_the_heads_heights_is_read(window):
+    text = HEAD.read_text().replace("hook_rise = [1.8, 2.2]", f"hook_rise = {window}", 1)
+    mechanism.parse(text, "head.toml")
+
+
+@pytest.mark.parametrize(
+    ("window", "message"),
+    [
+        ("[1.8, 1e300]", "[timing.juki] hook_rise hi: must be at least -1000 and at most 1000 mm"),
+        ("[-1000.5, 2.2]", "[timing.juki] hook_rise lo: must be at least -1000"),
+        ("[nan, 2.2]", "[timing.juki] hook_rise lo: must be finite"),
+        ("[1.8, inf]", "[timing.juki] hook_rise hi: must be finite"),
+        ("[1.8]", "[timing.juki] hook_rise: must be a window [lo, hi] in mm, got [1.8]"),
+        ('"1.8..2.2"', "[timing.juki] hook_rise: must be a window [lo, hi] in mm"),
+        ('[1.8, "2.2 s"]', "'s' is not a unit of length"),
+        ("[true, 2.2]", "[timing.juki] hook_rise lo: must be a number"),
+        ("[2.2, 1.8]", "lo 2.2 mm is above hi 1.8 mm"),
+    ],
+)
+def test_a_makers_window_beyond_the_heads_heights_is_refused(window, message):
+    text = HEAD.read_text().replace("hook_rise = [1.8, 2.2]", f"hook_rise = {window}", 1)
+    assert message in _refusal(text)
+
+
+# A point built from [ground] points only: it never moves, though it is no [ground] point.
+BRACKET = """
+[[construct]]
+point = "BK"
+block = "attached"
+origin = "GN1"
+toward = "GN2"
+angle = 90.0
+length = 5.0
+
+[links.bracket]
+points = ["GN1", "BK"]
+mass = 1.0
+com = "BK"
+"""
+
+
+@pytest.mark.parametrize(
+    ("role", "point", "message"),
+    [
+        ("take_up", "P1", "[timing] take_up: 'P1' does not move (a [ground] point), but the eyelet's highest point"),
+        ("take_up", "CS", "'CS' does not move (a [ground] point)"),
+        ("take_up", "BK", "[timing] take_up: 'BK' does not move (built from [ground] points only)"),
+        ("feed_dog", "R", "[timing] feed_dog: 'R' does not move (a [ground] point), but the dog rises"),
+        ("needle_bar", "GN1", "[timing] needle_bar: 'GN1' does not move"),
+        ("needle_point", "BK", "[timing] needle_point: 'BK' does not move"),
+        ("needle_eye", "T", "[timing] needle_eye: 'T' does not move"),
+        ("hook_point", "H", "[timing] hook_point: 'H' does not move (a [ground] point), but the hook's point"),
+        ("hook_point", "P5", "[timing] hook_point: 'P5' must be the point of a geared crank (the hook turns"),
+        ("hook_point", "P6", "'P6' must be the point of a geared crank"),  # the main shaft's own crank
+        ("needle_point", "NB", "[timing] needle_point: 'NB' is the needle_bar's point too"),
+        ("needle_eye", "HP", "needle_eye 'HP' are on no one link: the needle is held in its bar"),
+        ("needle_point", "F", "needle_point 'F' and needle_eye 'NE' are on no one link"),
+        ("take_up", "ZZ", "[timing] take_up: names point 'ZZ', which is not defined"),
+        ("take_up", "1x", "[timing] take_up: invalid name '1x'"),
+    ],
+)
+def test_each_role_names_a_point_that_can_play_it(role, point, message):
+    with_bracket = HEAD.read_text().replace("\n[links.crank]", BRACKET + "\n[links.crank]", 1)
+    mechanism.parse(with_bracket, "head.toml")  # the bracket alone is a valid file
+    text = _head_text(f"timing.{role}", f'"{point}"').replace("\n[links.crank]", BRACKET + "\n[links.crank]", 1)
+    assert message in _refusal(text)
+
+
+def test_the_stitch_type_is_an_enum_and_timing_rows_are_built_by_keyword(head, chain, timing):
+    from mjlink.analysis.timing import TimingRow
+    from mjlink.model.timing import StitchType, Window
+
+    assert head.timing.stitch is StitchType.LOCKSTITCH and chain.timing.stitch is StitchType.CHAIN
+    assert StitchType("301").loop_body == "bobbin_case" and StitchType("101").loop_body == "looper"
+    for v, message in [
+        ('"401"', "[timing] stitch: '401' is not a stitch type mjlink follows: '301' (lockstitch), '101' (single"),
+        ("301", "[timing] stitch: must be a string, got int 301"),
+        ('"lockstitch"', "'lockstitch' is not a stitch type"),
+    ]:
+        assert message in _refusal(_head_text("timing.stitch", v))
+    row = timing.rows[0]
+    with pytest.raises(TypeError):
+        TimingRow(row.key, row.what, row.maker, row.value, row.window, row.unit, row.counts)
+    kw = TimingRow(
+        key="dog_height", what="w", maker="juki", value=0.8e-3, window=Window(0.75e-3, 0.85e-3), unit="mm", counts=True
+    )
+    assert kw.ok and kw.verdict == "pass"

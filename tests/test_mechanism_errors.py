@@ -1,5 +1,11 @@
 """Bad mechanism files are rejected with one clear line naming the file, key and cause."""
 
+import math
+import os
+import re
+from pathlib import Path
+
+import numpy as np
 import pytest
 
 from mjlink import validation
@@ -390,3 +396,158 @@ def test_a_point_named_like_a_site_of_the_model_is_refused(tmp_path):
     )
     msg = rejected(tmp_path, text)
     assert "point 'load_coupler' has the name of a site the model adds" in msg and "rename the point" in msg
+
+
+# ----------------------------------------------------------------------------- forces and loads
+# Every force, moment and load a file gives is bounded (mechanisms/README.md, Limits: forces at
+# most 1e6 N a component, moments 1e6 N*m, damping 1e6 N*m*s, gravity 100 m/s^2, target_delta
+# within (0, 2)); a force table's angles lie within one period, [0, 360 deg x the period's turns).
+
+
+def with_force(body: str, base: str = GOOD, point: str = "P5") -> str:
+    return f'{base}\n[[dynamics.force]]\npoint = "{point}"\n{body}\n'
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        "value = [1e6, -1e6]",
+        'value = ["1e3 kN", "-1000000N", 0.0]',
+        "value = [0.0, -1.0, 0.0]",
+        "angles = [0.0, 90.0, 180.0, 359.999]\nvalues = [[0, 1], [0, 2], [0, 3], [1e6, 0]]",
+        'angles = ["0 deg", "0.25 rev", "3 rad"]\nvalues = [[0, 1], ["1 kN", 0], [0, 3]]',
+    ],
+)
+def test_a_force_within_its_limits_is_read(body):
+    parse(with_force(body), "f.toml")
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ('value = ["1e300 kN", 0.0]', "value: force components must be at most 1e+06 N in magnitude"),
+        ("value = [1.000001e6, 0.0]", "value: force components must be at most 1e+06 N in magnitude"),
+        ("value = [0.0, -1e300]", "force components must be at most 1e+06 N"),
+        ('value = ["1e306 kN", 0.0]', "value: '1e306 kN' is not finite in N"),
+        ("value = [nan, 0.0]", "value: must hold finite numbers"),
+        ('value = [0.0, "1 m"]', "'m' is not a unit of force (N, kN)"),
+        ('value = [0.0, "1 KN"]', "units are case-sensitive, write 'kN'"),
+        ("angles = [0.0, 90.0]\nvalues = [[0, 1], [0, 1e300]]", "values: force components must be at most 1e+06 N"),
+        (
+            "angles = [0.0, 90.0, 180.0, 270.0, 450.0]\nvalues = [[0, 1], [0, 2], [0, 3], [0, 4], [0, 5]]",
+            "angles: must lie within one period of the mechanism, 0 to 360 deg (excluded), got 450 deg",
+        ),
+        ("angles = [-90.0, 0.0, 90.0]\nvalues = [[0, 1], [0, 2], [0, 3]]", "got -90 deg: write it as 270"),
+        ("angles = [0.0, 360.0]\nvalues = [[0, 1], [0, 2]]", "0 to 360 deg (excluded), got 360 deg"),
+        ('angles = [0.0, "1 rev"]\nvalues = [[0, 1], [0, 2]]', "got 360 deg"),
+        ("angles = [0.0, 1e300]\nvalues = [[0, 1], [0, 2]]", "(excluded), got 1e+300 deg"),
+        ("angles = [0.0, 90.0, 90.0]\nvalues = [[0, 1], [0, 2], [0, 3]]", "angles: must increase strictly"),
+        ("angles = [0.0, nan]\nvalues = [[0, 1], [0, 2]]", "#1 angles [1]: must be finite"),
+    ],
+)
+def test_a_force_beyond_its_limits_or_one_period_is_refused(body, message):
+    with pytest.raises(MechanismFileError) as e:
+        parse(with_force(body), "f.toml")
+    assert message in str(e.value) and "[[dynamics.force]] #1" in str(e.value), str(e.value)
+
+
+def test_a_geared_mechanisms_force_table_spans_its_whole_period():
+    warp = (registry.MECHANISMS_DIR / "warp_knitting.toml").read_text()
+    m = parse(warp, "w.toml")
+    assert m.period == pytest.approx(4 * math.pi)  # two crank turns (the file's gears)
+    point = m.moving_points[-1]
+    parse(with_force("angles = [0.0, 400.0, 719.9]\nvalues = [[0, 1], [0, 2], [0, 3]]", warp, point), "w.toml")
+    with pytest.raises(MechanismFileError, match=r"0 to 720 deg \(excluded\), got 720 deg"):
+        parse(with_force("angles = [0.0, 720.0]\nvalues = [[0, 1], [0, 2]]", warp, point), "w.toml")
+
+
+def test_a_force_table_has_one_interpolation():
+    """Linear between rows and from the last row to the first a period on, at any input angle,
+    by both the per-sample and the array interpolation (the issue: a table beyond one period
+    gave -0.688 N one way and +0.550 N the other at 90 deg)."""
+    table = "angles = [0.0, 90.0, 180.0, 270.0]\nvalues = [[0, 1], [2, 3], [4, -5], [-6, 7]]"
+    m = parse(with_force(table), "f.toml")
+    f, period = m.dynamics.forces[0], m.period
+    closed = {0: (0, 1), 45: (1, 2), 90: (2, 3), 135: (3, -1), 300: (-4, 5), 315: (-3, 4)}
+    for deg, (fx, fy) in closed.items():
+        for turns in (-2, -1, 0, 1, 5):
+            phi = math.radians(deg + 360 * turns)
+            assert f.at_scalar(phi, period)[:2] == pytest.approx((fx, fy), abs=1e-12), (deg, turns)
+            assert tuple(f.at(phi, period)[0, :2]) == pytest.approx((fx, fy), abs=1e-12), (deg, turns)
+    phi = np.linspace(-30.0, 30.0, 6001)
+    np.testing.assert_array_equal(f.at(phi, period), np.array([f.at_scalar(x, period) for x in phi]))
+    # A table that does not start at 0: still the same one interpolation.
+    g = parse(with_force("angles = [10.0, 200.0]\nvalues = [[0, 0], [0, 19]]"), "f.toml").dynamics.forces[0]
+    assert g.at_scalar(math.radians(105.0), period)[1] == pytest.approx(9.5, abs=1e-12)
+    assert g.at_scalar(math.radians(5.0), period)[1] == pytest.approx(19.0 * (1 - 165.0 / 170.0), abs=1e-12)
+    np.testing.assert_array_equal(g.at(phi, period), np.array([g.at_scalar(x, period) for x in phi]))
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ("moment = 0.05 ", "moment = 1e300 ", "[dynamics] moment: must be at most 1e+06 N*m in magnitude"),
+        ("moment = 0.05 ", 'moment = "-2e6 N*m" ', "[dynamics] moment: must be at most 1e+06 N*m"),
+        ("damping = 10e-6 ", "damping = 1.5e6 ", "[dynamics] damping: must be at most 1e+06 N*m*s"),
+        ("gravity = 9.81 ", "gravity = 101 ", "[dynamics] gravity: must be at most 100 m/s^2"),
+        ("stall_torque = 0.05", "stall_torque = 1e300", "[steady] stall_torque: must be at most 1e+06 N*m"),
+        ("target_delta = 0.02", "target_delta = 2.0", "[steady] target_delta: must be above 0 and below 2"),
+        ("target_delta = 0.02", "target_delta = 0.0", "[steady] target_delta: must be above 0 and below 2"),
+        ("[thread]\n", "[thread]\nelongation = 1e300\n", "[thread] elongation: must be at most 1000 mm"),
+    ],
+)
+def test_every_load_a_file_gives_is_bounded(old, new, message):
+    with pytest.raises(MechanismFileError) as e:
+        parse(bad(old, new), "f.toml")
+    assert message in str(e.value), str(e.value)
+
+
+def test_loads_at_their_limits_are_read():
+    text = bad("moment = 0.05 ", "moment = -1e6 ").replace("damping = 10e-6 ", "damping = 1e6 ", 1)
+    m = parse(text.replace("gravity = 9.81 ", "gravity = 100.0 ", 1), "f.toml")
+    assert m.dynamics.moment == -1e6 and m.dynamics.damping == 1e6 and m.dynamics.gravity == 100.0
+    assert parse(bad("target_delta = 0.02", "target_delta = 1.99"), "f.toml").steady.target_delta == 1.99
+
+
+# ----------------------------------------------------------------------------- not a file
+def test_a_fifo_a_device_or_a_dangling_link_is_named_for_what_it_is(tmp_path, monkeypatch, capsys):
+    """None of them is read (reading a FIFO would wait for a writer) nor called 'no such file'."""
+    from mjlink.cli import main
+    from mjlink.model.mechanism import load
+    from mjlink.study import spec
+
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)
+    dangling = tmp_path / "gone.toml"
+    dangling.symlink_to(tmp_path / "nothing.toml")
+    cases = [
+        (fifo, "is a FIFO (named pipe), not a mechanism file"),
+        (Path("/dev/null"), "is a character device, not a mechanism file"),
+        (dangling, "is a symbolic link to nothing, not a mechanism file"),
+        (tmp_path, "is a folder, not a mechanism file"),
+    ]
+    for p, what in cases:
+        for get in (validation.get, load, lambda p: validation.get(str(p))):
+            with pytest.raises(MjlinkError) as e:
+                get(p)
+            assert what in str(e.value) and "no such" not in str(e.value), str(e.value)
+        assert main(["check", str(p)]) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and what in err, err
+    monkeypatch.chdir(tmp_path)
+    os.mkfifo(tmp_path / "mypipe")
+    with pytest.raises(UnknownMechanismError, match="mypipe: is a FIFO \\(named pipe\\), not a mechanism file"):
+        validation.get("mypipe")  # a bare word that is no registered name
+    for p, what in [(fifo, "FIFO (named pipe)"), (Path("/dev/null"), "character device"), (dangling, "symbolic link")]:
+        with pytest.raises(MjlinkError, match=f"is a {re.escape(what)}.*, not a study file"):
+            spec.load(p)
+    study = tmp_path / "s.toml"
+    study.write_text(
+        (registry.STUDIES_DIR / "takeup_tolerance.toml")
+        .read_text()
+        .replace('mechanism = "takeup"', 'mechanism = "pipe.toml"')
+    )
+    with pytest.raises(
+        MjlinkError, match=r"\[study\] mechanism: .*pipe\.toml: is a FIFO \(named pipe\), not a mechanism"
+    ):
+        spec.load(study)

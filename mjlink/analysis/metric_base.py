@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import InputError, MjlinkError, did_you_mean
-from ..model.limits import MAX_SPEED, MIN_SPEED
+from ..model.limits import MAX_SPEED, MIN_SPEED, above, below
 from ..model.mechanism import Mechanism
 from ..model.reader import shown
 from ..reference import kinetostatics
@@ -126,7 +126,7 @@ class Metric(ABC):
             ) from None
         if not ok:
             raise MetricError(f"{self.where}: speed must be a non-zero number (rad/s), got {shown(w)}")
-        if not MIN_SPEED <= abs(w) <= MAX_SPEED:
+        if below(abs(w), MIN_SPEED) or above(abs(w), MAX_SPEED):
             raise MetricLimitError(
                 f"{self.where}: speed must be {MIN_SPEED:g} to {MAX_SPEED:g} rad/s in magnitude (the limits of a "
                 f"file's [input] speed), got {float(w):g}"

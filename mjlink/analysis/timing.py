@@ -20,7 +20,7 @@ import numpy as np
 from .. import reference
 from ..model.blocks import Crank
 from ..model.mechanism import Mechanism
-from ..model.timing import SETTINGS, Balance, Timing, Window
+from ..model.timing import SETTINGS, Balance, StitchType, Timing, Window
 from ..reference.batch import Batch
 from ..units import DEG, MM
 from .metric_base import Column, Curve, Loads, Metric, MetricError
@@ -56,7 +56,7 @@ LABELS = {
 """Each check's name in tables (``what`` says it in full)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TimingRow:
     """One check: ``value`` and ``window`` in SI (m or rad), ``unit`` 'mm' or 'deg' as shown.
     ``maker`` is None for the general checks; ``counts`` whether a miss fails the run (the
@@ -161,6 +161,11 @@ def _at(theta: np.ndarray, f: np.ndarray, t: float) -> float:
     return float(np.interp(t % 360.0, np.append(theta, theta[0] + 360.0), np.append(f, f[0])))
 
 
+def _general(key: str, value: float, window: Window, unit: str) -> TimingRow:
+    """One of the :data:`GENERAL` checks: every head gets it and a miss fails the run."""
+    return TimingRow(key=key, what=GENERAL[key], maker=None, value=value, window=window, unit=unit, counts=True)
+
+
 def head_timing(mech: Mechanism, samples: int = 7200) -> HeadTiming:
     """Measure the events of one stitch and check them against ``mech.timing``.
 
@@ -235,7 +240,7 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
     above = np.array([_at(theta, hp[:, 1] - centre[1], t) > 0 for t in cross], dtype=bool)
     picks = cross[above]
     pick = float(picks[np.argmin((picks - theta[bdc]) % 360.0)]) if len(picks) else math.nan
-    if tm.stitch == "101":
+    if tm.stitch is StitchType.CHAIN:
         # A chain stitch's looper holds its loop until it takes the next: the held loop is cast
         # off at the pick-up (the needle has passed through it), and the take-up draws it tight.
         release = pick
@@ -272,26 +277,13 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
     worst = max([*ends, float(f_dog[down].max()) if down.any() else -math.inf])
 
     rows: list[TimingRow] = [
-        TimingRow(
-            "dog_below_while_needle_down",
-            GENERAL["dog_below_while_needle_down"],
-            None,
-            worst,
-            Window(None, 0.0),
-            "mm",
-            True,
-        ),
-        TimingRow(
-            "feed_in_fabric", GENERAL["feed_in_fabric"], None, fed_in_fabric, Window(0.0, tm.feed_in_fabric), "mm", True
-        ),
-        TimingRow(
+        _general("dog_below_while_needle_down", worst, Window(None, 0.0), "mm"),
+        _general("feed_in_fabric", fed_in_fabric, Window(0.0, tm.feed_in_fabric), "mm"),
+        _general(
             "take_up_after_release",
-            GENERAL["take_up_after_release"],
-            None,
             math.radians((take_top - release) % 360.0) if math.isfinite(release) else math.nan,
             Window(0.0, math.pi),
             "deg",
-            True,
         ),
     ]
     measured = {
@@ -302,7 +294,17 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
     }
     for m in tm.settings:
         for key, window in m.windows.items():
-            rows.append(TimingRow(key, SETTINGS[key], m.name, measured[key], window, "mm", m.name == tm.target))
+            rows.append(
+                TimingRow(
+                    key=key,
+                    what=SETTINGS[key],
+                    maker=m.name,
+                    value=measured[key],
+                    window=window,
+                    unit="mm",
+                    counts=m.name == tm.target,
+                )
+            )
     events = {
         "needle bar top": 0.0,
         "needle bar bottom": float(theta[bdc]),
@@ -477,7 +479,7 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     the take-up's top. From the release to the take-up's next top the take-up draws the loop
     tight and the stitch's thread from the spool: no balance there.
 
-    A chain stitch (``[timing] stitch = "101"``) is followed as :func:`_chain_below` says: its
+    A chain stitch (``[timing] stitch = "101"``, StitchType.CHAIN) is followed as :func:`_chain_below` says: its
     looper holds the loop until it takes the next one, so the balance runs from the setting
     to the next pick-up, where the held loop is cast off and drawn tight.
     """
@@ -497,7 +499,7 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     window = _between(th, release, enters)
     i0 = int(np.argmax(np.where(window, path, -np.inf)))
     drawn = float(th[i0])
-    if tm.stitch == "101":
+    if tm.stitch is StitchType.CHAIN:
         below = _chain_below(mech, head, hook)
         forming = _between(th, drawn, pick)
         per_stitch = 3.0 * bal.stitch_length + 2.0 * tm.fabric
@@ -524,19 +526,25 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     slack = max(_peak(diff, forming), float(at_end))
     rows = (
         TimingRow(
-            "thread_shortfall",
-            BALANCE["thread_shortfall"],
-            None,
-            short,
-            Window(None, bal.stretch * float(path.min())),
-            "mm",
-            True,
+            key="thread_shortfall",
+            what=BALANCE["thread_shortfall"],
+            maker=None,
+            value=short,
+            window=Window(None, bal.stretch * float(path.min())),
+            unit="mm",
+            counts=True,
         ),
         TimingRow(
-            "thread_slack", BALANCE["thread_slack"], None, slack, Window(None, bal.check_spring_travel), "mm", False
+            key="thread_slack",
+            what=BALANCE["thread_slack"],
+            maker=None,
+            value=slack,
+            window=Window(None, bal.check_spring_travel),
+            unit="mm",
+            counts=False,  # the check spring's travel is information: a loose loop, not a failed stitch
         ),
     )
-    if tm.stitch == "101":
+    if tm.stitch is StitchType.CHAIN:
         spread = _carried(tm, hook, pick)
         phases = {}
         if _between(np.array([spread]), drawn, enters)[0]:

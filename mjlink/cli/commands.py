@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -27,8 +26,10 @@ from ..model import catalogue
 from ..model.catalogue import STUDIES_DIR
 from ..model.limits import MAX_CYCLES, MAX_FPS
 from ..model.mechanism import load
-from ..quantity import QuantityError
+from ..quantity import KINDS, NotANumberError, QuantityError
+from ..quantity import convert as convert_quantity
 from ..quantity import parse as parse_quantity
+from ..quantity import read as read_quantity
 from ..runtime.signals import uninterrupted
 from ..units import from_rpm
 from . import text
@@ -39,8 +40,9 @@ if TYPE_CHECKING:
 
 SPEEDS = """\
 speeds: every speed on the command line is written with its unit, 955rpm or 100rad/s
-  (rev/min and r/min are rpm too; '955 rpm' with a space when quoted), and signed:
-  counter-clockwise positive about +Z, exactly as a mechanism file's [input] speed (rad/s).
+  (also rev/min, r/min, rev/s, deg/s: the units of files, case-sensitive, so RPM is refused;
+  '955 rpm' with a space when quoted), and signed: counter-clockwise positive about +Z,
+  exactly as a mechanism file's [input] speed (rad/s).
   A bare number is an error. So a file whose crank turns clockwise (crank_slider,
   warp_knitting: negative [input] speed) keeps its direction with a negative speed,
   --speed -1000rpm; a speed against the file's own direction is run, with a 'note:' line.
@@ -87,15 +89,18 @@ class Command:
 # ----------------------------------------------------------------------------- speeds and paths
 @dataclass(frozen=True)
 class Speed:
-    """A speed as written on the command line: ``value`` in its ``unit`` ('rpm' or 'rad/s'),
-    signed, counter-clockwise positive about +Z; ``rad_s`` the same in rad/s."""
+    """A speed as written on the command line: ``value`` in its ``unit`` (an angular speed of
+    mjlink.quantity: 'rpm' for rpm, rev/min and r/min, else as written: 'rad/s', 'rev/s',
+    'deg/s'), signed, counter-clockwise positive about +Z; ``rad_s`` the same in rad/s."""
 
     value: float
     unit: str
 
     @property
     def rad_s(self) -> float:
-        return self.value if self.unit == "rad/s" else from_rpm(self.value)
+        if self.unit == "rpm":
+            return from_rpm(self.value)  # the order of operations the speeds have always had
+        return convert_quantity(self.value, self.unit, "rad/s")
 
     @property
     def arg(self) -> str:
@@ -107,31 +112,32 @@ class Speed:
         return f"{self.value:g} {self.unit}"
 
 
-_UNITS = {"rpm": "rpm", "rev/min": "rpm", "r/min": "rpm", "rad/s": "rad/s"}
-_SPEED = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)\s*(rpm|rev/min|r/min|rad/s)\s*", re.IGNORECASE)
+# The spellings of rpm, shown as one; every other unit of angular speed as written.
+_UNITS = {"rev/min": "rpm", "r/min": "rpm"}
+_SPEED_UNITS = ", ".join(KINDS["angular speed"])
 
 
 def speed_arg(s: str) -> Speed:
-    """argparse type of every speed option: a signed number with its unit (see :data:`SPEEDS`)."""
-    m = _SPEED.fullmatch(s)
-    if m is None:
-        try:
-            bare = float(s)
-        except ValueError:
-            bare = None
-        if bare is not None:
-            raise argparse.ArgumentTypeError(
-                f"write the speed with its unit: {s.strip()}rpm or {s.strip()}rad/s (signed, counter-clockwise "
-                "positive as the file's [input] speed); a bare number is ambiguous"
-            )
+    """argparse type of every speed option: a signed number with its unit, in the grammar of
+    mjlink.quantity that files use (see :data:`SPEEDS`); a bare number is refused."""
+    try:
+        value, unit = read_quantity(s, "rad/s")
+    except NotANumberError:
         raise argparse.ArgumentTypeError(
             f"{text.error_line(repr(s))} is not a speed: write a signed number and its unit, e.g. 955rpm or "
-            "-100rad/s (rpm, rev/min, r/min or rad/s)"
+            f"-100rad/s ({_SPEED_UNITS})"
+        ) from None
+    except QuantityError as e:
+        raise argparse.ArgumentTypeError(text.error_line(str(e))) from None
+    if not unit:
+        raise argparse.ArgumentTypeError(
+            f"write the speed with its unit: {s.strip()}rpm or {s.strip()}rad/s (signed, counter-clockwise "
+            "positive as the file's [input] speed); a bare number is ambiguous"
         )
-    value = float(m[1])
-    if not math.isfinite(value):
+    speed = Speed(value, _UNITS.get(unit, unit))
+    if not math.isfinite(speed.rad_s):
         raise argparse.ArgumentTypeError(f"{s.strip()} is not a finite speed")
-    return Speed(value, _UNITS[m[2].lower()])
+    return speed
 
 
 def path_arg(s: str) -> Path:

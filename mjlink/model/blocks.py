@@ -26,7 +26,16 @@ import numpy as np
 from ..errors import did_you_mean
 from ..units import DEG, MM
 from . import jet
-from .limits import MAX_ANGLE_DEG, MAX_GEAR_RATIO, MAX_LENGTH_MM, MAX_PRESSURE_DEG, MIN_BAR_MM, MIN_TRANSMISSION_DEG
+from .limits import (
+    MAX_ANGLE_DEG,
+    MAX_GEAR_RATIO,
+    MAX_LENGTH_MM,
+    MAX_PRESSURE_DEG,
+    MIN_BAR_MM,
+    MIN_TRANSMISSION_DEG,
+    above,
+    below,
+)
 
 if TYPE_CHECKING:
     from .reader import Reader
@@ -259,7 +268,7 @@ class Crank(Block):
         ratio = r.number(raw, "ratio", where, default=1.0)
         if ratio == 0:
             raise r.fail(f"{where} ratio", "must be non-zero")
-        if not 1 / MAX_GEAR_RATIO <= abs(ratio) <= MAX_GEAR_RATIO:
+        if below(abs(ratio), 1 / MAX_GEAR_RATIO) or above(abs(ratio), MAX_GEAR_RATIO):
             raise r.fail(
                 f"{where} ratio",
                 f"must be between 1/{MAX_GEAR_RATIO:g} and {MAX_GEAR_RATIO:g} in magnitude, got {ratio:g}",

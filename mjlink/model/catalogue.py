@@ -25,6 +25,7 @@ from __future__ import annotations
 import difflib
 import importlib.resources
 import os
+import stat
 from pathlib import Path
 
 from ..errors import UnknownMechanismError
@@ -58,6 +59,30 @@ def _is_path(s: str) -> bool:
     return s.endswith(".toml") or any(c in s for c in seps) or s.startswith(("~", "."))
 
 
+def what_is(p: Path) -> str | None:
+    """What ``p`` is when it is no regular file ('a folder', 'a FIFO (named pipe)', 'a character
+    device', ...), None for a regular file or nothing at all. Never opens ``p``: reading a FIFO
+    would wait for a writer."""
+    try:
+        mode = p.stat().st_mode
+    except FileNotFoundError:
+        return "a symbolic link to nothing" if p.is_symlink() else None
+    except OSError as e:  # a loop of links, a path through a file, no permission to look
+        return f"a path that cannot be looked at ({e.strerror or e})"
+    if stat.S_ISREG(mode):
+        return None
+    for test, what in (
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return what
+    return "not a regular file"
+
+
 def path_of(name_or_path: str | Path) -> Path:
     """The file of a registered name, or the given path (see the module docstring for the rule).
 
@@ -74,8 +99,9 @@ def path_of(name_or_path: str | Path) -> Path:
                 f"{s}: cannot expand '{s.split('/')[0]}': no such user or home folder"
             ) from None
         shown = s if str(p) == s else f"{s} ({p})"
-        if p.is_dir():
-            raise UnknownMechanismError(f"{shown}: is a folder, not a mechanism file")
+        what = what_is(p)
+        if what is not None:
+            raise UnknownMechanismError(f"{shown}: is {what}, not a mechanism file")
         if not p.is_file():
             raise UnknownMechanismError(f"{shown}: no such mechanism file")
         return p
@@ -84,6 +110,9 @@ def path_of(name_or_path: str | Path) -> Path:
     p = Path(s)
     if p.is_file():
         return p
+    what = what_is(p)
+    if what is not None and what != "a folder":  # a folder called like a name: the name's error
+        raise UnknownMechanismError(f"{s}: is {what}, not a mechanism file")
     near = difflib.get_close_matches(s.lower(), [n.lower() for n in names()], n=1)
     hint = f"did you mean '{next(n for n in names() if n.lower() == near[0])}'? " if near else ""
     raise UnknownMechanismError(

@@ -6,6 +6,25 @@ the file's mm where the name says so; everything else SI unless named.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+# Bounds are compared with this relative tolerance: a value written in another unit is converted
+# with a rounding in its last bits ("100 um" is 0.09999999999999999 mm), which must not refuse a
+# value that meets its bound as written. 1e-9 is far above that rounding (about 1e-16) and far
+# below anything a bound tells apart; a value truly beyond a bound is refused.
+BOUND_RTOL = 1e-9
+
+
+def above(v: float, hi: float) -> bool:
+    """``v`` is beyond the upper bound ``hi`` (by more than :data:`BOUND_RTOL` of it)."""
+    return v > hi + BOUND_RTOL * abs(hi)
+
+
+def below(v: float, lo: float) -> bool:
+    """``v`` is short of the lower bound ``lo`` (by more than :data:`BOUND_RTOL` of it)."""
+    return v < lo - BOUND_RTOL * abs(lo)
+
+
 # Lengths and coordinates, mm: beyond a metre the agreement thresholds, which are absolute
 # (0.1 um), are no longer met at machine speeds (errors grow with size); bars below 0.1 mm are
 # not machine parts, and far below it MuJoCo's fixed tolerances dominate (a 2 um crank-slider
@@ -83,3 +102,101 @@ MAX_CHECK_POINT_SAMPLES = MAX_POINTS * SAMPLES_PER_TURN * 4
 # turn); the allowed pressure angle within 0 .. 90 deg (at 90 the slider locks).
 MAX_SYNTH_RATIO = 1.0
 MAX_SYNTH_PRESSURE_DEG = 90.0
+
+# External forces and moments ([[dynamics.force]], [dynamics] moment, motor stall_torque): a
+# meganewton, a hundred-tonne press's, is far beyond the loads of a machine's linkage, and a
+# meganewton-metre is that force on the longest lever a file may hold (MAX_LENGTH_MM). Beyond,
+# a number is no load of a machine (1e300 kN passed check).
+MAX_FORCE_N = 1e6
+MAX_TORQUE_NM = 1e6
+# Viscous damping of the crank, N*m*s: the largest moment at the slowest speed a run makes.
+MAX_DAMPING = MAX_TORQUE_NM / MIN_SPEED
+# Gravity, m/s^2 along -Y: ten times the Earth's covers any test rig; beyond, it is no gravity.
+MAX_GRAVITY = 100.0
+
+
+@dataclass(frozen=True)
+class Bound:
+    """A key's physical range in the file's ``unit``: ``lo`` .. ``hi`` (None: open-ended), an
+    end excluded where ``*_open``; ``why`` says where the range comes from."""
+
+    lo: float | None
+    hi: float | None
+    unit: str
+    why: str
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def refuses(self, v: float) -> str | None:
+        """Why ``v`` (finite, file units) is out of range, or None. A closed end is compared
+        with BOUND_RTOL; an open end strictly (what it excludes is the end itself)."""
+        lo_bad = self.lo is not None and (v <= self.lo if self.lo_open else below(v, self.lo))
+        hi_bad = self.hi is not None and (v >= self.hi if self.hi_open else above(v, self.hi))
+        if not (lo_bad or hi_bad):
+            return None
+        u = f" {self.unit}" if self.unit else ""
+        if self.lo is not None and self.hi is not None:
+            ends = f"{'above' if self.lo_open else 'at least'} {self.lo:g} and {'below' if self.hi_open else 'at most'} {self.hi:g}"
+        elif self.lo is not None:
+            ends = f"{'above' if self.lo_open else 'at least'} {self.lo:g}"
+        else:
+            assert self.hi is not None
+            ends = f"{'below' if self.hi_open else 'at most'} {self.hi:g}"
+        return f"must be {ends}{u} ({self.why}), got {v:g}{u}"
+
+
+# A sewing head's [timing] and [balance] numbers (mjlink.model.timing; docs/head.md), in the
+# file's units. Heights are the head's coordinates; the rest are what a head sews.
+MAX_STITCH_MM = 50.0
+HEAD: dict[str, Bound] = {
+    "timing.plate": Bound(-MAX_LENGTH_MM, MAX_LENGTH_MM, "mm", "a height of the head, as its [ground] coordinates"),
+    "timing.fabric": Bound(
+        0.0,
+        20.0,
+        "mm",
+        "the fabric passes under the raised presser foot, which sewing heads lift some 20 mm at most",
+    ),
+    "timing.loop_release": Bound(
+        0.0,
+        360.0,
+        "deg",
+        "a turn of the hook (looper) from the pick-up: the loop leaves it within that turn",
+        lo_open=True,
+        hi_open=True,
+    ),
+    "timing.feed_in_fabric": Bound(0.0, MAX_STITCH_MM, "mm", "feed of one stitch at most, as [balance] stitch_length"),
+    # A maker's window [lo, hi] on a height or a rise of the head's points.
+    "timing.window": Bound(
+        -MAX_LENGTH_MM, MAX_LENGTH_MM, "mm", "a height of the head's points, as its [ground] coordinates"
+    ),
+    "balance.stitch_length": Bound(
+        0.1,
+        MAX_STITCH_MM,
+        "mm",
+        "a stitch no shorter than a sewing thread is thick, and far beyond the DDL-8700's 5 mm at most",
+    ),
+    "balance.loop_body": Bound(
+        0.0, 200.0, "mm", "across what the loop is drawn round: the shipped bobbin case is 21 mm", lo_open=True
+    ),
+    "balance.check_spring_travel": Bound(
+        0.0, 100.0, "mm", "a check spring's stroke, 6-8 mm on the shipped head's class"
+    ),
+    "balance.stretch": Bound(
+        0.0, 0.2, "", "a fraction: at its working tension a thread stretches a few %, and it breaks at some 15-30 %"
+    ),
+}
+"""Every number of a head's ``[timing]`` and ``[balance]`` tables, by ``table.key``, with its
+range, unit and reason (``timing.window``: each end of a maker's window; ``balance.loop_body``:
+the ``bobbin_case`` or ``looper`` diameter)."""
+
+
+# [steady] target_delta and --target-delta, the coefficient of speed fluctuation
+# (w_max - w_min) / w_mean: above 0, and below 2 for any motion that keeps its sense.
+TARGET_DELTA = Bound(
+    0.0,
+    2.0,
+    "",
+    "a coefficient of speed fluctuation, below 2 while the crank keeps turning",
+    lo_open=True,
+    hi_open=True,
+)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +25,7 @@ import numpy as np
 from ..errors import FileTooLargeError, MechanismFileError
 from ..units import DEG, MM, G
 from . import blocks as _blocks
+from . import catalogue as _catalogue
 from . import names as _names
 from . import timing as _timing
 from .blocks import Attached, Block, Crank, Dyad, Slider
@@ -31,17 +33,27 @@ from .limits import (
     MAX_ANGLE_DEG,
     MAX_CHECK_POINT_SAMPLES,
     MAX_CYCLES,
+    MAX_DAMPING,
     MAX_DURATION_S,
     MAX_FILE_BYTES,
+    MAX_FORCE_N,
+    MAX_GRAVITY,
     MAX_INERTIA,
     MAX_LENGTH_MM,
     MAX_MASS_G,
     MAX_POINTS,
     MAX_SPEED,
+    MAX_SYNTH_PRESSURE_DEG,
+    MAX_SYNTH_RATIO,
     MAX_TITLE_CHARS,
+    MAX_TORQUE_NM,
+    MIN_BAR_MM,
     MIN_DURATION_S,
     MIN_SPEED,
     SAMPLES_PER_TURN,
+    TARGET_DELTA,
+    above,
+    below,
 )
 from .names import RESERVED_LINK_NAMES
 from .reader import Reader, shown
@@ -98,18 +110,28 @@ class Force:
     scale: Any = 1.0
 
     def at(self, phi, period: float) -> np.ndarray:
-        """The force (N) at input angles phi (rad): (N, 3)."""
+        """The force (N) at input angles phi (rad): (N, 3). A table is interpolated as
+        :meth:`at_scalar` does, step for step, on every angle at once."""
         phi = np.atleast_1d(np.asarray(phi, dtype=float))
         if self.angles is None:
             return np.broadcast_to(np.asarray(self.value), (len(phi), 3))
-        vals = np.asarray(self.values)
-        table = np.column_stack([np.interp(phi, self.angles, vals[:, i], period=period) for i in range(3)])
+        a = np.asarray(self.angles)
+        vals = np.asarray(self.values, dtype=float)
+        x = (phi - a[0]) % period + a[0]
+        i = np.searchsorted(a, x, side="right")
+        ends = np.append(a, a[0] + period)  # after the last row, the first one a period on
+        rows = np.vstack([vals, vals[:1]])
+        x0, x1, v0, v1 = ends[i - 1], ends[i], rows[i - 1], rows[i]
+        w = (x - x0) / (x1 - x0)
+        table = v0 + w[:, None] * (v1 - v0)
         return table if np.ndim(self.scale) == 0 and self.scale == 1.0 else table * np.asarray(self.scale)[..., None]
 
     def at_scalar(self, phi: float, period: float) -> tuple[float, float, float]:
         """The force (N) at one input angle (rad), without numpy's per-call overhead: the
-        ODE and MuJoCo's per-stage callback call this tens of thousands of times. Equal to
-        :meth:`at` (tested)."""
+        ODE and MuJoCo's per-stage callback call this tens of thousands of times. The one
+        interpolation of a table: linear between its rows, from the last row to the first a
+        period later (the file holds a table's angles within one period); :meth:`at` is the
+        same on arrays (tested equal)."""
         if self.angles is None:
             return self.value
 
@@ -315,6 +337,7 @@ def _read_counterweight(r: Reader, raw: Any) -> Counterweight:
 
 
 MAX_PAPER_RK4_STEPS = 1_000_000
+_LIMITS = "see mechanisms/README.md, Limits"
 
 
 def _steps(r: Reader, raw: dict, key: str, where: str) -> int | None:
@@ -333,13 +356,52 @@ def _read_motor(r: Reader, raw: Any, where: str) -> Motor:
     raw = r.table(raw, where)
     if where == "[dynamics.motor]":
         r.keys(raw, where, ["stall_torque", "no_load_speed"])
-    ts = r.number(raw, "stall_torque", where, unit=" N*m")
+    ts = r.number(raw, "stall_torque", where, hi=MAX_TORQUE_NM, unit=" N*m", why=_LIMITS)
     w0 = r.number(
         raw, "no_load_speed", where, lo=MIN_SPEED, hi=MAX_SPEED, unit=" rad/s", why="see mechanisms/README.md, Limits"
     )
     if ts == 0 or w0 == 0 or (ts > 0) != (w0 > 0):
         raise r.fail(where, "stall_torque and no_load_speed must be non-zero and of the same sign")
     return Motor(ts, w0)
+
+
+_FORCE = {"unit": "N", "hi": MAX_FORCE_N, "what": "force components", "why": _LIMITS}
+
+
+def _read_force(r: Reader, raw: Any, w: str, known: set[str], period_deg: float) -> Force:
+    """One ``[[dynamics.force]]``: a constant force, or a table whose angles (deg) increase
+    strictly within one period of the mechanism, [0, ``period_deg``): an angle beyond it would
+    repeat another and be read differently by two interpolations."""
+    fr = r.table(raw, w)
+    r.keys(fr, w, ["point"], ["value", "angles", "values"])
+    p = r.name(fr["point"], f"{w} point")
+    if p not in known:
+        raise r.fail(w, f"uses point '{p}', which is not defined")
+    if ("value" in fr) == ("angles" in fr or "values" in fr):
+        raise r.fail(w, "give either 'value' (constant) or 'angles' and 'values' (a table)")
+    if "value" in fr:
+        return Force(p, tuple(r.vector(fr["value"], f"{w} value", **_FORCE)))
+    if "angles" not in fr or "values" not in fr:
+        raise r.fail(w, "a force table needs both 'angles' (deg) and 'values' (N)")
+    angs = fr["angles"]
+    if not isinstance(angs, list) or len(angs) < 2:
+        raise r.fail(f"{w} angles", "must be a list of at least two angles (deg)")
+    a = [r.number({f"[{j}]": x}, f"[{j}]", f"{w} angles", unit=" deg") for j, x in enumerate(angs)]
+    out = next((x for x in a if x < 0.0 or x >= period_deg), None)
+    if out is not None:
+        # The same angle within the period, where it still has digits to say it with.
+        same = f": write it as {out % period_deg:g}, in order" if abs(out) < 10 * period_deg else ""
+        raise r.fail(
+            f"{w} angles",
+            f"must lie within one period of the mechanism, 0 to {period_deg:g} deg (excluded), got {out:g} deg{same}",
+        )
+    if not all(x1 > x0 for x0, x1 in itertools.pairwise(a)):
+        raise r.fail(f"{w} angles", "must increase strictly")
+    vals = fr["values"]
+    if not isinstance(vals, list) or len(vals) != len(angs):
+        raise r.fail(f"{w} values", f"must list one force per angle ({len(angs)})")
+    rows = tuple(tuple(r.vector(v, f"{w} values", **_FORCE)) for v in vals)
+    return Force(p, angles=tuple(x * DEG for x in a), values=rows)
 
 
 def _cycle(steps: tuple[Block, ...], start: str, first: str) -> list[str] | None:
@@ -452,7 +514,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     speed = r.number(inp, "speed", "[input]", unit=" rad/s")
     if speed == 0:
         raise r.fail("[input] speed", "must be non-zero (rad/s, CCW positive)")
-    if not MIN_SPEED <= abs(speed) <= MAX_SPEED:
+    if below(abs(speed), MIN_SPEED) or above(abs(speed), MAX_SPEED):
         raise r.fail(
             "[input] speed",
             f"must be between {MIN_SPEED:g} and {MAX_SPEED:g} rad/s in magnitude "
@@ -480,32 +542,11 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     raw_forces = dyn_raw.get("force", [])
     if not isinstance(raw_forces, list):
         raise r.fail("[[dynamics.force]]", "must be an array of tables ([[dynamics.force]])")
+    turns = 1
+    for s in steps:
+        turns = math.lcm(turns, s.period_turns)
     for i, fr in enumerate(raw_forces):
-        w = f"[[dynamics.force]] #{i + 1}"
-        fr = r.table(fr, w)
-        r.keys(fr, w, ["point"], ["value", "angles", "values"])
-        p = r.name(fr["point"], f"{w} point")
-        if p not in known:
-            raise r.fail(w, f"uses point '{p}', which is not defined")
-        if ("value" in fr) == ("angles" in fr or "values" in fr):
-            raise r.fail(w, "give either 'value' (constant) or 'angles' and 'values' (a table)")
-        if "value" in fr:
-            forces.append(Force(p, tuple(r.vector(fr["value"], f"{w} value", unit="N"))))
-            continue
-        if "angles" not in fr or "values" not in fr:
-            raise r.fail(w, "a force table needs both 'angles' (deg) and 'values' (N)")
-        angs = fr["angles"]
-        if not isinstance(angs, list) or len(angs) < 2:
-            raise r.fail(f"{w} angles", "must be a list of at least two angles (deg)")
-        a = np.array([r.number({"a": x}, "a", f"{w} angles", unit=" deg") for x in angs]) * DEG
-        if not np.all(np.diff(a) > 0):
-            raise r.fail(f"{w} angles", "must increase strictly")
-        vals = fr["values"]
-        if not isinstance(vals, list) or len(vals) != len(angs):
-            raise r.fail(f"{w} values", f"must list one force per angle ({len(angs)})")
-        forces.append(
-            Force(p, angles=tuple(a), values=tuple(tuple(r.vector(v, f"{w} values", unit="N")) for v in vals))
-        )
+        forces.append(_read_force(r, fr, f"[[dynamics.force]] #{i + 1}", known, 360.0 * turns))
     motor = _read_motor(r, dyn_raw["motor"], "[dynamics.motor]") if "motor" in dyn_raw else None
     if "dynamics" in data:
         massless = [l.name for l in links if l.mass <= 0]
@@ -520,13 +561,22 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         st = r.table(data["steady"], "[steady]")
         r.keys(st, "[steady]", ["stall_torque", "no_load_speed"], ["target_delta"])
         steady = SteadyCase(
-            _read_motor(r, st, "[steady]"), r.number(st, "target_delta", "[steady]", default=0.02, positive=True)
+            _read_motor(r, st, "[steady]"),
+            r.number(
+                st,
+                "target_delta",
+                "[steady]",
+                default=0.02,
+                bound=TARGET_DELTA,
+            ),
         )
     elif motor is not None:
         steady = SteadyCase(motor)
     dynamics = Dynamics(
-        moment=r.number(dyn_raw, "moment", "[dynamics]", default=0.0, unit=" N*m"),
-        damping=r.number(dyn_raw, "damping", "[dynamics]", default=0.0, nonneg=True, unit=" N*m*s"),
+        moment=r.number(dyn_raw, "moment", "[dynamics]", default=0.0, hi=MAX_TORQUE_NM, unit=" N*m", why=_LIMITS),
+        damping=r.number(
+            dyn_raw, "damping", "[dynamics]", default=0.0, nonneg=True, hi=MAX_DAMPING, unit=" N*m*s", why=_LIMITS
+        ),
         omega0=r.number(
             dyn_raw,
             "omega0",
@@ -546,7 +596,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
             hi=MAX_DURATION_S,
             unit=" s",
         ),
-        gravity=r.number(dyn_raw, "gravity", "[dynamics]", default=9.81, nonneg=True, unit=" m/s^2"),
+        gravity=r.number(
+            dyn_raw, "gravity", "[dynamics]", default=9.81, nonneg=True, hi=MAX_GRAVITY, unit=" m/s^2", why=_LIMITS
+        ),
         forces=tuple(forces),
         motor=motor,
         paper_rk4_steps=_steps(r, dyn_raw, "paper_rk4_steps", "[dynamics]"),
@@ -558,7 +610,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         r.keys(th, "[thread]", ["path"], ["elongation"])
         thread = r.names(th["path"], "[thread] path", min_length=2)
         if "elongation" in th:
-            elongation = r.number(th, "elongation", "[thread]", nonneg=True, scale=MM, unit=" mm")
+            elongation = r.number(
+                th, "elongation", "[thread]", nonneg=True, scale=MM, hi=MAX_LENGTH_MM, unit=" mm", why=_LIMITS
+            )
         for p in thread:
             if p not in known:
                 raise r.fail("[thread] path", f"uses point '{p}', which is not defined")
@@ -568,12 +622,18 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         sy = r.table(data["synthesis"], "[synthesis]")
         r.keys(sy, "[synthesis]", ["stroke", "offset", "lambda", "max_pressure_angle"])
         theta = r.number(sy, "max_pressure_angle", "[synthesis]", positive=True, unit=" deg")
-        if theta >= 90:
+        if theta >= MAX_SYNTH_PRESSURE_DEG:
             raise r.fail("[synthesis] max_pressure_angle", f"must be below 90 deg, got {theta:g}")
+        ratio = r.number(sy, "lambda", "[synthesis]", positive=True)
+        if ratio >= MAX_SYNTH_RATIO:
+            raise r.fail(
+                "[synthesis] lambda", f"must be below 1 (a crank longer than its rod cannot turn), got {ratio:g}"
+            )
+        bar: dict[str, Any] = {"scale": MM, "hi": MAX_LENGTH_MM, "unit": " mm", "why": _LIMITS}
         synthesis = Synthesis(
-            r.number(sy, "stroke", "[synthesis]", positive=True, scale=MM, unit=" mm"),
-            r.number(sy, "offset", "[synthesis]", nonneg=True, scale=MM, unit=" mm"),
-            r.number(sy, "lambda", "[synthesis]", positive=True),
+            r.number(sy, "stroke", "[synthesis]", positive=True, lo=MIN_BAR_MM, **bar),
+            r.number(sy, "offset", "[synthesis]", nonneg=True, **bar),
+            ratio,
             theta * DEG,
         )
 
@@ -595,13 +655,11 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         synthesis,
         steady,
         _read_counterweight(r, data["counterweight"]) if "counterweight" in data else None,
-        _timing.read(r, data["timing"], set(known), {c.point for c in _blocks.geared(steps)})
-        if "timing" in data
-        else None,
+        _timing.read(r, data["timing"], set(ground), steps, links) if "timing" in data else None,
         text=text,
     )
     if "balance" in data:
-        mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing))
+        mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing, steps))
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))
     if mech.timing is not None and turns != 1:
@@ -623,6 +681,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
 def load(path: str | Path) -> Mechanism:
     """Read and validate a mechanism file. Raises MechanismFileError with a one-line message."""
     p = Path(path)
+    what = _catalogue.what_is(p)
+    if what is not None:
+        raise MechanismFileError(f"{p}: is {what}, not a mechanism file")
     try:
         size = p.stat().st_size
         if size > MAX_FILE_BYTES:

@@ -47,7 +47,7 @@ from ..units import DEG, MM, G
 from . import synthesis as synth
 from . import tomlio
 from .mechanism import Counterweight, Force, Mechanism, parse
-from .timing import LOOP_BODY
+from .timing import StitchType
 
 _AXES = ("x", "y", "z")
 # section -> key -> (SI per file unit, file unit, must be positive)
@@ -157,7 +157,7 @@ def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None
         add("timing.fabric", MM, "mm", False, mech.timing.fabric)
     if mech.balance is not None:
         add("balance.stitch_length", MM, "mm", True, mech.balance.stitch_length)
-        body = LOOP_BODY[mech.timing.stitch if mech.timing is not None else "301"]
+        body = (mech.timing.stitch if mech.timing is not None else StitchType.LOCKSTITCH).loop_body
         add(f"balance.{body}", MM, "mm", True, getattr(mech.balance, body))
         add("balance.check_spring_travel", MM, "mm", False, mech.balance.check_spring_travel)
         add("balance.stretch", 1.0, "", False, mech.balance.stretch)

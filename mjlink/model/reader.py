@@ -21,6 +21,7 @@ import numpy as np
 from ..errors import MechanismFileError
 from ..quantity import QuantityError, parse
 from . import names as _names
+from .limits import Bound, above, below
 
 _INT_DIGITS = sys.get_int_max_str_digits() or 4300  # Python refuses str() of longer integers
 
@@ -117,8 +118,10 @@ class Reader:
         hi=None,
         unit="",
         why="",
+        bound: Bound | None = None,
     ) -> float:
-        """A finite number; ``lo``/``hi`` bound its magnitude (file units, ``unit`` for messages)."""
+        """A finite number; ``lo``/``hi`` bound its magnitude (file units, ``unit`` for messages),
+        ``bound`` its signed range (limits.Bound); both compared with limits.BOUND_RTOL."""
         if key not in data:
             if default is None:
                 raise self.fail(where, f"missing key '{key}'")
@@ -145,10 +148,13 @@ class Reader:
         if nonneg and v < 0:
             raise self.fail(f"{where} {key}", f"must be >= 0, got {v:g}{unit}")
         why = f" ({why})" if why else ""
-        if hi is not None and abs(v) > hi:
+        if hi is not None and above(abs(v), hi):
             raise self.fail(f"{where} {key}", f"must be at most {hi:g}{unit} in magnitude{why}, got {v:g}{unit}")
-        if lo is not None and abs(v) < lo:
+        if lo is not None and below(abs(v), lo):
             raise self.fail(f"{where} {key}", f"must be at least {lo:g}{unit} in magnitude{why}, got {v:g}{unit}")
+        refused = bound.refuses(v) if bound is not None else None
+        if refused:
+            raise self.fail(f"{where} {key}", refused)
         return v * scale
 
     def string(self, data: dict, key: str, where: str, *, default=None, max_length: int | None = None) -> str:
@@ -177,9 +183,20 @@ class Reader:
             raise self.fail(where, f"invalid name {shown(v)}: use a letter then letters, digits or _ (at most 32)")
         return v
 
-    def vector(self, v: Any, where: str, sizes=(2, 3), scale=1.0, hi=None, unit="") -> np.ndarray:
-        """A list of 2 or 3 finite numbers (z = 0 if absent); ``hi`` bounds each coordinate, mm.
-        With ``unit``, a coordinate may be written with its unit ('12mm', '1.2 cm')."""
+    def vector(
+        self,
+        v: Any,
+        where: str,
+        sizes=(2, 3),
+        scale=1.0,
+        hi=None,
+        unit="",
+        what="coordinates",
+        why="mjlink models machine linkages; see mechanisms/README.md",
+    ) -> np.ndarray:
+        """A list of 2 or 3 finite numbers (z = 0 if absent) in ``unit``; ``hi`` bounds each
+        one's magnitude (``what`` they are and ``why`` for the message). With ``unit``, a
+        number may be written with its unit ('12mm', '1.2 cm')."""
         if not isinstance(v, list) or len(v) not in sizes:
             raise self.fail(where, f"must be a list of {' or '.join(map(str, sizes))} numbers, got {shown(v)}")
         out = []
@@ -195,12 +212,8 @@ class Reader:
                 ok = False
             if not ok:
                 raise self.fail(where, f"must hold finite numbers, got {shown(v)}")
-            if hi is not None and abs(float(x)) > hi:
-                raise self.fail(
-                    where,
-                    f"coordinates must be at most {hi:g} mm in magnitude (mjlink models machine "
-                    f"linkages; see mechanisms/README.md), got {shown(v)}",
-                )
+            if hi is not None and above(abs(float(x)), hi):
+                raise self.fail(where, f"{what} must be at most {hi:g} {unit} in magnitude ({why}), got {shown(v)}")
             out.append(float(x) * scale)
         while len(out) < 3:
             out.append(0.0)

@@ -35,21 +35,57 @@ A file names its roles once and ships one table per maker::
 
 from __future__ import annotations
 
+import enum
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..units import DEG, MM
+from .blocks import Block, Crank
+from .limits import HEAD, MAX_TITLE_CHARS
 from .reader import Reader
 
-ROLES = ("needle_bar", "needle_point", "needle_eye", "hook_point", "feed_dog", "take_up")
-"""The points a head's ``[timing]`` table names."""
+if TYPE_CHECKING:
+    from .mechanism import Link
 
-STITCHES = {"301": "lockstitch", "101": "single-thread chain stitch"}
-"""The stitch types (ISO 4915) whose needle thread mjlink follows."""
+ROLES = {
+    "needle_bar": "the needle bar's rise from its bottom dead centre is measured",
+    "needle_point": "the needle point passes through the plate and the fabric",
+    "needle_eye": "the eye's height is measured as the hook meets the needle",
+    "hook_point": "the hook's point picks the loop up from the needle",
+    "feed_dog": "the dog rises through the plate and feeds",
+    "take_up": "the eyelet's highest point is timed against the loop's release",
+}
+"""The points a head's ``[timing]`` table names, each with what its point does in the checks:
+every one must move with the mechanism (not a ``[ground]`` point, nor one built from ground
+points only), the hook point must be a geared crank's (its pivot is the hook shaft), and the
+needle's three points ride on one link (the needle's centre line runs through its bar and its
+point, which differ)."""
 
-LOOP_BODY = {"301": "bobbin_case", "101": "looper"}
-"""Per stitch type, the ``[balance]`` key (and :class:`Balance` field) of what the needle's loop
-is drawn round: a lockstitch's bobbin case, a chain stitch's looper."""
+NEEDLE = ("needle_bar", "needle_point", "needle_eye")
+
+
+class StitchType(enum.Enum):
+    """A stitch type (ISO 4915) whose needle thread mjlink follows, valued as ``[timing] stitch``
+    writes it."""
+
+    LOCKSTITCH = "301"
+    CHAIN = "101"
+
+    @property
+    def description(self) -> str:
+        return _DESCRIPTION[self]
+
+    @property
+    def loop_body(self) -> str:
+        """The ``[balance]`` key (and :class:`Balance` field) of what the needle's loop is drawn
+        round: a lockstitch's bobbin case, a chain stitch's looper."""
+        return _LOOP_BODY[self]
+
+
+_DESCRIPTION = {StitchType.LOCKSTITCH: "lockstitch", StitchType.CHAIN: "single-thread chain stitch"}
+_LOOP_BODY = {StitchType.LOCKSTITCH: "bobbin_case", StitchType.CHAIN: "looper"}
+
 
 SETTINGS = {
     "hook_rise": "needle bar rise from its bottom dead centre when the hook point reaches the needle's centre line",
@@ -83,8 +119,7 @@ class MakerSettings:
 
 @dataclass(frozen=True)
 class Timing:
-    """A head's ``[timing]`` table in SI units (m, rad); ``stitch`` its stitch type (a key of
-    :data:`STITCHES`)."""
+    """A head's ``[timing]`` table in SI units (m, rad); ``stitch`` its stitch type."""
 
     roles: dict[str, str]
     plate: float
@@ -93,54 +128,98 @@ class Timing:
     feed_in_fabric: float
     target: str
     settings: tuple[MakerSettings, ...]
-    stitch: str = "301"
+    stitch: StitchType = StitchType.LOCKSTITCH
 
     def maker(self, name: str) -> MakerSettings:
         return next(s for s in self.settings if s.name == name)
 
 
-def read(r: Reader, raw: Any, known: set[str], hook_cranks: set[str]) -> Timing:
-    """The ``[timing]`` table, validated: roles name defined points (the hook point a crank's),
-    each maker's windows are ordered pairs in mm, ``target`` names one of them."""
+def moving(steps: Iterable[Block]) -> set[str]:
+    """The built points that move with the input crank: every crank's point (a crank turns
+    about its [ground] pivot) and every point built from a moving one; a point built from
+    [ground] points only stays where it is."""
+    out: set[str] = set()
+    for s in steps:  # in build order: a block's inputs come first
+        if isinstance(s, Crank) or any(p in out for p in s.inputs):
+            out.add(s.point)
+    return out
+
+
+def _number(r: Reader, data: dict, key: str, where: str, bound: str, scale: float = 1.0, **kw: Any) -> float:
+    """A number of the head's tables held to its range in limits.HEAD (``bound``)."""
+    b = HEAD[bound]
+    return r.number(data, key, where, scale=scale, unit=f" {b.unit}" if b.unit else "", bound=b, **kw)
+
+
+def _roles(r: Reader, scalars: dict, ground: set[str], steps: Sequence[Block], links: Sequence[Link]) -> dict[str, str]:
+    """The role -> point table, each point able to play its role (see :data:`ROLES`)."""
+    built = {s.point for s in steps}
+    moves = moving(steps)
+    hooks = {s.point: s for s in steps if isinstance(s, Crank) and not s.is_input}
+    roles = {}
+    for role, does in ROLES.items():
+        where = f"[timing] {role}"
+        p = r.name(scalars[role], where)
+        if p not in ground and p not in built:
+            raise r.fail(where, f"names point '{p}', which is not defined")
+        if p not in moves:
+            what = "a [ground] point" if p in ground else "built from [ground] points only"
+            raise r.fail(where, f"'{p}' does not move ({what}), but {does}: name a point that moves with the head")
+        if role == "hook_point" and p not in hooks:
+            raise r.fail(
+                where,
+                f"'{p}' must be the point of a geared crank (the hook turns with its shaft; {does})",
+            )
+        roles[role] = p
+    bar, tip, eye = (roles[k] for k in NEEDLE)
+    if bar == tip:
+        raise r.fail(
+            "[timing] needle_point",
+            f"'{tip}' is the needle_bar's point too: the needle's centre line runs through two points of it",
+        )
+    if not any({bar, tip, eye} <= set(l.points) for l in links):
+        raise r.fail(
+            "[timing]",
+            f"needle_bar '{bar}', needle_point '{tip}' and needle_eye '{eye}' are on no one link: the needle "
+            "is held in its bar, so one link carries all three",
+        )
+    return roles
+
+
+def read(r: Reader, raw: Any, ground: set[str], steps: Sequence[Block], links: Sequence[Link]) -> Timing:
+    """The ``[timing]`` table, validated: roles name points that can play them (:data:`ROLES`),
+    every number lies within its range (limits.HEAD), each maker's windows are ordered pairs
+    in mm, ``target`` names one of them."""
     t = r.table(raw, "[timing]")
     makers = {k: v for k, v in t.items() if isinstance(v, dict)}
     scalars = {k: v for k, v in t.items() if not isinstance(v, dict)}
-    r.keys(
-        scalars,
-        "[timing]",
-        [*ROLES, "plate", "target"],
-        ["fabric", "loop_release", "feed_in_fabric", "stitch"],
-    )
-    roles = {}
-    for role in ROLES:
-        p = r.name(scalars[role], f"[timing] {role}")
-        if p not in known:
-            raise r.fail(f"[timing] {role}", f"names point '{p}', which is not defined")
-        roles[role] = p
-    if roles["hook_point"] not in hook_cranks:
-        raise r.fail(
-            "[timing] hook_point",
-            f"'{roles['hook_point']}' must be the point of a geared crank (the hook turns with its shaft)",
-        )
+    required, optional = [*ROLES, "plate", "target"], ["fabric", "loop_release", "feed_in_fabric", "stitch"]
+    for k in makers:  # a table is a maker's settings, never the value of one of [timing]'s own keys
+        if k in required or k in optional:
+            raise r.fail(f"[timing] {k}", f"must be a {'point name' if k in ROLES else 'value'}, got a table")
+    r.keys(scalars, "[timing]", required, optional)
+    roles = _roles(r, scalars, ground, steps, links)
     if not makers:
         raise r.fail("[timing]", "needs at least one maker's settings table, e.g. [timing.juki]")
     settings = tuple(_maker(r, name, body) for name, body in makers.items())
     target = r.string(scalars, "target", "[timing]")
     if target not in makers:
         raise r.fail("[timing] target", f"'{target}' is not one of the settings tables {', '.join(makers)}")
-    stitch = r.string(scalars, "stitch", "[timing]", default="301")
-    if stitch not in STITCHES:
-        kinds = ", ".join(f"'{k}' ({v})" for k, v in STITCHES.items())
-        raise r.fail("[timing] stitch", f"'{stitch}' is not a stitch type mjlink follows: {kinds}")
+    written = r.string(scalars, "stitch", "[timing]", default=StitchType.LOCKSTITCH.value)
+    try:
+        stitch = StitchType(written)
+    except ValueError:
+        kinds = ", ".join(f"'{k.value}' ({k.description})" for k in StitchType)
+        raise r.fail("[timing] stitch", f"{r.shown(written)} is not a stitch type mjlink follows: {kinds}") from None
     return Timing(
-        roles,
-        r.number(scalars, "plate", "[timing]", scale=MM, unit=" mm"),
-        r.number(scalars, "fabric", "[timing]", nonneg=True, scale=MM, unit=" mm", default=1.5),
-        r.number(scalars, "loop_release", "[timing]", positive=True, scale=DEG, unit=" deg", default=270.0),
-        r.number(scalars, "feed_in_fabric", "[timing]", nonneg=True, scale=MM, unit=" mm", default=0.2),
-        target,
-        settings,
-        stitch,
+        roles=roles,
+        plate=_number(r, scalars, "plate", "[timing]", "timing.plate", MM),
+        fabric=_number(r, scalars, "fabric", "[timing]", "timing.fabric", MM, default=1.5),
+        loop_release=_number(r, scalars, "loop_release", "[timing]", "timing.loop_release", DEG, default=270.0),
+        feed_in_fabric=_number(r, scalars, "feed_in_fabric", "[timing]", "timing.feed_in_fabric", MM, default=0.2),
+        target=target,
+        settings=settings,
+        stitch=stitch,
     )
 
 
@@ -154,15 +233,15 @@ def _maker(r: Reader, name: str, raw: Any) -> MakerSettings:
             continue
         pair = body[key]
         if not (isinstance(pair, list) and len(pair) == 2):
-            raise r.fail(f"{where} {key}", "must be a window [lo, hi] in mm")
-        lo = r.number({"lo": pair[0]}, "lo", f"{where} {key}", scale=MM, unit=" mm")
-        hi = r.number({"hi": pair[1]}, "hi", f"{where} {key}", scale=MM, unit=" mm")
+            raise r.fail(f"{where} {key}", f"must be a window [lo, hi] in mm, got {r.shown(pair)}")
+        lo = _number(r, {"lo": pair[0]}, "lo", f"{where} {key}", "timing.window", MM)
+        hi = _number(r, {"hi": pair[1]}, "hi", f"{where} {key}", "timing.window", MM)
         if lo > hi:
             raise r.fail(f"{where} {key}", f"lo {lo / MM:g} mm is above hi {hi / MM:g} mm")
         windows[key] = Window(lo, hi)
     if not windows:
         raise r.fail(where, f"gives no setting (any of {', '.join(SETTINGS)})")
-    return MakerSettings(name, r.string(body, "source", where, default=""), windows)
+    return MakerSettings(name, r.string(body, "source", where, default="", max_length=MAX_TITLE_CHARS), windows)
 
 
 @dataclass(frozen=True)
@@ -182,13 +261,16 @@ class Balance:
     looper: float = 0.0
 
 
-def read_balance(r: Reader, raw: Any, thread: tuple[str, ...] | None, timing: Timing | None) -> Balance:
+def read_balance(
+    r: Reader, raw: Any, thread: tuple[str, ...] | None, timing: Timing | None, steps: Sequence[Block]
+) -> Balance:
     """The ``[balance]`` table: needs ``[timing]`` (the needle, hook and plate) and a
-    ``[thread]`` path that ends at the needle's eye and holds the check spring's point."""
+    ``[thread]`` path that ends at the needle's eye and holds the check spring's point; the
+    loop's body lies inside the circle the hook point turns on (``steps`` hold its crank)."""
     t = r.table(raw, "[balance]")
     if timing is None:
         raise r.fail("[balance]", "needs a [timing] table (the needle, the hook and the plate)")
-    body = LOOP_BODY[timing.stitch]
+    body = timing.stitch.loop_body
     r.keys(t, "[balance]", ["stitch_length", body, "check_spring", "check_spring_travel"], ["stretch"])
     if not thread or thread[-1] != timing.roles["needle_eye"]:
         raise r.fail(
@@ -199,12 +281,19 @@ def read_balance(r: Reader, raw: Any, thread: tuple[str, ...] | None, timing: Ti
     spring = r.name(t["check_spring"], "[balance] check_spring")
     if spring not in thread:
         raise r.fail("[balance] check_spring", f"'{spring}' is not a point of the [thread] path")
-    diameter = r.number(t, body, "[balance]", positive=True, scale=MM, hi=200.0, unit=" mm")
+    diameter = _number(r, t, body, "[balance]", "balance.loop_body", MM)
+    hook = next(s for s in steps if isinstance(s, Crank) and s.point == timing.roles["hook_point"])
+    if diameter >= 2.0 * hook.length:
+        raise r.fail(
+            f"[balance] {body}",
+            f"{diameter / MM:g} mm does not fit inside the hook point's circle ({2.0 * hook.length / MM:g} mm across: "
+            f"'{hook.point}' turns {hook.length / MM:g} mm about '{hook.pivot}'): the point draws the loop round it",
+        )
     return Balance(
-        r.number(t, "stitch_length", "[balance]", positive=True, scale=MM, hi=50.0, unit=" mm"),
-        diameter if body == "bobbin_case" else 0.0,
-        spring,
-        r.number(t, "check_spring_travel", "[balance]", nonneg=True, scale=MM, hi=100.0, unit=" mm"),
-        r.number(t, "stretch", "[balance]", nonneg=True, hi=0.2, default=0.01),
-        diameter if body == "looper" else 0.0,
+        stitch_length=_number(r, t, "stitch_length", "[balance]", "balance.stitch_length", MM),
+        bobbin_case=diameter if timing.stitch is StitchType.LOCKSTITCH else 0.0,
+        check_spring=spring,
+        check_spring_travel=_number(r, t, "check_spring_travel", "[balance]", "balance.check_spring_travel", MM),
+        stretch=_number(r, t, "stretch", "[balance]", "balance.stretch", default=0.01),
+        looper=diameter if timing.stitch is StitchType.CHAIN else 0.0,
     )

@@ -23,6 +23,8 @@ from ..model.limits import (
     MAX_SYNTH_PRESSURE_DEG,
     MAX_SYNTH_RATIO,
     MIN_BAR_MM,
+    above,
+    below,
 )
 from ..model.mechanism import Mechanism, parse
 from ..pages import design
@@ -117,7 +119,7 @@ def synthesize(
     for option, v, lo, hi, unit, open_interval in bounds:
         if v is None:
             continue
-        if not math.isfinite(v) or v < lo or v > hi or (open_interval and v in (lo, hi)):
+        if not math.isfinite(v) or below(v, lo) or above(v, hi) or (open_interval and v in (lo, hi)):
             within = f"between {lo:g} and {hi:g}{unit}" + (" (both excluded)" if open_interval else "")
             raise MjlinkError(f"{option} must be {within}, got {v:g}{unit}")
     base = validation.get("crank_slider").synthesis

@@ -15,10 +15,14 @@ from typing import Any
 
 from ..errors import MjlinkError
 from ..model.limits import (
+    MAX_DAMPING,
     MAX_DURATION_S,
     MAX_SPEED,
+    MAX_TORQUE_NM,
     MIN_DURATION_S,
     MIN_SPEED,
+    above,
+    below,
 )
 from ..model.mechanism import Mechanism, Motor, SteadyCase
 from ..units import to_rpm
@@ -95,7 +99,7 @@ def check_speed(option: str, w: float | None, given: str | None = None) -> None:
     user wrote it (``given``, e.g. '0 rpm'; default both units)."""
     if w is None:
         return
-    if not (math.isfinite(w) and MIN_SPEED <= abs(w) <= MAX_SPEED):
+    if not math.isfinite(w) or below(abs(w), MIN_SPEED) or above(abs(w), MAX_SPEED):
         raise MjlinkError(
             f"{option} must be between {MIN_SPEED:g} and {MAX_SPEED:g} rad/s in magnitude "
             f"({to_rpm(MIN_SPEED):.3g} to {to_rpm(MAX_SPEED):.3g} rpm), got {given or speed_text(w)}"
@@ -103,7 +107,7 @@ def check_speed(option: str, w: float | None, given: str | None = None) -> None:
 
 
 def check_duration(d: float, option: str = "--duration") -> None:
-    if not (math.isfinite(d) and MIN_DURATION_S <= d <= MAX_DURATION_S):
+    if not math.isfinite(d) or below(d, MIN_DURATION_S) or above(d, MAX_DURATION_S):
         raise MjlinkError(
             f"{option} must be between {MIN_DURATION_S:g} and {MAX_DURATION_S:g} s (mechanisms/README.md, "
             f"Limits), got {d:g} s"
@@ -127,7 +131,7 @@ def with_drive(mech: Mechanism, drive: Drive, *, steady: bool = False) -> Mechan
         if v is None:
             continue
         if key == "omega0":
-            if not (math.isfinite(v) and abs(v) <= MAX_SPEED):
+            if not math.isfinite(v) or above(abs(v), MAX_SPEED):
                 raise MjlinkError(
                     f"--omega0 must be at most {MAX_SPEED:g} rad/s ({to_rpm(MAX_SPEED):.3g} rpm) in magnitude, "
                     f"got {speed_text(v)}"
@@ -137,6 +141,12 @@ def with_drive(mech: Mechanism, drive: Drive, *, steady: bool = False) -> Mechan
         elif not math.isfinite(v) or (key == "damping" and v < 0):
             raise MjlinkError(
                 f"--{key} must be a finite number{' >= 0' if key == 'damping' else ''}, got {v:g} {units[key]}"
+            )
+        elif above(abs(v), MAX_TORQUE_NM if key == "moment" else MAX_DAMPING):
+            hi = MAX_TORQUE_NM if key == "moment" else MAX_DAMPING
+            raise MjlinkError(
+                f"--{key} must be at most {hi:g} {units[key]} in magnitude (mechanisms/README.md, Limits), "
+                f"got {v:g} {units[key]}"
             )
         changes[key] = v
     ts, w0 = drive.stall_torque, drive.no_load_speed
@@ -149,6 +159,11 @@ def with_drive(mech: Mechanism, drive: Drive, *, steady: bool = False) -> Mechan
             raise MjlinkError(
                 "--stall-torque and --no-load-speed must be finite, non-zero and of the same sign, got "
                 f"{ts:g} N*m and {speed_text(w0)}"
+            )
+        if above(abs(ts), MAX_TORQUE_NM):
+            raise MjlinkError(
+                f"--stall-torque must be at most {MAX_TORQUE_NM:g} N*m in magnitude (mechanisms/README.md, Limits), "
+                f"got {ts:g} N*m"
             )
         check_speed("--no-load-speed", w0)
         motor = Motor(ts, w0)

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
 import sys
 import tomllib
 from dataclasses import dataclass
@@ -253,10 +252,11 @@ def find(name_or_path: str | Path) -> Path:
     shipped = STUDIES_DIR / f"{name_or_path}.toml"
     if shipped.is_file() and not str(name_or_path).endswith(".toml"):
         return shipped
-    if p.is_dir():
+    what = catalogue.what_is(p)
+    if what == "a folder":
         raise StudyFileError(f"{p}: is a folder, not a study file")
-    if os.path.lexists(p):
-        raise StudyLimitError(f"{p}: is not a regular file (a FIFO or a device?): give a study file")
+    if what is not None:
+        raise StudyLimitError(f"{p}: is {what}, not a study file")
     known = sorted(q.stem for q in STUDIES_DIR.glob("*.toml"))
     hint = did_you_mean(str(name_or_path), known)
     raise StudyFileError(f"{shown(str(name_or_path))}: no such study file ({hint}shipped: {', '.join(known)})")
