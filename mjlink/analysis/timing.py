@@ -111,7 +111,7 @@ class TimingRow:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class HeadTiming:
     """The head's timing over one stitch.
 
@@ -326,7 +326,9 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
         "dog height": dog_h / MM,
         "dog advance": advance / MM,
     }
-    return HeadTiming(theta, curves, events, tuple(rows), tm.target, P, order=order)
+    return HeadTiming(
+        theta=theta, curves=curves, events=events, rows=tuple(rows), target=tm.target, positions=P, order=order
+    )
 
 
 class TimingChecks(Metric):
@@ -444,7 +446,7 @@ def wrapped(
     return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ThreadBalance:
     """The needle thread over one stitch (docs/head.md, The thread balance), on the timing's
     angles ``theta`` (deg from the needle bar's top): ``path`` (N,) the thread's length from
@@ -559,7 +561,16 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
             "loop taken and enlarged around the bobbin": (pick, release),
             "loop cast off, stitch set": (release, drawn),
         }
-    return ThreadBalance(th, path / MM, supply / MM, demand / MM, balance / MM, phases, per_stitch / MM, rows)
+    return ThreadBalance(
+        theta=th,
+        path=path / MM,
+        supply=supply / MM,
+        demand=demand / MM,
+        balance=balance / MM,
+        phases=phases,
+        per_stitch=per_stitch / MM,
+        rows=rows,
+    )
 
 
 def _carried(tm: Timing, hook: Crank, pick: float) -> float:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -207,7 +208,7 @@ def _drive_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--omega0", type=speed_arg, metavar="SPEED", help=f"initial crank speed of the dynamic run, {_SPEED_HELP}"
     )
-    p.add_argument("--target-delta", type=float, help="target speed fluctuation for the flywheel (steady study)")
+    p.add_argument("--target-delta", type=number_arg, help="target speed fluctuation for the flywheel (steady study)")
 
 
 def _drive(args: argparse.Namespace) -> Drive:
@@ -235,11 +236,10 @@ def _positive(option: str, v: float | None, unit: str = "", allow_none: bool = T
 
 def _size(size: str) -> tuple[int, int]:
     """``WIDTHxHEIGHT`` as pixels (checked later, with the other video options)."""
-    try:
-        w, h = (int(x) for x in size.lower().split("x"))
-    except ValueError:
-        raise MjlinkError(f"--size must be WIDTHxHEIGHT, e.g. 640x480; got {text.error_line(repr(size))}") from None
-    return w, h
+    m = re.fullmatch(r"\s*([0-9]+)\s*[xX]\s*([0-9]+)\s*", size)
+    if m is None:
+        raise MjlinkError(f"--size must be WIDTHxHEIGHT, e.g. 640x480; got {text.error_line(repr(size))}")
+    return int(m[1]), int(m[2])
 
 
 def _verdict(failures: Sequence[str], strict: bool) -> int:
@@ -306,8 +306,25 @@ def quantity_arg(unit: str) -> Callable[[str], float]:
         except QuantityError as e:
             raise argparse.ArgumentTypeError(text.error_line(str(e))) from None
 
-    read.__name__ = f"quantity in {unit}"  # argparse names the type in its messages
+    read.__name__ = f"quantity in {unit}" if unit else "number"  # argparse names the type in its messages
     return read
+
+
+number_arg = quantity_arg("")
+"""argparse type of a plain number (no unit): the quantity grammar's, so the digits 0-9 only."""
+
+_WHOLE = re.compile(r"\s*([-+]?[0-9]+)\s*")
+
+
+def whole_arg(s: str) -> int:
+    """argparse type of a whole number, written with the digits 0-9 (int() would also take
+    other scripts' digits)."""
+    m = _WHOLE.fullmatch(s)
+    if m is None:
+        raise argparse.ArgumentTypeError(
+            f"{text.error_line(repr(s))} is not a whole number: write it with the digits 0-9, e.g. 2"
+        )
+    return int(m[1])
 
 
 def _export_arguments(p: argparse.ArgumentParser) -> None:
@@ -378,13 +395,13 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
         metavar="SPEED",
         help=f"crank speed of the kinematic run, {_SPEED_HELP} (default: the file's [input] speed)",
     )
-    s.add_argument("--cycles", type=float, help="crank periods in the kinematic run (default: the file's)")
+    s.add_argument("--cycles", type=number_arg, help="crank periods in the kinematic run (default: the file's)")
     s.add_argument("--duration", type=quantity_arg("s"), help="duration of the dynamic run, s (default: the file's)")
     s.add_argument("--no-dynamics", action="store_true", help="skip the forward-dynamics run")
     s.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     s.add_argument("--no-video", action="store_true", help="skip the MP4")
     s.add_argument("--video-seconds", type=quantity_arg("s"), default=3.0, help="length of the video, s (default 3)")
-    s.add_argument("--fps", type=float, default=30, help="video frames per second, a whole number (default 30)")
+    s.add_argument("--fps", type=number_arg, default=30, help="video frames per second, a whole number (default 30)")
     s.add_argument(
         "--size",
         default="640x480",
@@ -529,7 +546,7 @@ def _steady_arguments(q: argparse.ArgumentParser) -> None:
     q.add_argument("--damping", type=quantity_arg("N*m*s"), metavar="N_M_S", help="viscous damping on the crank, N*m*s")
     q.add_argument(
         "--target-delta",
-        type=float,
+        type=number_arg,
         help="wanted coefficient of speed fluctuation (default: the file's [steady] target_delta, else 0.02)",
     )
     q.add_argument("--out", type=path_arg, default=Path("renders"), help="output root; results go to OUT/NAME_steady/")
@@ -565,7 +582,7 @@ def _synth_arguments(y: argparse.ArgumentParser) -> None:
     y.add_argument("problem", help="what to synthesize: crank_slider")
     y.add_argument("--stroke", type=quantity_arg("mm"), help="slider stroke S, mm (default: crank_slider.toml's)")
     y.add_argument("--offset", type=quantity_arg("mm"), help="guide offset e, mm")
-    y.add_argument("--lambda", dest="ratio", type=float, help="lambda = r / l")
+    y.add_argument("--lambda", dest="ratio", type=number_arg, help="lambda = r / l")
     y.add_argument("--max-pressure-angle", type=quantity_arg("deg"), help="allowed pressure angle [theta], deg")
     y.add_argument("--write", type=path_arg, metavar="FILE", help="save the accepted design as a mechanism file")
     y.add_argument("--force", action="store_true", help="replace the --write file if it exists")
@@ -604,7 +621,7 @@ def _study_arguments(q: argparse.ArgumentParser) -> None:
     )
     q.add_argument(
         "--workers",
-        type=int,
+        type=whole_arg,
         metavar="N",
         help="worker processes of the local cluster (default: one per core; 0 runs in this process without Dask)",
     )
@@ -640,6 +657,8 @@ def parse_size(text: str) -> float:
     while i and t[i - 1].isalpha():
         i -= 1
     number, unit = t[:i], t[i:]
+    if not number.isascii():  # float() would take other scripts' digits
+        raise ValueError(text)
     v = float(number)
     if unit not in _SIZES or not math.isfinite(v) or v <= 0:
         raise ValueError(text)

@@ -158,7 +158,7 @@ class Motor:
         return self.stall_torque * (1.0 - np.asarray(omega) / self.no_load_speed)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Dynamics:
     """The forward-dynamics case.
 
@@ -217,7 +217,7 @@ class Counterweight:
 COUNTERWEIGHT = "counterweight"  # its point's name in the reference's kinematics
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Mechanism:
     """A validated mechanism, SI units. Build with :func:`load`."""
 
@@ -638,24 +638,24 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         )
 
     mech = Mechanism(
-        name,
-        title,
-        source,
-        Path(path) if path != "<string>" else None,
-        ground,
-        steps,
-        links,
-        phi0,
-        speed,
-        cycles,
-        dynamics,
-        thread,
-        elongation,
-        "dynamics" in data,
-        synthesis,
-        steady,
-        _read_counterweight(r, data["counterweight"]) if "counterweight" in data else None,
-        _timing.read(r, data["timing"], set(ground), steps, links) if "timing" in data else None,
+        name=name,
+        title=title,
+        source=source,
+        path=Path(path) if path != "<string>" else None,
+        ground=ground,
+        steps=steps,
+        links=links,
+        phi0=phi0,
+        speed=speed,
+        cycles=cycles,
+        dynamics=dynamics,
+        thread=thread,
+        thread_elongation=elongation,
+        has_dynamics="dynamics" in data,
+        synthesis=synthesis,
+        steady=steady,
+        counterweight=_read_counterweight(r, data["counterweight"]) if "counterweight" in data else None,
+        timing=_timing.read(r, data["timing"], set(ground), steps, links) if "timing" in data else None,
         text=text,
     )
     if "balance" in data:
