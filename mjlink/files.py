@@ -37,6 +37,7 @@ import numpy as np
 import orjson
 
 from .errors import OutputError
+from .model.catalogue import kind_of
 from .model.jet import norms
 from .model.mechanism import Mechanism
 from .runs import Trace
@@ -93,21 +94,6 @@ def _temporary(path: Path, suffix: str = ".tmp") -> Path:
         except OSError as e:
             raise OutputError(f"{path}: cannot write in {path.parent}: {e.strerror or e}") from None
     raise OutputError(f"{path}: cannot find a free temporary name in {path.parent}")
-
-
-_FILE_KINDS = (
-    (stat.S_ISREG, "a regular file"),
-    (stat.S_ISDIR, "a folder"),
-    (stat.S_ISFIFO, "a FIFO (named pipe)"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
-
-
-def kind_of(mode: int) -> str:
-    """What a file of ``mode`` is, for a message: 'a FIFO (named pipe)', 'a folder', ..."""
-    return next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
 
 
 def read_json(path: Path | str) -> Any:

@@ -69,18 +69,23 @@ def what_is(p: Path) -> str | None:
         return "a symbolic link to nothing" if p.is_symlink() else None
     except OSError as e:  # a loop of links, a path through a file, no permission to look
         return f"a path that cannot be looked at ({e.strerror or e})"
-    if stat.S_ISREG(mode):
-        return None
-    for test, what in (
-        (stat.S_ISDIR, "a folder"),
-        (stat.S_ISFIFO, "a FIFO (named pipe)"),
-        (stat.S_ISCHR, "a character device"),
-        (stat.S_ISBLK, "a block device"),
-        (stat.S_ISSOCK, "a socket"),
-    ):
-        if test(mode):
-            return what
-    return "not a regular file"
+    return None if stat.S_ISREG(mode) else kind_of(mode)
+
+
+_FILE_KINDS = (
+    (stat.S_ISREG, "a regular file"),
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def kind_of(mode: int) -> str:
+    """What a file of ``mode`` (``os.stat``'s ``st_mode``) is, for a message: 'a FIFO (named
+    pipe)', 'a folder', ..."""
+    return next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
 
 
 def path_of(name_or_path: str | Path) -> Path:

@@ -43,7 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import OutputError
-from ..files import kind_of
+from ..model.catalogue import kind_of
 from ..notes import note
 from .lock import FolderLock, remove_stale
 from .markers import MARKER, command_name, read_marker, stage_marker, write_marker
