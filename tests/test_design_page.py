@@ -2,7 +2,8 @@
 browser's port of the closed-form kinematics against the Python reference on every shipped
 mechanism and on random variants, the page's contract (every dimension an input with its study
 path, every number an element with its metric's name and value), editing and dragging, an
-infeasible geometry shown as such, and the saved file accepted by ``check``."""
+infeasible geometry shown as such, and the saved file accepted by ``check``. Without Chromium
+the tests are skipped (conftest.chromium)."""
 
 from __future__ import annotations
 
@@ -10,9 +11,8 @@ import math
 
 import numpy as np
 import pytest
-from conftest import in_process
+from conftest import chromium, in_process
 from playwright.sync_api import sync_playwright
-from test_figures import _chromium
 
 from mjlink import reference, study, validation
 from mjlink.analysis import summary
@@ -24,9 +24,12 @@ pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def browser():
+def browser(tmp_path_factory):
+    exe = chromium()
     with sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=_chromium(), args=["--no-sandbox", "--disable-gpu"])
+        b = pw.chromium.launch(
+            executable_path=exe, args=["--no-sandbox", "--disable-gpu"], downloads_path=tmp_path_factory.mktemp("saved")
+        )
         yield b
         b.close()
 
