@@ -196,16 +196,24 @@
     return out;
   }
 
+  // A TOML basic string of `s`: a quote, a backslash and every control character TOML does not
+  // allow raw (U+0000..U+001F, U+007F; the tab too, to keep the line plain) escaped, so that the
+  // file reads back as the same text whatever it holds.
+  const ESCAPES = { '"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r" };
+  function str(s) {
+    return `"${s.replace(/["\\\u0000-\u001f\u007f]/g, (c) => ESCAPES[c] || `\\u${c.charCodeAt(0).toString(16).padStart(4, "0")}`)}"`;
+  }
+
   // A TOML document of `obj` (the mechanism file as read, edited): tables, arrays of tables,
   // strings, numbers, booleans and arrays, which is all a mechanism file holds.
   function toml(obj) {
     const lines = [];
     const table = (v) => v !== null && typeof v === "object" && !Array.isArray(v);
     const tables = (v) => Array.isArray(v) && v.length > 0 && v.every(table);
-    const key = (k) => (/^[A-Za-z0-9_-]+$/.test(k) ? k : JSON.stringify(k));
+    const key = (k) => (/^[A-Za-z0-9_-]+$/.test(k) ? k : str(k));
     const num = (v) => String(v); // an integral value is written as an integer: the reader takes both
     const val = (v) =>
-      typeof v === "string" ? JSON.stringify(v) : typeof v === "boolean" ? String(v) : typeof v === "number" ? num(v) : `[${v.map(val).join(", ")}]`;
+      typeof v === "string" ? str(v) : typeof v === "boolean" ? String(v) : typeof v === "number" ? num(v) : `[${v.map(val).join(", ")}]`;
     const emit = (prefix, t) => {
       const entries = Object.entries(t);
       for (const [k, v] of entries) if (!table(v) && !tables(v)) lines.push(`${key(k)} = ${val(v)}`);

@@ -12,7 +12,8 @@ file as read, its comments dropped) for ``check`` and ``simulate``.
 
 The computation in the browser is ``design.js``: a port of the reference's closed-form position
 analysis (:mod:`mjlink.model.blocks`), one function per block type, in the file's units; the
-page embeds it and the mechanism as JSON, and loads nothing from the network.
+page embeds it and the mechanism as JSON (:func:`script_json`: no text of the file can end the
+script element or change how the page parses), and loads nothing from the network.
 """
 
 from __future__ import annotations
@@ -56,6 +57,16 @@ def model(mech: Mechanism) -> dict[str, Any]:
         "thread": list(mech.thread) if mech.thread else None,
         "key": analysis.key_point(mech),
     }
+
+
+def script_json(data: Any) -> str:
+    """``data`` as JSON to sit inside a ``<script>`` element whatever its strings hold: every
+    ``<``, ``>`` and ``&`` written as a ``\\u`` escape, so that no text can end the element or
+    open a comment or a tag in it, and every other character beyond ASCII too (U+2028 and
+    U+2029 among them). ``JSON.parse`` of the element's text gives ``data`` back; a non-finite
+    number, which JSON cannot hold, raises ValueError."""
+    text = json.dumps(data, ensure_ascii=True, allow_nan=False)
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
 
 
 def _script() -> str:
@@ -118,7 +129,6 @@ def design_html(mech: Mechanism, text: str) -> str:
         if mech.thread
         else ""
     )
-    payload = json.dumps(data).replace("</", "<\\/")
     return "\n".join(
         [
             "<!DOCTYPE html>",
@@ -143,7 +153,7 @@ def design_html(mech: Mechanism, text: str) -> str:
             "<p><button id='save' type='button'>Save as TOML</button></p>",
             "<textarea id='toml' readonly placeholder='the saved file appears here too'></textarea>",
             "</div></div>",
-            f"<script type='application/json' id='mechanism-data'>{payload}</script>",
+            f"<script type='application/json' id='mechanism-data'>{script_json(data)}</script>",
             f"<script>{_script()}</script>",
             "</body></html>",
         ]
