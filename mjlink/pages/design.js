@@ -65,31 +65,54 @@
     return `${s.kind} ${s.point}`;
   }
 
-  // Every point at input crank angle phiDeg (deg), mm; `open`: the blocks that cannot close
-  // there, `dead`: those past their dead-point limit, `angles`: each such block's angle.
-  function solve(m, phiDeg) {
-    const P = {};
-    for (const k in m.ground) P[k] = m.ground[k].slice();
+  // `m`'s blocks on numbered points: every point name of a block replaced by the point's place
+  // in `names` (the ground's, then the blocks' in order), so that the loops over many input
+  // angles read arrays, and every block function sees one kind of argument.
+  function numbered(m) {
+    const names = [...Object.keys(m.ground), ...m.steps.map((s) => s.point)];
+    const index = (name) => names.indexOf(name);
+    const steps = m.steps.map((s) => {
+      const c = { ...s };
+      for (const f of ["pivot", "a", "b", "origin", "toward", "start", "point"]) if (typeof s[f] === "string") c[f] = index(s[f]);
+      if (s.guide) c.guide = s.guide.map(index);
+      return c;
+    });
+    return { names, index, steps, labels: m.steps.map(label), ground: Object.keys(m.ground).map((k) => m.ground[k]) };
+  }
+
+  // Every point at input crank angle phiDeg (deg), mm, by number (`c` = numbered(m)); `open`:
+  // the blocks that cannot close there, `dead`: those past their dead-point limit, `angles`:
+  // each such block's angle.
+  function solveAt(c, m, phiDeg) {
+    const P = c.ground.slice();
     const open = [], dead = [], angles = [];
-    for (const s of m.steps) {
+    for (let j = 0; j < c.steps.length; j++) {
+      const s = c.steps[j];
       const r = BLOCKS[s.kind](s, P, phiDeg * D, m.phi0 * D, m.limits);
       P[s.point] = r.at;
-      if (r.closes === false) open.push(label(s));
+      if (r.closes === false) open.push(c.labels[j]);
       if (r.angle) {
-        angles.push({ block: label(s), what: r.angle.what, value: r.angle.value });
-        if (r.angle.bad && r.closes !== false) dead.push(label(s));
+        angles.push({ block: c.labels[j], what: r.angle.what, value: r.angle.value });
+        if (r.angle.bad && r.closes !== false) dead.push(c.labels[j]);
       }
     }
     return { P, open, dead, angles };
   }
 
+  // solveAt with the points by name.
+  function solve(m, phiDeg) {
+    const c = numbered(m);
+    const r = solveAt(c, m, phiDeg);
+    return { ...r, P: Object.fromEntries(c.names.map((n, i) => [n, r.P[i]])) };
+  }
+
   // ---------------------------------------------------------------- the design's numbers
-  function samples(m, perTurn) {
+  function samples(m, perTurn, c) {
     const n = perTurn * m.turns;
     const out = [];
     for (let k = 0; k < n; k++) {
       const phi = m.phi0 + (360 * m.turns * k) / n;
-      out.push({ phi, ...solve(m, phi) });
+      out.push({ phi, ...solveAt(c, m, phi) });
     }
     return out;
   }
@@ -121,10 +144,10 @@
     return curv === 0 ? b : b - ((a - c) * (a - c)) / (8 * curv);
   }
 
-  function threadLength(m, P) {
+  function threadLength(thread, P) {
     let l = 0;
-    for (let i = 1; i < m.thread.length; i++) {
-      const a = P[m.thread[i - 1]], b = P[m.thread[i]];
+    for (let i = 1; i < thread.length; i++) {
+      const a = P[thread[i - 1]], b = P[thread[i]];
       l += Math.hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
     }
     return l;
@@ -132,14 +155,15 @@
 
   // The metrics a study names the same way (mjlink.analysis.metrics), from `perTurn` samples
   // per input turn; `closes` false (metrics empty) where a block does not close at a sample.
-  // Whether the design is feasible is `problems`' to say.
+  // Whether the design is feasible is `problems`' to say. The samples' points are by number.
   function metrics(m, perTurn) {
-    const S = samples(m, perTurn);
-    const lf = m.thread ? S.map((s) => threadLength(m, s.P)) : null;
+    const c = numbered(m);
+    const S = samples(m, perTurn, c);
+    const lf = m.thread ? S.map((s) => threadLength(m.thread.map(c.index), s.P)) : null;
     const out = { samples: S, closes: !S.some((s) => s.open.length), values: {}, thread: lf };
     if (!out.closes) return out;
-    const key = m.key;
-    const xs = [0, 1, 2].map((ax) => S.map((s) => s.P[key][ax]));
+    const key = m.key, k = c.index(key);
+    const xs = [0, 1, 2].map((ax) => S.map((s) => s.P[k][ax]));
     const spans = xs.map((v) => Math.max(...v) - Math.min(...v));
     const ax = spans.indexOf(Math.max(...spans));
     const v = out.values;
@@ -218,25 +242,17 @@
         }
       }
     const guides = m.links.filter((l) => l.guide).map((l) => ({ l, p: l.guide[0], q: l.guide[1], least: Infinity }));
-    // The same blocks on points numbered rather than named (a name's look-up dominated the
-    // loop over check's many angles): each block's point names replaced by numbers into `P`.
-    const names = [...Object.keys(m.ground), ...steps.map((s) => s.point)];
-    const index = (name) => names.indexOf(name);
-    const numbered = steps.map((s) => {
-      const c = { ...s };
-      for (const f of ["pivot", "a", "b", "origin", "toward", "start", "point"]) if (typeof s[f] === "string") c[f] = index(s[f]);
-      if (s.guide) c.guide = s.guide.map(index);
-      return c;
-    });
-    const gaps = [...pairs, ...guides].map((d) => ({ d, p: index(d.p), q: index(d.q) }));
-    const P = Object.keys(m.ground).map((k) => m.ground[k]);
+    const c = numbered(m);
+    const gaps = [...pairs, ...guides].map((d) => ({ d, p: c.index(d.p), q: c.index(d.q) }));
+    const P = c.ground.slice();
     let first = null;
     for (let i = 0; i < n; i++) {
       const phi = m.phi0 + (span * i) / (n - 1);
       phis[i] = phi;
       for (let j = 0; j < steps.length; j++) {
-        const r = BLOCKS[steps[j].kind](numbered[j], P, phi * D, m.phi0 * D, L);
-        P[numbered[j].point] = r.at;
+        const s = c.steps[j];
+        const r = BLOCKS[s.kind](s, P, phi * D, m.phi0 * D, L);
+        P[s.point] = r.at;
         if (r.closes === false) (open[j] || (open[j] = new Uint8Array(n)))[i] = 1;
         else if (r.angle && r.angle.bad) (dead[j] || (dead[j] = new Uint8Array(n)))[i] = 1;
         if (undef[j] === null && !(Number.isFinite(r.at[0]) && Number.isFinite(r.at[1]) && Number.isFinite(r.at[2]))) undef[j] = phi;
@@ -251,13 +267,13 @@
           g.d.at = phi;
         }
       }
-      if (i === 0) first = Object.fromEntries(names.map((k, x) => [k, P[x]]));
+      if (i === 0) first = Object.fromEntries(c.names.map((k, x) => [k, P[x]]));
     }
     const wrap = (phi) => {
       const v = ((phi % span) + span) % span;
       return Math.abs(v - span) < 1e-9 ? 0 : v;
     };
-    const opened = steps.map((s, j) => open[j] && `${label(s)} cannot close for input angles ${ranges(phis, open[j])} deg`).filter(Boolean);
+    const opened = steps.map((s, j) => open[j] && `${c.labels[j]} cannot close for input angles ${ranges(phis, open[j])} deg`).filter(Boolean);
     if (opened.length) return opened;
     const pair = pairs.find((d) => !(d.least >= L.direction_min));
     if (pair)
@@ -283,7 +299,7 @@
     })();
     if (near) out.push(near);
     steps.forEach((s, k) => {
-      if (dead[k]) out.push(`${label(s)} passes its dead-point limit for input angles ${ranges(phis, dead[k])} deg`);
+      if (dead[k]) out.push(`${c.labels[k]} passes its dead-point limit for input angles ${ranges(phis, dead[k])} deg`);
     });
     return out;
   }
@@ -369,6 +385,7 @@
     const angle = document.getElementById("angle");
     const status = document.getElementById("status");
     const feed = document.getElementById("feed");
+    const names = numbered(m); // the points' numbers in the samples: edits change no name
     let result = null;
 
     // The view box is the nominal design's extent, fixed: a dragged pivot moves on a still page.
@@ -392,7 +409,8 @@
         return;
       }
       for (const p of M.moving) {
-        const pts = S.map((s) => `${s.P[p][0]},${s.P[p][1]}`).join(" ");
+        const i = names.index(p);
+        const pts = S.map((s) => `${s.P[i][0]},${s.P[i][1]}`).join(" ");
         svg("polygon", { points: pts, fill: "none", stroke: p === m.key ? "#c2185b" : "#9e9e9e", "stroke-width": (p === m.key ? 0.5 : 0.25) * scale }, layer);
       }
       const now = solve(m, Number(angle.value));
