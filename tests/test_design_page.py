@@ -217,7 +217,9 @@ _JUDGE = """(variants) => {
 # Edits `check` refuses, one of each kind of problem the page can make (mechanisms/README.md,
 # Limits and Dead points): a length not positive or below 0.1 mm, a number beyond its largest
 # magnitude (1000 mm, 720 deg), a dyad or slider that cannot close, a dead point, guide points
-# meeting, two points of a link closer than 0.001 mm; and edits at the limits it accepts (a
+# meeting, the plunger's point crossing the guide point it is attached toward (the direction
+# undefined there, then the plunger turning on its guide), two points of a link closer than
+# 0.001 mm; and edits at the limits it accepts (a
 # coordinate of 1000 mm, an angle of 720 deg, an attached point on its origin, two frame pivots
 # on one axis).
 EDGES = {
@@ -255,7 +257,13 @@ EDGES = {
         {"construct.P7.length": 0.0008},
         {"ground.N1.z": -1000.0},
     ],
-    "warp_knitting": [{"construct.P8.length": -5.0}, {"construct.P8.phase": 720.1}, {"construct.P6.length": 0.0}],
+    "warp_knitting": [
+        {"construct.P8.length": -5.0},
+        {"construct.P8.phase": 720.1},
+        {"construct.P6.length": 0.0},
+        {"construct.P9.length": 180.0},
+        {"construct.P9.length": 190.0},
+    ],
     "lockstitch_head": [
         {"construct.P2.length": 0.0004},
         {"construct.HP.phase": 800.0},

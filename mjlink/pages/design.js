@@ -221,8 +221,8 @@
   // each ([] where it passes): a number the file's reader refuses (check reads no further);
   // then, at check's own input angles (`per_turn` a turn over the period, both ends included),
   // a block that cannot close (nothing further), two points that define a direction or a guide
-  // meeting, or a point left undefined (nothing further); two points of one link almost
-  // coinciding at phi0; a block past its dead-point limit.
+  // meeting, or a point left undefined (nothing further); a link that is not rigid; two points
+  // of one link almost coinciding at phi0; a block past its dead-point limit.
   function problems(m) {
     const L = m.limits;
     const out = refused(m);
@@ -244,12 +244,30 @@
     const guides = m.links.filter((l) => l.guide).map((l) => ({ l, p: l.guide[0], q: l.guide[1], least: Infinity }));
     const c = numbered(m);
     const gaps = [...pairs, ...guides].map((d) => ({ d, p: c.index(d.p), q: c.index(d.q) }));
+    // The links held rigid at every `stride`-th angle, as check_rigidity (mjlink.reference) does
+    // with check's angles: each pair of a link's points keeps its distance, and a sliding link
+    // its angle to its guide.
+    const stride = Math.max(1, Math.floor(n / 361));
+    const rigid = m.links.map((l) => {
+      const at = l.points.map(c.index);
+      const pairs = [];
+      for (let a = 0; a < at.length; a++) for (let b = a + 1; b < at.length; b++) pairs.push({ a, b, lo: Infinity, hi: -Infinity });
+      return { l, at, pairs, guide: l.guide && l.points.length >= 2 ? l.guide.map(c.index) : null, start: 0, turn: 0 };
+    });
+    const slope = (P, p, q) => Math.atan2(P[q][1] - P[p][1], P[q][0] - P[p][0]);
+    // A crank or attached point no block is built from and no direction or guide is drawn from
+    // can neither fail to close nor pass a dead point, and is defined wherever the points it is
+    // built from are and apart: it is solved only where the links are held rigid.
+    const used = new Set([...gaps.flatMap((g) => [g.p, g.q]), ...c.steps.flatMap((s) => [s.pivot, s.a, s.b, s.origin, s.toward, s.start, ...(s.guide || [])])]);
+    const every = c.steps.map((s) => s.kind === "dyad" || s.kind === "slider" || used.has(s.point));
     const P = c.ground.slice();
     let first = null;
     for (let i = 0; i < n; i++) {
       const phi = m.phi0 + (span * i) / (n - 1);
+      const held = i % stride === 0;
       phis[i] = phi;
       for (let j = 0; j < steps.length; j++) {
+        if (!held && !every[j]) continue;
         const s = c.steps[j];
         const r = BLOCKS[s.kind](s, P, phi * D, m.phi0 * D, L);
         P[s.point] = r.at;
@@ -268,6 +286,22 @@
         }
       }
       if (i === 0) first = Object.fromEntries(c.names.map((k, x) => [k, P[x]]));
+      if (held)
+        for (const r of rigid) {
+          for (const d of r.pairs) {
+            const u = P[r.at[d.a]], w = P[r.at[d.b]];
+            const dx = u[0] - w[0], dy = u[1] - w[1], dz = u[2] - w[2];
+            const gap = Math.sqrt(dx * dx + dy * dy + dz * dz);
+            if (gap < d.lo) d.lo = gap;
+            if (gap > d.hi) d.hi = gap;
+          }
+          if (r.guide) {
+            const rel = slope(P, r.at[0], r.at[1]) - slope(P, r.guide[0], r.guide[1]);
+            if (i === 0) r.start = rel;
+            const turn = Math.abs(Math.atan2(Math.sin(rel - r.start), Math.cos(rel - r.start)));
+            if (turn > r.turn) r.turn = turn;
+          }
+        }
     }
     const wrap = (phi) => {
       const v = ((phi % span) + span) % span;
@@ -286,6 +320,20 @@
       return [`[links.${guide.l.name}] guide: points ${guide.p} and ${guide.q} coincide (within ${L.direction_min} mm), so the guide has no direction`];
     const j = undef.findIndex((phi) => phi !== null);
     if (j >= 0) return [`[[construct]] ${steps[j].point}: the point is undefined at input angle ${wrap(undef[j]).toFixed(1)} deg`];
+    for (const r of rigid) {
+      const d = r.pairs.find((d) => d.hi - d.lo > 1e-9 * Math.max(d.hi, 1)); // mm: check_rigidity's rtol
+      if (d) {
+        out.push(
+          `[links.${r.l.name}]: points ${r.l.points[d.a]} and ${r.l.points[d.b]} do not stay at a fixed distance ` +
+            `(${d.lo.toFixed(4)}..${d.hi.toFixed(4)} mm): they are not on one rigid link`,
+        );
+        break;
+      }
+      if (r.turn > 1e-9) {
+        out.push(`[links.${r.l.name}]: slides on ${r.l.guide[0]}-${r.l.guide[1]} but turns relative to that guide`);
+        break;
+      }
+    }
     const near = (() => {
       for (const l of m.links)
         for (let a = 0; a < l.points.length; a++)
