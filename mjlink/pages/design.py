@@ -8,9 +8,10 @@ extremes, the thread feed per turn and the worst transmission and pressure angle
 (``data-metric="<study metric>"``, in the metric's unit) follow. A design ``check`` would refuse
 is said to be infeasible with the reason: a number the file's reader refuses (a length not
 positive, a coordinate beyond the limits), a block that does not close, two points that define a
-direction or a guide meeting, two points of a link almost coinciding, a dead point, judged at
-``check``'s own input angles; one that does not close is not drawn. "Save as TOML" writes the
-edited file (the original file as read, its comments dropped) for ``check`` and ``simulate``.
+direction or a guide meeting, a link that is not rigid, two points of a link almost coinciding, a
+dead point, judged at ``check``'s own input angles; one that does not close is not drawn. "Save
+as TOML" writes the edited file (the original file as read, its comments dropped) for ``check``
+and ``simulate``; ``check`` passes it whenever the page calls the design feasible.
 
 The computation in the browser is ``design.js``: a port of the reference's closed-form position
 analysis (:mod:`mjlink.model.blocks`), one function per block type, in the file's units; the
