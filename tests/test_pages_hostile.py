@@ -94,12 +94,12 @@ def tab(tmp_path_factory):
         b.close()
 
 
-def _open(tab, html, path, ready):
-    """``html`` written to ``path`` and opened in ``tab`` until ``ready`` (a selector) holds."""
+def _open(tab, html, ready):
+    """``html`` parsed and run in ``tab`` (as the browser reads a file: the pages use nothing
+    beside them here) until ``ready`` (a selector) holds."""
     page, errors = tab
     errors.clear()
-    path.write_text(html, encoding="utf-8")
-    page.goto(path.as_uri())
+    page.set_content(html)
     page.wait_for_selector(ready, timeout=20000)
     return page, errors
 
@@ -116,7 +116,7 @@ def _design_page_runs(tab, mech, text, tmp_path) -> str:
     """design.html of ``mech`` (read from ``text``) opened: its script ran to the end (the
     drawing, every number, the status), the title shows as written, nothing was injected;
     returns what "Save as TOML" wrote, which reads back as ``text``'s data."""
-    page, errors = _open(tab, design_page.design_html(mech, text), tmp_path / "design.html", "body[data-ready=true]")
+    page, errors = _open(tab, design_page.design_html(mech, text), "body[data-ready=true]")
     _nothing_injected(page, scripts=2)
     assert page.text_content("p.sub").startswith(f"{mech.title}. Drag")
     assert page.eval_on_selector_all("#drawing line", "els => els.length") > 0
@@ -199,9 +199,7 @@ def test_a_title_and_source_of_hostile_text_are_shown_as_written(tab, takeup_sum
         design=takeup_summary,
         timing=None,
     )
-    page, errors = _open(
-        tab, index_page.index_html(result, ["design.html"]), tmp_path / "index.html", "body[data-images='0/0']"
-    )
+    page, errors = _open(tab, index_page.index_html(result, ["design.html"]), "body[data-images='0/0']")
     _nothing_injected(page, scripts=1)
     assert page.text_content("h1") == mech.name
     assert page.text_content("h1 + p.sub") == s
