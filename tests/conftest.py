@@ -2,6 +2,7 @@ import contextlib
 import gc
 import io
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -90,3 +91,17 @@ def in_process(*args: str, cwd: Path | None = None) -> "subprocess.CompletedProc
     finally:
         os.chdir(here)
     return subprocess.CompletedProcess(["mjlink", *args], status, out.getvalue(), err.getvalue())
+
+
+def chromium() -> str:
+    """The Chromium the browser tests drive: Debian's package (``chromium``, or another
+    distribution's ``chromium-browser``) on the PATH. The tests install nothing: without it a
+    browser test is skipped, saying how to get it, or fails where the environment asks for the
+    browser tests (``MJLINK_REQUIRE_BROWSER=1``, which .ci/run sets once it has installed it)."""
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is not None:
+        return exe
+    why = "no Chromium on the PATH: apt-get install chromium (Debian) to run the browser tests"
+    if os.environ.get("MJLINK_REQUIRE_BROWSER") == "1":
+        pytest.fail(f"{why} (MJLINK_REQUIRE_BROWSER=1 asks for them)", pytrace=False)
+    pytest.skip(why)

@@ -1,8 +1,10 @@
 """Drag-to-design (design.html) driven in a real headless Chromium through Playwright: the
 browser's port of the closed-form kinematics against the Python reference on every shipped
 mechanism and on random variants, the page's contract (every dimension an input with its study
-path, every number an element with its metric's name and value), editing and dragging, an
-infeasible geometry shown as such, and the saved file accepted by ``check``."""
+path, every number an element with its metric's name and value), editing and dragging, the
+page's verdict on a design as ``check``'s (the reader's rules on every number, the geometry on
+random and edge variants), and the saved file accepted by ``check``. Without Chromium the tests
+are skipped (conftest.chromium)."""
 
 from __future__ import annotations
 
@@ -10,13 +12,13 @@ import math
 
 import numpy as np
 import pytest
-from conftest import in_process
+from conftest import chromium, in_process
 from playwright.sync_api import sync_playwright
-from test_figures import _chromium
 
 from mjlink import reference, study, validation
 from mjlink.analysis import summary
-from mjlink.model import catalogue, mechanism
+from mjlink.errors import MechanismFileError
+from mjlink.model import catalogue, mechanism, paths
 from mjlink.pages import design as design_page
 
 NAMES = ["takeup", "crank_slider", "takeup_eyelets", "warp_knitting", "lockstitch_head"]
@@ -24,9 +26,12 @@ pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def browser():
+def browser(tmp_path_factory):
+    exe = chromium()
     with sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=_chromium(), args=["--no-sandbox", "--disable-gpu"])
+        b = pw.chromium.launch(
+            executable_path=exe, args=["--no-sandbox", "--disable-gpu"], downloads_path=tmp_path_factory.mktemp("saved")
+        )
         yield b
         b.close()
 
@@ -196,3 +201,158 @@ def test_the_saved_file_is_accepted_by_check_with_the_edits(browser, tmp_path):
             paths.resolve(original, p).nominal, rel=1e-12, abs=1e-12
         )
     assert edited.timing is not None and edited.balance is not None  # the rest of the file kept
+
+
+# A design edited in the page (each variant: study path -> value, file units): the page's
+# verdict (`problems`, [] where it passes) and the file "Save as TOML" writes for it.
+_JUDGE = """(variants) => {
+  const M = JSON.parse(document.getElementById('mechanism-data').textContent);
+  return variants.map((edits) => {
+    const m = JSON.parse(JSON.stringify(M.model));
+    for (const [p, v] of Object.entries(edits)) mjlinkDesign.set(m, p, v);
+    return [mjlinkDesign.problems(m), mjlinkDesign.toml(mjlinkDesign.edited(M.raw, edits))];
+  });
+}"""
+
+# Edits `check` refuses, one of each kind of problem the page can make (mechanisms/README.md,
+# Limits and Dead points): a length not positive or below 0.1 mm, a number beyond its largest
+# magnitude (1000 mm, 720 deg), a dyad or slider that cannot close, a dead point, guide points
+# meeting, the plunger's point crossing the guide point it is attached toward (the direction
+# undefined there, then the plunger turning on its guide), two points of a link closer than
+# 0.001 mm; and edits at the limits it accepts (a
+# coordinate of 1000 mm, an angle of 720 deg, an attached point on its origin, two frame pivots
+# on one axis).
+EDGES = {
+    "takeup": [
+        {"construct.P2.length": -30.0},
+        {"construct.P2.length": 0.0},
+        {"construct.P2.length": 0.05},
+        {"construct.P3.length_b": 1e-9},
+        {"construct.P3.length_a": 1001.0},
+        {"construct.P5.length": -1.0},
+        {"construct.P5.length": 0.0005},
+        {"construct.P5.angle": 721.0},
+        {"ground.P4.x": 1000.5},
+        {"input.phi0": -720.5},
+        {"construct.P3.length_a": 5.0},
+        {"construct.P2.length": 30.4},
+        {"construct.P5.length": 0.0},
+        {"ground.N1.x": 1000.0},
+        {"ground.N1.y": -1000.0},
+        {"input.phi0": 720.0},
+        {"ground.P4.x": 0.0, "ground.P4.y": 0.0},
+    ],
+    "crank_slider": [
+        {"construct.C.length": -62.0},
+        {"construct.B.length": 0.0},
+        {"construct.B.length": 40.0},
+        {"construct.C.length": 25.0},
+        {"ground.G2.x": 0.0, "ground.G2.y": -15.0},
+        {"ground.G2.x": 0.0005, "ground.G2.y": -15.0},
+        {"ground.G2.x": 0.002, "ground.G2.y": -15.0},
+    ],
+    "takeup_eyelets": [
+        {"construct.P6.z": 1000.5},
+        {"construct.P7.length": 0.0008, "construct.P7.z": 0.0},
+        {"construct.P7.length": 0.0008},
+        {"ground.N1.z": -1000.0},
+    ],
+    "warp_knitting": [
+        {"construct.P8.length": -5.0},
+        {"construct.P8.phase": 720.1},
+        {"construct.P6.length": 0.0},
+        {"construct.P9.length": 180.0},
+        {"construct.P9.length": 190.0},
+    ],
+    "lockstitch_head": [
+        {"construct.P2.length": 0.0004},
+        {"construct.HP.phase": 800.0},
+        {"construct.B.phase": -720.0},
+        {"ground.GN2.x": 0.0, "ground.GN2.y": -30.0},
+        {"construct.NT.length": 0.0009},
+        {"construct.NT.length": 0.0},
+    ],
+}
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_page_refuses_a_design_exactly_where_check_does(pristine, name, tmp_path):
+    """The page's verdict on edge variants (EDGES) and on random ones (three dimensions moved by
+    up to 10 % or 3 mm / 3 deg) is ``check``'s on the file the page saves for them: refused
+    with a reason where check refuses it, feasible where check passes it."""
+    page, errors = pristine(name)
+    mech = mechanism.load(catalogue.path_of(name))
+    dims = summary.dimensions(mech)
+    rng = np.random.default_rng(11)
+    drawn = []
+    for _ in range(6):
+        picked = rng.choice(len(dims), size=3, replace=False)
+        drawn.append({dims[j][0]: dims[j][1] + rng.uniform(-1, 1) * max(0.1 * abs(dims[j][1]), 3.0) for j in picked})
+    variants = [{}, *EDGES[name], *drawn]
+    verdicts = {}
+    for edits, (problems, text) in zip(variants, page.evaluate(_JUDGE, variants), strict=True):
+        try:
+            report = validation.check(mechanism.parse(text, tmp_path / f"{name}.toml"))
+            ok, why = report.ok, report.problems
+        except MechanismFileError as e:  # the reader refuses it: check reads no further
+            ok, why = False, str(e)
+        assert (problems == []) == ok, (edits, problems, why)
+        assert all(p.strip() for p in problems)
+        verdicts[ok] = verdicts.get(ok, 0) + 1
+    assert verdicts.get(True, 0) >= 2 and verdicts.get(False, 0) >= 2, verdicts  # both sides tried
+    assert errors == []
+
+
+# Values tried on one number of each rule: beyond and at the documented limits (0.1 mm, 1000 mm,
+# 720 deg), zero and negative (mechanisms/README.md, Limits).
+PROBES = [-1e4, -1000.5, -1000.0, -720.5, -720.0, -30.0, -0.05, 0.0, 0.05, 0.1, 30.0, 720.0, 720.5, 1000.0, 1000.5]
+
+
+def test_every_rule_the_page_holds_a_number_to_is_the_readers(pristine):
+    """Every kind of number the page edits (a ground coordinate, the input's phi0, each block
+    type's numbers), at every probe: the page refuses the value exactly where the mechanism
+    file's reader refuses it (written into the file, read again)."""
+    page, errors = pristine("lockstitch_head")
+    tried = set()
+    for name in NAMES:
+        mech = mechanism.load(catalogue.path_of(name))
+        kinds = {s.point: s.kind for s in mech.steps}
+        cases = []
+        for p, _, _ in summary.dimensions(mech):
+            section, point, key = [*p.split("."), ""][:3]
+            kind = (section, kinds.get(point, ""), key if section == "construct" else "")
+            if kind in tried:
+                continue
+            tried.add(kind)
+            cases += [(p, v) for v in PROBES]
+        model = design_page.model(mech)
+        refused = page.evaluate(
+            """([m, cases]) => cases.map(([p, v]) => {
+                 const c = JSON.parse(JSON.stringify(m)); mjlinkDesign.set(c, p, v); return mjlinkDesign.refused(c);
+               })""",
+            [model, cases],
+        )
+        for (p, v), lines in zip(cases, refused, strict=True):
+            try:
+                paths.check_values(mech, {paths.resolve(mech, p): v})
+                reader = True
+            except MechanismFileError:
+                reader = False
+            assert (lines == []) == reader, (name, p, v, lines)
+    assert {("construct", "crank", "phase"), ("construct", "attached", "z"), ("construct", "slider", "length")} <= tried
+    assert errors == []
+
+
+def test_a_number_check_refuses_is_infeasible_on_the_page(browser, tmp_path):
+    """A negative crank length assembles in the formulas, but the file's reader refuses it:
+    the page says so, shows no numbers, and says feasible again once the length is back."""
+    page, errors = _open(browser, "takeup", tmp_path)
+    page.fill("input[data-param='construct.P2.length']", "-30")
+    page.wait_for_function("document.getElementById('status').className === 'bad'")
+    assert page.inner_text("#status") == "infeasible: construct.P2.length must be > 0, got -30 mm"
+    assert page.get_attribute("[data-metric='stroke_P5']", "data-feasible") == "false"
+    assert page.inner_text("[data-metric='stroke_P5']") == "–"
+    page.fill("input[data-param='construct.P2.length']", "30")
+    page.wait_for_function("document.getElementById('status').className === 'ok'")
+    assert "assembles over the whole cycle" in page.inner_text("#status")
+    assert errors == []

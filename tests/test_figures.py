@@ -1,22 +1,22 @@
 """What the figures show, read from the figures themselves (axes, labels, texts), on every
 shipped mechanism: residual panels with units and thresholds, no colliding labels, the
 loads' statistics and energy curve, the direction of rotation; and the run's HTML page
-opened in a real headless Chromium (Debian's package), every image and the video loaded."""
+opened in a real headless Chromium (Debian's package, skipped without it: conftest.chromium),
+every image and the video loaded."""
 
 from __future__ import annotations
 
 import contextlib
 import io
 import json
-import os
 import re
-import shutil
 import subprocess
 
 import matplotlib
 import mujoco
 import numpy as np
 import pytest
+from conftest import chromium
 from test_plots import KNOWN, _check_png, _expected
 
 from mjlink import files
@@ -192,25 +192,14 @@ def _boxes(fig) -> list:
     return out
 
 
-def _chromium() -> str:
-    """Debian's Chromium, installed by this test on a fresh machine where it may (as root)."""
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None and shutil.which("apt-get") and os.geteuid() == 0:
-        env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-        subprocess.run(["apt-get", "update", "-q"], capture_output=True, env=env, timeout=900)
-        subprocess.run(["apt-get", "install", "-y", "-q", "chromium"], capture_output=True, env=env, timeout=1800)
-        exe = shutil.which("chromium")
-    assert exe, "the page test needs Chromium: apt-get install chromium (Debian's package)"
-    return exe
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("run_figures", ["takeup"], indirect=True)
 def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figures, tmp_path):
     """The command as a user types it (video included, --strict; the take-up's one full run):
     every file, the agreement within the thresholds, the CSV columns and the MJCF; then its
-    page opened in a real headless Chromium. (The same command in a fresh process, from the
-    wheel and from the README, is run by .ci/run; test_cli runs simulate in fresh processes.)"""
+    page opened in a real headless Chromium (conftest.chromium: the test is skipped there
+    without one). (The same command in a fresh process, from the wheel and from the README,
+    is run by .ci/run; test_cli runs simulate in fresh processes.)"""
     _, _, out, _, status, stdout = run_figures
     assert status == 0
     for f in (
@@ -259,6 +248,7 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
         assert f"src='{p}'" in text, p
     assert "✓ pass" in text
     assert (out / "design.html").is_file() and "href='design.html'" in text  # drag-to-design, linked
+    exe = chromium()  # the page in a browser: skipped (or failed, if asked for) without one
     flags = [
         "--headless",
         "--no-sandbox",
@@ -276,7 +266,7 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
     shot = tmp_path / "page.png"
     dom = subprocess.run(
         [
-            _chromium(),
+            exe,
             *flags,
             f"--user-data-dir={tmp_path / 'profile'}",
             "--window-size=1280,1600",

@@ -5,17 +5,17 @@
 "use strict";
 (function () {
   const D = Math.PI / 180;
-  const TRANSMISSION_MIN = 20; // deg: a dyad's dead-point limit, as `check`
-  const PRESSURE_MAX = 60; // deg: a slider's
 
   // ------------------------------------------------------------------ the kinematics port
+  // Each block from the points before it; `L` the model's limits (`check`'s dead-point limits:
+  // a dyad's least transmission angle, a slider's largest pressure angle, deg).
   const BLOCKS = {
     crank(s, P, phi, phi0) {
       const a = (phi - phi0) * s.ratio + (s.phase === null ? phi0 : s.phase * D);
       const p = P[s.pivot];
       return { at: [p[0] + s.length * Math.cos(a), p[1] + s.length * Math.sin(a), p[2]] };
     },
-    dyad(s, P) {
+    dyad(s, P, phi, phi0, L) {
       const a = P[s.a], b = P[s.b];
       const dx = a[0] - b[0], dy = a[1] - b[1];
       const dist = Math.sqrt(dx * dx + dy * dy);
@@ -28,7 +28,7 @@
       return {
         at: [b[0] + (ux * w - uy * sn), b[1] + (ux * sn + uy * w), b[2]],
         closes: Math.abs(cu) <= 1,
-        angle: { what: "transmission angle", value: Math.min(mu, 180 - mu), bad: Math.min(mu, 180 - mu) < TRANSMISSION_MIN },
+        angle: { what: "transmission angle", value: Math.min(mu, 180 - mu), bad: Math.min(mu, 180 - mu) < L.transmission_min },
       };
     },
     attached(s, P) {
@@ -39,7 +39,7 @@
       const c = s.length * Math.cos(s.angle * D), sn = s.length * Math.sin(s.angle * D);
       return { at: [o[0] + (ux * c - uy * sn), o[1] + (ux * sn + uy * c), s.z === null ? o[2] : s.z] };
     },
-    slider(s, P) {
+    slider(s, P, phi, phi0, L) {
       const st = P[s.start], n1 = P[s.guide[0]], n2 = P[s.guide[1]];
       const gx = n2[0] - n1[0], gy = n2[1] - n1[1];
       const gn = Math.sqrt(gx * gx + gy * gy);
@@ -54,7 +54,7 @@
       return {
         at: [fx + ux * sg, fy + uy * sg, n1[2]],
         closes: h2 >= 0,
-        angle: { what: "pressure angle", value: pressure, bad: pressure > PRESSURE_MAX },
+        angle: { what: "pressure angle", value: pressure, bad: pressure > L.pressure_max },
       };
     },
   };
@@ -65,47 +65,71 @@
     return `${s.kind} ${s.point}`;
   }
 
-  // Every point at input crank angle phiDeg (deg), mm; `open`: the blocks that cannot close
-  // there, `dead`: those past their dead-point limit, `angles`: each such block's angle.
-  function solve(m, phiDeg) {
-    const P = {};
-    for (const k in m.ground) P[k] = m.ground[k].slice();
+  // `m`'s blocks on numbered points: every point name of a block replaced by the point's place
+  // in `names` (the ground's, then the blocks' in order), so that the loops over many input
+  // angles read arrays, and every block function sees one kind of argument.
+  function numbered(m) {
+    const names = [...Object.keys(m.ground), ...m.steps.map((s) => s.point)];
+    const index = (name) => names.indexOf(name);
+    const steps = m.steps.map((s) => {
+      const c = { ...s };
+      for (const f of ["pivot", "a", "b", "origin", "toward", "start", "point"]) if (typeof s[f] === "string") c[f] = index(s[f]);
+      if (s.guide) c.guide = s.guide.map(index);
+      return c;
+    });
+    return { names, index, steps, labels: m.steps.map(label), ground: Object.keys(m.ground).map((k) => m.ground[k]) };
+  }
+
+  // Every point at input crank angle phiDeg (deg), mm, by number (`c` = numbered(m)); `open`:
+  // the blocks that cannot close there, `dead`: those past their dead-point limit, `angles`:
+  // each such block's angle.
+  function solveAt(c, m, phiDeg) {
+    const P = c.ground.slice();
     const open = [], dead = [], angles = [];
-    for (const s of m.steps) {
-      const r = BLOCKS[s.kind](s, P, phiDeg * D, m.phi0 * D);
+    for (let j = 0; j < c.steps.length; j++) {
+      const s = c.steps[j];
+      const r = BLOCKS[s.kind](s, P, phiDeg * D, m.phi0 * D, m.limits);
       P[s.point] = r.at;
-      if (r.closes === false) open.push(label(s));
+      if (r.closes === false) open.push(c.labels[j]);
       if (r.angle) {
-        angles.push({ block: label(s), what: r.angle.what, value: r.angle.value });
-        if (r.angle.bad && r.closes !== false) dead.push(label(s));
+        angles.push({ block: c.labels[j], what: r.angle.what, value: r.angle.value });
+        if (r.angle.bad && r.closes !== false) dead.push(c.labels[j]);
       }
     }
     return { P, open, dead, angles };
   }
 
+  // solveAt with the points by name.
+  function solve(m, phiDeg) {
+    const c = numbered(m);
+    const r = solveAt(c, m, phiDeg);
+    return { ...r, P: Object.fromEntries(c.names.map((n, i) => [n, r.P[i]])) };
+  }
+
   // ---------------------------------------------------------------- the design's numbers
-  function samples(m, perTurn) {
+  function samples(m, perTurn, c) {
     const n = perTurn * m.turns;
     const out = [];
     for (let k = 0; k < n; k++) {
       const phi = m.phi0 + (360 * m.turns * k) / n;
-      out.push({ phi, ...solve(m, phi) });
+      out.push({ phi, ...solveAt(c, m, phi) });
     }
     return out;
   }
 
-  function ranges(phis, flags, step) {
+  // The input-angle ranges (deg) where `flags` holds, from the first sample to the last of each,
+  // as `check` writes them (mjlink.reference.angle_ranges).
+  function ranges(phis, flags) {
     const out = [];
-    let start = null;
-    for (let i = 0; i <= phis.length; i++) {
-      if (i < phis.length && flags[i]) {
-        if (start === null) start = phis[i];
-      } else if (start !== null) {
-        out.push(`${start.toFixed(1)}..${(phis[i - 1] + step).toFixed(1)}`);
-        start = null;
+    let start = -1;
+    for (let i = 0; i < flags.length; i++) {
+      if (flags[i] && start < 0) start = i;
+      if ((!flags[i] || i === flags.length - 1) && start >= 0) {
+        out.push(`${phis[start].toFixed(1)}..${phis[flags[i] ? i : i - 1].toFixed(1)}`);
+        start = -1;
       }
     }
-    return out.join(", ");
+    return out.slice(0, 6).join(", ") + (out.length > 6 ? " ..." : "");
   }
 
   // The extreme (sense 1: highest, -1: lowest) of a periodic sampled curve, refined by the
@@ -120,41 +144,26 @@
     return curv === 0 ? b : b - ((a - c) * (a - c)) / (8 * curv);
   }
 
-  function threadLength(m, P) {
+  function threadLength(thread, P) {
     let l = 0;
-    for (let i = 1; i < m.thread.length; i++) {
-      const a = P[m.thread[i - 1]], b = P[m.thread[i]];
+    for (let i = 1; i < thread.length; i++) {
+      const a = P[thread[i - 1]], b = P[thread[i]];
       l += Math.hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
     }
     return l;
   }
 
   // The metrics a study names the same way (mjlink.analysis.metrics), from `perTurn` samples
-  // per input turn; `feasible` false (metrics empty) where the design does not assemble over
-  // the whole cycle or passes a dead point, with `why` naming the block and angles.
+  // per input turn; `closes` false (metrics empty) where a block does not close at a sample.
+  // Whether the design is feasible is `problems`' to say. The samples' points are by number.
   function metrics(m, perTurn) {
-    const S = samples(m, perTurn);
-    const phis = S.map((s) => s.phi);
-    const step = (360 * m.turns) / S.length;
-    const openBlocks = [...new Set(S.flatMap((s) => s.open))];
-    const deadBlocks = [...new Set(S.flatMap((s) => s.dead))];
-    const lf = m.thread ? S.map((s) => threadLength(m, s.P)) : null;
-    const out = { samples: S, feasible: true, why: "", values: {}, thread: lf };
-    if (openBlocks.length) {
-      out.feasible = false;
-      out.why = openBlocks
-        .map((b) => `${b} cannot close for input angles ${ranges(phis, S.map((s) => s.open.includes(b)), step)} deg`)
-        .join("; ");
-      return out;
-    }
-    if (deadBlocks.length) {
-      out.feasible = false;
-      out.why = deadBlocks
-        .map((b) => `${b} passes its dead-point limit for input angles ${ranges(phis, S.map((s) => s.dead.includes(b)), step)} deg`)
-        .join("; ");
-    }
-    const key = m.key;
-    const xs = [0, 1, 2].map((ax) => S.map((s) => s.P[key][ax]));
+    const c = numbered(m);
+    const S = samples(m, perTurn, c);
+    const lf = m.thread ? S.map((s) => threadLength(m.thread.map(c.index), s.P)) : null;
+    const out = { samples: S, closes: !S.some((s) => s.open.length), values: {}, thread: lf };
+    if (!out.closes) return out;
+    const key = m.key, k = c.index(key);
+    const xs = [0, 1, 2].map((ax) => S.map((s) => s.P[k][ax]));
     const spans = xs.map((v) => Math.max(...v) - Math.min(...v));
     const ax = spans.indexOf(Math.max(...spans));
     const v = out.values;
@@ -171,6 +180,175 @@
     if (tr.length) v.transmission_min = Math.min(...tr);
     const pr = S.flatMap((s) => s.angles.filter((a) => a.what === "pressure angle").map((a) => a.value));
     if (pr.length) v.pressure_max = Math.max(...pr);
+    return out;
+  }
+
+  // ---------------------------------------------------------------- what `check` refuses
+  function get(m, path) {
+    const [section, name, key] = path.split(".");
+    if (section === "ground") return m.ground[name]["xyz".indexOf(key)];
+    if (section === "construct") return m.steps.find((s) => s.point === name)[key];
+    return path === "input.phi0" ? m.phi0 : undefined;
+  }
+
+  // Points of a block that must never meet (the direction they define), as its `directions`.
+  function directions(s) {
+    if (s.kind === "dyad") return [[s.a, s.b, "a and b"]];
+    if (s.kind === "attached") return [[s.origin, s.toward, "origin and toward"]];
+    if (s.kind === "slider") return [[s.guide[0], s.guide[1], "guide points"]];
+    return [];
+  }
+
+  // The numbers of `m` the file's reader refuses, one line each (mjlink.model.reader: > 0,
+  // >= 0, the least and the largest magnitude; `limits.values` holds each number's rule).
+  function refused(m) {
+    const out = [];
+    for (const path in m.limits.values) {
+      const r = m.limits.values[path], v = get(m, path);
+      if (v === null || v === undefined) continue;
+      const got = `got ${v}${r.unit ? " " + r.unit : ""}`;
+      const bound = (b) => `${b}${r.unit ? " " + r.unit : ""}`;
+      if (!Number.isFinite(v)) out.push(`${path} must be finite, ${got}`);
+      else if (r.positive && v <= 0) out.push(`${path} must be > 0, ${got}`);
+      else if (r.nonneg && v < 0) out.push(`${path} must be >= 0, ${got}`);
+      else if (r.hi !== undefined && Math.abs(v) > r.hi) out.push(`${path} must be at most ${bound(r.hi)} in magnitude, ${got}`);
+      else if (r.lo !== undefined && Math.abs(v) < r.lo) out.push(`${path} must be at least ${bound(r.lo)} in magnitude, ${got}`);
+    }
+    return out;
+  }
+
+  // What `check` refuses in the design `m`, in its order and words (mjlink.validation), one line
+  // each ([] where it passes): a number the file's reader refuses (check reads no further);
+  // then, at check's own input angles (`per_turn` a turn over the period, both ends included),
+  // a block that cannot close (nothing further), two points that define a direction or a guide
+  // meeting, or a point left undefined (nothing further); a link that is not rigid; two points
+  // of one link almost coinciding at phi0; a block past its dead-point limit.
+  function problems(m) {
+    const L = m.limits;
+    const out = refused(m);
+    if (out.length) return out;
+
+    const n = L.per_turn * m.turns + 1, span = 360 * m.turns;
+    const steps = m.steps;
+    const phis = new Float64Array(n);
+    const open = steps.map(() => null), dead = steps.map(() => null), undef = steps.map(() => null);
+    const pairs = [], seen = new Set();
+    for (const s of steps)
+      for (const [p, q, what] of directions(s)) {
+        const id = [p, q].sort().join(" ");
+        if (!seen.has(id)) {
+          seen.add(id);
+          pairs.push({ s, p, q, what, least: Infinity, at: 0 });
+        }
+      }
+    const guides = m.links.filter((l) => l.guide).map((l) => ({ l, p: l.guide[0], q: l.guide[1], least: Infinity }));
+    const c = numbered(m);
+    const gaps = [...pairs, ...guides].map((d) => ({ d, p: c.index(d.p), q: c.index(d.q) }));
+    // The links held rigid at every `stride`-th angle, as check_rigidity (mjlink.reference) does
+    // with check's angles: each pair of a link's points keeps its distance, and a sliding link
+    // its angle to its guide.
+    const stride = Math.max(1, Math.floor(n / 361));
+    const rigid = m.links.map((l) => {
+      const at = l.points.map(c.index);
+      const pairs = [];
+      for (let a = 0; a < at.length; a++) for (let b = a + 1; b < at.length; b++) pairs.push({ a, b, lo: Infinity, hi: -Infinity });
+      return { l, at, pairs, guide: l.guide && l.points.length >= 2 ? l.guide.map(c.index) : null, start: 0, turn: 0 };
+    });
+    const slope = (P, p, q) => Math.atan2(P[q][1] - P[p][1], P[q][0] - P[p][0]);
+    // A crank or attached point no block is built from and no direction or guide is drawn from
+    // can neither fail to close nor pass a dead point, and is defined wherever the points it is
+    // built from are and apart: it is solved only where the links are held rigid.
+    const used = new Set([...gaps.flatMap((g) => [g.p, g.q]), ...c.steps.flatMap((s) => [s.pivot, s.a, s.b, s.origin, s.toward, s.start, ...(s.guide || [])])]);
+    const every = c.steps.map((s) => s.kind === "dyad" || s.kind === "slider" || used.has(s.point));
+    const P = c.ground.slice();
+    let first = null;
+    for (let i = 0; i < n; i++) {
+      const phi = m.phi0 + (span * i) / (n - 1);
+      const held = i % stride === 0;
+      phis[i] = phi;
+      for (let j = 0; j < steps.length; j++) {
+        if (!held && !every[j]) continue;
+        const s = c.steps[j];
+        const r = BLOCKS[s.kind](s, P, phi * D, m.phi0 * D, L);
+        P[s.point] = r.at;
+        if (r.closes === false) (open[j] || (open[j] = new Uint8Array(n)))[i] = 1;
+        else if (r.angle && r.angle.bad) (dead[j] || (dead[j] = new Uint8Array(n)))[i] = 1;
+        if (undef[j] === null && !(Number.isFinite(r.at[0]) && Number.isFinite(r.at[1]) && Number.isFinite(r.at[2]))) undef[j] = phi;
+      }
+      for (const g of gaps) {
+        const a = P[g.p], b = P[g.q];
+        const dx = a[0] - b[0], dy = a[1] - b[1];
+        const gap = Math.sqrt(dx * dx + dy * dy);
+        const k = Number.isFinite(gap) ? gap : -1; // an undefined gap is the worst (check's argmin)
+        if (k < g.d.least) {
+          g.d.least = k;
+          g.d.at = phi;
+        }
+      }
+      if (i === 0) first = Object.fromEntries(c.names.map((k, x) => [k, P[x]]));
+      if (held)
+        for (const r of rigid) {
+          for (const d of r.pairs) {
+            const u = P[r.at[d.a]], w = P[r.at[d.b]];
+            const dx = u[0] - w[0], dy = u[1] - w[1], dz = u[2] - w[2];
+            const gap = Math.sqrt(dx * dx + dy * dy + dz * dz);
+            if (gap < d.lo) d.lo = gap;
+            if (gap > d.hi) d.hi = gap;
+          }
+          if (r.guide) {
+            const rel = slope(P, r.at[0], r.at[1]) - slope(P, r.guide[0], r.guide[1]);
+            if (i === 0) r.start = rel;
+            const turn = Math.abs(Math.atan2(Math.sin(rel - r.start), Math.cos(rel - r.start)));
+            if (turn > r.turn) r.turn = turn;
+          }
+        }
+    }
+    const wrap = (phi) => {
+      const v = ((phi % span) + span) % span;
+      return Math.abs(v - span) < 1e-9 ? 0 : v;
+    };
+    const opened = steps.map((s, j) => open[j] && `${c.labels[j]} cannot close for input angles ${ranges(phis, open[j])} deg`).filter(Boolean);
+    if (opened.length) return opened;
+    const pair = pairs.find((d) => !(d.least >= L.direction_min));
+    if (pair)
+      return [
+        `[[construct]] ${pair.s.point}: its ${pair.what} ${pair.p} and ${pair.q} come within ${Math.max(pair.least, 0).toPrecision(3)} mm ` +
+          `of each other at input angle ${wrap(pair.at).toFixed(1)} deg, so the direction they define is undefined there`,
+      ];
+    const guide = guides.find((d) => !(d.least >= L.direction_min));
+    if (guide)
+      return [`[links.${guide.l.name}] guide: points ${guide.p} and ${guide.q} coincide (within ${L.direction_min} mm), so the guide has no direction`];
+    const j = undef.findIndex((phi) => phi !== null);
+    if (j >= 0) return [`[[construct]] ${steps[j].point}: the point is undefined at input angle ${wrap(undef[j]).toFixed(1)} deg`];
+    for (const r of rigid) {
+      const d = r.pairs.find((d) => d.hi - d.lo > 1e-9 * Math.max(d.hi, 1)); // mm: check_rigidity's rtol
+      if (d) {
+        out.push(
+          `[links.${r.l.name}]: points ${r.l.points[d.a]} and ${r.l.points[d.b]} do not stay at a fixed distance ` +
+            `(${d.lo.toFixed(4)}..${d.hi.toFixed(4)} mm): they are not on one rigid link`,
+        );
+        break;
+      }
+      if (r.turn > 1e-9) {
+        out.push(`[links.${r.l.name}]: slides on ${r.l.guide[0]}-${r.l.guide[1]} but turns relative to that guide`);
+        break;
+      }
+    }
+    const near = (() => {
+      for (const l of m.links)
+        for (let a = 0; a < l.points.length; a++)
+          for (let b = a + 1; b < l.points.length; b++) {
+            const u = first[l.points[a]], w = first[l.points[b]];
+            const gap = Math.hypot(u[0] - w[0], u[1] - w[1], u[2] - w[2]);
+            if (gap > 0 && gap < L.distinct_min)
+              return `[links.${l.name}]: points ${l.points[a]} and ${l.points[b]} are only ${gap.toPrecision(3)} mm apart (one point, or at least ${L.distinct_min} mm apart)`;
+          }
+      return null;
+    })();
+    if (near) out.push(near);
+    steps.forEach((s, k) => {
+      if (dead[k]) out.push(`${c.labels[k]} passes its dead-point limit for input angles ${ranges(phis, dead[k])} deg`);
+    });
     return out;
   }
 
@@ -196,16 +374,24 @@
     return out;
   }
 
+  // A TOML basic string of `s`: a quote, a backslash and every control character TOML does not
+  // allow raw (U+0000..U+001F, U+007F; the tab too, to keep the line plain) escaped, so that the
+  // file reads back as the same text whatever it holds.
+  const ESCAPES = { '"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r" };
+  function str(s) {
+    return `"${s.replace(/["\\\u0000-\u001f\u007f]/g, (c) => ESCAPES[c] || `\\u${c.charCodeAt(0).toString(16).padStart(4, "0")}`)}"`;
+  }
+
   // A TOML document of `obj` (the mechanism file as read, edited): tables, arrays of tables,
   // strings, numbers, booleans and arrays, which is all a mechanism file holds.
   function toml(obj) {
     const lines = [];
     const table = (v) => v !== null && typeof v === "object" && !Array.isArray(v);
     const tables = (v) => Array.isArray(v) && v.length > 0 && v.every(table);
-    const key = (k) => (/^[A-Za-z0-9_-]+$/.test(k) ? k : JSON.stringify(k));
+    const key = (k) => (/^[A-Za-z0-9_-]+$/.test(k) ? k : str(k));
     const num = (v) => String(v); // an integral value is written as an integer: the reader takes both
     const val = (v) =>
-      typeof v === "string" ? JSON.stringify(v) : typeof v === "boolean" ? String(v) : typeof v === "number" ? num(v) : `[${v.map(val).join(", ")}]`;
+      typeof v === "string" ? str(v) : typeof v === "boolean" ? String(v) : typeof v === "number" ? num(v) : `[${v.map(val).join(", ")}]`;
     const emit = (prefix, t) => {
       const entries = Object.entries(t);
       for (const [k, v] of entries) if (!table(v) && !tables(v)) lines.push(`${key(k)} = ${val(v)}`);
@@ -247,6 +433,7 @@
     const angle = document.getElementById("angle");
     const status = document.getElementById("status");
     const feed = document.getElementById("feed");
+    const names = numbered(m); // the points' numbers in the samples: edits change no name
     let result = null;
 
     // The view box is the nominal design's extent, fixed: a dragged pivot moves on a still page.
@@ -264,13 +451,14 @@
     function draw() {
       while (layer.firstChild) layer.removeChild(layer.firstChild);
       const S = result.samples;
-      if (!result.feasible && S.some((s) => s.open.length)) {
+      if (!result.closes) {
         // A geometry that does not close is not drawn: no position of it would be true.
         for (const g in m.ground) pivot(g);
         return;
       }
       for (const p of M.moving) {
-        const pts = S.map((s) => `${s.P[p][0]},${s.P[p][1]}`).join(" ");
+        const i = names.index(p);
+        const pts = S.map((s) => `${s.P[i][0]},${s.P[i][1]}`).join(" ");
         svg("polygon", { points: pts, fill: "none", stroke: p === m.key ? "#c2185b" : "#9e9e9e", "stroke-width": (p === m.key ? 0.5 : 0.25) * scale }, layer);
       }
       const now = solve(m, Number(angle.value));
@@ -326,6 +514,9 @@
     function update() {
       const t0 = performance.now();
       result = metrics(m, PER_TURN);
+      const found = problems(m);
+      result.feasible = found.length === 0;
+      result.why = found.join("; ");
       for (const el of document.querySelectorAll("[data-metric]")) {
         const v = result.values[el.dataset.metric];
         el.textContent = result.feasible && v !== undefined ? fmt(v) : "–";
@@ -377,7 +568,7 @@
     document.body.dataset.ready = "true";
   }
 
-  window.mjlinkDesign = { solve, metrics, set, edited, toml, BLOCKS, page };
+  window.mjlinkDesign = { solve, metrics, refused, problems, set, edited, toml, BLOCKS, page };
   const data = document.getElementById("mechanism-data");
   if (data) page(JSON.parse(data.textContent));
 })();

@@ -5,14 +5,18 @@ designer drag its ground pivots and edit every dimension (the numbers of the fil
 and ``[[construct]]`` blocks and ``input.phi0``, each an ``<input data-param="<study path>">``);
 while they do, the paths, the thread length over the cycle, the key point's stroke and
 extremes, the thread feed per turn and the worst transmission and pressure angles
-(``data-metric="<study metric>"``, in the metric's unit) follow. A geometry that does not close
-over the cycle or passes a dead point is said to be infeasible with the blocks and input angles,
-and one that does not close is not drawn. "Save as TOML" writes the edited file (the original
-file as read, its comments dropped) for ``check`` and ``simulate``.
+(``data-metric="<study metric>"``, in the metric's unit) follow. A design ``check`` would refuse
+is said to be infeasible with the reason: a number the file's reader refuses (a length not
+positive, a coordinate beyond the limits), a block that does not close, two points that define a
+direction or a guide meeting, a link that is not rigid, two points of a link almost coinciding, a
+dead point, judged at ``check``'s own input angles; one that does not close is not drawn. "Save
+as TOML" writes the edited file (the original file as read, its comments dropped) for ``check``
+and ``simulate``; ``check`` passes it whenever the page calls the design feasible.
 
 The computation in the browser is ``design.js``: a port of the reference's closed-form position
 analysis (:mod:`mjlink.model.blocks`), one function per block type, in the file's units; the
-page embeds it and the mechanism as JSON, and loads nothing from the network.
+page embeds it and the mechanism as JSON (:func:`script_json`: no text of the file can end the
+script element or change how the page parses), and loads nothing from the network.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from typing import Any
 
 from .. import analysis
 from ..analysis import link_segments, summary
+from ..model import limits
 from ..model.blocks import Attached, Crank, Dyad, Slider
 from ..model.mechanism import Mechanism
 
@@ -55,7 +60,64 @@ def model(mech: Mechanism) -> dict[str, Any]:
         "steps": steps,
         "thread": list(mech.thread) if mech.thread else None,
         "key": analysis.key_point(mech),
+        "links": [{"name": l.name, "points": list(l.points), "guide": l.guide and list(l.guide)} for l in mech.links],
+        "limits": {
+            "transmission_min": limits.MIN_TRANSMISSION_DEG,
+            "pressure_max": limits.MAX_PRESSURE_DEG,
+            "direction_min": limits.MIN_DIRECTION_M * 1e3,
+            "distinct_min": limits.MIN_DISTINCT_M * 1e3,
+            "per_turn": limits.SAMPLES_PER_TURN,
+            "values": {p: _number_rule(mech, p, u) for p, _, u in summary.dimensions(mech)},
+        },
     }
+
+
+# What the file's reader (mjlink.model.reader.Reader.number and .vector) holds each number the
+# page edits to, as the blocks' ``read`` and the mechanism's reader call it: > 0, >= 0, and the
+# least and largest magnitude, in the file's units. The page refuses an edit that breaks one as
+# ``check`` refuses the file (tests/test_design_page.py holds every rule to the reader).
+_BAR = {"positive": True, "lo": limits.MIN_BAR_MM, "hi": limits.MAX_LENGTH_MM}
+_ANGLE = {"hi": limits.MAX_ANGLE_DEG}
+_COORDINATE = {"hi": limits.MAX_LENGTH_MM}
+_BLOCK_RULES: dict[tuple[str, str], dict[str, Any]] = {
+    ("crank", "length"): _BAR,
+    ("crank", "phase"): _ANGLE,
+    ("dyad", "length_a"): _BAR,
+    ("dyad", "length_b"): _BAR,
+    ("attached", "angle"): _ANGLE,
+    ("attached", "length"): {"nonneg": True, "hi": limits.MAX_LENGTH_MM},
+    ("attached", "z"): _COORDINATE,
+    ("slider", "length"): _BAR,
+}
+
+
+def _number_rule(mech: Mechanism, path: str, unit: str) -> dict[str, Any]:
+    """The reader's rule on the number at study ``path`` of ``mech`` (see ``_BLOCK_RULES``),
+    with its ``unit``; a number the page may edit but knows no rule for is refused here, never
+    left unchecked."""
+    section, name, *rest = path.split(".")
+    if section == "ground":
+        rule = _COORDINATE
+    elif path == "input.phi0":
+        rule = _ANGLE
+    elif section == "construct":
+        kind = next(s.kind for s in mech.steps if s.point == name)
+        if (kind, rest[0]) not in _BLOCK_RULES:
+            raise TypeError(f"design.js has no rule for the {kind} block's {rest[0]}")
+        rule = _BLOCK_RULES[kind, rest[0]]
+    else:
+        raise TypeError(f"design.js edits no number {path}")
+    return {"unit": unit, **rule}
+
+
+def script_json(data: Any) -> str:
+    """``data`` as JSON to sit inside a ``<script>`` element whatever its strings hold: every
+    ``<``, ``>`` and ``&`` written as a ``\\u`` escape, so that no text can end the element or
+    open a comment or a tag in it, and every other character beyond ASCII too (U+2028 and
+    U+2029 among them). ``JSON.parse`` of the element's text gives ``data`` back; a non-finite
+    number, which JSON cannot hold, raises ValueError."""
+    text = json.dumps(data, ensure_ascii=True, allow_nan=False)
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
 
 
 def _script() -> str:
@@ -118,7 +180,6 @@ def design_html(mech: Mechanism, text: str) -> str:
         if mech.thread
         else ""
     )
-    payload = json.dumps(data).replace("</", "<\\/")
     return "\n".join(
         [
             "<!DOCTYPE html>",
@@ -143,7 +204,7 @@ def design_html(mech: Mechanism, text: str) -> str:
             "<p><button id='save' type='button'>Save as TOML</button></p>",
             "<textarea id='toml' readonly placeholder='the saved file appears here too'></textarea>",
             "</div></div>",
-            f"<script type='application/json' id='mechanism-data'>{payload}</script>",
+            f"<script type='application/json' id='mechanism-data'>{script_json(data)}</script>",
             f"<script>{_script()}</script>",
             "</body></html>",
         ]

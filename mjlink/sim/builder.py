@@ -224,7 +224,9 @@ def _spec(mech: Mechanism, settings: Settings, *, batch: bool = False) -> tuple[
     frame_pivots = [pr.pin for pr in topo.tree + topo.loops if pr.revolute and pr.parent is None]
     hub = mech.input_crank.pivot
     for g in dict.fromkeys(frame_pivots):
-        if g != hub and hub in pos:
+        # A pivot on the hub's axis (concentric shafts) has no bar to it: MuJoCo refuses a
+        # capsule whose ends meet, as the links' bars below skip theirs.
+        if g != hub and hub in pos and np.linalg.norm(pos[g] - pos[hub]) > 1e-9:
             a, c = (pos[q] - [0, 0, 0.035 * size] for q in (hub, g))
             draw(
                 world,
