@@ -178,6 +178,21 @@ def test_the_embedded_data_holds_no_markup():
 TITLES = {k: s for k, s in CORPUS.items() if _a_title(s)}
 
 
+def test_the_files_mjlink_writes_hold_any_text_as_written():
+    """The Python writer of mechanism files (winner files, ``synth --write``, a study's variants)
+    writes every corpus string, as a value, a key and a header line, so that TOML reads it back
+    as written."""
+    from mjlink.model import tomlio
+
+    data = {
+        "mechanism": {"title": list(CORPUS.values()), **{s: s for s in CORPUS.values()}},
+        "construct": [{"source": s} for s in CORPUS.values()],
+        "timing": {s: {"source": s} for s in CORPUS.values()},
+    }
+    text = tomlio.dumps(data, "\n".join(CORPUS.values()))
+    assert tomllib.loads(text) == data
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("s", TITLES.values(), ids=TITLES.keys())
 def test_a_title_and_source_of_hostile_text_are_shown_as_written(tab, takeup_summary, tmp_path, s):
