@@ -23,6 +23,7 @@ from ..model.limits import (
 from ..model.mechanism import Mechanism
 from ..runs import DYNAMIC, Case
 from ..sim import simulate
+from ..sim.steps import kinematic_clock
 from ..units import RunKind
 from .options import Options, check_duration, check_speed, has_masses
 
@@ -104,7 +105,9 @@ def estimate(
         n = mech.cycles if opts.cycles is None else opts.cycles
         if not (math.isfinite(n) and n > 0):
             raise MjlinkError(f"--cycles must be a positive finite number, got {n:g}")
-        samples = n * mech.period / abs(w) / simulate.kinematic_settings(w).timestep + 1
+        clock = kinematic_clock(mech.period, w, n)
+        # As a float (the clock's steps are an int): it may be astronomically many.
+        samples = clock.duration / clock.settings.timestep + 1
         hint = f"lower {cycles_option} or raise --speed" if cycles_option else "raise --speed (or lower [input] cycles)"
         runs.append(RunCost("kinematic run", samples, values, hint))
     if opts.dynamics and has_masses(mech):

@@ -4,13 +4,18 @@ The estimate comes from a short calibration on this machine (a few variants of t
 mechanism and metrics evaluated in this process, timed, their peak memory traced), scaled to
 the study's size:
 
+* MuJoCo steps: every verified model's, counted by the function the verification steps it with
+  (:func:`mjlink.sim.steps.verify_steps`: one period at the variant's own speed, on the clock
+  scaled above the verified speed), over the speeds the variants take (:func:`clock`);
 * time: variant-angles x the measured seconds per variant-angle, shared by the workers; MuJoCo
   models x their steps at the measured rate (a calibration run of one model where the study
   verifies more than a few), or at :data:`MUJOCO_STEPS_PER_S` where it verifies a handful;
 * memory: the largest of (a) the tasks running at once, each its rows x the measured peak bytes
-  per variant-angle, (b) what this process holds: the variants' values and metric columns, the
-  results table as it is written (about :data:`TABLE_BYTES_PER_VALUE` per value), an
-  optimization's archive of every candidate, and a MuJoCo chunk's recorded samples.
+  per variant-angle or a MuJoCo chunk's recorded sensor values (its longest model's steps) and
+  one model's comparison with the reference, (b) what this process holds: the variants' values
+  and metric columns, the results table as it is written (about :data:`TABLE_BYTES_PER_VALUE`
+  per value), an optimization's archive of every candidate, and a task run here; plus
+  :data:`PROCESS_BYTES` for this process and each worker.
 
 A study whose memory estimate exceeds the bound (:func:`memory_limit`: three quarters of the
 memory this machine has available now, or the user's ``--max-memory``) is refused before it
@@ -30,6 +35,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..reference.batch import angle_grid
+from ..sim import steps as _steps  # the clock alone: no MuJoCo is imported
 from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks
 from .optimize import CHUNK_ROWS, budget, needed
 from .spec import Study
@@ -38,7 +44,11 @@ from .tasks import mujoco_chunk, reference_chunk
 MUJOCO_STEPS_PER_S = 60_000.0  # RK4 steps per second per core the plan assumes (bench/bench_study.py)
 MUJOCO_BUILD_S = 0.03  # seconds the plan assumes to build and compile one model
 TABLE_BYTES_PER_VALUE = 120.0  # a results table's value as Python objects and CSV text while written
-SAMPLE_BYTES = 8.0 * 24  # MuJoCo's recorded values per model step (position, velocity of a few points)
+# A verified model's comparison with the reference holds the reference's solution at every step:
+# about this many bytes per point and step (tests/test_study_plan.py measures it).
+JUDGE_BYTES_PER_POINT = 160.0
+PROCESS_BYTES = 2.0**27  # an interpreter with numpy, MuJoCo and mjlink loaded
+CLOCK_SPEEDS = 1024  # speeds of a sampled study's variants the steps are counted at, at most
 CLUSTER_START_S = 2.0  # a local Dask cluster's start
 # An optimization's generation below this much work runs faster in this process than on a
 # local cluster, whose every call makes a round trip and whose polish runs here anyway
@@ -142,11 +152,13 @@ def memory_limit() -> float:
 @dataclass(frozen=True)
 class Calibration:
     """CPU seconds and peak traced bytes per variant-angle of the reference on this machine,
-    and MuJoCo's wall seconds per verified model (NaN where not measured)."""
+    and MuJoCo's CPU seconds per verified model (NaN where not measured) of ``model_steps``
+    steps (0: at the file's speed)."""
 
     row_seconds: float
     row_bytes: float
     model_seconds: float
+    model_steps: int = 0
 
 
 def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
@@ -174,12 +186,66 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     finally:
         tracemalloc.stop()
     rows = CALIBRATION_VARIANTS * angles
-    model = math.nan
+    model, model_steps = math.nan, 0
     if mujoco:
-        t = time.perf_counter()
+        t = time.process_time()  # CPU: one thread's, which a busy machine does not inflate
         mujoco_chunk(study, values[:1], threads=1)
-        model = time.perf_counter() - t
-    return Calibration(seconds / rows, peak / rows, model)
+        model = time.process_time() - t
+        speed = next(
+            (x * p.scale for x, p in zip(row, study.params, strict=True) if p.path == "input.speed"),
+            study.mechanism.speed,
+        )
+        model_steps = _steps.verify_steps(study.mechanism.period, speed)
+    return Calibration(seconds / rows, peak / rows, model, model_steps)
+
+
+@dataclass(frozen=True)
+class Clock:
+    """MuJoCo steps of the models a study verifies (:func:`clock`): ``most`` the longest
+    model's, ``mean`` their mean over the variants (the verified ones are chosen among them)."""
+
+    most: int
+    mean: float
+
+
+def clock(study: Study) -> Clock:
+    """The steps of every model ``study`` may verify, each counted as the verification steps it
+    (:func:`mjlink.sim.steps.verify_steps`) at the variant's own crank speed.
+
+    Only ``input.speed`` changes a variant's clock. A grid's variants take each of its values
+    equally often; a random or tolerance study's are drawn (the study's own, seeded, samples:
+    at most :data:`CLOCK_SPEEDS` of them counted, evenly spread by speed, the slowest always);
+    an optimization verifies designs anywhere in the range (the steps of its slower end)."""
+    mech = study.mechanism
+    j = next((i for i, p in enumerate(study.params) if p.path == "input.speed"), None)
+    if j is None:
+        s = _steps.verify_steps(mech.period, mech.speed)
+        return Clock(s, float(s))
+    v = study.varied[j]
+    si = v.param.scale  # file units to rad/s
+    if study.method == "grid":
+        speeds = np.asarray(v.values, dtype=float)
+    elif study.method == "optimize":
+        speeds = np.array([v.low, v.high])
+        slow = speeds[np.argmin(np.abs(speeds))]
+        s = _steps.verify_steps(mech.period, float(slow) * si)
+        return Clock(s, float(s))
+    else:
+        col = study.values()[:, j]
+        order = np.argsort(np.abs(col), kind="stable")
+        speeds = col[order[np.unique(np.linspace(0, len(col) - 1, min(len(col), CLOCK_SPEEDS)).round().astype(int))]]
+    counts = [_steps.verify_steps(mech.period, float(w) * si) for w in speeds]
+    return Clock(max(counts), float(np.mean(counts)))
+
+
+def mujoco_bytes(study: Study, models: int, steps: int) -> float:
+    """Peak bytes of one MuJoCo task of ``models`` models of at most ``steps`` steps each: the
+    sensor values rollout records for all of them (:func:`mjlink.sim.steps.verify_values` per
+    step), the external forces it applies to them (a file with point forces), and one model's
+    comparison with the reference (:data:`JUDGE_BYTES_PER_POINT`)."""
+    mech = study.mechanism
+    per_step = _steps.verify_values(mech) + (6 * (len(mech.links) + 1) if mech.dynamics.forces else 0)
+    return models * steps * per_step * 8.0 + (steps * JUDGE_BYTES_PER_POINT * len(mech.point_names) if models else 0)
 
 
 def estimate(
@@ -196,7 +262,6 @@ def estimate(
     mech = study.mechanism
     angles = len(angle_grid(mech, study.per_turn))
     P, C = len(study.varied), len(study.columns)
-    steps_per_model = math.ceil(mech.period / abs(float(mech.speed)) / 5e-5)  # one period at the kinematic dt
     lanes = max(1, workers)
     client = 0.0
     if study.optimize is None:
@@ -204,7 +269,8 @@ def estimate(
         tasks = len(chunks(V, REFERENCE_CHUNK))
         task_rows = min(REFERENCE_CHUNK[1], max(1, V)) * angles
         models = {"none": 0, "all": V, "best": min(study.count, V), "worst": min(study.count, V)}[study.verify]
-        mj_chunk = min(models, MUJOCO_CHUNK[1])
+        mj_chunks = chunks(models, MUJOCO_CHUNK, parts=8)
+        mj_chunk, mj_tasks = max((b - a for a, b in mj_chunks), default=0), len(mj_chunks)
         client = V * ((P + C) * 8.0 * 3 + (P + C + 6) * TABLE_BYTES_PER_VALUE + 120.0)
         what = f"{study.method} study of {V:,} variants"
     else:
@@ -214,18 +280,31 @@ def estimate(
         tasks = b.generations * max(1, math.ceil(per_gen * angles / CHUNK_ROWS))
         task_rows = min(per_gen * angles, CHUNK_ROWS)
         models = b.verified
-        mj_chunk = models
+        mj_chunk = 1  # the winner and each design of a front are verified one at a time
         # A generation's rows (values, metrics), the archive of every candidate (values, metrics,
         # objective, violation, reason) and its table as it is written.
         client = per_gen * (P + C) * 8.0 * 4 + b.candidates * ((P + C + 4) * (8.0 * 2 + TABLE_BYTES_PER_VALUE) + 120.0)
         what = b.describe()
+    steps = clock(study) if models else Clock(0, 0.0)
     cal = calibration or calibrate(study, mujoco=models > 4)
-    task_bytes = task_rows * cal.row_bytes
-    mj_bytes = mj_chunk * steps_per_model * SAMPLE_BYTES
-    memory = max(lanes * task_bytes + mj_bytes, client + (0 if workers else task_bytes + mj_bytes)) + 2**27
-    model_s = (
-        cal.model_seconds if math.isfinite(cal.model_seconds) else MUJOCO_BUILD_S + steps_per_model / MUJOCO_STEPS_PER_S
+    mj_bytes = mujoco_bytes(study, mj_chunk, steps.most)
+    if study.optimize is None:  # the MuJoCo tasks run where the reference's did, after them
+        task_bytes = max(task_rows * cal.row_bytes, mj_bytes)
+        at_once = max(min(lanes, tasks) * task_rows * cal.row_bytes, min(lanes, mj_tasks) * mj_bytes)
+        memory = max(at_once, client + (0 if workers else task_bytes))
+    else:  # the designs are verified here, after the search
+        task_bytes = task_rows * cal.row_bytes
+        memory = max(lanes * task_bytes, client + (0 if workers else task_bytes), client + mj_bytes)
+    memory += PROCESS_BYTES * (1 + workers)
+    # A model's seconds: building it and its steps (the calibration's model scales the rule to
+    # this machine).
+    measured = cal.model_steps or _steps.verify_steps(mech.period, mech.speed)
+    scale = (
+        cal.model_seconds / (MUJOCO_BUILD_S + measured / MUJOCO_STEPS_PER_S)
+        if math.isfinite(cal.model_seconds)
+        else 1.0
     )
+    model_s = scale * (MUJOCO_BUILD_S + steps.mean / MUJOCO_STEPS_PER_S)
     seconds = V * angles * cal.row_seconds * 1.2 / min(lanes, max(1, tasks)) + models * model_s / lanes
     if cluster:
         seconds += CLUSTER_START_S
@@ -237,7 +316,7 @@ def estimate(
         tasks,
         workers,
         models,
-        models * steps_per_model,
+        round(models * steps.mean),
         memory,
         memory_limit() if limit is None else limit,
         seconds,
