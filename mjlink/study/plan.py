@@ -280,7 +280,7 @@ def estimate(
         tasks = b.generations * max(1, math.ceil(per_gen * angles / CHUNK_ROWS))
         task_rows = min(per_gen * angles, CHUNK_ROWS)
         models = b.verified
-        mj_chunk = 1  # the winner and each design of a front are verified one at a time
+        mj_chunk = mj_tasks = 1  # the winner and each design of a front are verified one at a time
         # A generation's rows (values, metrics), the archive of every candidate (values, metrics,
         # objective, violation, reason) and its table as it is written.
         client = per_gen * (P + C) * 8.0 * 4 + b.candidates * ((P + C + 4) * (8.0 * 2 + TABLE_BYTES_PER_VALUE) + 120.0)
@@ -305,7 +305,13 @@ def estimate(
         else 1.0
     )
     model_s = scale * (MUJOCO_BUILD_S + steps.mean / MUJOCO_STEPS_PER_S)
-    seconds = V * angles * cal.row_seconds * 1.2 / min(lanes, max(1, tasks)) + models * model_s / lanes
+    # MuJoCo's models run side by side: a task per worker, or in this process on rollout's
+    # threads (one per core); an optimization verifies its designs one by one.
+    if study.optimize is not None:
+        side = mj_tasks
+    else:
+        side = min(lanes, mj_tasks) if workers else min(os.cpu_count() or 1, models)
+    seconds = V * angles * cal.row_seconds * 1.2 / min(lanes, max(1, tasks)) + models * model_s / max(1, side)
     if cluster:
         seconds += CLUSTER_START_S
     return Plan(
