@@ -45,7 +45,8 @@ MUJOCO_STEPS_PER_S = 60_000.0  # RK4 steps per second per core the plan assumes 
 MUJOCO_BUILD_S = 0.03  # seconds the plan assumes to build and compile one model
 TABLE_BYTES_PER_VALUE = 120.0  # a results table's value as Python objects and CSV text while written
 # A verified model's comparison with the reference holds the reference's solution at every step:
-# about this many bytes per point and step (tests/test_study_plan.py measures it).
+# about this many bytes per point and step (tests/test_study_plan.py holds the memory bound to
+# the traced peak of a run).
 JUDGE_BYTES_PER_POINT = 160.0
 PROCESS_BYTES = 2.0**27  # an interpreter with numpy, MuJoCo and mjlink loaded
 CLOCK_SPEEDS = 1024  # speeds of a sampled study's variants the steps are counted at, at most
