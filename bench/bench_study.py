@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import multiprocessing
 import os
 import re
@@ -391,8 +392,9 @@ def bench_plan(limit: float = PLAN_LIMIT_S, names: list[str] | None = None) -> l
     ``limit`` seconds. The study's measured time is the run's wall time less the dry run's (both
     import, read the study and calibrate; the plan estimates what follows: the work, a local
     cluster's start, the outputs). The ratio is planned / measured: within 2x either way is the
-    goal; an optimization's plan is its budget at most, so its ratio is above 1 where the
-    search settles early."""
+    goal. An optimization's plan is its whole budget, so its ratio is above 1 where the search
+    settles early: the row also gives the plan's time scaled to the evaluations made (the
+    summary's), which tells the plan's rates apart from the search's length."""
     rows: list[Row] = []
     for f in sorted((ROOT / "studies").glob("*.toml")):
         name = f.stem
@@ -405,16 +407,20 @@ def bench_plan(limit: float = PLAN_LIMIT_S, names: list[str] | None = None) -> l
                 rows.append((f"plan of {name}", "", "", f"planned {planned:.3g} s: not run (above {limit:g} s)"))
                 continue
             rw, rc, _ = _command(["study", name, "--no-plots"], Path(tmp) / "run")
+            summary = json.loads((Path(tmp) / "run" / f"{name}-study" / "summary.json").read_text())
         measured = max(rw - dw, 1e-3)
-        rows.append(
-            (
-                f"plan of {name}",
-                f"{rw:.2f}",
-                f"{rc:.2f}",
-                f"planned {planned:.3g} s, measured {measured:.3g} s (run {rw:.3g} - dry run {dw:.3g}): "
-                f"ratio {planned / measured:.2f}",
-            )
+        note = (
+            f"planned {planned:.3g} s, measured {measured:.3g} s (run {rw:.3g} - dry run {dw:.3g}): "
+            f"ratio {planned / measured:.2f}"
         )
+        budget = re.search(r"([0-9,]+) variants x [0-9]+ crank angles", err)
+        if "evaluations" in summary and budget:  # an optimization: the plan is its whole budget
+            done, most = summary["evaluations"], int(budget.group(1).replace(",", ""))
+            note += (
+                f"; {done:,} of the budget's {most:,} evaluations made: at the plan's rate "
+                f"{planned * done / most:.3g} s, ratio {planned * done / most / measured:.2f}"
+            )
+        rows.append((f"plan of {name}", f"{rw:.2f}", f"{rc:.2f}", note))
     return rows
 
 

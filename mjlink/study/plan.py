@@ -29,6 +29,7 @@ import math
 import os
 import time
 import tracemalloc
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +39,7 @@ from ..reference.batch import angle_grid
 from ..sim import steps as _steps  # the clock alone: no MuJoCo is imported
 from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks
 from .optimize import CHUNK_ROWS, budget, needed
+from .polish import batch_size as polish_batch
 from .spec import Study
 from .tasks import mujoco_chunk, reference_chunk
 
@@ -56,6 +58,11 @@ CLUSTER_START_S = 2.0  # a local Dask cluster's start
 # (bench/bench_optimize.py compares the two).
 SMALL_GENERATION_S = 0.1
 CALIBRATION_VARIANTS = 16
+# The calibration evaluates as many variants as a task does, up to this many variant-angles:
+# a call's own cost is spread over its rows, so a batch smaller than the tasks' overstates the
+# cost per row (most where a study has few angles).
+CALIBRATION_ROWS = 4096
+CALIBRATION_RUNS = 3
 
 
 class PlanError(InputError):
@@ -154,18 +161,24 @@ def memory_limit() -> float:
 class Calibration:
     """CPU seconds and peak traced bytes per variant-angle of the reference on this machine,
     and MuJoCo's CPU seconds per verified model (NaN where not measured) of ``model_steps``
-    steps (0: at the file's speed)."""
+    steps (0: at the file's speed); an optimization's polish's CPU seconds per variant-angle,
+    in its smaller batches (NaN: as ``row_seconds``)."""
 
     row_seconds: float
     row_bytes: float
     model_seconds: float
     model_steps: int = 0
+    polish_row_seconds: float = math.nan
 
 
 def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
-    """Evaluate :data:`CALIBRATION_VARIANTS` variants of ``study`` (all at the nominal values,
-    or the middle of the ranges of an optimization) here, timed and traced; with ``mujoco``,
-    verify one in MuJoCo, timed."""
+    """Evaluate as many variants of ``study`` as one of its tasks does (at least
+    :data:`CALIBRATION_VARIANTS`, at most :data:`CALIBRATION_ROWS` variant-angles; all at the
+    nominal values, or the middle of the ranges of an optimization) here, traced and timed
+    (the fastest of :data:`CALIBRATION_RUNS`); with ``mujoco``, verify one in MuJoCo, timed."""
+    angles = len(angle_grid(study.mechanism, study.per_turn))
+    per_task = budget(study).per_generation if study.optimize is not None else min(study.samples, REFERENCE_CHUNK[1])
+    n = max(CALIBRATION_VARIANTS, min(per_task, CALIBRATION_ROWS // angles))
     if study.optimize is not None:  # what its search computes (the other metrics: a few designs at the end)
         study = dataclasses.replace(study, metrics=needed(study))
     if study.method == "optimize":
@@ -175,18 +188,24 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
         ]
     else:
         row = [v.param.nominal if math.isfinite(v.param.nominal) else 0.0 for v in study.varied]
-    values = np.tile(np.array(row, dtype=float), (CALIBRATION_VARIANTS, 1))
-    angles = len(angle_grid(study.mechanism, study.per_turn))
+    values = np.tile(np.array(row, dtype=float), (n, 1))
     reference_chunk(study, values[:1])  # the nominal batch and first-call costs, not timed
     tracemalloc.start()
     try:
-        t = time.process_time()
         reference_chunk(study, values)
-        seconds = time.process_time() - t
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    rows = CALIBRATION_VARIANTS * angles
+    # Timed without the tracing (which slows every allocation), the fastest of a few: a single
+    # short run on a shared machine is as often slowed by a neighbour as it is representative.
+    seconds = _fastest(lambda: reference_chunk(study, values))
+    polish = math.nan
+    m = polish_batch(len(study.varied)) * budget(study).samples if study.optimize is not None else 0
+    if study.optimize is not None and budget(study).polish and m * angles <= CALIBRATION_ROWS:
+        # The polish evaluates a generation of its own at a time, in this process: a batch
+        # small enough that a call's own cost counts (a larger one costs what the search's do).
+        polish = _fastest(lambda: reference_chunk(study, values[:1].repeat(m, axis=0))) / (m * angles)
+    rows = n * angles
     model, model_steps = math.nan, 0
     if mujoco:
         t = time.process_time()  # CPU: one thread's, which a busy machine does not inflate
@@ -197,7 +216,17 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
             study.mechanism.speed,
         )
         model_steps = _steps.verify_steps(study.mechanism.period, speed)
-    return Calibration(seconds / rows, peak / rows, model, model_steps)
+    return Calibration(seconds / rows, peak / rows, model, model_steps, polish)
+
+
+def _fastest(f: Callable[[], object]) -> float:
+    """The least CPU seconds of :data:`CALIBRATION_RUNS` calls of ``f``."""
+    best = math.inf
+    for _ in range(CALIBRATION_RUNS):
+        t = time.process_time()
+        f()
+        best = min(best, time.process_time() - t)
+    return best
 
 
 @dataclass(frozen=True)
@@ -312,7 +341,17 @@ def estimate(
         side = mj_tasks
     else:
         side = min(lanes, mj_tasks) if workers else min(os.cpu_count() or 1, models)
-    seconds = V * angles * cal.row_seconds * 1.2 / min(lanes, max(1, tasks)) + models * model_s / max(1, side)
+    ref_rows, polish_rows = float(V * angles), 0.0
+    if study.optimize is not None:  # the polish's generations run here, one after another
+        b = budget(study)
+        polish_rows = b.runs * b.polish * b.samples * angles
+        ref_rows -= polish_rows
+    polish_s = cal.row_seconds if math.isnan(cal.polish_row_seconds) else cal.polish_row_seconds
+    seconds = (
+        ref_rows * cal.row_seconds * 1.2 / min(lanes, max(1, tasks))
+        + polish_rows * polish_s * 1.2
+        + models * model_s / max(1, side)
+    )
     if cluster:
         seconds += CLUSTER_START_S
     return Plan(
