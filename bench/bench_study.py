@@ -18,6 +18,8 @@ Sections (each a function returning table rows), side by side in one run:
 * :func:`bench_scatter`: the study's scatter matrix of 10,000 variants of 7 parameters and 7
   metrics (6 x 6 panels drawn, about a tenth infeasible), written as its PNG: its goal is
   3 s of CPU.
+* :func:`bench_plan` (``--plan``, alone): ``study NAME --dry-run``'s time against the study's
+  measured time, on the shipped studies whose plan says at most ``--plan-limit`` seconds.
 * :func:`bench_verify`: :func:`mjlink.sim.batch.verify` of take-up tolerance variants (every
   block's ``length``, ``length_a``, ``length_b`` and the x, y of the ground pivots P1 and P4
   deviating uniformly within +-0.02 mm), building and compiling included, with its time split.
@@ -27,10 +29,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import multiprocessing
 import os
+import re
 import resource
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -364,6 +370,73 @@ def bench_study(samples: int = 1000, repeat: int = 2) -> list[Row]:
     ]
 
 
+PLAN_LIMIT_S = 120.0  # shipped studies whose plan says more are only planned, not run
+
+
+def _command(args: list[str], out: Path) -> tuple[float, float, str]:
+    """Wall and CPU seconds (the command's process and its children: a local cluster's
+    workers) of ``python -m mjlink ARGS --out OUT``, and its stderr."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-m", "mjlink", *args, "--out", str(out)], capture_output=True, text=True, env=env
+    )
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode:
+        raise RuntimeError(f"mjlink {' '.join(args)}: exit {done.returncode}: {done.stderr.strip()[-400:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, done.stderr
+
+
+def _planned_seconds(stderr: str) -> float:
+    """The seconds of a plan's 'time about 45 s' ('at most about 3 min', '2.9 h')."""
+    m = re.search(r"time (?:at most )?about ([0-9.]+) (s|min|h|days)\b", stderr)
+    if m is None:
+        raise RuntimeError(f"no time in the plan: {stderr.strip()[:300]}")
+    return float(m.group(1)) * {"s": 1.0, "min": 60.0, "h": 3600.0, "days": 86400.0}[m.group(2)]
+
+
+def bench_plan(limit: float = PLAN_LIMIT_S, names: list[str] | None = None) -> list[Row]:
+    """``study NAME --dry-run``'s time against the study's own, on the shipped studies.
+
+    Each study is planned (``--dry-run``), and run (``--no-plots``) when its plan says at most
+    ``limit`` seconds. The study's measured time is the run's wall time less the dry run's (both
+    import, read the study and calibrate; the plan estimates what follows: the work, a local
+    cluster's start, the outputs). The ratio is planned / measured: within 2x either way is the
+    goal. An optimization's plan is its whole budget, so its ratio is above 1 where the search
+    settles early: the row also gives the plan's time scaled to the evaluations made (the
+    summary's), which tells the plan's rates apart from the search's length."""
+    rows: list[Row] = []
+    for f in sorted((ROOT / "studies").glob("*.toml")):
+        name = f.stem
+        if names and name not in names:
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            dw, _, err = _command(["study", name, "--dry-run"], Path(tmp) / "dry")
+            planned = _planned_seconds(err)
+            if planned > limit:
+                rows.append((f"plan of {name}", "", "", f"planned {planned:.3g} s: not run (above {limit:g} s)"))
+                continue
+            rw, rc, _ = _command(["study", name, "--no-plots"], Path(tmp) / "run")
+            summary = json.loads((Path(tmp) / "run" / f"{name}-study" / "summary.json").read_text())
+        measured = max(rw - dw, 1e-3)
+        note = (
+            f"planned {planned:.3g} s, measured {measured:.3g} s (run {rw:.3g} - dry run {dw:.3g}): "
+            f"ratio {planned / measured:.2f}"
+        )
+        budget = re.search(r"([0-9,]+) variants x [0-9]+ crank angles", err)
+        if "evaluations" in summary and budget:  # an optimization: the plan is its whole budget
+            done, most = summary["evaluations"], int(budget.group(1).replace(",", ""))
+            note += (
+                f"; {done:,} of the budget's {most:,} evaluations made: at the plan's rate "
+                f"{planned * done / most:.3g} s, ratio {planned * done / most / measured:.2f}"
+            )
+        rows.append((f"plan of {name}", f"{rw:.2f}", f"{rc:.2f}", note))
+    return rows
+
+
 SCATTER_GOAL_S = 3.0  # CPU seconds for the scatter matrix of 10,000 variants
 
 
@@ -411,15 +484,30 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--quick", action="store_true", help="a small run (40 variants) to check that it works")
     p.add_argument("--variants", type=int, help="variants to verify (default 1000, --quick 40)")
     p.add_argument("--threads", type=int, default=2, help="rollout's threads for the verification (default 2)")
+    p.add_argument(
+        "--plan",
+        nargs="*",
+        metavar="STUDY",
+        help=f"only the plans against the runs (bench_plan): the shipped studies named, or every one planned "
+        f"at most --plan-limit s (default {PLAN_LIMIT_S:g})",
+    )
+    p.add_argument("--plan-limit", type=float, default=PLAN_LIMIT_S, help="seconds above which a study is not run")
     a = p.parse_args(argv)
     n = a.variants or (40 if a.quick else 1000)
     # The machine may be shared: a busy core halves a 2-thread rate without any fault of its own.
     load = os.getloadavg()[0]
+    if a.plan is not None:
+        _table(load, bench_plan(a.plan_limit, a.plan or None))
+        return
     rows = bench_reference(500 if a.quick else 10_000, single=20 if a.quick else 100)
     rows += bench_rollout(20 if a.quick else 200, repeat=1 if a.quick else 3)
     rows += bench_verify(n, a.threads)
     rows += bench_study(40 if a.quick else 1000, repeat=1 if a.quick else 2)
     rows += bench_scatter(repeat=1 if a.quick else 3)
+    _table(load, rows)
+
+
+def _table(load: float, rows: list[Row]) -> None:
     width = max(len(r[0]) for r in rows)
     print(f"load average before the runs: {load:.2f} on {os.cpu_count()} cores")
     print(f"{'':<{width}}  {'wall s':>8}  {'CPU s':>8}  note")

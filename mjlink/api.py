@@ -14,30 +14,37 @@ Units: the arrays of :class:`Traces` and :class:`StudyTable` are in the unit the
 with (``_mm``, ``_deg``, ``_rad_s``, ``_N_m``...), as in the CSV files; a mechanism object
 (:class:`~mjlink.model.Mechanism`) holds SI values (m, rad, kg, s). Errors are
 :class:`~mjlink.errors.MjlinkError` subclasses with a one-line message, the same the command
-line prints. docs/api.md shows a complete script.
+line prints; an argument of the wrong type or beyond the command line's limits is refused before
+any work, the message naming the function and the argument. docs/api.md shows a complete
+script.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 
 from . import files, validation
-from .errors import MjlinkError
+from .errors import ArgumentError, InputError, MjlinkError
 from .model.mechanism import Mechanism
-from .pipeline import BuildResult, Options, SimulateResult, build
+from .model.reader import shown
+from .pipeline import BuildResult, Options, SimulateResult, build, estimate
 from .pipeline import run as _simulate_run
+from .pipeline.cost import enough_samples
 from .pipeline.optimize import OptimizeResult
+from .pipeline.options import check_duration
 from .pipeline.study import StudyResult
 from .pipeline.study import run as _study_run
 from .reference import constant_speed, reference_trace
 from .sim import simulate as _sim
+from .sim.steps import kinematic_clock
 from .units import RunKind
 
 __all__ = [
@@ -53,10 +60,83 @@ __all__ = [
 ]
 
 PathLike = str | os.PathLike[str]
+T = TypeVar("T")
+
+# ----------------------------------------------------------------------------- arguments
+# Every public function checks its arguments here first: a wrong type or a value out of its
+# range is one ArgumentError naming the function and the argument, never an internal
+# TypeError. The bounds are the command line's own checks (speed, cycles, duration and a run's
+# cost: mjlink.pipeline.estimate), called with the arguments' names.
 
 
-def _mechanism(mechanism: Mechanism | PathLike) -> Mechanism:
-    return mechanism if isinstance(mechanism, Mechanism) else load(mechanism)
+def _refuse(fn: str, arg: str, value: object, what: str) -> ArgumentError:
+    got = "None" if value is None else f"{shown(value)} ({type(value).__name__})"
+    return ArgumentError(f"{fn}({arg}=...): must be {what}, got {got}")
+
+
+def _path(fn: str, arg: str, value: object, what: str = "a path (str or os.PathLike)") -> str | Path:
+    if isinstance(value, os.PathLike):
+        text = os.fspath(value)
+    elif isinstance(value, str):
+        text = value
+    else:
+        raise _refuse(fn, arg, value, what)
+    if not isinstance(text, str) or not text or "\x00" in text:
+        raise _refuse(fn, arg, value, what + ", not empty, without NUL characters")
+    try:
+        os.stat(text)
+    except (FileNotFoundError, NotADirectoryError):
+        pass  # what is missing, each function says in its own words
+    except OSError as e:  # a name too long for this system, a folder it may not enter...
+        raise _refuse(fn, arg, value, f"{what} this system can look up ({e.strerror or type(e).__name__})") from None
+    return value if isinstance(value, Path) else text
+
+
+def _flag(fn: str, arg: str, value: object) -> bool:
+    if not isinstance(value, bool | np.bool_):
+        raise _refuse(fn, arg, value, "True or False")
+    return bool(value)
+
+
+def _number(fn: str, arg: str, value: object, unit: str) -> float | None:
+    """None, or a finite real number (not a bool) as a float."""
+    if value is None:
+        return None
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise _refuse(fn, arg, value, f"a number ({unit}) or None")
+    try:
+        x = float(value)
+    except (OverflowError, ValueError, TypeError):  # an int too large for a float
+        raise _refuse(fn, arg, value, f"a finite number ({unit})") from None
+    if not math.isfinite(x):
+        raise _refuse(fn, arg, value, f"a finite number ({unit})")
+    return x
+
+
+def _checked(fn: str, check: Callable[[], T]) -> T:
+    """``check()``, its MjlinkError (the command line's check, worded with the arguments'
+    names) as this function's ArgumentError."""
+    try:
+        return check()
+    except ArgumentError:
+        raise
+    except MjlinkError as e:
+        raise ArgumentError(f"{fn}(): {e}") from None
+
+
+def _mechanism(fn: str, mechanism: object) -> Mechanism:
+    if isinstance(mechanism, Mechanism):
+        return mechanism
+    _path(fn, "mechanism", mechanism, "a Mechanism, a shipped mechanism's name or a path (str or os.PathLike)")
+    return load(mechanism)  # type: ignore[arg-type]
+
+
+def _speed(fn: str, speed_rpm: object) -> float | None:
+    rpm = _number(fn, "speed_rpm", speed_rpm, "rpm")
+    return None if rpm is None else rpm * 2.0 * math.pi / 60.0
+
+
+_NAMES = {"--speed": "speed_rpm", "--cycles": "cycles", "--duration": "duration"}
 
 
 def load(name_or_path: PathLike) -> Mechanism:
@@ -73,7 +153,7 @@ def load(name_or_path: PathLike) -> Mechanism:
       MjlinkError: unknown name, missing file, or a file ``check`` refuses (one line naming
         the file, the line and the value).
     """
-    p = name_or_path if isinstance(name_or_path, Path) else os.fspath(name_or_path)
+    p = _path("load", "name_or_path", name_or_path, "a shipped mechanism's name or a path (str or os.PathLike)")
     return validation.get(p)
 
 
@@ -87,7 +167,8 @@ def mjcf(mechanism: Mechanism | PathLike, *, kinematic: bool = False) -> str:
     Returns:
       The XML; ``mujoco.MjModel.from_xml_string`` loads it as it is.
     """
-    result: BuildResult = build(_mechanism(mechanism), kinematic=kinematic)
+    mech = _mechanism("mjcf", mechanism)
+    result: BuildResult = build(mech, kinematic=_flag("mjcf", "kinematic", kinematic))
     return result.xml
 
 
@@ -136,20 +217,20 @@ def traces(
     Returns:
       :class:`Traces` with N samples per column (N grows with ``cycles``).
     Raises:
-      MjlinkError: a bad speed or cycle count, or a MuJoCo run that leaves the reference's
-        assembly branch or diverges.
+      MjlinkError: a speed, cycle count or run size the command line refuses (before the run),
+        or a MuJoCo run that leaves the reference's assembly branch or diverges.
     """
-    mech = _mechanism(mechanism)
-    if source not in ("mujoco", "reference"):
-        raise MjlinkError(f"source {source!r}: use 'mujoco' or 'reference'")
-    speed = None
-    if speed_rpm is not None:
-        if not (math.isfinite(speed_rpm) and speed_rpm != 0.0):
-            raise MjlinkError(f"speed_rpm {speed_rpm!r}: give a finite, non-zero speed in rpm")
-        speed = speed_rpm * 2.0 * math.pi / 60.0
-    if cycles is not None and not (math.isfinite(cycles) and cycles > 0.0):
-        raise MjlinkError(f"cycles {cycles!r}: give a finite, positive number of crank periods")
-    case = _sim.kinematic_case(mech, speed=speed, cycles=cycles)
+    mech = _mechanism("traces", mechanism)
+    if not (isinstance(source, str) and source in ("mujoco", "reference")):
+        raise _refuse("traces", "source", source, "'mujoco' or 'reference'")
+    speed = _speed("traces", speed_rpm)
+    n = _number("traces", "cycles", cycles, "crank periods")
+    # What `simulate` would refuse for its kinematic run (a speed, a cycle count or a size
+    # beyond the limits) is refused here, before the run allocates anything.
+    _checked(
+        "traces", lambda: estimate(mech, Options(speed=speed, cycles=n, dynamics=False, video=False), names=_NAMES)
+    )
+    case = _sim.kinematic_case(mech, speed=speed, cycles=n)
     trace = _sim.run(mech, case)
     if source == "reference":
         trace = reference_trace(mech, constant_speed(mech, trace.time, case.omega0), RunKind.KINEMATICS)
@@ -166,10 +247,13 @@ def traces(
 
 def read_traces(path: PathLike) -> Traces:
     """Traces read back from a CSV that ``simulate`` wrote (``kinematics.csv``,
-    ``reference_kinematics.csv``, ``dynamics.csv``, ``loads.csv``...), by column name."""
-    p = Path(path)
-    if not p.is_file():
-        raise MjlinkError(f"{p}: no such traces file")
+    ``reference_kinematics.csv``, ``dynamics.csv``, ``loads.csv``...), by column name.
+
+    Raises:
+      MjlinkError: no such file, or one that is not such a table (one line naming the file and,
+        where there is one, the line and the column at fault).
+    """
+    p = Path(_path("read_traces", "path", path))
     return Traces(p.parent.name, "file", files.read_csv(p))
 
 
@@ -205,12 +289,29 @@ def simulate(
       missed (empty when MuJoCo agrees with the reference), ``as_dict()`` is ``report.json``,
       ``out_dir`` the folder.
     """
-    mech = _mechanism(mechanism)
-    speed = None if speed_rpm is None else speed_rpm * 2.0 * math.pi / 60.0
+    fn = "simulate"
+    mech = _mechanism(fn, mechanism)
+    root = Path(_path(fn, "out", out))
+    flags = {k: _flag(fn, k, v) for k, v in (("video", video), ("plots", plots), ("dynamics", dynamics))}
+    flags |= {k: _flag(fn, k, v) for k, v in (("loads", loads), ("force", force))}
+    speed = _speed(fn, speed_rpm)
+    n = _number(fn, "cycles", cycles, "crank periods")
+    d = _number(fn, "duration", duration, "s")
+    if d is not None:  # refused as --duration is, whether or not the dynamic run is made
+        _checked(fn, lambda: check_duration(d, "duration"))
     opts = Options(
-        speed=speed, cycles=cycles, duration=duration, dynamics=dynamics, plots=plots, video=video, loads=loads
+        speed=speed,
+        cycles=n,
+        duration=d,
+        dynamics=flags["dynamics"],
+        plots=flags["plots"],
+        video=flags["video"],
+        loads=flags["loads"],
     )
-    return _simulate_run(mech, Path(out), opts, force=force)
+    _checked(fn, lambda: estimate(mech, opts, names=_NAMES))
+    clock = kinematic_clock(mech.period, mech.speed if speed is None else speed, mech.cycles if n is None else n)
+    _checked(fn, lambda: enough_samples(mech, clock, "cycles"))
+    return _simulate_run(mech, root, opts, force=flags["force"])
 
 
 def run_study(
@@ -242,9 +343,24 @@ def run_study(
     Raises:
       MjlinkError: a study refused before any work (one line naming the file and line).
     """
-    spec = study if isinstance(study, Path) else os.fspath(study)
+    fn = "run_study"
+    spec = _path(fn, "study", study, "a shipped study's name or a path (str or os.PathLike)")
+    root = Path(_path(fn, "out", out))
+    if workers is not None and (
+        isinstance(workers, bool | np.bool_) or not isinstance(workers, numbers.Integral) or workers < 0
+    ):
+        raise _refuse(fn, "workers", workers, "a whole number >= 0 or None")
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise _refuse(fn, "scheduler", scheduler, "a Dask scheduler's address 'tcp://HOST:PORT' or None")
+    flags = {k: _flag(fn, k, v) for k, v in (("plots", plots), ("force", force), ("progress", progress))}
     return _study_run(
-        spec, Path(out), workers=workers, scheduler=scheduler, plots=plots, force=force, progress=progress
+        spec,
+        root,
+        workers=None if workers is None else int(workers),
+        scheduler=scheduler,
+        plots=flags["plots"],
+        force=flags["force"],
+        progress=flags["progress"],
     )
 
 
@@ -274,16 +390,16 @@ def read_study(folder: PathLike) -> StudyTable:
     """Read a study's results folder (``OUT/NAME-study/``, as :func:`run_study` returns it).
 
     Raises:
-      MjlinkError: no such folder, or one without a study's ``results.parquet`` and
+      MjlinkError: no such folder, or one without a study's readable ``results.parquet`` and
         ``summary.json``.
     """
-    d = Path(folder)
+    d = Path(_path("read_study", "folder", folder))
     table, summ = d / "results.parquet", d / "summary.json"
     if not d.is_dir():
-        raise MjlinkError(f"{d}: no such study folder")
+        raise InputError(f"{d}: no such study folder")
     if not (table.is_file() and summ.is_file()):
-        raise MjlinkError(f"{d}: not a study's results (no results.parquet and summary.json)")
+        raise InputError(f"{d}: not a study's results (no results.parquet and summary.json)")
     summary = files.read_json(summ)
     if not isinstance(summary, dict):
-        raise MjlinkError(f"{summ}: not a readable study summary")
+        raise InputError(f"{summ}: not a readable study summary")
     return StudyTable(d, files.read_parquet(table), summary)

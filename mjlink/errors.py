@@ -26,6 +26,11 @@ class InputError(MjlinkError):
     exit_status = 2
 
 
+class ArgumentError(InputError):
+    """A Python API function's argument of the wrong type or beyond its range (or a limit of the
+    command line's): the message names the function and the argument."""
+
+
 class MechanismFileError(MjlinkError):
     """A mechanism file is unreadable, malformed, or describes an impossible mechanism."""
 

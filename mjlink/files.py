@@ -28,6 +28,7 @@ import math
 import os
 import secrets
 import stat
+import warnings
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -36,10 +37,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import orjson
 
-from .errors import OutputError
+from .errors import InputError, OutputError
 from .model.catalogue import kind_of
 from .model.jet import norms
 from .model.mechanism import Mechanism
+from .model.reader import shown
 from .runs import Trace
 from .units import MM, UM, to_rpm
 
@@ -431,11 +433,17 @@ def write_parquet(path: Path, columns: Mapping[str, Sequence[Any] | np.ndarray])
 
 def read_parquet(path: Path) -> dict[str, np.ndarray]:
     """The columns of a Parquet table written by :func:`write_parquet`, by name: numbers as
-    float or integer arrays, text as object arrays."""
-    import pyarrow.parquet as pq  # here: only for a study's table
+    float or integer arrays, text as object arrays. Raises InputError (one line naming the
+    file) for a file that is not such a table."""
+    import pyarrow as pa  # here: only for a study's table
+    import pyarrow.parquet as pq
 
-    table = pq.read_table(path)
-    return {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
+    try:
+        table = pq.read_table(path)
+        return {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
+    except (OSError, pa.ArrowException) as e:  # not Parquet, truncated, unreadable
+        why = " ".join(str(e).split()) or type(e).__name__
+        raise InputError(f"{path}: not a readable Parquet table ({why[:200]})") from None
 
 
 def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.ndarray, float]]]:
@@ -480,9 +488,91 @@ def write_csv(path: Path, mech: Mechanism, trace: Trace) -> Path:
 
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:
-    """Read a CSV written here back into its columns by name, each (N,) in the unit its name says."""
-    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
-    return {n: np.asarray(data[n]) for n in data.dtype.names or ()}
+    """Read a CSV written here back into its columns by name, each (N,) in the unit its name says.
+
+    The file must be what :func:`write_table` writes: a header row of distinct column names,
+    then rows of as many numbers (``nan``, ``inf`` included; blank lines are skipped). Raises
+    InputError, one line naming the file and, where there is one, the line and the column at
+    fault: a missing or unreadable file, one that is not a regular file, not UTF-8 text, empty,
+    without a header row, a row of another length, a value that is not a number."""
+    p = Path(path)
+    try:
+        mode = os.stat(p).st_mode
+    except FileNotFoundError:
+        raise InputError(f"{p}: no such file") from None
+    except OSError as e:
+        raise InputError(f"{p}: cannot be read ({e.strerror or type(e).__name__})") from None
+    if not stat.S_ISREG(mode):
+        raise InputError(f"{p} is {kind_of(mode)}, not a CSV file")
+    try:
+        with open(p, encoding="utf-8", newline="") as f:
+            names = _csv_header(p, f.readline(_MAX_HEADER))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # a header without rows: no data
+                data = np.loadtxt(f, delimiter=",", dtype=float, ndmin=2, comments=None)
+    except UnicodeDecodeError:
+        raise InputError(f"{p}: not a CSV text file (not UTF-8; binary?)") from None
+    except OSError as e:
+        raise InputError(f"{p}: cannot be read ({e.strerror or type(e).__name__})") from None
+    except ValueError:
+        _csv_fault(p, names)
+        raise InputError(f"{p}: not a table of numbers under its header row") from None
+    if data.size == 0:
+        return {n: np.empty(0) for n in names}
+    if data.shape[1] != len(names):
+        _csv_fault(p, names)
+    return {n: data[:, j].copy() for j, n in enumerate(names)}
+
+
+_MAX_HEADER = 1 << 20  # characters: a traced point's nine names are about 120
+
+
+def _csv_header(p: Path, line: str) -> list[str]:
+    """The column names of a CSV's first ``line``, checked (InputError naming ``p``)."""
+    if not line.strip():
+        raise InputError(f"{p}: empty, no header row of column names")
+    if "\x00" in line:
+        raise InputError(f"{p}: not a CSV text file (binary)")
+    if len(line) >= _MAX_HEADER and not line.endswith("\n"):
+        raise InputError(f"{p}:1: a header row longer than {_MAX_HEADER} characters: not a traces file")
+    names = [n.strip() for n in line.rstrip("\r\n").split(",")]
+    if all(_number(n) for n in names):
+        raise InputError(f"{p}:1: no header row: the first line holds numbers, not column names")
+    for j, n in enumerate(names, 1):
+        if not n or _number(n):
+            raise InputError(f"{p}:1: column {j}: {shown(n)} is not a column name")
+        if names.index(n) != j - 1:
+            raise InputError(f"{p}:1: column {j}: {shown(n)} names two columns")
+    return names
+
+
+def _number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return "_" not in text  # Python's float() reads 1_000, a CSV reader does not
+
+
+def _csv_fault(p: Path, names: list[str]) -> None:
+    """Raise InputError at the first row of the CSV ``p`` whose length differs from the
+    header's or that holds a value that is not a number (line and column named)."""
+    with open(p, encoding="utf-8", newline="") as f:
+        f.readline()
+        for k, line in enumerate(f, 2):
+            if not line.strip():
+                continue
+            if "\x00" in line:
+                raise InputError(f"{p}:{k}: not a CSV text file (binary)")
+            values = line.rstrip("\r\n").split(",")
+            if len(values) != len(names):
+                raise InputError(
+                    f"{p}:{k}: {len(values)} value{'s' if len(values) != 1 else ''}, the header names "
+                    f"{len(names)} column{'s' if len(names) != 1 else ''}"
+                )
+            for j, (v, n) in enumerate(zip(values, names, strict=True), 1):
+                if not _number(v):
+                    raise InputError(f"{p}:{k}: column {j} ({shown(n)}): {shown(v.strip())} is not a number")
 
 
 def write_json(path: Path, obj: Mapping[str, Any]) -> Path:

@@ -115,6 +115,30 @@ def test_the_wheel_lists_every_package_and_ships_the_data():
     assert (ROOT / "mjlink" / "py.typed").is_file()
 
 
+def test_records_of_many_fields_are_built_by_keyword():
+    """A record of seven or more fields (a check report, a run's summary, a timing row) cannot
+    be built positionally, where two numbers of one type swapped would pass unnoticed: every
+    dataclass of the package with that many constructor fields is keyword-only."""
+    import dataclasses
+    import importlib
+    import inspect
+    import pkgutil
+
+    root = Path(mjlink.__file__).parent
+    found, positional = [], []
+    for info in pkgutil.walk_packages([str(root)], "mjlink."):
+        module = importlib.import_module(info.name)
+        for name, cls in inspect.getmembers(module, dataclasses.is_dataclass):
+            if not inspect.isclass(cls) or cls.__module__ != info.name:
+                continue
+            fields = [f for f in dataclasses.fields(cls) if f.init]
+            if len(fields) >= 7:
+                found.append(name)
+                positional += [f"{info.name}.{name}.{f.name}" for f in fields if not f.kw_only]
+    assert {"CheckReport", "DynamicsSummary", "TimingRow", "Mechanism", "Plan"} <= set(found)
+    assert positional == []
+
+
 def test_a_finished_study_says_nothing_of_discarded_chunks(tmp_path, capsys):
     """Publishing a study removes its cache without judging the chunks against a study of
     unknown size (which said, after every finished sampled study, that they were discarded)."""
@@ -124,3 +148,148 @@ def test_a_finished_study_says_nothing_of_discarded_chunks(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "discarding" not in err, err
     assert not (tmp_path / ".crank_slider_grid-study.chunks").exists()
+
+
+# ================================================================= every argument, checked
+BAD_PATH = [None, 5, ["takeup"], b"takeup", "", "a\x00b", "x" * 5000]
+BAD_FLAG = [None, "yes", 1, 0.0, [True]]
+BAD_NUMBER = ["100", [1.0], True, float("nan"), float("inf"), -1.0, 1e300, 10**400, 0]
+# Every public function with valid arguments (a valid call's first refusal is the bad one).
+VALID = {
+    "load": {"name_or_path": "takeup"},
+    "mjcf": {"mechanism": "MECH", "kinematic": False},
+    "traces": {"mechanism": "MECH", "source": "mujoco", "cycles": 1.0, "speed_rpm": 955.0},
+    "simulate": {
+        "mechanism": "MECH",
+        "out": "TMP",
+        "video": False,
+        "plots": False,
+        "dynamics": True,
+        "loads": True,
+        "speed_rpm": 955.0,
+        "cycles": 1.0,
+        "duration": 0.5,
+        "force": False,
+    },
+    "read_traces": {"path": "CSV"},
+    "run_study": {
+        "study": "crank_slider_grid",
+        "out": "TMP",
+        "workers": 0,
+        "scheduler": None,
+        "plots": False,
+        "force": False,
+        "progress": False,
+    },
+    "read_study": {"folder": "TMP"},
+}
+BAD = {
+    "name_or_path": BAD_PATH,
+    "mechanism": BAD_PATH[:-1],
+    "kinematic": BAD_FLAG,
+    "source": [None, 3, "MUJOCO", ["mujoco"]],
+    "cycles": [*BAD_NUMBER, 1e5],
+    "speed_rpm": [*BAD_NUMBER, 0.001],
+    "duration": [*BAD_NUMBER, 1e5],
+    "out": BAD_PATH,
+    "video": BAD_FLAG,
+    "plots": BAD_FLAG,
+    "dynamics": BAD_FLAG,
+    "loads": BAD_FLAG,
+    "force": BAD_FLAG,
+    "path": BAD_PATH,
+    "study": BAD_PATH,
+    "workers": ["0", -1, 1.5, True, [1], float("nan")],
+    "scheduler": [5, ["tcp://127.0.0.1:8786"], b"tcp://127.0.0.1:8786"],
+    "progress": BAD_FLAG,
+    "folder": BAD_PATH,
+}
+CASES = [(fn, arg, bad) for fn, args in VALID.items() for arg in args for bad in BAD[arg]]
+
+
+@pytest.fixture(scope="module")
+def takeup():
+    return mjlink.load("takeup")
+
+
+@pytest.mark.parametrize(("fn", "arg", "bad"), CASES, ids=[f"{f}-{a}-{i}" for i, (f, a, _) in enumerate(CASES)])
+def test_every_public_function_refuses_a_wrong_argument_in_one_line_naming_it(tmp_path, takeup, fn, arg, bad):
+    """docs/api.md: a wrong type or a value beyond the command line's limits is one MjlinkError
+    line naming the argument, before any work (nothing written)."""
+    (tmp_path / "t.csv").write_text("time_s,phi1_deg\n0,0\n")
+    fill = {"MECH": takeup, "TMP": str(tmp_path / "out"), "CSV": str(tmp_path / "t.csv")}
+    kwargs = {k: fill.get(v, v) if isinstance(v, str) else v for k, v in VALID[fn].items()}
+    kwargs[arg] = bad
+    with pytest.raises(mjlink.MjlinkError) as e:
+        getattr(mjlink, fn)(**kwargs)
+    msg = str(e.value)
+    assert "\n" not in msg and len(msg) < 600, msg
+    assert msg.startswith(f"{fn}(") and arg in msg, msg
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_api_refuses_a_run_by_the_command_lines_own_checks_before_it_starts(tmp_path, monkeypatch, capsys):
+    from mjlink.cli import main
+    from mjlink.sim import simulate as sim
+
+    def never(*a, **k):
+        raise AssertionError("a run was started")
+
+    monkeypatch.setattr(sim, "run", never)
+    # At the slowest speed the limits allow, 100 turns record far more than the memory bound.
+    with pytest.raises(mjlink.MjlinkError) as e:
+        mjlink.traces("takeup", speed_rpm=60 / (2 * np.pi), cycles=100)
+    assert main(["simulate", "takeup", "--speed", "1rad/s", "--cycles", "100", "--out", str(tmp_path)]) != 0
+    cli = capsys.readouterr().err.strip().removeprefix("mjlink: error: ")
+    assert str(e.value) == "traces(): " + cli.replace("--cycles", "cycles").replace("--speed", "speed_rpm")
+    for kwargs in ({"speed_rpm": 0.001}, {"cycles": 1e5}):
+        with pytest.raises(mjlink.MjlinkError, match=r"^traces\(\): (speed_rpm|cycles) must be"):
+            mjlink.traces("takeup", **kwargs)
+    assert not list(tmp_path.iterdir())
+
+
+TRACES_CSV = {  # content -> what the one-line error names (the file's name is in every one)
+    "ragged": ("time_s,P5_y_mm\n0,1\n1\n", ":3: 1 value, the header names 2 columns"),
+    "text": ("time_s,P5_y_mm\n0,1\n1,abc\n", ":3: column 2 ('P5_y_mm'): 'abc' is not a number"),
+    "empty": ("", ": empty, no header row"),
+    "no header": ("0,1\n1,2\n", ":1: no header row"),
+    "binary": (bytes(range(256)) * 8, ": not a CSV text file"),
+    "a folder": (None, " is a folder, not a CSV file"),
+    "missing": (..., ": no such file"),
+}
+
+
+@pytest.mark.parametrize("case", list(TRACES_CSV))
+def test_read_traces_refuses_a_malformed_file_in_one_line_naming_where(tmp_path, case):
+    content, words = TRACES_CSV[case]
+    f = tmp_path / "kinematics.csv"
+    if content is None:
+        f.mkdir()
+    elif isinstance(content, bytes):
+        f.write_bytes(content)
+    elif isinstance(content, str):
+        f.write_text(content)
+    with pytest.raises(mjlink.MjlinkError) as e:
+        mjlink.read_traces(f)
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(str(f)) and words in msg, msg
+
+
+def test_read_traces_reads_back_what_simulate_wrote_exactly(tmp_path):
+    res = mjlink.simulate("crank_slider", tmp_path, plots=False, dynamics=False, loads=False, cycles=1)
+    back = mjlink.read_traces(res.out_dir / "kinematics.csv")
+    mj = mjlink.traces("crank_slider", cycles=1)
+    assert list(back) == list(mj)
+    for k in mj:  # the CSV holds every double exactly (files.write_table)
+        assert np.array_equal(back[k], mj[k], equal_nan=True), k
+    (tmp_path / "one.csv").write_text("time_s,x_mm\nnan,-inf\n")
+    one = mjlink.read_traces(tmp_path / "one.csv")
+    assert one["time_s"].shape == (1,) and np.isnan(one["time_s"][0]) and one["x_mm"][0] == -np.inf
+
+
+def test_read_study_refuses_a_damaged_table_in_one_line(tmp_path):
+    (tmp_path / "summary.json").write_text('{"study": "x"}')
+    (tmp_path / "results.parquet").write_bytes(b"PAR1" + bytes(100) + b"PAR1")
+    with pytest.raises(mjlink.MjlinkError) as e:
+        mjlink.read_study(tmp_path)
+    assert "\n" not in str(e.value) and "results.parquet: not a readable Parquet table" in str(e.value)

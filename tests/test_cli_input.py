@@ -480,3 +480,33 @@ def test_errors_never_carry_control_characters(tmp_path, capsys):
     assert error_line("a\nb\tc\x00\u2028d") == "a\\nb\\tc\\x00\\u2028d" and error_line("µ ä") == "µ ä"
     assert shown("x" * 10_000).endswith("xxx'") and len(shown("x" * 10_000)) < 100
     assert shown([[[[[[1]]]]]]) == "[[[[...]]]]"
+
+
+LONG = "a" * 5000  # no file system holds a name of 5000 bytes (Linux: 255 a name)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["build", "takeup", "-o", LONG],
+        ["export", "takeup", "--dxf", f"{LONG}.dxf"],
+        ["design", "takeup", "-o", LONG],
+        ["simulate", "takeup", "--no-video", "--out", LONG],
+        ["torque", "takeup", "--out", f"x/{LONG}"],
+        ["study", "crank_slider_grid", "--dry-run", "--out", LONG],
+        ["synth", "crank_slider", "--write", f"{LONG}.toml"],
+    ],
+    ids=["build", "export", "design", "simulate", "torque", "study", "synth"],
+)
+def test_a_path_option_too_long_for_the_file_system_is_a_usage_error(capsys, argv):
+    msg = usage_error(capsys, argv)
+    assert "path too long for the file system" in msg and len(msg) < 400, msg
+
+
+@pytest.mark.parametrize("command", ["check", "simulate", "study"])
+@pytest.mark.parametrize("name", [LONG, f"{'a/' * 3000}x.toml"], ids=["name", "path"])
+def test_a_mechanism_or_study_too_long_for_the_file_system_is_one_line(capsys, command, name):
+    # a study file refused before any work is status 2, as every bad study file (studies/README.md)
+    assert main([command, name]) == (2 if command == "study" else 1)
+    msg = one_line_error(capsys.readouterr().err)
+    assert "File name too long" in msg and len(msg) < 400, msg

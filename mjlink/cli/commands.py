@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -147,11 +148,28 @@ def path_arg(s: str) -> Path:
     if not s.strip():
         raise argparse.ArgumentTypeError("empty path: give a file or folder name")
     try:
-        return Path(s).expanduser()
+        p = Path(s).expanduser()
     except RuntimeError:  # ~user of no such user, or no home folder
         raise argparse.ArgumentTypeError(
             f"{text.error_line(s)}: cannot expand {text.error_line(s.split('/')[0])}: no such user or home folder"
         ) from None
+    # A name the file system cannot hold fails every later look at it with an OSError: refused
+    # here, once, for every path option.
+    long = next((part for part in p.parts if len(os.fsencode(part)) > _NAME_MAX), None)
+    if long is not None or len(os.fsencode(str(p))) > _PATH_MAX:
+        what = f"a name of {len(os.fsencode(long))} bytes" if long is not None else f"{len(os.fsencode(str(p)))} bytes"
+        raise argparse.ArgumentTypeError(
+            f"{_clipped(s)}: path too long for the file system ({what}; at most {_NAME_MAX} bytes a name, "
+            f"{_PATH_MAX} in all)"
+        )
+    return p
+
+
+_NAME_MAX, _PATH_MAX = 255, 4096  # bytes: Linux's (and most file systems') limits
+
+
+def _clipped(s: str) -> str:
+    return text.error_line(s if len(s) <= 80 else f"{s[:37]}...{s[-37:]}")
 
 
 def _rad_s(v: Speed | None) -> float | None:

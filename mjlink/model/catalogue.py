@@ -25,6 +25,7 @@ from __future__ import annotations
 import difflib
 import importlib.resources
 import os
+import reprlib
 import stat
 from pathlib import Path
 
@@ -88,12 +89,23 @@ def kind_of(mode: int) -> str:
     return next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
 
 
+_REPR = reprlib.Repr()
+_REPR.maxstring = 80
+
+
+def _said(s: str) -> str:
+    """A name or path as a message echoes it: as written if it is short printable text, else
+    quoted, escaped and clipped (one short line)."""
+    return s if s.isprintable() and len(s) <= 80 else _REPR.repr(s)
+
+
 def path_of(name_or_path: str | Path) -> Path:
     """The file of a registered name, or the given path (see the module docstring for the rule).
 
     Raises UnknownMechanismError (one line) for an unknown name, a missing file or a folder.
     """
     s = str(name_or_path)
+    said = _said(s)
     if not s.strip():
         raise UnknownMechanismError(f"empty mechanism name (valid: {', '.join(names())}, or a path to a .toml file)")
     if isinstance(name_or_path, Path) or _is_path(s):
@@ -101,9 +113,9 @@ def path_of(name_or_path: str | Path) -> Path:
             p = Path(s).expanduser()
         except RuntimeError:  # ~user of no such user
             raise UnknownMechanismError(
-                f"{s}: cannot expand '{s.split('/')[0]}': no such user or home folder"
+                f"{said}: cannot expand {_said(s.split('/')[0])}: no such user or home folder"
             ) from None
-        shown = s if str(p) == s else f"{s} ({p})"
+        shown = said if str(p) == s else f"{said} ({_said(str(p))})"
         what = what_is(p)
         if what is not None:
             raise UnknownMechanismError(f"{shown}: is {what}, not a mechanism file")
@@ -113,13 +125,13 @@ def path_of(name_or_path: str | Path) -> Path:
     if s in names():
         return MECHANISMS_DIR / f"{s}.toml"
     p = Path(s)
-    if p.is_file():
+    what = what_is(p)  # first: it never raises (a name too long for the file system)
+    if what is None and p.is_file():
         return p
-    what = what_is(p)
     if what is not None and what != "a folder":  # a folder called like a name: the name's error
-        raise UnknownMechanismError(f"{s}: is {what}, not a mechanism file")
+        raise UnknownMechanismError(f"{said}: is {what}, not a mechanism file")
     near = difflib.get_close_matches(s.lower(), [n.lower() for n in names()], n=1)
     hint = f"did you mean '{next(n for n in names() if n.lower() == near[0])}'? " if near else ""
     raise UnknownMechanismError(
-        f"unknown mechanism '{s}' ({hint}valid: {', '.join(names())}, or a path to a .toml file)"
+        f"unknown mechanism {said if said != s else repr(s)} ({hint}valid: {', '.join(names())}, or a path to a .toml file)"
     )

@@ -117,7 +117,7 @@ class MakerSettings:
     windows: dict[str, Window]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Timing:
     """A head's ``[timing]`` table in SI units (m, rad); ``stitch`` its stitch type."""
 

@@ -7,6 +7,7 @@ naming the estimate and the option to change; a long run says so before it start
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from .. import compare
@@ -15,6 +16,7 @@ from ..model.limits import (
     CSV_BYTES_PER_VALUE,
     LONG_RUN_SAMPLES,
     MAX_CSV_BYTES,
+    MAX_CYCLES,
     MAX_FPS,
     MAX_TRACE_BYTES,
     MAX_VIDEO_FRAMES,
@@ -23,6 +25,7 @@ from ..model.limits import (
 from ..model.mechanism import Mechanism
 from ..runs import DYNAMIC, Case
 from ..sim import simulate
+from ..sim.steps import kinematic_clock
 from ..units import RunKind
 from .options import Options, check_duration, check_speed, has_masses
 
@@ -85,33 +88,55 @@ def values_per_sample(mech: Mechanism) -> int:
 
 
 def estimate(
-    mech: Mechanism, opts: Options = Options(), *, kinematic: bool = True, cycles_option: str | None = "--cycles"
+    mech: Mechanism,
+    opts: Options = Options(),
+    *,
+    kinematic: bool = True,
+    cycles_option: str | None = "--cycles",
+    names: Mapping[str, str] | None = None,
 ) -> Estimate:
     """What :func:`run` with ``opts`` will cost for ``mech`` (``kinematic=False``: without the
     kinematic run, as :func:`steady` does), estimated before anything starts. ``cycles_option``
-    the option that sets the kinematic run's cycles, for messages (None: only the file's).
+    the option that sets the kinematic run's cycles, for messages (None: only the file's);
+    ``names`` what the messages call the options ``--speed``, ``--cycles`` and ``--duration``
+    where they come from elsewhere (the Python API's arguments).
 
     Samples of each run times the values it records give its memory and CSV; the video's frames
     are ``video_seconds`` x ``fps``. Raises MjlinkError, one line with the estimate and the
     option to change, beyond limits.MAX_TRACE_BYTES, MAX_CSV_BYTES, MAX_VIDEO_FRAMES or MAX_FPS
-    (mechanisms/README.md, "Limits"), and for a speed or duration outside its bounds.
+    (mechanisms/README.md, "Limits"), and for a speed, cycle count or duration outside its
+    bounds.
     """
+
+    def named(option: str) -> str:
+        return (names or {}).get(option, option)
+
     values = values_per_sample(mech)
     runs = []
     if kinematic:
         w = mech.speed if opts.speed is None else opts.speed
-        check_speed("--speed", w)
+        check_speed(named("--speed"), w)
         n = mech.cycles if opts.cycles is None else opts.cycles
-        if not (math.isfinite(n) and n > 0):
-            raise MjlinkError(f"--cycles must be a positive finite number, got {n:g}")
-        samples = n * mech.period / abs(w) / simulate.kinematic_settings(w).timestep + 1
-        hint = f"lower {cycles_option} or raise --speed" if cycles_option else "raise --speed (or lower [input] cycles)"
+        if not (math.isfinite(n) and 0 < n <= MAX_CYCLES):
+            raise MjlinkError(
+                f"{named('--cycles')} must be a positive number of crank periods, at most {MAX_CYCLES:g} "
+                f"(mechanisms/README.md, Limits), got {n:g}"
+            )
+        clock = kinematic_clock(mech.period, w, n)
+        # As a float (the clock's steps are an int): it may be astronomically many.
+        samples = clock.duration / clock.settings.timestep + 1
+        speed = named("--speed")
+        hint = (
+            f"lower {named(cycles_option)} or raise {speed}"
+            if cycles_option
+            else f"raise {speed} (or lower [input] cycles)"
+        )
         runs.append(RunCost("kinematic run", samples, values, hint))
     if opts.dynamics and has_masses(mech):
         d = mech.dynamics.duration if opts.duration is None else opts.duration
-        check_duration(d)
+        check_duration(d, named("--duration"))
         case = simulate.dynamic_case(mech, duration=d)
-        runs.append(RunCost("dynamic run", float(case.samples), values, "lower --duration"))
+        runs.append(RunCost("dynamic run", float(case.samples), values, f"lower {named('--duration')}"))
     if opts.steady and mech.steady is not None:
         # Two runs (without and with the flywheel) of 3 periods sampled every step; the mean
         # speed stays below the no-load speed, so this is a lower bound.

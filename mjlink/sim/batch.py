@@ -51,7 +51,7 @@ from ..model.jet import norms
 from ..model.mechanism import Mechanism
 from ..runs import Settings
 from ..units import RunKind
-from . import builder, simulate
+from . import builder, simulate, steps
 from ._mujoco import mujoco
 
 _RUN = str(RunKind.KINEMATICS)
@@ -116,7 +116,8 @@ class Timing:
 
 @dataclass(frozen=True)
 class _Variant:
-    """A variant ready to run: its model and initial state (nstate,), its steps (one period)."""
+    """A variant ready to run: its model and initial state (nstate,), its rollout steps (one
+    period and the initial sample: :func:`mjlink.sim.steps.verify_steps`)."""
 
     index: int
     mech: Mechanism
@@ -202,27 +203,27 @@ def verify_timed(
         state = np.empty(mujoco.mj_stateSize(built.physics, _FULL))
         mujoco.mj_getState(built.physics, data, state, _FULL)
         times["keyframe"] = times.get("keyframe", 0.0) + time.perf_counter() - t0
-        ready.append(_Variant(i, mech, built, state, case.steps))
+        ready.append(_Variant(i, mech, built, state, steps.verify_steps(mech.period, mech.speed, settings)))
     for k in ("spec", "compile", "keyframe"):
         setattr(timing, k, times.get(k, 0.0))
 
     # Variants at other speeds take other numbers of steps: each step count is one rollout
     # (a design study that keeps the speed has one).
-    for steps in sorted({v.steps for v in ready}):
-        group = [v for v in ready if v.steps == steps]
+    for nstep in sorted({v.steps for v in ready}):
+        group = [v for v in ready if v.steps == nstep]
         t0 = time.perf_counter()
         control = None
         if any(v.mech.dynamics.forces for v in group):
-            control = np.zeros((len(group), steps + 1, 6 * group[0].built.physics.nbody))
+            control = np.zeros((len(group), nstep, 6 * group[0].built.physics.nbody))
             for j, v in enumerate(group):
-                control[j] = external_forces(v.mech, v.built, steps + 1)
+                control[j] = external_forces(v.mech, v.built, nstep)
         timing.forces += time.perf_counter() - t0
         t0 = time.perf_counter()
         models, states = [v.built.physics for v in group], np.array([v.state for v in group])
-        sd = rollout(models, states, steps + 1, control=control, threads=threads)
+        sd = rollout(models, states, nstep, control=control, threads=threads)
         del control
         timing.rollout += time.perf_counter() - t0
-        timing.steps += len(group) * (steps + 1)
+        timing.steps += len(group) * nstep
         t0 = time.perf_counter()
         for v, rows in zip(group, sd, strict=True):
             out[v.index] = judge(v.mech, v.built, rows)

@@ -32,12 +32,12 @@ from .. import reference
 from ..errors import SimulationError
 from ..model import names
 from ..model.jet import norms
-from ..model.limits import VERIFIED_SPEED
 from ..model.mechanism import Mechanism
-from ..runs import DYNAMIC, KINEMATIC, Case, Settings, SteadyRun, Trace
+from ..runs import DYNAMIC, Case, Settings, SteadyRun, Trace
 from ..units import RunKind, Source
 from . import builder
 from ._mujoco import mujoco, rollout
+from .steps import kinematic_clock
 
 FLYWHEEL_RATIO = 1e9
 PROGRESS_EVERY = 0.5  # s between progress reports of a long run
@@ -62,27 +62,14 @@ def kinematic_case(
     ``settings`` are used as they are.
     """
     w = mech.speed if speed is None else speed
-    n = mech.cycles if cycles is None else cycles
-    base = settings or kinematic_settings(w)
+    clock = kinematic_clock(mech.period, w, mech.cycles if cycles is None else cycles, settings)
+    base = clock.settings
     phi = mech.phi0 + np.linspace(0, mech.period, 64, endpoint=False)
     jmax = float(reference.SpectralDynamics(mech, samples=128).evaluate(phi)[0].max())
     tau_max = float(np.abs(reference.driving_torque(mech, phi, w)).max())
     held = builder.SERVO_STEPS * base.timestep * tau_max / (abs(w) * SPEED_HOLD)
     fly = max(FLYWHEEL_RATIO * max(jmax, 1e-9), held)
-    s = dataclasses.replace(base, flywheel=fly, imposed_speed=w)
-    return Case(RunKind.KINEMATICS, n * mech.period / abs(w), w, s, 1, True)
-
-
-def kinematic_settings(speed: float) -> Settings:
-    """The kinematic run's default settings at ``speed`` (rad/s): ``KINEMATIC``, with the
-    timestep and the loops' time constant scaled by ``VERIFIED_SPEED / |speed|`` above it
-    (:func:`kinematic_case`)."""
-    k = min(1.0, VERIFIED_SPEED / abs(speed)) if speed else 1.0
-    if k == 1.0:
-        return KINEMATIC
-    return dataclasses.replace(
-        KINEMATIC, timestep=KINEMATIC.timestep * k, solref=(KINEMATIC.solref[0] * k, KINEMATIC.solref[1])
-    )
+    return dataclasses.replace(clock, settings=dataclasses.replace(base, flywheel=fly, imposed_speed=w))
 
 
 def dynamic_case(

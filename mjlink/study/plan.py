@@ -4,13 +4,18 @@ The estimate comes from a short calibration on this machine (a few variants of t
 mechanism and metrics evaluated in this process, timed, their peak memory traced), scaled to
 the study's size:
 
+* MuJoCo steps: every verified model's, counted by the function the verification steps it with
+  (:func:`mjlink.sim.steps.verify_steps`: one period at the variant's own speed, on the clock
+  scaled above the verified speed), over the speeds the variants take (:func:`clock`);
 * time: variant-angles x the measured seconds per variant-angle, shared by the workers; MuJoCo
   models x their steps at the measured rate (a calibration run of one model where the study
   verifies more than a few), or at :data:`MUJOCO_STEPS_PER_S` where it verifies a handful;
 * memory: the largest of (a) the tasks running at once, each its rows x the measured peak bytes
-  per variant-angle, (b) what this process holds: the variants' values and metric columns, the
-  results table as it is written (about :data:`TABLE_BYTES_PER_VALUE` per value), an
-  optimization's archive of every candidate, and a MuJoCo chunk's recorded samples.
+  per variant-angle or a MuJoCo chunk's recorded sensor values (its longest model's steps) and
+  one model's comparison with the reference, (b) what this process holds: the variants' values
+  and metric columns, the results table as it is written (about :data:`TABLE_BYTES_PER_VALUE`
+  per value), an optimization's archive of every candidate, and a task run here; plus
+  :data:`PROCESS_BYTES` for this process and each worker.
 
 A study whose memory estimate exceeds the bound (:func:`memory_limit`: three quarters of the
 memory this machine has available now, or the user's ``--max-memory``) is refused before it
@@ -24,34 +29,47 @@ import math
 import os
 import time
 import tracemalloc
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import InputError
 from ..reference.batch import angle_grid
+from ..sim import steps as _steps  # the clock alone: no MuJoCo is imported
 from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks
 from .optimize import CHUNK_ROWS, budget, needed
+from .polish import batch_size as polish_batch
 from .spec import Study
 from .tasks import mujoco_chunk, reference_chunk
 
 MUJOCO_STEPS_PER_S = 60_000.0  # RK4 steps per second per core the plan assumes (bench/bench_study.py)
 MUJOCO_BUILD_S = 0.03  # seconds the plan assumes to build and compile one model
 TABLE_BYTES_PER_VALUE = 120.0  # a results table's value as Python objects and CSV text while written
-SAMPLE_BYTES = 8.0 * 24  # MuJoCo's recorded values per model step (position, velocity of a few points)
+# A verified model's comparison with the reference holds the reference's solution at every step:
+# about this many bytes per point and step (tests/test_study_plan.py holds the memory bound to
+# the traced peak of a run).
+JUDGE_BYTES_PER_POINT = 160.0
+PROCESS_BYTES = 2.0**27  # an interpreter with numpy, MuJoCo and mjlink loaded
+CLOCK_SPEEDS = 1024  # speeds of a sampled study's variants the steps are counted at, at most
 CLUSTER_START_S = 2.0  # a local Dask cluster's start
 # An optimization's generation below this much work runs faster in this process than on a
 # local cluster, whose every call makes a round trip and whose polish runs here anyway
 # (bench/bench_optimize.py compares the two).
 SMALL_GENERATION_S = 0.1
 CALIBRATION_VARIANTS = 16
+# The calibration evaluates as many variants as a task does, up to this many variant-angles:
+# a call's own cost is spread over its rows, so a batch smaller than the tasks' overstates the
+# cost per row (most where a study has few angles).
+CALIBRATION_ROWS = 4096
+CALIBRATION_RUNS = 3
 
 
 class PlanError(InputError):
     """A study refused before it starts (too large for this machine): exit status 2."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Plan:
     """The size and cost of a study (see the module docstring).
 
@@ -142,17 +160,25 @@ def memory_limit() -> float:
 @dataclass(frozen=True)
 class Calibration:
     """CPU seconds and peak traced bytes per variant-angle of the reference on this machine,
-    and MuJoCo's wall seconds per verified model (NaN where not measured)."""
+    and MuJoCo's CPU seconds per verified model (NaN where not measured) of ``model_steps``
+    steps (0: at the file's speed); an optimization's polish's CPU seconds per variant-angle,
+    in its smaller batches (NaN: as ``row_seconds``)."""
 
     row_seconds: float
     row_bytes: float
     model_seconds: float
+    model_steps: int = 0
+    polish_row_seconds: float = math.nan
 
 
 def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
-    """Evaluate :data:`CALIBRATION_VARIANTS` variants of ``study`` (all at the nominal values,
-    or the middle of the ranges of an optimization) here, timed and traced; with ``mujoco``,
-    verify one in MuJoCo, timed."""
+    """Evaluate as many variants of ``study`` as one of its tasks does (at least
+    :data:`CALIBRATION_VARIANTS`, at most :data:`CALIBRATION_ROWS` variant-angles; all at the
+    nominal values, or the middle of the ranges of an optimization) here, traced and timed
+    (the fastest of :data:`CALIBRATION_RUNS`); with ``mujoco``, verify one in MuJoCo, timed."""
+    angles = len(angle_grid(study.mechanism, study.per_turn))
+    per_task = budget(study).per_generation if study.optimize is not None else min(study.samples, REFERENCE_CHUNK[1])
+    n = max(CALIBRATION_VARIANTS, min(per_task, CALIBRATION_ROWS // angles))
     if study.optimize is not None:  # what its search computes (the other metrics: a few designs at the end)
         study = dataclasses.replace(study, metrics=needed(study))
     if study.method == "optimize":
@@ -162,24 +188,94 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
         ]
     else:
         row = [v.param.nominal if math.isfinite(v.param.nominal) else 0.0 for v in study.varied]
-    values = np.tile(np.array(row, dtype=float), (CALIBRATION_VARIANTS, 1))
-    angles = len(angle_grid(study.mechanism, study.per_turn))
+    values = np.tile(np.array(row, dtype=float), (n, 1))
     reference_chunk(study, values[:1])  # the nominal batch and first-call costs, not timed
     tracemalloc.start()
     try:
-        t = time.process_time()
         reference_chunk(study, values)
-        seconds = time.process_time() - t
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    rows = CALIBRATION_VARIANTS * angles
-    model = math.nan
+    # Timed without the tracing (which slows every allocation), the fastest of a few: a single
+    # short run on a shared machine is as often slowed by a neighbour as it is representative.
+    seconds = _fastest(lambda: reference_chunk(study, values))
+    polish = math.nan
+    m = polish_batch(len(study.varied)) * budget(study).samples if study.optimize is not None else 0
+    if study.optimize is not None and budget(study).polish and m * angles <= CALIBRATION_ROWS:
+        # The polish evaluates a generation of its own at a time, in this process: a batch
+        # small enough that a call's own cost counts (a larger one costs what the search's do).
+        polish = _fastest(lambda: reference_chunk(study, values[:1].repeat(m, axis=0))) / (m * angles)
+    rows = n * angles
+    model, model_steps = math.nan, 0
     if mujoco:
-        t = time.perf_counter()
+        t = time.process_time()  # CPU: one thread's, which a busy machine does not inflate
         mujoco_chunk(study, values[:1], threads=1)
-        model = time.perf_counter() - t
-    return Calibration(seconds / rows, peak / rows, model)
+        model = time.process_time() - t
+        speed = next(
+            (x * p.scale for x, p in zip(row, study.params, strict=True) if p.path == "input.speed"),
+            study.mechanism.speed,
+        )
+        model_steps = _steps.verify_steps(study.mechanism.period, speed)
+    return Calibration(seconds / rows, peak / rows, model, model_steps, polish)
+
+
+def _fastest(f: Callable[[], object]) -> float:
+    """The least CPU seconds of :data:`CALIBRATION_RUNS` calls of ``f``."""
+    best = math.inf
+    for _ in range(CALIBRATION_RUNS):
+        t = time.process_time()
+        f()
+        best = min(best, time.process_time() - t)
+    return best
+
+
+@dataclass(frozen=True)
+class Clock:
+    """MuJoCo steps of the models a study verifies (:func:`clock`): ``most`` the longest
+    model's, ``mean`` their mean over the variants (the verified ones are chosen among them)."""
+
+    most: int
+    mean: float
+
+
+def clock(study: Study) -> Clock:
+    """The steps of every model ``study`` may verify, each counted as the verification steps it
+    (:func:`mjlink.sim.steps.verify_steps`) at the variant's own crank speed.
+
+    Only ``input.speed`` changes a variant's clock. A grid's variants take each of its values
+    equally often; a random or tolerance study's are drawn (the study's own, seeded, samples:
+    at most :data:`CLOCK_SPEEDS` of them counted, evenly spread by speed, the slowest always);
+    an optimization verifies designs anywhere in the range (the steps of its slower end)."""
+    mech = study.mechanism
+    j = next((i for i, p in enumerate(study.params) if p.path == "input.speed"), None)
+    if j is None:
+        s = _steps.verify_steps(mech.period, mech.speed)
+        return Clock(s, float(s))
+    v = study.varied[j]
+    si = v.param.scale  # file units to rad/s
+    if study.method == "grid":
+        speeds = np.asarray(v.values, dtype=float)
+    elif study.method == "optimize":
+        speeds = np.array([v.low, v.high])
+        slow = speeds[np.argmin(np.abs(speeds))]
+        s = _steps.verify_steps(mech.period, float(slow) * si)
+        return Clock(s, float(s))
+    else:
+        col = study.values()[:, j]
+        order = np.argsort(np.abs(col), kind="stable")
+        speeds = col[order[np.unique(np.linspace(0, len(col) - 1, min(len(col), CLOCK_SPEEDS)).round().astype(int))]]
+    counts = [_steps.verify_steps(mech.period, float(w) * si) for w in speeds]
+    return Clock(max(counts), float(np.mean(counts)))
+
+
+def mujoco_bytes(study: Study, models: int, steps: int) -> float:
+    """Peak bytes of one MuJoCo task of ``models`` models of at most ``steps`` steps each: the
+    sensor values rollout records for all of them (:func:`mjlink.sim.steps.verify_values` per
+    step), the external forces it applies to them (a file with point forces), and one model's
+    comparison with the reference (:data:`JUDGE_BYTES_PER_POINT`)."""
+    mech = study.mechanism
+    per_step = _steps.verify_values(mech) + (6 * (len(mech.links) + 1) if mech.dynamics.forces else 0)
+    return models * steps * per_step * 8.0 + (steps * JUDGE_BYTES_PER_POINT * len(mech.point_names) if models else 0)
 
 
 def estimate(
@@ -196,7 +292,6 @@ def estimate(
     mech = study.mechanism
     angles = len(angle_grid(mech, study.per_turn))
     P, C = len(study.varied), len(study.columns)
-    steps_per_model = math.ceil(mech.period / abs(float(mech.speed)) / 5e-5)  # one period at the kinematic dt
     lanes = max(1, workers)
     client = 0.0
     if study.optimize is None:
@@ -204,7 +299,8 @@ def estimate(
         tasks = len(chunks(V, REFERENCE_CHUNK))
         task_rows = min(REFERENCE_CHUNK[1], max(1, V)) * angles
         models = {"none": 0, "all": V, "best": min(study.count, V), "worst": min(study.count, V)}[study.verify]
-        mj_chunk = min(models, MUJOCO_CHUNK[1])
+        mj_chunks = chunks(models, MUJOCO_CHUNK, parts=8)
+        mj_chunk, mj_tasks = max((b - a for a, b in mj_chunks), default=0), len(mj_chunks)
         client = V * ((P + C) * 8.0 * 3 + (P + C + 6) * TABLE_BYTES_PER_VALUE + 120.0)
         what = f"{study.method} study of {V:,} variants"
     else:
@@ -214,37 +310,66 @@ def estimate(
         tasks = b.generations * max(1, math.ceil(per_gen * angles / CHUNK_ROWS))
         task_rows = min(per_gen * angles, CHUNK_ROWS)
         models = b.verified
-        mj_chunk = models
+        mj_chunk = mj_tasks = 1  # the winner and each design of a front are verified one at a time
         # A generation's rows (values, metrics), the archive of every candidate (values, metrics,
         # objective, violation, reason) and its table as it is written.
         client = per_gen * (P + C) * 8.0 * 4 + b.candidates * ((P + C + 4) * (8.0 * 2 + TABLE_BYTES_PER_VALUE) + 120.0)
         what = b.describe()
+    steps = clock(study) if models else Clock(0, 0.0)
     cal = calibration or calibrate(study, mujoco=models > 4)
-    task_bytes = task_rows * cal.row_bytes
-    mj_bytes = mj_chunk * steps_per_model * SAMPLE_BYTES
-    memory = max(lanes * task_bytes + mj_bytes, client + (0 if workers else task_bytes + mj_bytes)) + 2**27
-    model_s = (
-        cal.model_seconds if math.isfinite(cal.model_seconds) else MUJOCO_BUILD_S + steps_per_model / MUJOCO_STEPS_PER_S
+    mj_bytes = mujoco_bytes(study, mj_chunk, steps.most)
+    if study.optimize is None:  # the MuJoCo tasks run where the reference's did, after them
+        task_bytes = max(task_rows * cal.row_bytes, mj_bytes)
+        at_once = max(min(lanes, tasks) * task_rows * cal.row_bytes, min(lanes, mj_tasks) * mj_bytes)
+        memory = max(at_once, client + (0 if workers else task_bytes))
+    else:  # the designs are verified here, after the search
+        task_bytes = task_rows * cal.row_bytes
+        memory = max(lanes * task_bytes, client + (0 if workers else task_bytes), client + mj_bytes)
+    memory += PROCESS_BYTES * (1 + workers)
+    # A model's seconds: building it and its steps (the calibration's model scales the rule to
+    # this machine).
+    measured = cal.model_steps or _steps.verify_steps(mech.period, mech.speed)
+    scale = (
+        cal.model_seconds / (MUJOCO_BUILD_S + measured / MUJOCO_STEPS_PER_S)
+        if math.isfinite(cal.model_seconds)
+        else 1.0
     )
-    seconds = V * angles * cal.row_seconds * 1.2 / min(lanes, max(1, tasks)) + models * model_s / lanes
+    model_s = scale * (MUJOCO_BUILD_S + steps.mean / MUJOCO_STEPS_PER_S)
+    # MuJoCo's models run side by side: a task per worker, or in this process on rollout's
+    # threads (one per core); an optimization verifies its designs one by one.
+    if study.optimize is not None:
+        side = mj_tasks
+    else:
+        side = min(lanes, mj_tasks) if workers else min(os.cpu_count() or 1, models)
+    ref_rows, polish_rows = float(V * angles), 0.0
+    if study.optimize is not None:  # the polish's generations run here, one after another
+        b = budget(study)
+        polish_rows = b.runs * b.polish * b.samples * angles
+        ref_rows -= polish_rows
+    polish_s = cal.row_seconds if math.isnan(cal.polish_row_seconds) else cal.polish_row_seconds
+    seconds = (
+        ref_rows * cal.row_seconds * 1.2 / min(lanes, max(1, tasks))
+        + polish_rows * polish_s * 1.2
+        + models * model_s / max(1, side)
+    )
     if cluster:
         seconds += CLUSTER_START_S
     return Plan(
-        study.name,
-        what,
-        V,
-        angles,
-        tasks,
-        workers,
-        models,
-        models * steps_per_model,
-        memory,
-        memory_limit() if limit is None else limit,
-        seconds,
-        cal.row_seconds,
-        cal.row_bytes,
-        model_s,
-        cal,
+        study=study.name,
+        what=what,
+        variants=V,
+        angles=angles,
+        tasks=tasks,
+        workers=workers,
+        mujoco_models=models,
+        mujoco_steps=round(models * steps.mean),
+        memory=memory,
+        memory_limit=memory_limit() if limit is None else limit,
+        seconds=seconds,
+        row_seconds=cal.row_seconds,
+        row_bytes=cal.row_bytes,
+        mujoco_model_seconds=model_s,
+        calibration=cal,
     )
 
 

@@ -42,6 +42,12 @@ FTOL = 1e-12  # relative change of the values below which it is converged by its
 PENALTY = 1e3  # objective per (fraction of the range)^2 outside the box, for ranking only
 
 
+def batch_size(n: int) -> int:
+    """Candidates of a polish generation over ``n`` parameters (lambda): Hansen's default
+    4 + 3 ln n, at least 2 n."""
+    return max(4 + int(3 * math.log(n)), 2 * n)
+
+
 @dataclass(frozen=True, kw_only=True)
 class Polished:
     """What the polish found: ``u`` (P,) in the unit cube and its objective ``f``, from ``f0``;
@@ -99,7 +105,7 @@ def polish(
     """
     n = len(u0)
     rng = np.random.Generator(np.random.PCG64(seed))
-    lam = max(4 + int(3 * math.log(n)), 2 * n)
+    lam = batch_size(n)
     mu = lam // 2
     w = math.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
     w /= w.sum()

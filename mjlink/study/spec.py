@@ -247,16 +247,18 @@ def find(name_or_path: str | Path) -> Path:
         raise StudyLimitError(
             f"{shown(str(name_or_path))}: cannot expand {shown(head)}: no such user or home folder"
         ) from None
-    if p.is_file():
+    what = catalogue.what_is(p)  # first: it never raises (a name too long for the file system)
+    if what is None and p.is_file():
         return p
-    shipped = STUDIES_DIR / f"{name_or_path}.toml"
-    if shipped.is_file() and not str(name_or_path).endswith(".toml"):
-        return shipped
-    what = catalogue.what_is(p)
+    named = str(name_or_path)
+    if "/" not in named and not named.endswith(".toml") and len(named) < 256:
+        shipped = STUDIES_DIR / f"{named}.toml"
+        if shipped.is_file():
+            return shipped
     if what == "a folder":
-        raise StudyFileError(f"{p}: is a folder, not a study file")
+        raise StudyFileError(f"{shown(str(p))}: is a folder, not a study file")
     if what is not None:
-        raise StudyLimitError(f"{p}: is {what}, not a study file")
+        raise StudyLimitError(f"{shown(str(p))}: is {what}, not a study file")
     known = sorted(q.stem for q in STUDIES_DIR.glob("*.toml"))
     hint = did_you_mean(str(name_or_path), known)
     raise StudyFileError(f"{shown(str(name_or_path))}: no such study file ({hint}shipped: {', '.join(known)})")

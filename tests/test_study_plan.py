@@ -1,0 +1,140 @@
+"""A study's plan against the run it plans: MuJoCo's models and steps, and the memory bound.
+
+The plan counts the steps of every verified model before anything runs; the run is counted by
+wrapping the rollout that steps the models (every step MuJoCo takes in a verification goes
+through it). The expected counts are the closed form of the kinematic run's clock
+(mechanisms/README.md, docs/performance.md): one crank turn at 50 us steps, the clock scaled by
+150 / |speed| above 150 rad/s (the same crank angle per step), plus the initial sample's step.
+"""
+
+from __future__ import annotations
+
+import math
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from mjlink import validation
+from mjlink.sim import batch, builder, simulate
+from mjlink.sim import steps as clock
+from mjlink.study import engine, plan, spec
+
+DT = 50e-6  # s, the kinematic run's timestep (mechanisms/README.md)
+VERIFIED = 150.0  # rad/s, above which the clock is scaled
+
+SPEEDS = """
+[study]
+mechanism = "takeup"
+angles = 36
+
+[sampling]
+method = "grid"
+
+[[parameter]]
+path = "input.speed"
+values = [5.0, 40.0, 100.0]
+
+[[metric]]
+kind = "stroke"
+point = "P5"
+axis = "y"
+
+[verify]
+mujoco = "all"
+"""
+
+HEAD = """
+[study]
+mechanism = "lockstitch_head"
+angles = 36
+
+[sampling]
+method = "grid"
+
+[[parameter]]
+path = "input.speed"
+values = [100.0, 523.5987755982989]
+
+[[metric]]
+kind = "stroke"
+point = "NT"
+axis = "y"
+
+[verify]
+mujoco = "all"
+"""
+
+
+def _turn_steps(speed: float) -> int:
+    """One crank turn's rollout steps at ``speed`` rad/s (the module docstring's closed form)."""
+    dt = DT * min(1.0, VERIFIED / abs(speed))
+    return math.ceil(2 * math.pi / abs(speed) / dt - 1e-9) + 1
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """Every model the verification rolls out and its steps."""
+    seen: list[int] = []
+    real = batch.rollout
+
+    def rollout(models, states, nstep, **kw):
+        seen.extend([nstep] * len(models))
+        return real(models, states, nstep, **kw)
+
+    monkeypatch.setattr(batch, "rollout", rollout)
+    return seen
+
+
+@pytest.mark.parametrize(
+    ("text", "speeds"), [(SPEEDS, (5.0, 40.0, 100.0)), (HEAD, (100.0, 523.5987755982989))], ids=["slow", "head"]
+)
+def test_the_plan_counts_the_steps_the_verification_takes_and_bounds_its_memory(tmp_path, counted, text, speeds):
+    """The planned models and steps are the run's; the plan's memory (without the
+    interpreter's own) bounds the peak of every array the study allocates while it runs in
+    this process (traced: numpy's and Python's)."""
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    st = spec.load(f)
+    p = plan.estimate(st, workers=0, limit=1e12)
+    tracemalloc.start()
+    try:
+        o = engine.run(st, workers=0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert (o.verified == 1).all()  # every variant verified, so the plan's count is the run's
+    expected = sorted(_turn_steps(w) for w in speeds)
+    assert sorted(counted) == expected
+    assert p.mujoco_models == len(counted) == len(speeds)
+    assert p.mujoco_steps == sum(counted)
+    assert plan.clock(st).most == max(expected)
+    assert peak <= p.memory - plan.PROCESS_BYTES, (peak, p.memory - plan.PROCESS_BYTES)
+
+
+def test_a_verified_models_recorded_values_are_counted_before_it_is_built():
+    for name in ("crank_slider", "takeup", "takeup_eyelets", "warp_knitting", "lockstitch_head"):
+        mech = validation.get(name)
+        built = builder.make_batch(mech, simulate.kinematic_case(mech, cycles=1.0).settings)
+        assert clock.verify_values(mech) == built.physics.nsensordata, name
+
+
+def test_every_kinematic_run_counts_its_steps_on_one_clock():
+    mech = validation.get("takeup")
+    for speed in (-1.0, 7.0, 150.0, 523.6, 1e4):
+        case = simulate.kinematic_case(mech, speed=speed, cycles=1.0)
+        assert case.steps + 1 == clock.verify_steps(mech.period, speed) == _turn_steps(speed)
+    v = batch.verify([mech])[0]
+    assert v.samples == _turn_steps(mech.speed)
+
+
+def test_a_sampled_studys_clock_counts_its_slowest_variant():
+    # The take-up's 100 rad/s +- 97: the slowest variant's clock at 50 us, the fastest's scaled.
+    body = SPEEDS.replace('method = "grid"', 'method = "tolerance"\nsamples = 3000\nseed = 1').replace(
+        "values = [5.0, 40.0, 100.0]", "tolerance = 97.0"
+    )
+    st = spec.parse(body, "r.toml")
+    c = plan.clock(st)
+    slowest = float(np.abs(st.values()[:, 0]).min())
+    assert c.most == _turn_steps(slowest)
+    assert _turn_steps(197.0) < c.mean < c.most
