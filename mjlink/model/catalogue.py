@@ -113,7 +113,7 @@ def path_of(name_or_path: str | Path) -> Path:
             p = Path(s).expanduser()
         except RuntimeError:  # ~user of no such user
             raise UnknownMechanismError(
-                f"{said}: cannot expand {_said(s.split('/')[0])}: no such user or home folder"
+                f"{said}: cannot expand '{_said(s.split('/')[0])}': no such user or home folder"
             ) from None
         shown = said if str(p) == s else f"{said} ({_said(str(p))})"
         what = what_is(p)
