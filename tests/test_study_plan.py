@@ -99,7 +99,7 @@ def test_the_plan_counts_the_steps_the_verification_takes_and_bounds_its_memory(
     p = plan.estimate(st, workers=0, limit=1e12)
     tracemalloc.start()
     try:
-        o = engine.run(st, workers=0)
+        o = engine.run(st)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

@@ -90,13 +90,13 @@ def kind_of(mode: int) -> str:
 
 
 _REPR = reprlib.Repr()
-_REPR.maxstring = 80
+_REPR.maxstring = 300
 
 
 def _said(s: str) -> str:
     """A name or path as a message echoes it: as written if it is short printable text, else
     quoted, escaped and clipped (one short line)."""
-    return s if s.isprintable() and len(s) <= 80 else _REPR.repr(s)
+    return s if s.isprintable() and len(s) <= 300 else _REPR.repr(s)
 
 
 def path_of(name_or_path: str | Path) -> Path:
