@@ -28,7 +28,7 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 def mjlink(*args, cwd=None):
     return subprocess.run(
-        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd or ROOT, env=ENV, timeout=600
+        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd, env=ENV, timeout=600
     )
 
 
