@@ -16,7 +16,7 @@ import matplotlib
 import mujoco
 import numpy as np
 import pytest
-from conftest import chromium
+from conftest import HUNG_S, chromium
 from test_plots import KNOWN, _check_png, _expected
 
 from mjlink import files
@@ -276,7 +276,7 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
         ],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=HUNG_S,
     ).stdout
     body = re.search(r"<body[^>]*>", dom)
     assert body, dom[:500]
