@@ -34,7 +34,7 @@ from conftest import HUNG_S, ROOT, in_process, wait_for
 
 from mjlink import files, pipeline, validation
 from mjlink.cli import main
-from mjlink.errors import OutputError
+from mjlink.errors import MjlinkError, OutputError
 from mjlink.model import catalogue
 from mjlink.model.mechanism import parse
 from mjlink.runtime import markers, signals, staging, workers
@@ -619,6 +619,32 @@ def test_the_workers_error_and_success_reach_the_run(tmp_path):
         with staging.staged_dir(tmp_path / "bad", kind="simulate") as stage:
             workers.finish(workers.start([functools.partial(_failing_plot, stage)]))
     assert names(tmp_path) == ["ok", "pid"]
+
+
+def _one_figure(stage):
+    from mjlink.plotting import style
+
+    fig, ax = style.subplots(figsize=(2.0, 1.5))
+    ax.plot([0.0, 1.0], [0.0, 1.0])
+    style.save(fig, stage, "one.png")
+
+
+@linux_only
+def test_what_an_examine_finds_in_a_worker_reaches_the_run(tmp_path):
+    """style.examine's function runs in the worker, where the figure is drawn, and what it
+    returned comes back to the run; what cannot travel back is the worker's one-line error."""
+    from mjlink.plotting import style
+
+    with style.examine(lambda name, fig: (name, os.getpid(), len(fig.axes))) as found:
+        with staging.staged_dir(tmp_path / "ok", kind="simulate") as stage:
+            worker = workers.start([functools.partial(_one_figure, stage)])
+            workers.finish(worker)
+    assert found == [("one.png", ("one.png", worker.pid, 1))] and worker.pid != os.getpid()
+    with style.examine(lambda name, fig: lambda: fig) as found:  # a function does not pickle
+        with pytest.raises(MjlinkError, match=r"^plot worker: .*(pickle|Pickl)"):
+            with staging.staged_dir(tmp_path / "bad", kind="simulate") as stage:
+                workers.finish(workers.start([functools.partial(_one_figure, stage)]))
+    assert found == [] and names(tmp_path) == ["ok"]
 
 
 def test_terminated_unwinds_a_staged_run(tmp_path):
