@@ -1,11 +1,14 @@
 """CI: every figure of every shipped mechanism and study, checked as a reader sees it.
 
-Runs ``simulate`` (and ``steady`` where the file has a motor) on each shipped mechanism and ``study`` on each shipped study file (its budget
-cut to a few candidates: the figures are the same kinds, drawn from the study's own
-parameters, metrics and titles) in this process, keeps every figure open and lists what
-:func:`mjlink.plotting.style.figure_defects` finds: an axis without a unit in brackets,
-overlapping texts or tick labels, a text off the canvas. Exit status 1 if any figure has a
-defect or a run fails. Run: ``python .ci/check_figures.py [NAME ...]``.
+Runs ``simulate`` (and ``steady`` where the file has a motor) on each shipped mechanism and
+``study`` on each shipped study file (its budget cut to a few candidates: the figures are the
+same kinds, drawn from the study's own parameters, metrics and titles) as the command line
+does, and lists what :func:`mjlink.plotting.style.figure_defects` finds on every figure: an
+axis without a unit in brackets, overlapping texts or tick labels, a text off the canvas. The
+figures are checked where the command draws them (``simulate``'s forked plot workers), right
+after each is written (:class:`mjlink.plotting.style.examine`): the figures checked are the
+ones written. Exit status 1 if any figure has a defect or a run fails. Run:
+``python .ci/check_figures.py [NAME ...]``.
 """
 
 from __future__ import annotations
@@ -23,13 +26,12 @@ from mjlink.sim.gl import ensure_gl_backend
 
 ensure_gl_backend()
 
-import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 from mjlink import validation  # noqa: E402
 from mjlink.cli import main  # noqa: E402
 from mjlink.model import catalogue  # noqa: E402
 from mjlink.plotting import style  # noqa: E402
-from mjlink.runtime import workers  # noqa: E402
 
 # At most this many of each (a study keeps its own smaller numbers). The head's eyelet
 # take-up needs a larger population to find a feasible design at all.
@@ -46,14 +48,19 @@ def cut_budget(text: str, folder: Path) -> str:
     return re.sub(r'(?m)^(mechanism\s*=\s*")(\.\.?/)', lambda m: m.group(1) + str(folder) + "/" + m.group(2), text)
 
 
+def _defects(name: str, fig: Figure) -> list[str]:
+    return style.figure_defects(fig)
+
+
 def run(args: list[str]) -> tuple[int, list[tuple[str, str]], str]:
-    """``python -m mjlink ARGS`` here, with every figure drawn in this process and kept: its
-    status, (figure, defect) pairs and its last line on stderr."""
+    """``python -m mjlink ARGS`` here, every figure checked where it is drawn: its status,
+    (figure, defect) pairs and its last line on stderr."""
     err = io.StringIO()
-    with style.keep_figures() as figs, contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+    with style.examine(_defects) as figs, contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
         status = main(args)
-    found = [(name, d) for name, fig in figs for d in style.figure_defects(fig)]
-    plt.close("all")
+    found = [(name, d) for name, defects in figs for d in defects]
+    if status == 0 and not figs:  # every run here draws: none examined is the check broken
+        found.append(("(none)", "no figure was examined"))
     return status, found, (err.getvalue().strip().splitlines() or [""])[-1]
 
 
@@ -67,7 +74,6 @@ def report(label: str, status: int, found: list[tuple[str, str]], last: str) -> 
 
 
 def main_check(names: list[str]) -> int:
-    workers.start = lambda jobs: None  # draw here, where the figures can be kept
     mechs = catalogue.names()
     studies = sorted(p.stem for p in catalogue.STUDIES_DIR.glob("*.toml"))
     bad = 0

@@ -5,7 +5,11 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
+import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 import pytest
 
@@ -65,6 +69,45 @@ def _environment_kept():
     environment_back(before)
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _session_elsewhere(tmp_path_factory):
+    """The session's current folder, a temporary one: what a module's or the session's fixture
+    writes to a relative path (a command's default ``renders/``, MuJoCo's log) never lands in
+    the checkout, whatever folder pytest was started from."""
+    here = os.getcwd()
+    base = tmp_path_factory.mktemp("cwd")
+    os.chdir(base)
+    yield base
+    os.chdir(here)
+
+
+@pytest.fixture(autouse=True)
+def _elsewhere(_session_elsewhere, monkeypatch):
+    """Each test runs in a fresh temporary folder of its own, as do the commands it starts
+    (in_process, and the subprocesses, which inherit it): nothing a test or a command writes
+    to a relative path lands in the checkout or in another test's way. A test that needs a
+    known folder gives it (``cwd=tmp_path``)."""
+    monkeypatch.chdir(tempfile.mkdtemp(dir=_session_elsewhere))
+
+
+T = TypeVar("T")
+
+HUNG_S = 300.0  # only a hung test waits this long for an event
+
+
+def wait_for(event: Callable[[], T], what: str, timeout: float = HUNG_S) -> T:
+    """``event()`` once it is true (a file there, a process gone, a line written), polled; the
+    test fails naming ``what`` if it is still false after ``timeout`` seconds, which only a
+    hung test reaches. How soon the event comes is not the test's subject (bench/ measures
+    speed)."""
+    end = time.monotonic() + timeout
+    while not (got := event()):
+        if time.monotonic() > end:
+            pytest.fail(f"still waiting for {what} after {timeout:g} s", pytrace=False)
+        time.sleep(0.02)
+    return got
+
+
 def environment_back(before: dict[str, str]) -> None:
     """``os.environ`` as it was when ``before = dict(os.environ)`` was taken."""
     if dict(os.environ) != before:
@@ -76,13 +119,14 @@ def in_process(*args: str, cwd: Path | None = None) -> "subprocess.CompletedProc
     """``python -m mjlink ARGS`` run through :func:`mjlink.cli.main` in this process: its exit
     status and what it printed, as :func:`subprocess.run` returns them. For tests of what a
     command computes, writes and prints; what only a real process shows (the entry point, the
-    GL backend chosen at import, signals) is tested in real processes."""
+    GL backend chosen at import, signals) is tested in real processes. It runs in ``cwd`` if
+    given, else in the test's own temporary folder (conftest._elsewhere)."""
     from mjlink.cli import main
 
     out, err = io.StringIO(), io.StringIO()
     here = os.getcwd()
     try:
-        os.chdir(cwd or ROOT)
+        os.chdir(cwd or here)
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             try:
                 status = main(list(args))

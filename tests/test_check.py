@@ -2,6 +2,7 @@
 (divergence, branch switch) that keep a failed run from looking like a result."""
 
 import dataclasses
+import logging
 import math
 import os
 import subprocess
@@ -27,7 +28,7 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 def mjlink(*args, cwd=None):
     return subprocess.run(
-        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd or ROOT, env=ENV, timeout=600
+        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd, env=ENV, timeout=600
     )
 
 
@@ -158,6 +159,24 @@ def test_huge_timestep_diverges_into_a_simulation_error():
         with pytest.raises(SimulationError, match=r"diverged") as e:
             S.run(m, case)
         assert "\n" not in str(e.value)
+
+
+def test_a_diverging_run_leaves_no_mujoco_log_in_the_users_folder(tmp_path, monkeypatch, caplog):
+    """MuJoCo's own handler would append its warning to MUJOCO_LOG.TXT in the current folder
+    (and print it): mjlink's handler passes it to the logger mjlink.mujoco at DEBUG
+    instead (docs/api.md), for a run stepped here and for rollout's threads (batch)."""
+    from mjlink.sim import batch
+
+    monkeypatch.chdir(tmp_path)
+    m = validation.get(EXAMPLE_PATH)
+    case = S.kinematic_case(m, settings=builder.Settings(timestep=0.5))
+    with caplog.at_level(logging.DEBUG, logger="mjlink.mujoco"), pytest.raises(SimulationError, match="diverged"):
+        S.run(m, case)
+    assert any("MuJoCo: Nan, Inf or huge value" in r.getMessage() for r in caplog.records), caplog.records
+    with np.errstate(all="ignore"):
+        runs = batch.verify([m, m], threads=2, settings=builder.Settings(timestep=0.5))
+    assert all("diverged" in v.reason for v in runs)
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ mjlink = in_process
 
 def in_a_process(*args, cwd=None):
     return subprocess.run(
-        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd or ROOT, env=ENV, timeout=600
+        [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd, env=ENV, timeout=600
     )
 
 

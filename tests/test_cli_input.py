@@ -44,7 +44,7 @@ def mjlink(*args, env=None, cwd=None):
         [sys.executable, "-m", "mjlink", *args],
         capture_output=True,
         text=True,
-        cwd=cwd or ROOT,
+        cwd=cwd,
         env=env or ENV,
         timeout=600,
     )

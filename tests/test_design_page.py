@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import chromium, in_process
+from conftest import HUNG_S, chromium, in_process
 from playwright.sync_api import sync_playwright
 
 from mjlink import reference, study, validation
@@ -64,7 +64,7 @@ def _open(browser, name, tmp_path):
         lambda r: errors.append(f"network: {r.url}") if not r.url.startswith(("file:", "blob:", "data:")) else None,
     )
     page.goto(page_file.as_uri())
-    page.wait_for_selector("body[data-ready=true]", timeout=20000)
+    page.wait_for_selector("body[data-ready=true]", timeout=HUNG_S * 1000)  # ms
     return page, errors
 
 

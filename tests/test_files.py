@@ -2,7 +2,7 @@
 
 * User files: an output folder carries mjlink's marker; a run replaces only the files mjlink
   wrote there, keeps the rest, and refuses a folder it did not write (or another command's).
-* Non-regular targets: ``build -o`` and ``synth --write`` refuse a FIFO, a device or a folder,
+* Non-regular targets: ``build -o`` and ``synth --write`` refuse a FIFO, a socket or a folder,
   and write through a symbolic link instead of replacing it.
 * Files a user names (``build -o``, ``design -o``, ``export --dxf/--points``, ``synth
   --write``): one that exists is kept unless ``--force``; a command's input is never an output
@@ -14,26 +14,27 @@
   staging folder.
 
 The signal tests look at processes through /proc (Linux). They wait for the forked plot worker
-to appear before signalling, and poll with generous deadlines instead of sleeping.
+to appear before signalling, and wait on each event itself (a process there or gone, a file
+written: conftest.wait_for), never for a time.
 """
 
 import functools
 import json
 import os
 import signal
+import socket
 import stat
 import subprocess
 import sys
-import time
 from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, in_process
+from conftest import HUNG_S, ROOT, in_process, wait_for
 
 from mjlink import files, pipeline, validation
 from mjlink.cli import main
-from mjlink.errors import OutputError
+from mjlink.errors import MjlinkError, OutputError
 from mjlink.model import catalogue
 from mjlink.model.mechanism import parse
 from mjlink.runtime import markers, signals, staging, workers
@@ -175,19 +176,24 @@ def test_the_writer_refuses_a_folder(tmp_path):
     assert names(tmp_path) == ["model.xml"] and names(tmp_path / "model.xml") == []
 
 
-def test_build_refuses_dev_null(capsys):
-    before = os.stat("/dev/null")
-    assert stat.S_ISCHR(before.st_mode)
-    # The writer itself first, with a body that aborts: even if it failed to refuse, /dev/null
-    # would not be replaced (tests run as root here, where that would succeed).
-    with pytest.raises(OutputError, match="is a character device"):
-        with files.atomic_path("/dev/null"):
-            raise AssertionError("/dev/null was not refused")
-    assert main(["build", str(EXAMPLE_PATH), "-o", "/dev/null"]) == 1
+def test_build_refuses_a_socket(tmp_path, capsys):
+    """A socket, made here (a character device such as /dev/null is refused by the same rule:
+    anything but a regular file; the test touches no file of the machine's)."""
+    target = tmp_path / "model.xml"
+    with socket.socket(socket.AF_UNIX) as s:
+        s.bind(str(target))
+    before = os.lstat(target)
+    assert stat.S_ISSOCK(before.st_mode)
+    # The writer itself first, with a body that aborts: even if it failed to refuse, the
+    # socket would not be replaced.
+    with pytest.raises(OutputError, match="is a socket"):
+        with files.atomic_path(target):
+            raise AssertionError("the socket was not refused")
+    assert main(["build", str(EXAMPLE_PATH), "-o", str(target)]) == 1
     err = capsys.readouterr().err
-    assert err == "mjlink: error: /dev/null is a character device, not a regular file: refusing to replace it\n"
-    after = os.stat("/dev/null")
-    assert stat.S_ISCHR(after.st_mode) and (after.st_ino, after.st_rdev) == (before.st_ino, before.st_rdev)
+    assert err == f"mjlink: error: {target} is a socket, not a regular file: refusing to replace it\n"
+    after = os.lstat(target)
+    assert stat.S_ISSOCK(after.st_mode) and after.st_ino == before.st_ino and names(tmp_path) == ["model.xml"]
 
 
 def test_build_writes_through_a_symlink(tmp_path, capsys):
@@ -374,13 +380,19 @@ def _running(pid, start):
     return st is not None and st[2] == start and st[1] not in ("Z", "X")
 
 
-def _until(cond, timeout):
-    end = time.monotonic() + timeout
-    while not cond():
-        if time.monotonic() > end:
-            return False
-        time.sleep(0.02)
-    return True
+def _threads(pid):
+    """How many threads process ``pid`` runs (0 once it is gone)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return 0
+    return int(next(line.split()[1] for line in status.splitlines() if line.startswith("Threads:")))
+
+
+def _signalled():
+    """Wait for the signal just sent to this process to raise in its handler (it does within a
+    few bytecodes); only a handler that never raises makes the test fail here."""
+    wait_for(lambda: False, "the signal's handler to raise")
 
 
 @contextmanager
@@ -406,48 +418,48 @@ class Simulate:
         cmd = [sys.executable, "-m", "mjlink", "simulate", "takeup", "--no-dynamics", "--out", str(out)]
         with _sigint_default(), open(self.err, "w") as err:
             # stderr to a file, not a pipe: a surviving worker would hold a pipe open.
-            self.p = subprocess.Popen(
-                cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=err, start_new_session=True
-            )
+            self.p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=err, start_new_session=True)
         self.seen = {}  # every child process seen: PID -> start time
 
     def stderr(self):
         return self.err.read_text()
 
-    def wait_for_worker(self, timeout=180):
-        """The forked worker's (PID, start time): a child running the parent's command line, seen
-        twice 0.1 s apart while the run stages (a child between fork and exec, e.g. of a
-        subprocess, runs it too, for an instant)."""
-        end = time.monotonic() + timeout
-        candidates = {}
-        while time.monotonic() < end:
+    def wait_for_worker(self):
+        """The forked worker's (PID, start time): a child running the parent's command line while
+        the run stages, with a thread beside its main one (its watch on the parent, started
+        first thing). A child between fork and exec (a subprocess being started) runs the
+        command line too, for an instant, on one thread."""
+
+        def worker():
             if self.p.poll() is not None:
                 pytest.fail(f"simulate ended ({self.p.returncode}) before forking its worker: {self.stderr()}")
             cmdline = Path(f"/proc/{self.p.pid}/cmdline").read_bytes()
             kids = _children(self.p.pid)
             self.seen.update(kids)
-            staging = self.out.is_dir() and any(n.startswith(".takeup.partial-") for n in names(self.out))
+            if not (self.out.is_dir() and any(n.startswith(".takeup.partial-") for n in names(self.out))):
+                return None
             for pid, start in kids.items():
                 try:
                     forked = cmdline != b"" and Path(f"/proc/{pid}/cmdline").read_bytes() == cmdline
                 except OSError:
                     continue
-                if not (forked and staging):
-                    continue
-                if time.monotonic() - candidates.setdefault((pid, start), time.monotonic()) >= 0.1:
+                if forked and _threads(pid) >= 2:
                     return pid, start
-            time.sleep(0.02)
-        self.p.kill()
-        pytest.fail("no plot worker within the deadline")
+            return None
 
-    def end(self, timeout=120):
+        return wait_for(worker, "simulate's forked plot worker")
+
+    def end(self):
         self.seen.update(_children(self.p.pid))
-        return self.p.wait(timeout)
+        return self.p.wait(HUNG_S)
 
-    def survivors(self, timeout):
-        """Children still running ``timeout`` s after the parent ended (sooner if none)."""
-        _until(lambda: not any(_running(*kid) for kid in self.seen.items()), timeout)
-        return [pid for pid, start in self.seen.items() if _running(pid, start)]
+    def children_end(self):
+        """Wait until none of the children seen runs any more: each ends once the run has (the
+        worker killed by it or by its own watch, an encoder once its input is closed)."""
+        wait_for(
+            lambda: not any(_running(*kid) for kid in self.seen.items()),
+            f"the run's children to end (still running: {self.seen})",
+        )
 
     def kill_all(self):
         for pid, start in self.seen.items():
@@ -481,7 +493,7 @@ def test_signal_during_the_fork_ends_cleanly(tmp_path, how, status, line):
         err = run.stderr()
         assert rc == status, err
         assert err.strip().splitlines()[-1] == line and "Traceback" not in err
-        assert run.survivors(timeout=5) == [], f"worker {worker[0]}, children {run.seen}"
+        run.children_end()
         assert not _running(*worker)
         assert names(out) == []  # no .takeup.partial-*, no half output
     finally:
@@ -498,8 +510,8 @@ def test_sigkill_takes_the_worker_along_and_the_next_run_removes_the_stage(tmp_p
         worker = run.wait_for_worker()
         run.p.kill()
         assert run.end() == -signal.SIGKILL
-        assert _until(lambda: not _running(*worker), timeout=10), "the worker outlived its killed parent"
-        assert run.survivors(timeout=20) == []  # the encoder too, once its input is closed
+        wait_for(lambda: not _running(*worker), "the worker to end with its killed parent")
+        run.children_end()  # the encoder too, once its input is closed
     finally:
         run.p.kill()
         run.kill_all()
@@ -549,20 +561,24 @@ def test_a_failed_runs_worker_cannot_recreate_the_stage(tmp_path):
         rc = run.end()
         err = run.stderr()
         assert rc == 1 and "mjlink: error: video encoding failed" in err and "Traceback" not in err, err
-        assert not _running(*worker) and run.survivors(timeout=5) == []
-        # The plots take seconds: a worker left running would re-create the stage meanwhile.
-        assert not _until(lambda: names(out) != [], timeout=1.5), names(out)
+        run.children_end()
+        assert not _running(*worker)
+        # Every process that could write there is gone: what is there now stays.
+        assert names(out) == []
     finally:
         run.p.kill()
         run.kill_all()
 
 
-def _slow_plot(stage, pidfile, seconds):
-    """A plot job as the worker runs it: announces itself, draws for a while, then saves like
-    plotting.style.save (which creates its folder if missing)."""
+def _slow_plot(stage, pidfile, hold=None):
+    """A plot job as the worker runs it: announces itself, draws until ``hold`` (a pipe's read
+    end, None: not at all) can be read, then saves like plotting.style.save (which creates its
+    folder if missing). The worker holds the pipe's write end too: nothing but a write ends
+    the wait, and the test whose run fails writes nothing."""
     (pidfile.parent / "pid.tmp").write_text(str(os.getpid()))
     os.replace(pidfile.parent / "pid.tmp", pidfile)  # whole: the test reads it as soon as it exists
-    time.sleep(seconds)
+    if hold is not None:
+        os.read(hold, 1)
     stage.mkdir(parents=True, exist_ok=True)
     (stage / "late.png").write_text("drawn after the clean-up")
 
@@ -577,26 +593,58 @@ def test_a_failing_run_stops_its_worker_before_removing_the_stage(tmp_path):
     worker is killed and reaped before the stage is removed, so it cannot re-create it."""
     pidfile = tmp_path / "worker.pid"
     out = tmp_path / "out"
-    with pytest.raises(RuntimeError, match="the video failed"):
-        with staging.staged_dir(out / "x", kind="simulate") as stage:
-            worker = workers.start([functools.partial(_slow_plot, stage, pidfile, 1.0)])
-            assert worker is not None and _until(pidfile.exists, timeout=30)
-            raise RuntimeError("the video failed")
+    hold, release = os.pipe()
+    try:
+        with pytest.raises(RuntimeError, match="the video failed"):
+            with staging.staged_dir(out / "x", kind="simulate") as stage:
+                worker = workers.start([functools.partial(_slow_plot, stage, pidfile, hold)])
+                assert worker is not None
+                wait_for(pidfile.exists, "the worker's first plot")
+                raise RuntimeError("the video failed")
+    finally:
+        os.close(hold)
+        os.close(release)
     pid = int(pidfile.read_text())
     assert pid == worker.pid and _stat(pid) is None  # killed and reaped: not even a zombie
-    assert not _until(lambda: names(out) != [], timeout=1.5), names(out)
+    assert names(out) == []  # and it was the only process that could write there
 
 
 @linux_only
 def test_the_workers_error_and_success_reach_the_run(tmp_path):
     with staging.staged_dir(tmp_path / "ok", kind="simulate") as stage:
-        worker = workers.start([functools.partial(_slow_plot, stage, tmp_path / "pid", 0.0)])
+        worker = workers.start([functools.partial(_slow_plot, stage, tmp_path / "pid")])
         workers.finish(worker)
     assert (tmp_path / "ok" / "late.png").is_file() and _stat(worker.pid) is None
     with pytest.raises(OutputError, match=r"positions\.png: cannot write plot: No space left on device$"):
         with staging.staged_dir(tmp_path / "bad", kind="simulate") as stage:
             workers.finish(workers.start([functools.partial(_failing_plot, stage)]))
     assert names(tmp_path) == ["ok", "pid"]
+
+
+def _one_figure(stage):
+    from mjlink.plotting import style
+
+    fig, ax = style.subplots(figsize=(2.0, 1.5))
+    ax.plot([0.0, 1.0], [0.0, 1.0])
+    style.save(fig, stage, "one.png")
+
+
+@linux_only
+def test_what_an_examine_finds_in_a_worker_reaches_the_run(tmp_path):
+    """style.examine's function runs in the worker, where the figure is drawn, and what it
+    returned comes back to the run; what cannot travel back is the worker's one-line error."""
+    from mjlink.plotting import style
+
+    with style.examine(lambda name, fig: (name, os.getpid(), len(fig.axes))) as found:
+        with staging.staged_dir(tmp_path / "ok", kind="simulate") as stage:
+            worker = workers.start([functools.partial(_one_figure, stage)])
+            workers.finish(worker)
+    assert found == [("one.png", ("one.png", worker.pid, 1))] and worker.pid != os.getpid()
+    with style.examine(lambda name, fig: lambda: fig) as found:  # a function does not pickle
+        with pytest.raises(MjlinkError, match=r"^plot worker: .*(pickle|Pickl)"):
+            with staging.staged_dir(tmp_path / "bad", kind="simulate") as stage:
+                workers.finish(workers.start([functools.partial(_one_figure, stage)]))
+    assert found == [] and names(tmp_path) == ["ok"]
 
 
 def test_terminated_unwinds_a_staged_run(tmp_path):
@@ -615,7 +663,7 @@ def test_terminated_unwinds_a_staged_run(tmp_path):
                 callable(handler) and handler.__module__ == "mjlink.runtime.signals"
             )  # else SIGTERM would kill pytest
             os.kill(os.getpid(), signal.SIGTERM)
-            _until(lambda: False, timeout=5)  # the handler raises within a few bytecodes
+            _signalled()
     assert hidden(tmp_path) == [] and (dest / "a.csv").read_text() == "old\n"
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
 
@@ -633,7 +681,7 @@ def test_a_swallowed_or_disguised_interruption_still_ends_the_run(tmp_path):
             (stage / "a.csv").write_text("1\n")
             try:
                 os.kill(os.getpid(), signal.SIGINT)
-                _until(lambda: False, timeout=5)
+                _signalled()
             except KeyboardInterrupt:
                 pass
     assert names(tmp_path) == []
@@ -641,7 +689,7 @@ def test_a_swallowed_or_disguised_interruption_still_ends_the_run(tmp_path):
         with signals.interruptible():
             try:
                 os.kill(os.getpid(), signal.SIGTERM)
-                _until(lambda: False, timeout=5)
+                _signalled()
             except signals.Terminated as t:
                 raise RuntimeError(f"argument 2: {t!r}") from t
     assert isinstance(e.value.__cause__, RuntimeError)
@@ -661,11 +709,10 @@ def test_an_interruption_in_unraisable_code_is_not_printed(monkeypatch):
     class Dying:
         def __del__(self):
             os.kill(os.getpid(), signal.SIGTERM)
-            _until(lambda: False, timeout=5)  # the handler raises Terminated in here
+            _signalled()  # the handler raises Terminated in here
 
     with pytest.raises(signals.Terminated):
         with signals.interruptible():
             Dying()  # collected at once: Terminated is raised inside __del__, unraisable
-            _until(lambda: False, timeout=0.2)
     assert reported == []
     assert sys.unraisablehook == reported.append  # put back as it was

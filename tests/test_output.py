@@ -4,7 +4,8 @@ a run from the mechanism it loaded (not its file read again), and names from a f
 neither escape the output folder nor break the MJCF.
 
 Tests run as root, so a read-only folder made with chmod would still be writable: an
-unwritable output is made as a path under a regular file (or under /proc) instead.
+unwritable output is made in the test's own folder as a path under a regular file, through a
+loop of links or with a name too long instead.
 """
 
 import errno
@@ -69,9 +70,19 @@ def test_output_under_a_regular_file_is_one_line_error(tmp_path, mech):
     assert (tmp_path / "afile").read_text() == "not a folder"
 
 
-def test_output_under_proc_is_one_line_error(mech):
-    with pytest.raises(OutputError, match=r"^cannot write to output folder /proc/mjlink-test"):
-        pipeline.run(mech, "/proc/mjlink-test", FAST)
+@pytest.mark.parametrize("why", ["a loop of links", "a name too long"])
+def test_output_folder_that_cannot_be_made_is_one_line_error(tmp_path, mech, why):
+    """Other reasons a folder cannot be made, made here: the run names the folder and the
+    system's reason, in one line, and writes nothing."""
+    if why == "a loop of links":
+        (tmp_path / "loop").symlink_to(tmp_path / "loop")
+        out, reason = tmp_path / "loop" / "sub", "Too many levels of symbolic links"
+    else:
+        out, reason = tmp_path / ("x" * 300), "File name too long"
+    with pytest.raises(OutputError, match=r"^cannot write ") as e:
+        pipeline.run(mech, out, FAST)
+    assert "\n" not in str(e.value) and str(out) in str(e.value) and reason in str(e.value), str(e.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == (["loop"] if why == "a loop of links" else [])
 
 
 def test_output_path_that_is_a_file_fails_before_running(tmp_path, mech, monkeypatch):

@@ -19,7 +19,7 @@ import tomllib
 import types
 
 import pytest
-from conftest import chromium, in_process
+from conftest import HUNG_S, chromium, in_process
 from playwright.sync_api import sync_playwright
 
 from mjlink.analysis import summary
@@ -99,7 +99,7 @@ def _open(tab, html, ready):
     page, errors = tab
     errors.clear()
     page.set_content(html)
-    page.wait_for_selector(ready, timeout=20000)
+    page.wait_for_selector(ready, timeout=HUNG_S * 1000)  # ms
     return page, errors
 
 

@@ -52,7 +52,6 @@ def _python(code: str, **env: str | None) -> str:
         capture_output=True,
         text=True,
         timeout=60,
-        cwd=ROOT,
     )
     assert res.returncode == 0, res.stderr
     return res.stdout.strip().splitlines()[-1]

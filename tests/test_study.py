@@ -8,7 +8,6 @@ import math
 import os
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -276,7 +275,6 @@ def test_a_real_two_worker_dask_cluster_gives_the_same_bits(two_workers: Any) ->
     cluster = two_workers
     with Client(cluster) as client:
         assert len(client.scheduler_info()["workers"]) == 2
-        time.sleep(3.0)  # past the active memory manager's pass, which dropped scattered replicas
         with get_task_stream(client) as ts:
             remote = engine.run(st, client=client)
         with runtime_cluster.client_for(cluster.scheduler_address) as (by_client, what):
@@ -357,7 +355,7 @@ def test_an_unreachable_scheduler_is_one_line(monkeypatch: pytest.MonkeyPatch) -
 
 
 # ------------------------------------------------------------------------------- command
-def _mjlink(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+def _mjlink(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.run(
         [sys.executable, "-m", "mjlink", *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=600

@@ -16,13 +16,14 @@ import json
 import math
 import os
 import signal
+import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import HUNG_S, wait_for
 
 from mjlink import validation
 from mjlink.cli import main
@@ -60,7 +61,7 @@ def _dead_pid() -> int:
     return p.pid
 
 
-def _mjlink(*args: str, cwd: Path = ROOT, env: dict[str, str] | None = None, timeout: float = 300):
+def _mjlink(*args: str, cwd: Path | None = None, env: dict[str, str] | None = None, timeout: float = 300):
     return subprocess.run(
         [sys.executable, "-m", "mjlink", *args],
         capture_output=True,
@@ -396,12 +397,12 @@ def test_a_second_run_into_the_same_folder_is_refused_while_the_first_writes(tmp
     study = tmp_path / "small.toml"
     study.write_text(SMALL)
     with staging.staged_dir(out / "small-study", kind="study", mechanism="small", command="python -m mjlink study x"):
-        t = time.monotonic()
         r = _mjlink("study", str(study), "--workers", "0", "--no-plots", "--out", str(out))
         err = [line for line in r.stderr.splitlines() if not line.startswith("mjlink: plan:")]
         assert r.returncode != 0 and len(err) == 1, r.stderr
         assert "another mjlink run is writing there" in r.stderr and f"process {os.getpid()}" in r.stderr
-        assert "python -m mjlink study x" in r.stderr and time.monotonic() - t < 30
+        assert "python -m mjlink study x" in r.stderr
+        assert not (out / ".small-study.chunks").exists()  # refused before the work: nothing computed
     r = _mjlink("study", str(study), "--workers", "0", "--no-plots", "--out", str(out))
     assert r.returncode == 0, r.stderr
 
@@ -713,24 +714,29 @@ def test_bad_study_files_are_one_line_status_2_nothing_written(tmp_path, capsys,
         (["--scheduler", "tcp://127.0.0.1:9"], "cannot reach the Dask scheduler at tcp://127.0.0.1:9"),
         (["--out", "AFILE"], "AFILE is a regular file, not a folder"),
         (["--out", "FIFO"], "FIFO is a FIFO (named pipe), not a folder"),
-        (["--out", "/dev/null"], "/dev/null is a character device, not a folder"),
+        (["--out", "SOCKET"], "SOCKET is a socket, not a folder"),
         (["--max-memory", "1MiB"], "the study would need about"),
     ],
 )
-def test_bad_command_line_values_are_one_line_status_2_nothing_written(tmp_path, capsys, args, words):
+def test_bad_command_line_values_are_one_line_status_2_nothing_written(tmp_path, capsys, monkeypatch, args, words):
+    """Refused before the work: the study's engine is never called."""
+    computed: list[int] = []
+    monkeypatch.setattr(engine, "run", lambda *a, **k: computed.append(1))
     study = tmp_path / "small.toml"
     study.write_text(SMALL)
     (tmp_path / "AFILE").write_text("mine")
     os.mkfifo(tmp_path / "FIFO")
-    args = [str(tmp_path / a) if a in ("AFILE", "FIFO") else a for a in args]
-    words = words.replace("AFILE", str(tmp_path / "AFILE")).replace("FIFO is", str(tmp_path / "FIFO") + " is")
+    with socket.socket(socket.AF_UNIX) as s:
+        s.bind(str(tmp_path / "SOCKET"))
+    args = [str(tmp_path / a) if a in ("AFILE", "FIFO", "SOCKET") else a for a in args]
+    for made in ("AFILE", "FIFO", "SOCKET"):
+        words = words.replace(f"{made} is", f"{tmp_path / made} is")
     before = sorted(p.name for p in tmp_path.iterdir())
-    t = time.monotonic()
     out = ["--out", str(tmp_path / "out")] if "--out" not in args else []
     assert main(["study", str(study), *args, *out]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if not line.startswith("mjlink: plan:")]
     assert len(err) == 1 and words in err[0], err
-    assert time.monotonic() - t < 30
+    assert not computed
     assert sorted(p.name for p in tmp_path.iterdir()) == before
     assert (tmp_path / "AFILE").read_text() == "mine"
 
@@ -742,16 +748,18 @@ def test_a_study_path_of_an_unknown_user_is_one_line_status_2(capsys):
 
 
 # ================================================================= 12. the cost, before the work
-def test_a_study_too_large_for_the_machine_is_refused_with_its_estimate(tmp_path, capsys):
+def test_a_study_too_large_for_the_machine_is_refused_with_its_estimate(tmp_path, capsys, monkeypatch):
     body = (ROOT / "studies" / "takeup_eyelets_demand_robust.toml").read_text()
     body = body.replace("population = 96", "population = 100000").replace("samples = 16", "samples = 100000")
     f = tmp_path / "huge.toml"
     f.write_text(body)
     st = spec.load(f)
     assert st.optimize is not None and st.optimize.population == 100000 and st.robust is not None
-    t = time.monotonic()
+    computed: list[int] = []
+    monkeypatch.setattr(engine, "run", lambda *a, **k: computed.append(1))
+    monkeypatch.setattr(optimize, "run", lambda *a, **k: computed.append(1))
     assert main(["study", str(f), "--out", str(tmp_path / "out")]) == 2
-    assert time.monotonic() - t < 30
+    assert not computed  # refused from its estimate, before the work
     err = capsys.readouterr().err.splitlines()
     assert err[0].startswith("mjlink: plan: ") and "GiB" in err[0]
     assert err[1].startswith("mjlink: error: ") and "more than the" in err[1] and "--max-memory" in err[1]
@@ -794,11 +802,10 @@ def test_a_cluster_without_workers_fails_within_a_timeout(monkeypatch):
 
     monkeypatch.setattr(runtime_cluster, "WORKERS_TIMEOUT_S", 2.0)
     with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
-        t = time.monotonic()
-        with pytest.raises(engine.SchedulerError, match="has no workers"):
+        # The error says the wait ended at the timeout set here, not at the default.
+        with pytest.raises(engine.SchedulerError, match=r"has no workers \(none joined within 2 s\)"):
             with runtime_cluster.client_for(cluster.scheduler_address):
                 pass
-        assert time.monotonic() - t < 15
 
 
 def test_a_flywheel_without_a_motor_is_refused_when_the_file_is_read():
@@ -814,9 +821,9 @@ def test_ctrl_c_prints_at_most_three_lines_and_the_study_resumes(tmp_path):
     cluster: three lines at most after the plan, status 130, no worker left, the finished
     chunks kept; the same command then resumes and gives the uninterrupted study's numbers."""
     study = tmp_path / "s.toml"
-    # 235 chunks: after the third is written, the rest and the publication outlast the 0.05 s
-    # poll below many times over (also with both cores loaded), so the interrupt lands with
-    # chunks left.
+    # 235 chunks: after the third is written, the rest and the publication outlast the poll
+    # below many times over (also with both cores loaded), so the interrupt lands with chunks
+    # left.
     study.write_text(SMALL.replace("samples = 40", "samples = 60000"))
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MJLINK_PROGRESS_SECONDS": "1000"}
@@ -838,11 +845,10 @@ def test_ctrl_c_prints_at_most_three_lines_and_the_study_resumes(tmp_path):
         start_new_session=True,
     )
     cache_dir = out / ".small-study.chunks"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and len(list(cache_dir.glob("ref-*.npz"))) < 3:
-        time.sleep(0.05)
+    wait_for(lambda: len(list(cache_dir.glob("ref-*.npz"))) >= 3 or p.poll() is not None, "three finished chunks")
+    assert p.poll() is None, p.communicate()[1]  # still running: the interrupt lands with chunks left
     os.killpg(p.pid, signal.SIGINT)
-    _, err = p.communicate(timeout=60)
+    _, err = p.communicate(timeout=HUNG_S)
     assert p.returncode == 130, err
     lines = [line for line in err.splitlines() if not line.startswith("mjlink: plan:")]
     assert len(lines) <= 3 and lines[-1] == "mjlink: interrupted", err
@@ -854,10 +860,7 @@ def test_ctrl_c_prints_at_most_three_lines_and_the_study_resumes(tmp_path):
         ps = subprocess.run(["ps", "-o", "stat=", "-s", str(p.pid)], capture_output=True, text=True).stdout.split()
         return [s for s in ps if not s.startswith("Z")]
 
-    deadline = time.monotonic() + 10
-    while running() and time.monotonic() < deadline:
-        time.sleep(0.2)
-    assert running() == []
+    wait_for(lambda: running() == [], "the interrupted study's processes to end")
     r = subprocess.run([*args, "--workers", "0"], capture_output=True, text=True, env=env, timeout=300)
     assert r.returncode == 0 and "resuming:" in r.stderr, r.stderr
     summ = json.loads((out / "small-study" / "summary.json").read_text())
@@ -902,33 +905,32 @@ def test_two_local_studies_at_once_print_no_port_warning(tmp_path):
 
 
 # ================================================================= 14. progress without a terminal
-def test_progress_without_a_terminal_is_a_line_at_a_steady_pace(tmp_path):
+def test_progress_without_a_terminal_prints_lines_between_updates():
+    """The lines come from the thread, one a period, also while nothing is updated, and the
+    next one tells the update. Counted, not timed: the period is short here, and only a hung
+    thread makes the test wait long."""
     from mjlink.runtime.progress import Lines
 
     class Sink:
         def __init__(self) -> None:
-            self.lines: list[tuple[float, str]] = []
+            self.lines: list[str] = []
 
         def write(self, s: str) -> None:
             if s.strip():
-                self.lines.append((time.monotonic(), s))
+                self.lines.append(s)
 
         def flush(self) -> None:
             pass
 
     sink = Sink()
-    lines = Lines("study x", "variants", stream=sink, every=0.2)  # type: ignore[arg-type]
+    lines = Lines("study x", "variants", stream=sink, every=0.01)  # type: ignore[arg-type]
     lines.update("reference", 0, 1000)
-    t = time.monotonic()
-    while time.monotonic() - t < 1.1:  # no update for a while: lines come all the same
-        time.sleep(0.05)
+    wait_for(lambda: len(sink.lines) >= 3, "three lines without an update")
+    assert all("reference 0 of 1,000 variants (0.0%)" in line for line in sink.lines[:3]), sink.lines
     lines.update("reference", 500, 1000)
-    time.sleep(0.45)
+    wait_for(lambda: "500 of 1,000" in sink.lines[-1], "a line after the update")
     lines.close()
-    assert len(sink.lines) >= 6
-    gaps = np.diff([t for t, _ in sink.lines])
-    assert gaps.max() < 0.5
-    text = sink.lines[-1][1]
+    text = sink.lines[-1]
     assert "reference 500 of 1,000 variants (50.0%)" in text and "variants/s" in text and "left" in text
 
 

@@ -54,28 +54,45 @@ MJ_LABEL = "MuJoCo (dashed)"
 REF_LABEL = "reference, vector method (solid)"
 RESIDUAL_GID = "residual"  # every residual panel's Axes carries this gid (the figure tests look for it)
 
-_KEEP: list[tuple[str, Figure]] | None = None
+# The open examine(): its function and what it found, by file name.
+_EXAMINE: tuple[Callable[[str, Figure], Any], list[tuple[str, Any]]] | None = None
 _SAVED_TIGHT: weakref.WeakSet[Figure] = weakref.WeakSet()  # figures save() cropped to their drawing
-# Figures save() drew at DPI uncropped and kept open (keep_figures): their texts and ticks are
+# Figures save() has just drawn at DPI uncropped, being examined: their texts and ticks are
 # laid out as written, so the checks read them without laying them out again. A cropped one
 # is laid out again: its layout after the crop is not the one written.
 _SAVED_AS_DRAWN: weakref.WeakSet[Figure] = weakref.WeakSet()
 
 
-class keep_figures:
-    """Within ``with keep_figures() as figs:``, :func:`save` still writes every PNG but keeps
-    its figure open and appends ``(file name, Figure)`` to ``figs``, so a test can read what
-    a figure shows (its axes, labels, texts) rather than only that the file exists."""
+class examine:
+    """Within ``with examine(fn) as found:``, :func:`save` calls ``fn(file name, Figure)`` on
+    every figure right after writing it, laid out as written, and appends ``(file name, what
+    fn returned)`` to ``found``: what a figure shows (its axes, labels, texts) can be checked,
+    not only that the file exists.
 
-    def __enter__(self) -> list[tuple[str, Figure]]:
-        global _KEEP
-        self._before = _KEEP
-        _KEEP = []
-        return _KEEP
+    The figures are examined where they are drawn: a run's forked plot workers
+    (:mod:`mjlink.runtime.workers`) call ``fn`` themselves, and what it returned (plain data:
+    it travels pickled) reaches ``found`` once the run has waited for the worker. The checks
+    of the figures as a reader sees them (tests/test_figures.py, .ci/check_figures.py) so hold
+    the very figures a command writes, drawn the way it draws them."""
+
+    def __init__(self, fn: Callable[[str, Figure], Any]) -> None:
+        self.fn = fn
+
+    def __enter__(self) -> list[tuple[str, Any]]:
+        global _EXAMINE
+        self._before = _EXAMINE
+        _EXAMINE = (self.fn, [])
+        return _EXAMINE[1]
 
     def __exit__(self, *exc: object) -> None:
-        global _KEEP
-        _KEEP = self._before
+        global _EXAMINE
+        _EXAMINE = self._before
+
+
+def examined() -> list[tuple[str, Any]] | None:
+    """The list the open :class:`examine` gathers into (None outside one): a plot worker sends
+    what it added, and the run adds it to its own."""
+    return None if _EXAMINE is None else _EXAMINE[1]
 
 
 def warm() -> None:
@@ -135,13 +152,13 @@ def save(fig: Figure, out_dir: Path | str, name: str, tight: bool = False) -> Pa
             _SAVED_TIGHT.add(fig)
         with atomic_path(path, suffix=".png") as tmp:
             fig.savefig(tmp, format="png", dpi=DPI, pil_kwargs=PNG_OPTIONS, **crop)
-        if _KEEP is not None and not tight:
-            _SAVED_AS_DRAWN.add(fig)
+        if _EXAMINE is not None:
+            fn, found = _EXAMINE
+            if not tight:
+                _SAVED_AS_DRAWN.add(fig)
+            found.append((name, fn(name, fig)))
     finally:
-        if _KEEP is not None:
-            _KEEP.append((name, fig))
-        else:
-            plt.close(fig)
+        plt.close(fig)
     return path
 
 
@@ -287,8 +304,8 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
     by matplotlib and not checked. Empty when nothing collides. ``pad`` pixels shrink every
     box before testing (touching is not overlapping). The figure is laid out as it is drawn,
     without rasterizing it (matplotlib's ``draw_without_rendering``), unless :func:`save` has
-    just written it uncropped and kept it (:class:`keep_figures`): then it is read at DPI as
-    written (tests/test_figures.py lays each shipped mechanism's busiest figure out again and
+    just written it uncropped and is examining it (:class:`examine`): then it is read at DPI as
+    written (tests/test_figures.py lays each shipped mechanism's busiest figures out again and
     finds every box, axes and tick where it was)."""
     if fig in _SAVED_AS_DRAWN:
         fig.set_dpi(DPI)

@@ -96,7 +96,13 @@ def check_destination(
     :func:`staged_dir`). Creates nothing. Raises a one-line OutputError.
     """
     dest = Path(dest)
-    if dest.is_symlink():
+    try:
+        link = stat.S_ISLNK(os.lstat(dest).st_mode)
+    except (FileNotFoundError, NotADirectoryError):  # nothing there yet; a path through a file: below
+        link = False
+    except OSError as e:  # a name longer than the system allows, a loop of links on the way
+        raise OutputError(f"cannot write outputs to {dest}: {_why(e)}") from None
+    if link:
         dest = Path(os.path.realpath(dest))
     anc = dest.parent
     while not os.path.lexists(anc) and anc != anc.parent:

@@ -4,7 +4,8 @@ A ``simulate`` run draws its figures in a worker process beside the MuJoCo runs 
 (two cores). The worker is the standard library's :class:`multiprocessing.Process` with the
 ``fork`` start method: the traces the plots draw are inherited, not pickled through a pipe, and
 the worker's result (nothing, or the error with its traceback) comes back through a
-:func:`multiprocessing.Pipe`.
+:func:`multiprocessing.Pipe`, with what an open :class:`mjlink.plotting.style.examine` found
+on the figures the worker drew (the checks of the figures run where they are drawn).
 
 The worker is part of the run and never outlives it: it ignores SIGINT and SIGTERM (the run
 decides), a failing, interrupted or terminated run kills and reaps it before its stage is
@@ -21,6 +22,7 @@ import gc
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -104,8 +106,16 @@ def start(jobs: list[PlotJob]) -> PlotWorker | None:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
+def _examined() -> list[Any] | None:
+    """The list an open :class:`mjlink.plotting.style.examine` gathers into here, if any: one
+    is open only where the plotting module is loaded already (not imported for it)."""
+    style = sys.modules.get("mjlink.plotting.style")
+    return None if style is None else style.examined()
+
+
 def _main(jobs: list[PlotJob], sink: Connection, parent: int, mask: set[Any]) -> None:
-    """The worker: draw ``jobs``; send None (success) or (error, traceback) back."""
+    """The worker: draw ``jobs``; send back (None, what an open examine found on the figures
+    drawn) on success, ((error, traceback), []) on failure."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
@@ -117,18 +127,21 @@ def _main(jobs: list[PlotJob], sink: Connection, parent: int, mask: set[Any]) ->
     # hold, some 50 MB in all, is freed when the worker exits.
     gc.disable()
     report: Any = None
+    found: list[Any] = []
     try:
+        examined = _examined()
+        before = len(examined) if examined is not None else 0  # inherited: the parent has them
         run_jobs(jobs)
+        found = examined[before:] if examined is not None else []
     except BaseException as e:
         tb = traceback.format_exc()
         report = (e, tb)
     try:
-        sink.send(report)
-    except Exception:  # the error itself does not pickle: its words do
-        if report is not None:
-            e, tb = report
-            with contextlib.suppress(Exception):
-                sink.send((MjlinkError(f"plot worker: {type(e).__name__}: {e}"), tb))
+        sink.send((report, found))
+    except Exception as failed:  # the error itself does not pickle: its words do
+        e, tb = report if report is not None else (failed, traceback.format_exc())
+        with contextlib.suppress(Exception):
+            sink.send(((MjlinkError(f"plot worker: {type(e).__name__}: {e}"), tb), []))
     sink.close()
 
 
@@ -143,10 +156,10 @@ def finish(worker: PlotWorker) -> None:
     OutputError, with the worker's traceback as its cause). Interrupted while waiting, the
     exception goes on and the stage's stop hook kills the worker."""
     try:
-        report = worker.result.recv()
+        report, found = worker.result.recv()
         got = True
     except EOFError:  # it ended without a word: killed, or exited
-        report, got = None, False
+        report, found, got = None, [], False
     with uninterrupted():
         worker.process.join()
         worker.reaped = True
@@ -157,6 +170,9 @@ def finish(worker: PlotWorker) -> None:
         raise err from _WorkerTraceback(tb)
     code = worker.process.exitcode
     if got and code == 0:
+        examined = _examined()
+        if examined is not None:
+            examined.extend(found)
         return
     if code is not None and code > 0:
         raise MjlinkError(f"the plot worker exited with status {code} before finishing the plots")
