@@ -80,7 +80,7 @@ def test_nominal_equals_simulate_kinematic_agreement(name):
     assert v.velocity_error == pytest.approx(a.velocity_rel, rel=rel)
     assert v.loop_gap == pytest.approx(a.loop_um * 1e-6, rel=rel)
     assert v.thread_error == pytest.approx(a.thread_um * 1e-6, rel=rel)
-    assert v.speed_error == pytest.approx(a.speed_rel, rel=1e-3, abs=1e-12)
+    assert v.speed_error == pytest.approx(a.speed_rel, rel=rel)
 
 
 @pytest.mark.parametrize("name", ["takeup_eyelets", "warp_knitting"])

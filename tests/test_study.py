@@ -199,7 +199,8 @@ def test_metrics_agree_with_an_independent_computation() -> None:
             col = "reaction_peak_" + "".join(c if c.isalnum() else "_" for c in lab).strip("_")
             assert res.columns[col][i] == pytest.approx(np.linalg.norm(f, axis=1).max(), rel=1e-9)
         steady = dynamics.steady_motion(dynamics.steady_variant(v))
-        assert res.columns["delta"][i] == pytest.approx(steady.delta, rel=1e-4)
+        # The batch's solution over the crank angle against DOP853: measured 5e-6 apart.
+        assert res.columns["delta"][i] == pytest.approx(steady.delta, rel=5e-5)
 
 
 def test_infeasible_variants_have_a_reason_and_no_numbers() -> None:
@@ -222,7 +223,8 @@ def test_crank_slider_grid_edge_is_the_synthesis_bound() -> None:
     res = tasks.reference_chunk(st, np.column_stack([lam, np.full(3, 15.0)]))
     theta = res.columns["pressure_max"]
     assert theta[1] <= 40.0 < theta[2]
-    assert np.allclose(res.columns["stroke_C_x"], 45.0, atol=1e-4)
+    # The synthesized stroke, its extremes refined between the study's angles: measured 5e-7 mm.
+    assert np.allclose(res.columns["stroke_C_x"], 45.0, rtol=0, atol=5e-6)
     assert reference.synthesis.largest_ratio(0.045, 0.015, math.radians(40.0)) == pytest.approx(0.37)
 
 
