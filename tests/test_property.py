@@ -126,7 +126,7 @@ def mechanism_text(draw):
             ("rocker", '["D", "C"]', "S3", None),
         ]
         coms = [("S1", "A", "B", crank / 2), ("S2", "B", "C", b / 2), ("S3", "D", "C", c / 2)]
-    # speed inside the verified envelope: |speed| <= 150 rad/s, 10 <= crank * speed^2 <= 2500 m/s^2
+    # speed inside the verified envelope (limits): |speed| <= 150 rad/s, 10 <= crank * speed^2 <= 500 m/s^2
     lo, hi = limits.VERIFIED_CRANK_ACCELERATION
     w_lo = max(20.0, (lo / (crank * 1e-3)) ** 0.5)
     w_hi = max(w_lo, min(limits.VERIFIED_SPEED, (hi / (crank * 1e-3)) ** 0.5))
