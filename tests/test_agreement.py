@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from documented import THRESHOLDS as LIMIT
 
 from mjlink import compare, pipeline, validation
 from mjlink import reference as R
@@ -16,12 +17,12 @@ def mech(request):
 
 def test_kinematic_run_agrees(mech):
     a = compare.agreement(mech, S.run(mech, S.kinematic_case(mech)))
-    assert a.position_um <= compare.POSITION_UM
-    assert a.velocity_rel <= compare.VELOCITY_REL
-    assert a.acceleration_rel <= compare.ACCELERATION_REL
-    assert a.loop_um <= compare.LOOP_UM
+    assert a.position_um <= LIMIT["position_um"]
+    assert a.velocity_rel <= LIMIT["velocity_rel"]
+    assert a.acceleration_rel <= LIMIT["acceleration_rel"]
+    assert a.loop_um <= LIMIT["loop_um"]
     if a.thread_um is not None:
-        assert a.thread_um <= compare.THREAD_UM
+        assert a.thread_um <= LIMIT["thread_um"]
     assert a.failures() == []
 
 
@@ -39,7 +40,7 @@ def test_dynamic_run_agrees(name):
     tr = S.run(mech, S.dynamic_case(mech))
     motion = R.forward_dynamics(mech, tr.time)
     a = compare.agreement(mech, tr, motion)
-    assert a.omega_rel <= compare.OMEGA_REL
+    assert a.omega_rel <= LIMIT["omega_rel"]
     assert a.failures() == []
 
 

@@ -3,6 +3,7 @@
 import mujoco
 import numpy as np
 import pytest
+from documented import THRESHOLDS as LIMIT
 
 from mjlink import reference as R
 from mjlink import validation
@@ -66,10 +67,14 @@ def test_written_mjcf_runs_the_dynamic_case_as_written(takeup, tmp_path):
     mujoco.mj_forward(model, data)  # sensors after mj_step belong to the state before it
     run = simulate.run(takeup, simulate.dynamic_case(takeup))
     assert data.time == pytest.approx(run.time[-1], abs=1e-9)
+    # The crank's speed at the end as the reference's equation of motion has it, within the
+    # documented omega threshold of its largest speed (as simulate's own run is held).
     omega = float(_sensor(model, data, "crank_speed")[0])
-    assert abs(omega - run.omega[-1]) <= 5e-4 * abs(run.omega[-1])
+    ref = R.forward_dynamics(takeup, run.time)
+    assert abs(omega - ref.omega[-1]) <= LIMIT["omega_rel"] * np.abs(ref.omega).max()
     # Points and thread where the reference puts them at the model's own crank angle (1 um: the
-    # dynamic run's positions are not thresholded, and MJCF text rounds the geometry).
+    # dynamic run's positions are not thresholded, docs/verification.md measures up to 0.31 um
+    # on it, 0.28 um here at its end, and MJCF text rounds the geometry).
     k = R.solve(takeup, [takeup.phi0 + float(_sensor(model, data, "crank_angle")[0])])
     np.testing.assert_allclose(_sensor(model, data, "P5_pos"), k.position("P5")[0], atol=1e-6)
     assert abs(float(_sensor(model, data, "thread_length")[0]) - k.thread_length().v[0]) < 1e-6

@@ -5,10 +5,14 @@ take, and so does a constant force: the mean driving power is the damping's alon
 """
 
 import dataclasses
+import math
+from fractions import Fraction
 
+import numpy as np
 import pytest
 
 from mjlink import analysis, validation
+from mjlink.model import catalogue
 from mjlink.model.mechanism import Force
 
 
@@ -39,6 +43,11 @@ def test_without_damping_nothing_is_consumed(takeup):
 
 
 def test_geared_period_spans_every_turn():
+    """warp_knitting's second crank turns -1/2 as fast as the input (its file's ratio): the
+    mechanism repeats after two input turns, 72 samples at 36 a turn, the last short of the end."""
     mech = validation.get("warp_knitting")
     phi = analysis.one_period(mech, per_turn=36)
-    assert len(phi) == 36 * round(mech.period / (2 * 3.141592653589793)) and phi[-1] < mech.phi0 + mech.period
+    assert "ratio = -0.5 " in catalogue.path_of("warp_knitting").read_text()
+    turns = Fraction(-0.5).denominator
+    assert len(phi) == 36 * turns and np.allclose(np.diff(phi), 2 * math.pi / 36, rtol=1e-12)
+    assert phi[-1] - mech.phi0 == pytest.approx(turns * 2 * math.pi * 71 / 72, rel=1e-12)

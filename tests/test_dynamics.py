@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from documented import THRESHOLDS as LIMIT
 
 from mjlink import compare, validation
 from mjlink import reference as R
@@ -75,8 +76,8 @@ def test_driving_torque_and_reactions_agree(name):
     mech = validation.get(name)
     tr = S.run(mech, S.kinematic_case(mech))
     loads = compare.loads(mech, tr)
-    assert loads.torque_rel <= compare.TORQUE_REL
-    assert loads.force_rel <= compare.FORCE_REL
+    assert loads.torque_rel <= LIMIT["torque_rel"]
+    assert loads.force_rel <= LIMIT["force_rel"]
     assert loads.failures() == []
     # Two independent reference routes to the torque: reduced equation and kinetostatics.
     tau = R.driving_torque(mech, tr.phi, tr.omega, tr.eps)
@@ -97,11 +98,14 @@ def test_steady_motion_and_flywheel(name):
     mech = R.steady_variant(validation.get(name))
     st = R.steady_motion(mech)
     assert abs(st.omega[-1] - st.omega[0]) < 1e-8 * abs(st.omega_mean)  # periodic
+    # MuJoCo's delta on each orbit within the documented threshold of the reference's.
+    limit = LIMIT["steady_delta_rel"]
     run = S.steady_run(mech, st)
-    assert run.delta == pytest.approx(st.delta, rel=1e-3)
+    assert abs(run.delta - st.delta) <= limit * max(st.delta, 1e-3)
     J, fly = R.flywheel_for(mech, 0.02)
-    assert J > 0 and fly.delta == pytest.approx(0.02, rel=1e-5)
-    assert S.steady_run(mech, fly).delta == pytest.approx(0.02, rel=2e-3)
+    # The secant stops within 1e-6 of the target delta (measured 6e-7 on crank_slider).
+    assert J > 0 and fly.delta == pytest.approx(0.02, rel=1e-6)
+    assert abs(S.steady_run(mech, fly).delta - fly.delta) <= limit * max(fly.delta, 1e-3)
 
 
 def test_motor_characteristic_in_mujoco_matches_reference():
@@ -110,7 +114,7 @@ def test_motor_characteristic_in_mujoco_matches_reference():
     assert motor.torque(0.0) == motor.stall_torque and motor.torque(motor.no_load_speed) == 0.0
     tr = S.run(mech, S.dynamic_case(mech, duration=0.3))
     a = compare.agreement(mech, tr, R.forward_dynamics(mech, tr.time))
-    assert a.omega_rel <= compare.OMEGA_REL
+    assert a.omega_rel <= LIMIT["omega_rel"]
 
 
 def test_force_table_scalar_and_vector_agree():
@@ -123,9 +127,10 @@ def test_force_table_scalar_and_vector_agree():
 def test_reference_ode_matches_its_dop853_twin(name):
     """Both fast paths against the plain twin (scipy's DOP853 at a tighter tolerance) over the
     file's dynamic run, far below MuJoCo's 5e-4: the solution over the crank angle (the
-    default) within 1e-8 of the largest speed (4e-10 on the take-up), 1e-6 with the thread's
+    default) within 1e-8 of the largest speed (3e-10 on the take-up), 1e-6 with the thread's
     force table, whose kinks DOP853 itself resolves only to 2e-8; LSODA within 1e-6 (3e-8 on
-    the take-up on this grid)."""
+    the take-up on this grid). The crank's acceleration is held to the same bounds of its own
+    largest value (measured at most 2.6e-7, LSODA on the take-up)."""
     from mjlink.model import catalogue
 
     mech = mechanism.load(catalogue.path_of(name))
@@ -139,7 +144,7 @@ def test_reference_ode_matches_its_dop853_twin(name):
         assert fast.method == ("energy" if method == "auto" else "LSODA")
         assert float(np.abs(fast.omega - twin.omega).max()) <= limit * scale, method
         assert float(np.abs(fast.phi - twin.phi).max()) <= limit * float(np.ptp(twin.phi)), method
-        assert float(np.abs(fast.eps - twin.eps).max()) <= 1e3 * limit * float(np.abs(twin.eps).max()), method
+        assert float(np.abs(fast.eps - twin.eps).max()) <= limit * float(np.abs(twin.eps).max()), method
 
 
 def test_a_crank_that_swings_back_is_solved_in_time():

@@ -23,6 +23,8 @@ import mujoco
 import numpy as np
 import pytest
 from conftest import HUNG_S, chromium
+from documented import THRESHOLDS as LIMIT
+from test_head import hook_meets_needle
 from test_plots import KNOWN, _check_png, _expected
 
 from mjlink import files
@@ -131,7 +133,9 @@ def _head_report_and_page(run_figures) -> None:
     assert {("hook_rise", "juki"), ("hook_rise", "brother"), ("thread_shortfall", None)} <= keys
     assert all(c["result"] in ("pass", "FAIL") and c["unit"] in ("mm", "deg") for c in checks)
     assert not [c for c in checks if c["counts"] and c["result"] == "FAIL"] and report["failures"] == []
-    assert report["timing"]["events_deg"]["hook picks the loop"] == pytest.approx(206.05, abs=0.1)
+    # Where the file's numbers put the pick-up, in closed form (test_head.hook_meets_needle).
+    pick, _, _ = hook_meets_needle(catalogue.path_of("lockstitch_head"))
+    assert report["timing"]["events_deg"]["hook picks the loop"] == pytest.approx(pick, abs=1e-9)
     page = (out / "index.html").read_text()
     assert "Timing over one stitch" in page and "needle bar rise when the hook meets the needle" in page
     assert "thread_balance.png: needle thread balance" in page and "cyclogram.png: timing diagram" in page
@@ -252,8 +256,8 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
     assert not [p for p in out.parent.iterdir() if p.name.startswith(".")], "staging folder left behind"
     rep = json.loads((out / "report.json").read_text())
     assert rep["failures"] == []
-    assert rep["agreement"]["kinematics"]["position_um"] <= 0.1
-    assert rep["agreement"]["dynamics"]["omega_rel"] <= 5e-4
+    assert rep["agreement"]["kinematics"]["position_um"] <= LIMIT["position_um"]
+    assert rep["agreement"]["dynamics"]["omega_rel"] <= LIMIT["omega_rel"]
     assert rep["video"]["frames"] == 30
     assert "Agreement of MuJoCo" in stdout and "thresholds" in stdout
     kin = files.read_csv(out / "kinematics.csv")
@@ -271,7 +275,10 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
         assert col in kin
     assert kin["phi1_deg"][-1] - kin["phi1_deg"][0] >= 359.0
     ref = files.read_csv(out / "reference_kinematics.csv")
-    assert np.abs(kin["P5_x_mm"] - ref["P5_x_mm"]).max() < 1e-3  # mm; same times, same crank law
+    # The eyelet in the two CSVs (the same times, the reference at MuJoCo's crank angle): within
+    # the documented position threshold, as the agreement table says.
+    gap = np.linalg.norm([kin[f"P5_{ax}_mm"] - ref[f"P5_{ax}_mm"] for ax in "xyz"], axis=0)
+    assert gap.max() <= LIMIT["position_um"] * 1e-3  # mm
     mujoco.MjModel.from_xml_path(str(out / "model.xml"))
     page = out / "index.html"
     text = page.read_text()
@@ -323,7 +330,7 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
     assert -1 not in first and first == sorted(first), first
     shown = dict(re.findall(r'data-metric="([^"]+)">([^<]+)<', dom))
     for row in rep["design"]["summary"]:
-        assert float(shown[row["metric"]]) == pytest.approx(row["value"], rel=5e-4), row
+        assert float(shown[row["metric"]]) == pytest.approx(row["value"], rel=5e-4), row  # 4 significant digits
     params = dict(re.findall(r'data-param="([^"]+)">([^<]+)<', dom))
     assert float(params["construct.P2.length"]) == 30.0 and float(params["input.phi0"]) == pytest.approx(101.0)
     import imageio.v2 as iio

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from documented import THRESHOLDS as LIMIT
 
 from mjlink import compare, validation
 from mjlink.errors import MechanismFileError
@@ -17,8 +18,8 @@ def test_mujoco_ground_reactions_sum_to_the_reference_shaking_loads(name: str) -
     mech = validation.get(name)
     trace = simulate.run(mech, simulate.kinematic_case(mech, cycles=1.0))
     loads = compare.loads(mech, trace)
-    assert loads.shaking_force_rel <= compare.SHAKING_REL / 5  # measured 3e-5 .. 8e-5
-    assert loads.shaking_moment_rel is not None and loads.shaking_moment_rel <= compare.SHAKING_REL / 5
+    assert loads.shaking_force_rel <= LIMIT["shaking_rel"] / 5  # measured 3e-5 .. 8e-5
+    assert loads.shaking_moment_rel is not None and loads.shaking_moment_rel <= LIMIT["shaking_rel"] / 5
     assert bool(trace.gear_torques) == bool(mech.geared)
     ref, got = compare.frame_reference(mech, trace), compare.frame_mujoco(mech, trace)
     assert ref.force.shape == got.force.shape == (len(trace.phi), 2)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 import re
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -38,6 +40,39 @@ def _edited(tmp_path, pattern, repl, name):
     return mechanism.load(path)
 
 
+def hook_meets_needle(path: Path = HEAD) -> tuple[float, float, float]:
+    """Where the file's numbers put the hook's meeting with the needle, in closed form (read with
+    tomllib, nothing of mjlink): the main-shaft angle (deg from the needle bar's top dead
+    centre, in the shaft's sense) at which the hook's blade point crosses the needle's line
+    above the hook's axis after bottom dead centre ("hook picks the loop", docs/head.md, The
+    checks), the needle bar's rise from its bottom then and the blade point's height above the
+    top of the eye (mm). The needle bar is an in-line crank-slider on a vertical guide through
+    the main shaft, the eye on its line, the hook a crank at ``ratio`` times the main shaft's
+    angle plus its ``phase``: the file is checked to be such a head."""
+    f = tomllib.loads(path.read_text())
+    blocks = {b["point"]: b for b in f["construct"]}
+    ground, tm, inp = f["ground"], f["timing"], f["input"]
+    bar, hook, eye = (blocks[tm[k]] for k in ("needle_bar", "hook_point", "needle_eye"))
+    crank = blocks[bar["start"]]
+    (ox, oy), (g1x, g1y), (g2x, g2y) = (ground[p][:2] for p in (crank["pivot"], *bar["guide"]))
+    assert bar["block"] == "slider" and bar["toward"] == bar["guide"][1] and g1x == g2x == ox and g2y < g1y
+    assert crank["block"] == "crank" and crank.get("ratio", 1.0) == 1.0 and crank.get("phase", 0.0) == 0.0
+    assert eye["origin"] == tm["needle_bar"] and eye["toward"] == bar["guide"][1] and eye["angle"] == 0.0
+    r, rod = crank["length"], bar["length"]
+    hx, hy = ground[hook["pivot"]][:2]
+    blade, ratio = hook["length"], hook["ratio"]
+    psi = math.degrees(math.acos((g1x - hx) / blade))  # the blade on the needle's line, above the axis
+    top = 90.0  # the crank pin straight up: the needle bar at its top
+    sense = math.copysign(1.0, inp["speed"])
+    meetings = [inp["phi0"] + (psi - hook["phase"] + 360.0 * k) / ratio for k in range(round(abs(ratio)))]
+    (phi,) = [p for p in meetings if (sense * (p - top)) % 360.0 > 180.0]  # after bottom dead centre
+    a = math.radians(phi)
+    y_bar = oy + r * math.sin(a) - math.sqrt(rod**2 - (r * math.cos(a)) ** 2)
+    rise = y_bar - (oy - r - rod)
+    above = hy + blade * math.sin(math.radians(psi)) - (y_bar - eye["length"])
+    return (sense * (phi - top)) % 360.0, rise, above
+
+
 LATE_HOOK = (r"(ratio = 2\.0.*\nphase = )37\.9", r"\g<1>17.9")
 
 
@@ -50,8 +85,12 @@ def test_the_shipped_head_meets_every_juki_window_and_says_which_brother_ones_it
     assert timing.failures() == ()
     for r in timing.rows:  # the general rows and the target's count, the slack is for information
         assert r.counts == (r.maker in (None, "juki") and r.key != "thread_slack")
-    assert _row(timing, "hook_rise", "juki").value == pytest.approx(2.0e-3, abs=0.02e-3)
-    assert _row(timing, "hook_above_eye", "juki").value == pytest.approx(1.4e-3, abs=0.02e-3)
+    # The hook timing where the file's numbers put it (the head is built to the manual's 2.0 and
+    # 1.4 mm): the same geometry solved in closed form; measured 1e-14 mm apart.
+    pick, rise, above = hook_meets_needle()
+    assert timing.events["hook picks the loop"] == pytest.approx(pick, abs=1e-9)
+    assert _row(timing, "hook_rise", "juki").value * 1e3 == pytest.approx(rise, abs=1e-9)
+    assert _row(timing, "hook_above_eye", "juki").value * 1e3 == pytest.approx(above, abs=1e-9)
     assert 0.75e-3 <= _row(timing, "dog_height", "juki").value <= 0.85e-3
     # The Brother settings put the hook point 0.5-0.7 mm above the eye and the needle point
     # about 1 mm above the plate at the dog's flush: this Juki-built head misses both.
@@ -176,7 +215,8 @@ def test_the_timing_study_measures_each_head_as_simulate_does(tolerance_study, h
             unit = "deg" if key == "take_up_after_release" else "mm"
             scale = 1e3 if unit == "mm" else 180 / math.pi
             # The thread's balance on the study's 0.5 deg grid against simulate's 0.05 deg: its
-            # extremes are refined between samples, to about a hundredth of a mm.
+            # extremes are refined between samples, to about a hundredth of a mm; the events'
+            # rows measured within 7e-4 mm (or deg) on these 60 heads.
             tol = 0.02 if key.startswith("thread") else 2e-3
             assert table[f"timing_{key}_{unit}"][i] == pytest.approx(r.value * scale, abs=tol), key
         assert table["timing_ok"][i] == float(all(r.ok for r in rows.values() if r.counts))
@@ -195,7 +235,7 @@ def test_the_most_sensitive_tolerance_is_ranked_first_with_the_slope_of_a_finite
     for phase in ("37.4", "38.4"):
         m = mechanism.parse(re.sub(r"(ratio = 2\.0.*\nphase = )37\.9", rf"\g<1>{phase}", text))
         rise.append(_row(head_timing(m), "hook_rise", "juki").value * 1e3)
-    assert top["slope"] == pytest.approx(rise[1] - rise[0], rel=0.03)
+    assert top["slope"] == pytest.approx(rise[1] - rise[0], rel=5e-3)  # the fit over 60 heads: measured 8e-4
     assert "timing_ok" not in res.summary["sensitivity"]  # a pass/fail flag has no slope
 
 
@@ -281,7 +321,6 @@ def test_a_stitch_holds_its_length_and_the_fabric_of_needle_thread(head):
     t = head_timing(head)
     s, th = head.balance.stitch_length * 1e3, head.timing.fabric * 1e3
     assert t.balance.per_stitch == pytest.approx(s + th)
-    assert 2 * t.balance.per_stitch == pytest.approx(2 * (s + th))
 
 
 def test_stitch_and_fabric_are_study_parameters_measured_per_variant(head, tmp_path):
@@ -333,8 +372,10 @@ def test_an_optimization_draws_the_balance_curve_before_and_after(head):
     cols = m.compute(b, b, Loads())
     assert cv is not None and cv.values.shape == (2, 720) and cv.unit == "mm"
     for i in range(2):
-        assert np.nanmax(cv.values[i]) == pytest.approx(cols["timing_thread_slack"][i], abs=0.02)
-        assert -np.nanmin(cv.values[i]) == pytest.approx(cols["timing_thread_shortfall"][i], abs=0.02)
+        # The curve's samples, 0.5 deg apart, against the rows' extremes refined between them:
+        # measured 1.5e-3 mm apart.
+        assert np.nanmax(cv.values[i]) == pytest.approx(cols["timing_thread_slack"][i], abs=5e-3)
+        assert -np.nanmin(cv.values[i]) == pytest.approx(cols["timing_thread_shortfall"][i], abs=5e-3)
     assert cols["timing_thread_shortfall"][1] > cols["timing_thread_shortfall"][0]  # thicker fabric
 
 
@@ -374,10 +415,13 @@ def test_the_eyelet_take_up_sized_for_the_head_meets_every_check_under_its_toler
     from mjlink.model import paths
 
     sized = mechanism.load(SIZED)
+    travel = tomllib.loads(SIZED.read_text())["balance"]["check_spring_travel"] * 1e-3  # m
+    study = tomllib.loads((shipped("studies") / "lockstitch_head_eyelets.toml").read_text())
+    (margin,) = [b["max"] * 1e-3 for b in study["bound"] if b["metric"] == "timing_thread_shortfall"]
     t = head_timing(sized)
     assert t.failures() == ()
-    assert _row(t, "thread_slack").ok and _row(t, "thread_slack").value <= 7.0e-3
-    assert _row(t, "thread_shortfall").value <= 3.0e-3
+    assert _row(t, "thread_slack").ok and _row(t, "thread_slack").value <= travel
+    assert _row(t, "thread_shortfall").value <= margin
     rng = np.random.default_rng(2026)
     for _ in range(16):
         dev = {
@@ -386,7 +430,7 @@ def test_the_eyelet_take_up_sized_for_the_head_meets_every_check_under_its_toler
         }
         tv = head_timing(paths.apply(sized, dev))
         assert tv.failures() == ()  # the shortfall within what the thread stretches, every window met
-        assert _row(tv, "thread_slack").value <= 7.0e-3
+        assert _row(tv, "thread_slack").value <= travel
 
 
 CHAIN = shipped("mechanisms") / "examples" / "chainstitch_head.toml"

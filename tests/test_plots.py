@@ -9,6 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from documented import THRESHOLDS as LIMIT
 
 from mjlink import analysis, validation
 from mjlink import reference as R
@@ -143,8 +144,11 @@ def test_slider_velocity_on_a_moving_guide():
     assert slider.guide[0] not in m.ground  # the guide does move
     for tr in (kin, kin_ref):
         s, sd, sdd = analysis.slider_motion(tr, slider)
+        # Central differences at the run's sampling carry their own error: measured 3e-6 of the
+        # largest speed, and of the largest acceleration 5e-6 on the reference and 9e-5 on
+        # MuJoCo (whose velocity carries the soft loop closures' ripple); limits ten times that.
         fd = np.gradient(s, tr.time)[1:-1]
-        assert np.abs(sd[1:-1] - fd).max() < 1e-4 * np.abs(sd).max()
+        assert np.abs(sd[1:-1] - fd).max() < 3e-5 * np.abs(sd).max()
         fdd = np.gradient(sd, tr.time)[1:-1]
         assert np.abs(sdd[1:-1] - fdd).max() < 1e-3 * np.abs(sdd).max()
         # The absolute velocity along the guide is not the relative one: the guide's swing matters.
@@ -153,10 +157,15 @@ def test_slider_velocity_on_a_moving_guide():
         u /= np.linalg.norm(u, axis=1, keepdims=True)
         naive = np.einsum("ij,ij->i", tr.velocities["P9"][:, :2], u)
         assert np.abs(naive - sd).max() > 0.05 * np.abs(sd).max()
-    # MuJoCo and the reference agree on the relative motion.
-    a, b = analysis.slider_motion(kin, slider), analysis.slider_motion(kin_ref, slider)
-    for x, y in zip(a, b):
-        assert np.abs(x - y).max() < 1e-3 * np.abs(y).max()
+    # MuJoCo and the reference agree on the relative motion within the documented point
+    # thresholds: position absolute, velocity and acceleration of their largest value.
+    (s_mj, v_mj, a_mj), (s_ref, v_ref, a_ref) = (
+        analysis.slider_motion(kin, slider),
+        analysis.slider_motion(kin_ref, slider),
+    )
+    assert np.abs(s_mj - s_ref).max() <= LIMIT["position_um"] * 1e-6
+    assert np.abs(v_mj - v_ref).max() <= LIMIT["velocity_rel"] * np.abs(v_ref).max()
+    assert np.abs(a_mj - a_ref).max() <= LIMIT["acceleration_rel"] * np.abs(a_ref).max()
 
 
 def test_crank_slider_pressure_angle_and_stroke():
@@ -166,10 +175,14 @@ def test_crank_slider_pressure_angle_and_stroke():
     slider = next(s for s in m.steps if isinstance(s, mechanism.Slider))
     r, l, e = m.input_crank.length, slider.length, m.synthesis.offset
     for tr in (kin, kin_ref):
+        # The run's samples, 0.29 deg of crank apart, straddle the peak and the dead centres: the
+        # sampled pressure angle falls short by a measured 4.6e-5 deg, the stroke by 0.033 um
+        # (within the documented position threshold).
         top = math.degrees(analysis.pressure_angle(tr, slider).max())
-        assert top == pytest.approx(math.degrees(math.asin((r + e) / l)), abs=1e-3)
+        assert top == pytest.approx(math.degrees(math.asin((r + e) / l)), abs=2e-4)
         assert top < math.degrees(m.synthesis.max_pressure_angle)
-        assert np.ptp(analysis.slider_motion(tr, slider)[0]) == pytest.approx(m.synthesis.stroke, abs=1e-6)
+        stroke = np.ptp(analysis.slider_motion(tr, slider)[0])
+        assert stroke == pytest.approx(m.synthesis.stroke, abs=LIMIT["position_um"] * 1e-6)
 
 
 def test_harmonics_of_a_known_signal():
@@ -180,8 +193,9 @@ def test_harmonics_of_a_known_signal():
     x = (phi - phi[0]) / 2.0  # angle of the mechanism period
     y = 3.0 * np.cos(x) + 0.5 * np.sin(2.0 * x + 0.3) + 0.01 * np.cos(7.0 * x)
     amp = analysis.harmonics(SimpleNamespace(period=4.0 * math.pi), SimpleNamespace(phi=phi), y, kmax=8)
-    assert amp == pytest.approx([3.0, 0.5, 0, 0, 0, 0, 0.01, 0], abs=2e-4)
-    assert analysis.higher_harmonics_share(amp) == pytest.approx(math.hypot(0.5, 0.01) / 3.0, rel=1e-3)
+    # The resampling in phi of the uneven samples: measured 6e-7 off, in amplitude and share.
+    assert amp == pytest.approx([3.0, 0.5, 0, 0, 0, 0, 0.01, 0], abs=5e-6)
+    assert analysis.higher_harmonics_share(amp) == pytest.approx(math.hypot(0.5, 0.01) / 3.0, rel=5e-6)
     short = SimpleNamespace(phi=phi[:2000])
     assert analysis.harmonics(SimpleNamespace(period=4.0 * math.pi), short, y[:2000]) is None
 
@@ -194,7 +208,8 @@ def test_clockwise_crank_angle_axis(tmp_path):
     assert m.speed < 0
     (xm, _xr), label = style.crank_x(m, kin, kin_ref)
     assert "turned clockwise from" in label
-    assert xm[0] == pytest.approx(0.0) and np.all(np.diff(xm) > 0) and xm[-1] == pytest.approx(360.0, abs=0.5)
+    assert xm[0] == pytest.approx(0.0) and np.all(np.diff(xm) > 0)
+    assert abs(xm[-1] - 360.0) <= np.diff(xm).max()  # the turn's end, within one sample
     m2, kin2, _ = _kinematics("takeup_eyelets")
     (x2,), label2 = style.crank_x(m2, kin2)
     assert "turned from" in label2 and "clockwise" not in label2

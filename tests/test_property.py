@@ -6,8 +6,10 @@ no crash, no silent disagreement.
 The generated domain is the envelope the thresholds are claimed for (mechanisms/README.md,
 "Limits"): bars of 2..250 mm, crank speeds of 20..150 rad/s either way with the crank pin's
 acceleration (crank length x speed^2) within 10..500 m/s^2, links of 5..50 g with the inertia
-of a bar (0.5..2 times m L^2 / 12); outside it a run is still checked and its misses
-reported, but they are not claimed to stay within thresholds.
+of a bar (0.5..2 times m L^2 / 12). A mutated value can leave it (a speed of 12.5 rad/s):
+such a file, valid with a note, is held to the same thresholds, and counted apart. A valid
+file whose run is too short to be judged (a mutated ``cycles``) must be refused as
+``simulate`` refuses it, in one line; every other valid file must simulate without error.
 Invalid cases come from replacing a value with a bad one (zero, negative, huge, tiny,
 non-finite, a wrong type), deleting or misspelling a key, a bad sign or an undefined point;
 valid-looking geometry that cannot be assembled, passes near a dead point or has a
@@ -36,6 +38,7 @@ from mjlink.errors import AssemblyError, MechanismFileError, SimulationError
 from mjlink.model import catalogue as registry
 from mjlink.model import limits
 from mjlink.model.mechanism import load
+from mjlink.pipeline import cost
 from mjlink.sim import simulate
 
 EXAMPLES = int(os.environ.get("PROPERTY_EXAMPLES", "250"))
@@ -122,7 +125,7 @@ def mechanism_text(draw):
             ("rocker", '["D", "C"]', "S3", None),
         ]
         coms = [("S1", "A", "B", crank / 2), ("S2", "B", "C", b / 2), ("S3", "D", "C", c / 2)]
-    # speed inside the verified envelope: |speed| <= 150 rad/s, 10 <= crank * speed^2 <= 2500 m/s^2
+    # speed inside the verified envelope (limits): |speed| <= 150 rad/s, 10 <= crank * speed^2 <= 500 m/s^2
     lo, hi = limits.VERIFIED_CRANK_ACCELERATION
     w_lo = max(20.0, (lo / (crank * 1e-3)) ** 0.5)
     w_hi = max(w_lo, min(limits.VERIFIED_SPEED, (hi / (crank * 1e-3)) ** 0.5))
@@ -282,14 +285,21 @@ def test_random_mechanisms_fail_clearly_or_agree(tmp_path):
             return
         assert report.ok
         stats["valid"] += 1
+        if any("over which the agreement thresholds are verified" in n for n in report.notes):
+            stats["valid outside the verified envelope"] += 1
+        case = simulate.kinematic_case(mech)
+        try:
+            cost.enough_samples(mech, case, "cycles")
+        except SimulationError as e:
+            assert "\n" not in str(e) and "are needed to compare it with the reference" in str(e), str(e)
+            stats["valid, refused as too short to judge"] += 1
+            return
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # MuJoCo's own model warnings are not the subject here
             try:
-                trace = simulate.run(mech, simulate.kinematic_case(mech))
+                trace = simulate.run(mech, case)
             except SimulationError as e:
-                assert "\n" not in str(e)
-                stats["simulation error"] += 1
-                return
+                raise AssertionError(f"a valid file failed to simulate: {e}\n{text}") from e
         a = compare.agreement(mech, trace)
         assert a.failures() == [], f"silent disagreement: {a.failures()}\n{text}"
         switched = compare.branch_switch(mech, trace)
@@ -310,4 +320,9 @@ def test_random_mechanisms_fail_clearly_or_agree(tmp_path):
         stacklevel=2,
     )
     assert stats["cases"] >= min(EXAMPLES, 50)
-    assert stats["simulated within thresholds"] >= stats["cases"] // 10, summary  # the generator stays useful
+    judged = stats["valid"] - stats["valid, refused as too short to judge"]
+    assert stats["simulated within thresholds"] == judged, summary  # every valid file, none let off
+    # The generator stays useful: 18 to 26 % of its files are valid (45 and 65 of 250 measured:
+    # the sequence drawn also depends on what ran before it in the process); a tenth flags a
+    # generator that has stopped exploring what runs.
+    assert judged >= stats["cases"] // 10, summary

@@ -99,8 +99,9 @@ def test_every_documented_kind_of_path_resolves() -> None:
     assert paths.resolve(wk, "links.plunger.mass").nominal == pytest.approx(900.0)
     cs = validation.get("crank_slider")
     assert paths.resolve(cs, "synthesis.lambda").nominal == pytest.approx(0.35)
-    with pytest.raises(paths.PathError, match="input crank"):
-        raise paths.PathError("input crank") if "construct.B.phase" not in paths.catalogue(cs) else AssertionError
+    # The input crank has no phase (its setting is input.phi0): refused, naming the path.
+    with pytest.raises(paths.PathError, match=r"unknown parameter path 'construct\.B\.phase'"):
+        paths.resolve(cs, "construct.B.phase")
 
 
 def test_sampling_is_seeded_and_within_its_law() -> None:
@@ -110,7 +111,8 @@ def test_sampling_is_seeded_and_within_its_law() -> None:
     nominal = [p.nominal for p in st.params]
     dev = v - nominal
     assert np.abs(dev[:, 0]).max() <= 0.05 and np.abs(dev[:, 0]).max() > 0.049  # uniform over +-tol
-    assert dev[:, 1].std() == pytest.approx(0.05 / 3, rel=0.05)  # normal, sigma = tol / 3
+    # normal, sigma = tol / 3: over 4000 samples the standard deviation's own spread is 1.1 %
+    assert dev[:, 1].std() == pytest.approx(0.05 / 3, rel=0.05)
     grid = spec.parse(
         BASE.replace('method = "tolerance"', 'method = "grid"')
         .replace("samples = 40\nseed = 7\n", "")
@@ -196,11 +198,11 @@ def test_metrics_agree_with_an_independent_computation() -> None:
             col = "reaction_peak_" + "".join(c if c.isalnum() else "_" for c in lab).strip("_")
             assert res.columns[col][i] == pytest.approx(np.linalg.norm(f, axis=1).max(), rel=1e-9)
         steady = dynamics.steady_motion(dynamics.steady_variant(v))
-        assert res.columns["delta"][i] == pytest.approx(steady.delta, rel=1e-4)
+        # The batch's solution over the crank angle against DOP853: measured 5e-6 apart.
+        assert res.columns["delta"][i] == pytest.approx(steady.delta, rel=5e-5)
 
 
 def test_infeasible_variants_have_a_reason_and_no_numbers() -> None:
-    mech = validation.get("takeup")
     res = tasks.reference_chunk(
         dataclasses.replace(
             spec.parse(study_text('\n[[metric]]\nkind = "torque_peak"\n'), "s.toml"),
@@ -211,7 +213,6 @@ def test_infeasible_variants_have_a_reason_and_no_numbers() -> None:
     assert "dyad P2-P3-P4 cannot close at" in res.reason[1] and "deg from phi0" in res.reason[1]
     assert "construct.P3.length_a = -1 mm must be positive" in res.reason[2]
     assert all(np.isnan(c[1:3]).all() and np.isfinite(c[[0, 3]]).all() for c in res.columns.values())
-    assert mech.name == "takeup"
 
 
 def test_crank_slider_grid_edge_is_the_synthesis_bound() -> None:
@@ -221,7 +222,8 @@ def test_crank_slider_grid_edge_is_the_synthesis_bound() -> None:
     res = tasks.reference_chunk(st, np.column_stack([lam, np.full(3, 15.0)]))
     theta = res.columns["pressure_max"]
     assert theta[1] <= 40.0 < theta[2]
-    assert np.allclose(res.columns["stroke_C_x"], 45.0, atol=1e-4)
+    # The synthesized stroke, its extremes refined between the study's angles: measured 5e-7 mm.
+    assert np.allclose(res.columns["stroke_C_x"], 45.0, rtol=0, atol=5e-6)
     assert reference.synthesis.largest_ratio(0.045, 0.015, math.radians(40.0)) == pytest.approx(0.37)
 
 

@@ -468,6 +468,7 @@ def test_an_unconverged_search_says_so_everywhere(tmp_path, capsys):
     assert lines[head].split()[-3:] == ["winner", "file", "design"], lines[head]
     for line in lines[head + 1 : head + 1 + len(summ["winner"]["metrics"])]:
         name, *_, winner, file_design = line.split()
+        # printed to 6 significant digits
         assert float(winner) == pytest.approx(summ["winner"]["metrics"][name]["value"], rel=1e-5)
         assert float(file_design) == pytest.approx(summ["mechanism_file_design"]["metrics"][name], rel=1e-5)
 
@@ -785,11 +786,19 @@ def test_the_plan_measures_and_scales():
     cal = plan.Calibration(2e-6, 1000.0, 0.5)
     p = plan.estimate(st, workers=2, calibration=cal, limit=1e12)
     assert p.variants == 40 and p.angles == 36 and p.mujoco_models == 0
-    assert p.tasks == 5 and p.seconds == pytest.approx(40 * 36 * 2e-6 * 1.2 / 2)  # five tasks, two workers
+    # studies/README.md, Engine: about 16 reference tasks of 8..256 variants. 40 variants in 16
+    # would be under 8 each: tasks of 8; a sixteenth of a million is over 256: tasks of 256.
+    assert p.tasks == math.ceil(40 / 8)
+    # The time is the variant-angles at the calibrated seconds each, shared by the workers: at
+    # least that share, in proportion to the calibration, halved by twice the workers.
+    assert p.seconds >= 40 * 36 * 2e-6 / 2
+    slower = plan.estimate(st, workers=2, calibration=plan.Calibration(6e-6, 1000.0, 0.5), limit=1e12)
+    assert slower.seconds == pytest.approx(3 * p.seconds, rel=1e-12)
+    assert plan.estimate(st, workers=1, calibration=cal, limit=1e12).seconds == pytest.approx(2 * p.seconds, rel=1e-12)
     big = plan.estimate(
         spec.parse(SMALL.replace("samples = 40", "samples = 1000000"), "s.toml"), workers=2, calibration=cal
     )
-    assert big.memory > 1e8 and big.tasks == 3907
+    assert big.memory > 1e8 and big.tasks == math.ceil(1_000_000 / 256)
     with pytest.raises(plan.PlanError, match="more than the 1 bytes"):
         plan.estimate(st, workers=1, calibration=cal, limit=1.0).check()
     from mjlink.cli.commands import parse_size

@@ -4,6 +4,7 @@ judge, quantities reported without a threshold (each either checked or marked in
 import dataclasses
 
 import pytest
+from documented import THRESHOLDS as LIMIT
 
 from mjlink import compare, pipeline, reference
 from mjlink.errors import SimulationError
@@ -23,7 +24,7 @@ def test_imposed_speed_is_held_whatever_the_loads(takeup):
     mech = _loaded(takeup, damping=0.05, force=(0.0, -20.0, 0.0))
     trace = simulate.run(mech, simulate.kinematic_case(mech))
     a = compare.agreement(mech, trace)
-    assert a.speed_rel is not None and a.speed_rel <= compare.SPEED_REL
+    assert a.speed_rel is not None and a.speed_rel <= LIMIT["speed_held_rel"]
     assert a.failures() == []
 
 
@@ -33,7 +34,7 @@ def test_a_speed_not_held_fails_the_run(takeup):
     case = simulate.kinematic_case(mech)
     weak = Case(case.kind, case.duration, case.omega0, dataclasses.replace(case.settings, flywheel=1e-6))
     a = compare.agreement(mech, simulate.run(mech, weak))
-    assert a.speed_rel > compare.SPEED_REL
+    assert a.speed_rel > LIMIT["speed_held_rel"]
     assert any("crank speed held" in f for f in a.failures())
 
 
@@ -43,14 +44,14 @@ def test_a_run_too_short_is_refused_and_never_passes(takeup, tmp_path):
     assert not (tmp_path / "takeup").exists()
     short = simulate.run(takeup, simulate.kinematic_case(takeup, cycles=0.005))
     failures = compare.agreement(takeup, short).failures()
-    assert len(short.time) < compare.MIN_SAMPLES and any("samples" in f for f in failures)
+    assert len(short.time) < LIMIT["min_samples"] and any("samples" in f for f in failures)
 
 
 def test_every_reported_quantity_is_checked_or_informational(takeup):
     trace = simulate.run(takeup, simulate.dynamic_case(takeup, duration=0.05))
     a = compare.agreement(takeup, trace, reference.forward_dynamics(takeup, trace.time))
     by_name = {c.quantity: c for c in a.checks()}
-    assert by_name["crank speed omega"].limit == compare.OMEGA_REL
+    assert by_name["crank speed omega"].limit == LIMIT["omega_rel"]
     assert by_name["point position"].limit is None and by_name["point position"].result == "informational"
     text = compare.table([a])
     assert "informational" in text and "pass" in text
