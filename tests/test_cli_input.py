@@ -26,8 +26,9 @@ from conftest import ROOT, in_process
 
 from mjlink import pipeline, validation
 from mjlink.cli import _parser, main
-from mjlink.cli.commands import Speed, _long_run, path_arg, speed_arg
+from mjlink.cli.commands import _long_run
 from mjlink.cli.text import against_file, crank_speed, error_line
+from mjlink.cli.values import Speed, path_arg, speed_arg
 from mjlink.errors import MechanismFileError, MjlinkError
 from mjlink.model import catalogue, limits
 from mjlink.model.mechanism import parse

@@ -11,7 +11,7 @@ import pytest
 from conftest import in_process
 
 from mjlink import quantity
-from mjlink.cli.commands import quantity_arg, speed_arg
+from mjlink.cli.values import quantity_arg, speed_arg
 from mjlink.errors import MjlinkError
 from mjlink.model import catalogue, mechanism
 from mjlink.study import spec

@@ -801,7 +801,7 @@ def test_the_plan_measures_and_scales():
     assert big.memory > 1e8 and big.tasks == math.ceil(1_000_000 / 256)
     with pytest.raises(plan.PlanError, match="more than the 1 bytes"):
         plan.estimate(st, workers=1, calibration=cal, limit=1.0).check()
-    from mjlink.cli.commands import parse_size
+    from mjlink.cli.values import parse_size
 
     assert parse_size("64GiB") == 64 * 2**30 and parse_size("500MB") == 5e8
 
