@@ -15,7 +15,7 @@ from mjlink import study as api
 from mjlink import validation
 from mjlink.model import paths
 from mjlink.reference import synthesis
-from mjlink.study import optimize
+from mjlink.study import optimize, spec
 from mjlink.study.spec import StudyFileError, parse
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -325,3 +325,14 @@ def test_winner_name_of_a_long_study_name_is_valid(tmp_path):
     )
     out = pipe.run(st, tmp_path, workers=0, plots=False, progress=False)
     assert validation.get(out.winner_file).name == "a_rather_long_study_name_winner"
+
+
+def test_the_winners_duplicate_key_is_the_first_rounding():
+    """choose() tells candidates apart by their nearest rounding alone (winner._nearest): the
+    first row of the full set of roundings (rounded_candidates), inside and outside the ranges."""
+    from mjlink.pipeline import winner
+
+    st = spec.load("known_feed_takeup_eyelets")
+    lo, hi = np.array([v.low for v in st.varied]), np.array([v.high for v in st.varied])
+    for x in lo + (hi - lo) * np.random.default_rng(1).uniform(-0.05, 1.05, (500, len(lo))):
+        assert np.array_equal(winner._nearest(st, x), winner.rounded_candidates(st, x)[0])

@@ -114,9 +114,18 @@ def rounded_candidates(study: Study, x: np.ndarray) -> np.ndarray:
     return X
 
 
+def _nearest(study: Study, x: np.ndarray) -> np.ndarray:
+    """The first row of :func:`rounded_candidates` alone (what tells two candidates apart)."""
+    opt = study.optimize
+    assert opt is not None
+    to = rounder(opt)
+    near = np.array([to(v.param.unit, float(xi)) for v, xi in zip(study.varied, x, strict=True)])
+    return np.clip(near, [v.low for v in study.varied], [v.high for v in study.varied])
+
+
 def _file_mechanism(st: Study) -> Mechanism:
-    assert st.mechanism.path is not None
-    return validation.get(st.mechanism.path)
+    """The mechanism as the study read its file (before ``[set]``), never the file read again."""
+    return st.file_mechanism if st.file_mechanism is not None else st.mechanism
 
 
 def design_text(st: Study, x: np.ndarray, name: str, extra: dict[str, float] | None = None) -> str:
@@ -217,7 +226,7 @@ def choose(
     distinct: list[np.ndarray] = []
     seen: set[bytes] = set()
     for x in candidates:
-        key = rounded_candidates(st, x)[0].tobytes()
+        key = _nearest(st, x).tobytes()
         if key not in seen:
             seen.add(key)
             distinct.append(np.asarray(x, dtype=float))

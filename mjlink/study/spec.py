@@ -14,7 +14,7 @@ import hashlib
 import math
 import sys
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -160,6 +160,8 @@ class Study:
     optimize: Optimize | None = None
     robust: Robust | None = None
     fixed: tuple[tuple[str, float], ...] = ()  # [set]: path -> value (file units), applied first
+    # The mechanism as its file was read, before [set]: what a winner file is written from.
+    file_mechanism: Mechanism | None = field(default=None, repr=False, compare=False)
     definition_digest: str = ""  # of the study file's text alone
     mechanism_digest: str = ""  # of the mechanism file's text alone
 
@@ -455,6 +457,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         optimize=optimize,
         robust=robust,
         fixed=fixed,
+        file_mechanism=base,
         definition_digest=hashlib.sha256(text.encode()).hexdigest()[:16],
         mechanism_digest=hashlib.sha256(mtext).hexdigest()[:16],
     )
