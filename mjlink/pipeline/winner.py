@@ -120,7 +120,8 @@ def _nearest(study: Study, x: np.ndarray) -> np.ndarray:
     assert opt is not None
     to = rounder(opt)
     near = np.array([to(v.param.unit, float(xi)) for v, xi in zip(study.varied, x, strict=True)])
-    return np.clip(near, [v.low for v in study.varied], [v.high for v in study.varied])
+    out: np.ndarray = np.clip(near, [v.low for v in study.varied], [v.high for v in study.varied])
+    return out
 
 
 def _file_mechanism(st: Study) -> Mechanism:
