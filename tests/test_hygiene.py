@@ -47,11 +47,12 @@ def test_no_test_installs_anything():
 
 def test_the_rule_finds_an_installer():
     """The check above finds the commands it is for (here, as a test would write them)."""
+    # Source text to parse, never run: the four ways a test could install something.
     code = """
-subprocess.run(["apt-get", "install", "-y", "chromium"])
-subprocess.run([sys.executable, "-m", "pip", "install", "x"])
-os.system("sudo apt-get install chromium")
-subprocess.run(["python", "-m", "playwright", "install", "chromium"])
+subprocess.run(['apt-get', 'install', '-y', 'chromium'])
+subprocess.run([sys.executable, '-m', 'pip', 'install', 'x'])
+os.system('sudo apt-get install chromium')
+subprocess.run(['python', '-m', 'playwright', 'install', 'chromium'])
 """
     hits = [w for _, w in _commands(ast.parse(code)) if w[0] in INSTALLERS or INSTALLING.search(" ".join(w))]
     assert len(hits) == 4, hits
