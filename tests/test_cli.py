@@ -199,7 +199,7 @@ def strict_statements():
 
 
 def test_the_exit_status_the_docs_give_for_strict_is_the_one_a_run_exits_with(tmp_path):
-    """A head built to Juki's settings judged against Brother's windows misses a timing check
+    """A head built to Juki's settings judged against the Brother S-7200C's misses a timing check
     (docs/head.md): it exits 0, and with --strict what every statement in the docs and the help
     says."""
     found = strict_statements()
@@ -207,10 +207,10 @@ def test_the_exit_status_the_docs_give_for_strict_is_the_one_a_run_exits_with(tm
     assert {"docs/head.md", "docs/commands.md", "README.md", "mjlink simulate --help"} <= where, where
     text = (ROOT / "mechanisms" / "lockstitch_head.toml").read_text()
     head = tmp_path / "head.toml"
-    head.write_text(text.replace('target = "juki"', 'target = "brother"', 1))
+    head.write_text(text.replace('target = "juki_composite"', 'target = "brother_s7200c"', 1))
     args = ("simulate", str(head), "--out", str(tmp_path), "--no-video", "--no-plots", "--no-dynamics")
     r = mjlink(*args)
-    assert r.returncode == 0 and "(brother)" in r.stdout, r.stdout
+    assert r.returncode == 0 and "(brother_s7200c)" in r.stdout, r.stdout
     assert json.loads((tmp_path / "lockstitch_head" / "report.json").read_text())["failures"]
     strict = mjlink(*args, "--strict").returncode
     assert [(w, s) for w, s in found if s != strict] == []

@@ -130,7 +130,7 @@ def _head_report_and_page(run_figures) -> None:
     report = json.loads((out / "report.json").read_text())
     checks = report["timing"]["checks"]
     keys = {(c["check"], c["settings"]) for c in checks}
-    assert {("hook_rise", "juki"), ("hook_rise", "brother"), ("thread_shortfall", None)} <= keys
+    assert {("hook_rise", "juki_composite"), ("hook_rise", "brother_s7000dd"), ("thread_shortfall", None)} <= keys
     assert all(c["result"] in ("pass", "FAIL") and c["unit"] in ("mm", "deg") for c in checks)
     assert not [c for c in checks if c["counts"] and c["result"] == "FAIL"] and report["failures"] == []
     # Where the file's numbers put the pick-up, in closed form (test_head.hook_meets_needle).

@@ -423,10 +423,12 @@ def timing_table(head: HeadTiming) -> str:
     """A head's timing checks, one row each: value, window, result; the target maker's and the
     general rows decide the run, the other makers' are shown for comparison."""
     rows = [f"\nTiming over one stitch (main-shaft angle from the needle bar's top; built to '{head.target}'):"]
-    rows.append(f"{'settings':9s} {'check':47s} {'measured':>9s} {'window':>17s} unit  result")
+    # A settings table is named by its machine's model: the column as wide as the longest name.
+    w = max([len("settings"), *(len(r.maker or "every") for r in head.rows)])
+    rows.append(f"{'settings':{w}s} {'check':47s} {'measured':>9s} {'window':>17s} unit  result")
     for r in head.rows:
         rows.append(
-            f"{r.maker or 'every':9s} {r.label:47s} {r.shown(r.value):>9s} {r.window_text():>17s} {r.unit:4s}  {r.verdict}"
+            f"{r.maker or 'every':{w}s} {r.label:47s} {r.shown(r.value):>9s} {r.window_text():>17s} {r.unit:4s}  {r.verdict}"
         )
     rows.append("events (deg): " + ", ".join(f"{k} {v:.1f}" for k, v in head.events.items() if k != "needle bar top"))
     return "\n".join(rows)

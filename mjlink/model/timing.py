@@ -9,7 +9,10 @@ A chain-stitch head (stitch type 101) names its looper's point as ``hook_point``
 "hook" is then the looper, and ``loop_release`` the looper's turn from picking the loop up to
 holding it spread (docs/head.md, A chain-stitch head).
 
-A file names its roles once and ships one table per maker::
+A file names its roles once and ships one table of settings per machine, named by its model
+and holding the windows that machine's manual gives (a table may give fewer than all four); a
+table that takes its values from several machines is named as a composite and its ``source``
+names each value's machine::
 
     [timing]
     needle_bar = "NB"        # the needle bar's point whose rise from bottom dead centre is measured
@@ -22,15 +25,13 @@ A file names its roles once and ships one table per maker::
     fabric = 1.5             # mm: thickness of the fabric on the plate
     loop_release = 270.0     # deg of hook turn from picking the loop up to releasing it
     feed_in_fabric = 0.2     # mm: most feed allowed while the needle is in the fabric
-    target = "juki"          # the settings the head is built to
+    target = "juki_lu2210n7" # the settings the head is built to
     stitch = "301"           # the stitch type (ISO 4915): "301" lockstitch, "101" chain stitch
 
-    [timing.juki]
-    source = "..."
+    [timing.juki_lu2210n7]
+    source = "Juki LU-2210N-7 engineer's manual, (4) Needle-to-Hook Relation"
     hook_rise = [1.8, 2.2]            # mm
     hook_above_eye = [1.2, 1.6]       # mm
-    dog_height = [0.75, 0.85]         # mm
-    needle_at_dog_flush = [-0.2, 0.2] # mm
 """
 
 from __future__ import annotations
@@ -110,7 +111,8 @@ class Window:
 
 @dataclass(frozen=True)
 class MakerSettings:
-    """One maker's published settings for the head (``[timing.NAME]``), windows in m."""
+    """One machine's published settings (or a composite's, named as such) for the head
+    (``[timing.NAME]``), windows in m."""
 
     name: str
     source: str
@@ -200,7 +202,7 @@ def read(r: Reader, raw: Any, ground: set[str], steps: Sequence[Block], links: S
     r.keys(scalars, "[timing]", required, optional)
     roles = _roles(r, scalars, ground, steps, links)
     if not makers:
-        raise r.fail("[timing]", "needs at least one maker's settings table, e.g. [timing.juki]")
+        raise r.fail("[timing]", "needs at least one maker's settings table, e.g. [timing.juki_lu2210n7]")
     settings = tuple(_maker(r, name, body) for name, body in makers.items())
     target = r.string(scalars, "target", "[timing]")
     if target not in makers:
