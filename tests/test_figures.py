@@ -132,15 +132,20 @@ def _head_report_and_page(run_figures) -> None:
     keys = {(c["check"], c["settings"]) for c in checks}
     assert {("hook_rise", "juki_composite"), ("hook_rise", "brother_s7000dd"), ("thread_shortfall", None)} <= keys
     assert all(c["result"] in ("pass", "FAIL") and c["unit"] in ("mm", "deg") for c in checks)
-    assert not [c for c in checks if c["counts"] and c["result"] == "FAIL"] and report["failures"] == []
+    # The one counted miss is the thread's supply: the head's take-up was sized against the
+    # demand before the last stitch's end was counted where the feed has carried it (docs/head.md,
+    # The thread balance). simulate reports it and, without --strict, still exits 0.
+    assert [c["check"] for c in checks if c["counts"] and c["result"] == "FAIL"] == ["thread_shortfall"]
+    assert len(report["failures"]) == 1 and "shortfall of thread" in report["failures"][0]
     # Where the file's numbers put the pick-up, in closed form (test_head.hook_meets_needle).
     pick, _, _ = hook_meets_needle(catalogue.path_of("lockstitch_head"))
     assert report["timing"]["events_deg"]["hook picks the loop"] == pytest.approx(pick, abs=1e-9)
     page = (out / "index.html").read_text()
     assert "Timing over one stitch" in page and "needle bar rise when the hook meets the needle" in page
     assert "thread_balance.png: needle thread balance" in page and "cyclogram.png: timing diagram" in page
-    # The timing at a glance in the first screen's summary, as the study metric timing_ok.
-    assert "data-metric='timing_ok'>1</td><td>" in page and page.index("timing_ok") < page.index("id='timing'")
+    # The timing at a glance in the first screen's summary, as the study metric timing_ok (0: the
+    # thread's supply above).
+    assert "data-metric='timing_ok'>0</td><td>" in page and page.index("timing_ok") < page.index("id='timing'")
     assert {"cyclogram.png", "thread_balance.png"} <= set(figs)
     assert "Timing over one stitch" in printed
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_stitch_end import thread_at_setting
 
 import mjlink
 from mjlink.analysis.timing import head_timing
@@ -92,7 +93,11 @@ def test_the_shipped_head_meets_its_composite_target_and_says_which_machines_win
     against each single machine's table, a window the target's lies inside is met, one disjoint
     from it is missed, and the hook's rise (the one overlap) is decided by the closed form."""
     assert timing.target == TARGET == "juki_composite"
-    assert timing.failures() == ()
+    # Every window is met but the thread's supply: the take-up was sized (studies/
+    # lockstitch_head_takeup.toml) against a demand that set the last stitch's end at the needle's
+    # line when the stitch was set; counted where the feed has carried it, the loop takes more
+    # than the take-up gives beyond what the thread stretches (docs/head.md, The thread balance).
+    assert [r.key for r in timing.rows if r.counts and not r.ok] == ["thread_shortfall"]
     for r in timing.rows:  # the general rows and the target's count, the slack is for information
         assert r.counts == (r.maker in (None, TARGET) and r.key != "thread_slack")
     # The hook timing where the file's numbers put it (the head is built to the manual's 2.0 and
@@ -251,7 +256,10 @@ def test_check_prints_the_timing_table_and_names_a_miss(tmp_path):
 
     r = in_process("check", "lockstitch_head")
     assert r.returncode == 0, r.stderr
-    assert "Timing over one stitch" in r.stdout and "misses" in r.stdout and "window(s) missed" not in r.stdout
+    # The shipped head misses one window, the thread's supply (its take-up sized against the
+    # demand before the stitch's end was counted where the feed has carried it: docs/head.md).
+    assert "Timing over one stitch" in r.stdout and "misses" in r.stdout and "timing: 1 window(s) missed" in r.stdout
+    assert re.search(r"every +thread short of what needle and loop take +[\d.]+ +-inf\.\.[\d.]+ mm +FAIL", r.stdout)
     late = _edited(tmp_path, *LATE_HOOK, "late.toml")
     r = in_process("check", str(late.path))
     # The hook meets the needle late, and low on it (the loop then comes late for the take-up too).
@@ -293,7 +301,14 @@ def test_the_timing_study_measures_each_head_as_simulate_does(tolerance_study, h
 
     res, table = tolerance_study
     st = load_study(res.summary["file"])
-    assert 0 < table["timing_ok"].sum() < len(table)  # some heads meet every window, some not
+    # No head meets every window: the take-up, sized against the demand before the stitch's end
+    # was counted where the feed has carried it, falls short of the thread in every one of them
+    # (docs/head.md). The feed timing's window is met by some heads and missed by others.
+    limit = _row(head_timing(head), "thread_shortfall").window.hi * 1e3  # what the thread stretches, mm
+    assert table["timing_ok"].sum() == 0 and (table["timing_thread_shortfall_mm"] > limit).all()
+    lo, hi = tomllib.loads(HEAD.read_text())["timing"][TARGET]["needle_at_dog_flush"]
+    flush = table["timing_needle_at_dog_flush_mm"]
+    assert 0 < ((flush >= lo) & (flush <= hi)).sum() < len(table)
     assert res.summary["within_bounds"] == int(table["timing_ok"].sum())
     for i in (0, 7, 23, 41):
         values = {v.param: float(table[f"{v.param.path}_{v.param.unit}"][i]) for v in st.varied}
@@ -352,9 +367,11 @@ def test_the_loop_wrapped_around_a_circle_in_closed_form():
 
 def test_the_demand_of_a_straight_path_with_a_circular_loop_in_closed_form(head):
     """The demand while the hook carries the loop, rebuilt from the traced points by the
-    formula of docs/head.md written out here: both legs wrapped round the bobbin case, the
-    fabric's thickness and the stitch's travel; and it meets the demand before the pick-up
-    without a jump (the loop's legs start at the eye and the fabric's underside)."""
+    formula of docs/head.md written out here: both legs wrapped round the bobbin case (the
+    fabric's from the underside of the needle's hole), the fabric's thickness, and the stitch
+    length along the top back to the last stitch's end; less the thread that ran straight from
+    the eye to that end when the stitch was set. It meets the demand before the pick-up without
+    a jump (the loop's legs start at the eye and the fabric's underside)."""
     t = head_timing(head)
     b = t.balance
     tm, bal = head.timing, head.balance
@@ -362,7 +379,7 @@ def test_the_demand_of_a_straight_path_with_a_circular_loop_in_closed_form(head)
     loop = ((t.theta - t.events["hook picks the loop"]) % 360) <= (
         (t.events["loop released"] - t.events["hook picks the loop"]) % 360
     )
-    i = np.nonzero(loop)[0][[5, 200, 1000, 2000]]
+    i = np.nonzero(loop)[0][[5, 200, 1000, 2000, 2690]]
     eye, hp, nt = P["NE"][i, :2], P["HP"][i, :2], P["NT"][i, :2]
     c, R = head.ground["H"][:2], bal.bobbin_case / 2
     turned = np.radians((t.theta[i] - t.events["hook picks the loop"]) % 360) * 2.0
@@ -379,14 +396,10 @@ def test_the_demand_of_a_straight_path_with_a_circular_loop_in_closed_form(head)
 
     below = []
     for k, (e, h, n) in enumerate(zip(eye, hp, nt, strict=True)):
-        fabric = np.array([n[0], tm.plate])
-        below.append(wrap(e, h, k) + wrap(fabric, h, k) + tm.fabric)
-    below = np.array(below)
-    # The demand is the thread below the eye minus its value when the stitch was set; the
-    # stitch's travel along the fabric (the feed, finished before the needle enters) adds the
-    # same stitch length to every sample of the loop.
-    offset = b.demand[i] * 1e-3 - below
-    np.testing.assert_allclose(offset, offset[0], atol=1e-9)
+        fabric = np.array([n[0] + b.hole[i[k]] * 1e-3, tm.plate])
+        below.append(wrap(e, h, k) + wrap(fabric, h, k) + tm.fabric + bal.stitch_length)
+    at_setting, tol = thread_at_setting(t, tm)
+    np.testing.assert_allclose(b.demand[i] * 1e-3, np.array(below) - at_setting, atol=tol + 1e-12)
     j = np.nonzero(loop)[0][0]
     assert abs(b.demand[j] - b.demand[j - 1]) < 0.05  # mm, one sample apart at the pick-up
 
@@ -399,7 +412,9 @@ def test_a_take_up_with_its_stroke_cut_by_30_percent_cannot_supply_the_loop(tmp_
     assert not row.ok and row.counts and row.value > 10e-3
     (line,) = [f for f in t.failures() if "shortfall" in f]
     assert "what the take-up holds back of what the needle and the loop take" in line
-    assert _row(head_timing(mechanism.load(HEAD)), "thread_shortfall").ok
+    # The shipped take-up falls short too (sized against the old demand: docs/head.md), but by
+    # far less than the one whose stroke is cut.
+    assert _row(head_timing(mechanism.load(HEAD)), "thread_shortfall").value < row.value - 5e-3
 
 
 def test_a_stitch_holds_its_length_and_the_fabric_of_needle_thread(head):
@@ -492,14 +507,15 @@ def test_the_eyelet_take_up_as_the_paper_sizes_it_cannot_supply_this_heads_loop(
     assert [r.key for r in t.rows if r.counts and not r.ok] == ["thread_shortfall"]
 
 
-def test_the_eyelet_take_up_sized_for_the_head_meets_every_check_under_its_tolerances():
-    """The study's winner, as shipped: every counted timing row passes, the slack is within the
-    check spring's travel and the shortfall within the study's 3 mm margin; and for
-    manufacturing deviations of +-0.02 mm on every length and coordinate the study varied (16
-    random sets, other than the study's 8, measured by head_timing itself at 0.05 deg) every
-    counted row still passes and the slack stays within the spring's travel. (The 3 mm margin
-    is the study's, judged on its 1 deg grid: one of these sets reaches 3.03 mm, within the
-    4.3 mm the thread stretches.)"""
+def test_the_eyelet_take_up_sized_for_the_head_falls_short_of_the_thread_under_its_tolerances():
+    """The study's winner, as shipped, was sized against the demand that set the last stitch's
+    end at the needle's line when the stitch was set (docs/head.md, The eyelet take-up, sized
+    for this head): counted where the feed has carried that end, the loop takes more than the
+    lever gives, beyond the study's 3 mm margin and beyond what the thread stretches, and the
+    shortfall row fails; every other counted row passes and the slack is within the check
+    spring's travel. So too for manufacturing deviations of +-0.02 mm on every length and
+    coordinate the study varied (16 random sets, other than the study's 8, measured by
+    head_timing itself at 0.05 deg)."""
     from mjlink.model import paths
 
     sized = mechanism.load(SIZED)
@@ -507,9 +523,9 @@ def test_the_eyelet_take_up_sized_for_the_head_meets_every_check_under_its_toler
     study = tomllib.loads((shipped("studies") / "lockstitch_head_eyelets.toml").read_text())
     (margin,) = [b["max"] * 1e-3 for b in study["bound"] if b["metric"] == "timing_thread_shortfall"]
     t = head_timing(sized)
-    assert t.failures() == ()
+    assert [r.key for r in t.rows if r.counts and not r.ok] == ["thread_shortfall"]
+    assert _row(t, "thread_shortfall").value > margin
     assert _row(t, "thread_slack").ok and _row(t, "thread_slack").value <= travel
-    assert _row(t, "thread_shortfall").value <= margin
     rng = np.random.default_rng(2026)
     for _ in range(16):
         dev = {
@@ -517,7 +533,7 @@ def test_the_eyelet_take_up_sized_for_the_head_meets_every_check_under_its_toler
             for p in SIZED_PATHS
         }
         tv = head_timing(paths.apply(sized, dev))
-        assert tv.failures() == ()  # the shortfall within what the thread stretches, every window met
+        assert [r.key for r in tv.rows if r.counts and not r.ok] == ["thread_shortfall"]
         assert _row(tv, "thread_slack").value <= travel
 
 

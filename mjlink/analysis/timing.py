@@ -455,7 +455,8 @@ class ThreadBalance:
     loop have taken beyond their length at the take-up's top, mm; ``balance`` = supply -
     demand (slack > 0, shortfall < 0), NaN in the stitch-setting phase where the take-up draws
     the thread tight; ``phases`` name -> (start, end) deg; ``per_stitch`` the needle thread a
-    stitch holds, mm; ``rows`` the checks."""
+    stitch holds, mm; ``rows`` the checks; ``hole`` and ``end`` (N,) mm, the needle's hole and
+    the last stitch's end behind the needle's line (:class:`StitchEnd`)."""
 
     theta: np.ndarray
     path: np.ndarray
@@ -465,6 +466,8 @@ class ThreadBalance:
     phases: dict[str, tuple[float, float]]
     per_stitch: float
     rows: tuple[TimingRow, ...]
+    hole: np.ndarray
+    end: np.ndarray
 
 
 def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
@@ -472,14 +475,15 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
 
     The path's length L runs from the tension discs to the needle's eye through the file's
     ``[thread]`` points. Below the eye the thread runs to the end of the last stitch on the
-    fabric's top, which the feed carries away by the stitch length while the dog is up: straight
-    while the eye is above the fabric, up the needle and along the fabric while it is in it,
-    and, once the hook has taken the loop, over the hook's blade point and around the bobbin
-    case (both legs of the loop, the one to the eye and the one to the fabric's underside,
-    wrapped around the case in the hook's sense) until the loop is released. The supply is
-    L at the take-up's top minus L; the demand is the thread below the eye minus its value at
-    the take-up's top. From the release to the take-up's next top the take-up draws the loop
-    tight and the stitch's thread from the spool: no balance there.
+    fabric's top (:func:`stitch_end`: the hole the needle left, which the feed carries from the
+    moment the needle leaves it): straight while the eye is above the fabric, up the needle and
+    along the fabric while it is in it, and, once the hook has taken the loop, over the hook's
+    blade point and around the bobbin case (both legs of the loop, the one to the eye and the
+    one to the underside of the needle's hole, wrapped around the case in the hook's sense),
+    up through that hole and along the top to the last stitch's end until the loop is released.
+    The supply is L at the take-up's top minus L; the demand is the thread below the eye minus
+    its value at the take-up's top. From the release to the take-up's next top the take-up draws
+    the loop tight and the stitch's thread from the spool: no balance there.
 
     A chain stitch (``[timing] stitch = "101"``, StitchType.CHAIN) is followed as :func:`_chain_below` says: its
     looper holds the loop until it takes the next one, so the balance runs from the setting
@@ -493,20 +497,20 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         path += np.linalg.norm(P[b] - P[a], axis=1)
     hook = hook_crank(mech)
     pick, release = ev["hook picks the loop"], ev["loop released"]
+    at = stitch_end(head, tm.fabric, bal.stitch_length, release)
+    enters = at.enters
     # The stitch is set where the path is longest between the loop's release (a chain stitch:
     # the held loop's cast-off) and the needle's entry into the fabric: the take-up has drawn
     # the most thread.
-    entry = _crossing(th, head.curves["needle point"], tm.fabric / MM, True)
-    enters = float(entry[0]) if len(entry) else ev["needle point through the plate, down"]
     window = _between(th, release, enters)
     i0 = int(np.argmax(np.where(window, path, -np.inf)))
     drawn = float(th[i0])
     if tm.stitch is StitchType.CHAIN:
-        below = _chain_below(mech, head, hook)
+        below = _chain_below(mech, head, hook, at)
         forming = _between(th, drawn, pick)
         per_stitch = 3.0 * bal.stitch_length + 2.0 * tm.fabric
     else:
-        below = _lock_below(mech, head, hook, i0)
+        below = _lock_below(mech, head, hook, at)
         forming = _between(th, drawn, release)
         per_stitch = bal.stitch_length + tm.fabric
     path_at, below_at = path[i0], below[i0]
@@ -570,6 +574,8 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         phases=phases,
         per_stitch=per_stitch / MM,
         rows=rows,
+        hole=at.hole / MM,
+        end=at.end / MM,
     )
 
 
@@ -579,15 +585,76 @@ def _carried(tm: Timing, hook: Crank, pick: float) -> float:
     return (pick + math.degrees(tm.loop_release) / abs(hook.ratio)) % 360.0
 
 
-def _travel(head: HeadTiming, start: int, stitch_length: float) -> np.ndarray:
-    """(N,) m: how far the feed has carried the fabric since sample ``start``: the dog's advance
-    while it is up, summed round the stitch and scaled to the stitch length."""
+def _travel(head: HeadTiming, start: float, stitch_length: float) -> np.ndarray:
+    """(N,) m: how far the feed has carried the fabric since the angle ``start`` (deg): the
+    dog's advance while it is above the plate (the part of each step between two samples it
+    spends there, its height taken linear between them), summed round the stitch from
+    ``start`` and scaled so that one turn carries it the stitch length."""
+    th = head.theta
     adv = head.curves["dog advance"] * MM
-    up = head.curves["dog height"] > 0
+    h = head.curves["dog height"]
+    h1 = np.roll(h, -1)
+    # The fraction of each step the dog is above the plate: all of it, none, or up to (from)
+    # where it passes the plate.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cut = np.clip(h / (h - h1), 0.0, 1.0)
+    up = np.where((h > 0) & (h1 > 0), 1.0, np.where(h > 0, cut, np.where(h1 > 0, 1.0 - cut, 0.0)))
     step = np.diff(np.append(adv, adv[0]))
-    moved = np.roll(np.cumsum(np.roll(np.where(up & (step > 0), step, 0.0), -start)), start)
-    out: np.ndarray = moved / moved.max() * stitch_length if moved.max() > 0 else moved
+    fed = np.where(step > 0, step, 0.0) * up
+    total = float(fed.sum())
+    if total <= 0:
+        return np.zeros(len(th))
+    cum = np.concatenate([[0.0], np.cumsum(fed)])  # at each sample and at 360 deg
+    at = float(np.interp(start % 360.0, np.append(th, 360.0), cum))
+    moved = np.where(th >= start % 360.0, cum[:-1] - at, cum[:-1] + total - at)
+    out: np.ndarray = moved / total * stitch_length
     return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class StitchEnd:
+    """Where the needle thread meets the fabric's top, behind the needle's line (in the feed's
+    direction, m), by the one convention both stitch types follow.
+
+    ``hole`` (N,): the hole the needle is in or last left. At the needle's line from the
+    point's entry into the fabric until it leaves it, rising; then the feed carries it (the
+    dog's advance while it is above the plate, since the needle left, scaled to the stitch
+    length) until the needle enters again, a stitch length on when the feed is done.
+    ``end`` (N,): the end of the last stitch on the fabric's top, where the thread from the
+    needle runs to: the hole the needle left; from the needle's entry into its next hole until
+    the loop's release (``unset``) the stitch through that hole is not yet set, and the thread
+    runs along the top from the needle's new hole back to the old one, which the feed goes on
+    carrying (a stitch length behind the new hole once the needle has left it too).
+    ``inside`` (N,) bool: the needle point in the fabric, from ``enters`` to ``leaves`` (deg).
+    """
+
+    hole: np.ndarray
+    end: np.ndarray
+    inside: np.ndarray
+    unset: np.ndarray
+    enters: float
+    leaves: float
+
+
+def stitch_end(head: HeadTiming, fabric: float, stitch_length: float, release: float) -> StitchEnd:
+    """The last stitch's end and the needle's hole over the stitch ``head`` measured
+    (:class:`StitchEnd`), for a fabric ``fabric`` thick (m) sewn at ``stitch_length`` (m); the
+    loop is released (a chain stitch's held loop cast off) at ``release`` (deg)."""
+    th, ev = head.theta, head.events
+    point = head.curves["needle point"]
+    entry = _crossing(th, point, fabric / MM, True)
+    enters = float(entry[0]) if len(entry) else ev["needle point through the plate, down"]
+    out_of = _crossing(th, point, fabric / MM, False)
+    leaves = float(out_of[0]) if len(out_of) else ev["needle point through the plate, up"]
+    since = _travel(head, leaves, stitch_length)  # the hole left, from the moment it was left
+    inside = _between(th, enters, leaves)
+    hole = np.where(inside, 0.0, since)
+    unset = _between(th, enters, release)
+    # The stitch not yet set: its hole is the one left a turn before, carried on from there.
+    old = np.where(inside, since, since + stitch_length)
+    return StitchEnd(
+        hole=hole, end=np.where(unset, old, hole), inside=inside, unset=unset, enters=enters, leaves=leaves
+    )
 
 
 def _geometry(
@@ -605,31 +672,32 @@ def _geometry(
     return tm, bal, sense, nt, eye, hp, P[hook.pivot][0, :2]
 
 
-def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, i0: int) -> np.ndarray:
-    """(N,) m: a lockstitch's needle thread below the eye (:func:`thread_balance`), the stitch
-    set at sample ``i0``."""
+def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> np.ndarray:
+    """(N,) m: a lockstitch's needle thread below the eye (:func:`thread_balance`), the last
+    stitch's end and the needle's hole where ``at`` puts them."""
     tm, bal, sense, nt, eye, hp, centre = _geometry(mech, head, hook)
     th, ev = head.theta, head.events
     x_n = nt[:, 0]
-    bottom = np.column_stack([x_n, np.full(len(th), tm.plate)])
+    bottom = np.column_stack([x_n + at.hole, np.full(len(th), tm.plate)])  # the needle's hole's underside
     top_y = tm.plate + tm.fabric
     pick, release = ev["hook picks the loop"], ev["loop released"]
-    along = _travel(head, i0, bal.stitch_length)  # the last stitch's end, behind the needle's line
     y_eye = eye[:, 1]
     above = y_eye >= top_y
-    below = np.where(above, np.hypot(eye[:, 0] - x_n - along, y_eye - top_y), (top_y - y_eye) + along)
+    below = np.where(above, np.hypot(eye[:, 0] - x_n - at.end, y_eye - top_y), (top_y - y_eye) + at.end)
     loop = _between(th, pick, release)
     turned = np.radians((th - pick) % 360.0) * abs(hook.ratio)
     r = bal.bobbin_case / 2.0
     leg_eye = wrapped(eye[:, :2], hp[:, :2], centre, r, turned, sense)
     leg_fabric = wrapped(bottom, hp[:, :2], centre, r, turned, sense)
-    out: np.ndarray = np.where(loop, leg_eye + leg_fabric + tm.fabric + along, below)
+    # Up through the needle's hole and along the top to the last stitch's end.
+    out: np.ndarray = np.where(loop, leg_eye + leg_fabric + tm.fabric + (at.end - at.hole), below)
     return out
 
 
-def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank) -> np.ndarray:
+def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> np.ndarray:
     """(N,) m: a single-thread chain stitch's (101) needle thread below the eye, up to a
-    constant (docs/head.md, A chain-stitch head).
+    constant (docs/head.md, A chain-stitch head), the held loop's hole where ``at`` puts the
+    last stitch's end.
 
     Each loop is taken by the looper's point at the pick-up and carried round the looper's body
     (a circle of the ``looper`` diameter on the looper's shaft) for ``loop_release`` of looper
@@ -647,12 +715,8 @@ def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank) -> np.ndarray:
     top_y = tm.plate + tm.fabric
     pick = ev["hook picks the loop"]
     ratio = abs(hook.ratio)
-    # The needle point leaves the fabric, rising: from then on the loop's hole moves with it.
-    out_of = _crossing(th, head.curves["needle point"], tm.fabric / MM, False)
-    leaves = float(out_of[0]) if len(out_of) else ev["needle point through the plate, up"]
-    start = int(np.argmin((th - leaves) % 360.0))
-    in_own_hole = ~_between(th, leaves, pick)  # from the pick-up until the needle leaves the loop's hole
-    off = np.where(in_own_hole, 0.0, _travel(head, start, bal.stitch_length))
+    in_own_hole = at.inside & ~at.unset  # from the pick-up until the needle leaves the loop's hole
+    off = at.end  # the held loop's hole: the needle's own from the pick-up until it leaves it
     hole = np.column_stack([x_n + off, np.full(len(th), tm.plate)])  # the hole's underside
     # The looper's point carries the loop for loop_release of its turn, then holds it there.
     turn = np.minimum(np.radians((th - pick) % 360.0) * ratio, tm.loop_release)
@@ -709,11 +773,13 @@ __all__ = [
     "GENERAL",
     "LABELS",
     "HeadTiming",
+    "StitchEnd",
     "ThreadBalance",
     "TimingChecks",
     "TimingRow",
     "head_timing",
     "measure",
+    "stitch_end",
     "thread_balance",
     "wrapped",
 ]
