@@ -40,7 +40,8 @@ KINDS: dict[str, dict[str, float]] = {
     "moment of inertia": {"kg*m^2": 1.0, "kg·m²": 1.0, "g*mm^2": 1e-9, "g*cm^2": 1e-7, "kg*mm^2": 1e-6},
     "torque": {"N*m": 1.0, "N·m": 1.0, "Nm": 1.0, "N*mm": 1e-3, "N·mm": 1e-3},
     "rotational damping": {"N*m*s": 1.0, "N·m·s": 1.0, "N*m*s/rad": 1.0},
-    "force": {"N": 1.0, "kN": 1e3},
+    "force": {"N": 1.0, "kN": 1e3, "cN": 1e-2, "gf": 9.80665e-3},
+    "stiffness": {"N/m": 1.0, "N/mm": 1e3},
     "acceleration": {"m/s^2": 1.0, "m/s²": 1.0, "mm/s^2": 1e-3},
     "frequency": {"Hz": 1.0, "1/s": 1.0},
 }

@@ -146,8 +146,15 @@ def _head_report_and_page(run_figures) -> None:
     # The timing at a glance in the first screen's summary, as the study metric timing_ok (0: the
     # thread's supply above).
     assert "data-metric='timing_ok'>0</td><td>" in page and page.index("timing_ok") < page.index("id='timing'")
-    assert {"cyclogram.png", "thread_balance.png"} <= set(figs)
+    assert {"cyclogram.png", "thread_balance.png", "thread_tension.png"} <= set(figs)
     assert "Timing over one stitch" in printed
+    # The needle thread under tension: the report's peak below the breaking load, the terminal's
+    # lines, the table of every stretch over the stitch.
+    tension = report["tension"]
+    assert tension["converged"] is True and 0 < tension["peak_N"] < tension["breaking_load_N"]
+    assert "needle thread tension (thread_tension.png)" in printed
+    assert "thread_tension.png: needle thread tension" in page
+    assert (out / "tension.csv").read_text().splitlines()[0].startswith("theta_deg,")
 
 
 @pytest.mark.slow

@@ -430,7 +430,7 @@ def test_a_force_within_its_limits_is_read(body):
         ("value = [0.0, -1e300]", "force components must be at most 1e+06 N"),
         ('value = ["1e306 kN", 0.0]', "value: '1e306 kN' is not finite in N"),
         ("value = [nan, 0.0]", "value: must hold finite numbers"),
-        ('value = [0.0, "1 m"]', "'m' is not a unit of force (N, kN)"),
+        ('value = [0.0, "1 m"]', "'m' is not a unit of force (N, kN, cN, gf)"),
         ('value = [0.0, "1 KN"]', "units are case-sensitive, write 'kN'"),
         ("angles = [0.0, 90.0]\nvalues = [[0, 1], [0, 1e300]]", "values: force components must be at most 1e+06 N"),
         (

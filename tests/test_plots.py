@@ -14,6 +14,7 @@ from documented import THRESHOLDS as LIMIT
 from mjlink import analysis, validation
 from mjlink import reference as R
 from mjlink.model import mechanism
+from mjlink.model.timing import StitchType
 from mjlink.plotting import figures as plots
 from mjlink.plotting import style
 from mjlink.sim import simulate as S
@@ -133,6 +134,8 @@ def _expected(m) -> set[str]:
         names.add("cyclogram.png")  # a sewing head's timing diagram
     if m.balance is not None:
         names.add("thread_balance.png")  # and its needle thread's balance
+        if m.timing is not None and m.timing.stitch is StitchType.LOCKSTITCH:
+            names.add("thread_tension.png")  # and, a lockstitch's, its tension
     return names
 
 

@@ -12,10 +12,12 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, cast
 
 from .. import compare, validation
+from ..analysis.tension import NeedleTension
 from ..analysis.timing import HeadTiming
 from ..model import names
 from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
-from ..units import G, PairKind, PairRole, to_mm, to_rpm
+from ..model.tension import GF
+from ..units import MM, G, PairKind, PairRole, to_mm, to_rpm
 
 if TYPE_CHECKING:
     from ..model.mechanism import Mechanism
@@ -94,6 +96,8 @@ def simulation(res: SimulateResult) -> str:
         )
     if res.timing is not None:
         out.append(timing_table(res.timing))
+    if res.tension is not None:
+        out.append(tension_line(res.tension))
     if res.loads is not None:
         L = res.loads
         out.append(
@@ -432,3 +436,17 @@ def timing_table(head: HeadTiming) -> str:
         )
     rows.append("events (deg): " + ", ".join(f"{k} {v:.1f}" for k, v in head.events.items() if k != "needle bar top"))
     return "\n".join(rows)
+
+
+def tension_line(t: NeedleTension) -> str:
+    """A lockstitch head's needle thread under tension, in two lines: the peak against the
+    breaking load, the thread a stitch draws through the discs, the check spring's travel."""
+    zone, at = t.peak_at
+    return (
+        f"needle thread tension (thread_tension.png): peak {t.peak:.3g} N ({t.peak / GF:.0f} gf) in {zone} at "
+        f"{at:.1f} deg, breaking load {t.breaking_load:.3g} N (margin {t.margin:.2f}); discs' hold {t.hold:.3g} N\n"
+        f"  a stitch draws {t.per_stitch / MM:.3f} mm through the discs (stitch formula {t.formula / MM:.2f} mm); "
+        f"check spring travel up to {float(t.spring.max()) / MM:.2f} mm; below the eye slack for "
+        f"{float(t.slack.mean()) * 360.0:.0f} deg of the stitch"
+        + ("" if t.converged else f"; NOT periodic after {t.cycles} stitches")
+    )

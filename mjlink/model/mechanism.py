@@ -57,6 +57,7 @@ from .limits import (
 )
 from .names import RESERVED_LINK_NAMES
 from .reader import Reader, shown
+from .tension import ThreadTension, read_tension
 from .timing import Balance, Timing
 
 __all__ = [
@@ -240,6 +241,7 @@ class Mechanism:
     counterweight: Counterweight | None = None
     timing: Timing | None = None  # a sewing head's [timing] table (mjlink.model.timing)
     balance: Balance | None = None  # its needle thread's [balance] (mjlink.model.timing)
+    tension: ThreadTension | None = None  # its [tension] table (mjlink.model.tension); None: the defaults
     # The text this mechanism was parsed from, read once: every output of a run (design.html's
     # "Save as TOML") comes from it, never from the file read again, which may have changed.
     text: str | None = field(default=None, repr=False, compare=False)
@@ -434,7 +436,7 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         data,
         "",
         ["mechanism", "ground", "construct", "links", "input"],
-        ["dynamics", "thread", "synthesis", "steady", "counterweight", "timing", "balance"],
+        ["dynamics", "thread", "synthesis", "steady", "counterweight", "timing", "balance", "tension"],
     )
 
     meta = r.table(data["mechanism"], "[mechanism]")
@@ -660,6 +662,8 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     )
     if "balance" in data:
         mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing, steps))
+    if "tension" in data:
+        mech = dataclasses.replace(mech, tension=read_tension(r, data["tension"], mech.balance is not None))
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))
     if mech.timing is not None and turns != 1:

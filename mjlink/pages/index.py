@@ -88,6 +88,7 @@ def _caption(name: str) -> str:
         "phase_study": "paths for several settings of the geared crank",
         "cyclogram": "timing diagram of the head over one stitch, with the makers' windows",
         "thread_balance": "needle thread balance over one stitch: supply, demand, slack and shortfall",
+        "thread_tension": "needle thread tension over one stitch in each stretch, the check spring, the discs",
     }
     if stem in known:
         return known[stem]
@@ -110,6 +111,7 @@ _ORDER = (
     "positions",
     "cyclogram",
     "thread_balance",
+    "thread_tension",
     "speed_vs_time",
     "speed_vs_angle",
     "kinematics_",

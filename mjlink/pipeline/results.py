@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import compare, reference
 from ..analysis.summary import Summary
+from ..analysis.tension import NeedleTension
 from ..analysis.timing import HeadTiming
 from ..model import synthesis
 from ..runs import Settings
@@ -328,7 +329,8 @@ class SimulateResult:
     against the reference per run (kinematics, then dynamics) with ``thresholds`` their limits
     (:func:`compare.thresholds`); ``failures`` every limit missed (agreement, loads, steady);
     ``timings``; ``files`` the names in ``out_dir``; ``timing`` a head's timing checks (their
-    misses are among ``failures``); ``design`` the design at a glance (headline numbers, strokes,
+    misses are among ``failures``); ``tension`` a lockstitch head's needle thread over a stitch
+    (:func:`mjlink.analysis.tension.needle_tension`); ``design`` the design at a glance (headline numbers, strokes,
     dimensions: :class:`mjlink.analysis.summary.Summary`). :meth:`as_dict` is ``report.json``.
     """
 
@@ -350,6 +352,7 @@ class SimulateResult:
     provenance: Provenance | None = None
     timing: HeadTiming | None = None  # a sewing head's timing checks ([timing] table)
     design: Summary | None = None  # the design at a glance: the page's first screen
+    tension: NeedleTension | None = None  # a lockstitch head's needle thread under tension
 
     def as_dict(self) -> dict[str, Any]:
         """The contents of ``report.json``."""
@@ -370,6 +373,8 @@ class SimulateResult:
             d["steady"] = self.steady.as_dict()
         if self.timing is not None:
             d["timing"] = self.timing.as_dict()
+        if self.tension is not None:
+            d["tension"] = self.tension.as_dict()
         d["agreement"] = {a.kind: a.as_dict() for a in self.agreements}
         d["thresholds"] = dict(self.thresholds)
         d["failures"] = list(self.failures)

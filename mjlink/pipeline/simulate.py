@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import compare, reference
-from ..analysis import summary
+from ..analysis import summary, tension
 from ..analysis.timing import head_timing
 from ..errors import SimulationError
-from ..files import write_csv, write_json, write_text
+from ..files import write_csv, write_json, write_table, write_text
 from ..model.mechanism import Mechanism
 from ..pages import design, index
 from ..runs import DYNAMIC, Settings, Trace
@@ -162,15 +162,22 @@ def run(
             steady_summary = steady_stage(mech, stage, queue)
             clock.lap("steady")
         head = head_timing(mech) if mech.timing is not None else None
+        thread = tension.of_head(mech, head) if head is not None else None
+        if thread is not None:
+            names, cols = thread.columns()
+            write_table(stage / "tension.csv", names, cols)
         if head is not None and opts.plots:
             from ..plotting import timing as timing_plot  # here: matplotlib, not for --no-plots
 
             jobs: list[PlotJob] = [functools.partial(timing_plot.cyclogram_plot, mech, head, stage)]
             if head.balance is not None:
                 jobs.append(functools.partial(timing_plot.balance_plot, mech, head, stage))
+            if thread is not None:
+                jobs.append(functools.partial(timing_plot.tension_plot, mech, head, thread, stage))
             draw(jobs)
         failures = tuple(f for a in agreements for f in a.failures())
         failures += head.failures() if head else ()
+        failures += thread.failures() if thread else ()
         failures += loads_summary.failures if loads_summary else ()
         failures += steady_summary.failures if steady_summary else ()
 
@@ -204,6 +211,7 @@ def run(
             provenance=provenance(command, dataclasses.asdict(opts)),
             timing=head,
             design=summary.summarize(mech),
+            tension=thread,
         )
         write_json(stage / "report.json", result.as_dict())
         # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.

@@ -9,8 +9,10 @@ from typing import Any
 import numpy as np
 from matplotlib.axes import Axes
 
+from ..analysis.tension import NeedleTension
 from ..analysis.timing import HeadTiming
 from ..model.mechanism import Mechanism
+from ..model.tension import GF
 from ..units import MM
 from .style import angle_ticks, place, save, subplots, title
 
@@ -176,3 +178,44 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
         a.grid(alpha=0.3)
     fig.suptitle(title(mech, "needle thread balance over one stitch"), fontsize=11)
     return save(fig, out_dir, "thread_balance.png")
+
+
+def tension_plot(mech: Mechanism, head: HeadTiming, t: NeedleTension, out_dir: Path | str) -> Path:
+    """``thread_tension.png``: the needle thread's tension over one stitch in each stretch from
+    the discs to below the eye, with the cycle's events; below, the check spring's travel and
+    the thread drawn through the discs since the stitch was set."""
+    assert mech.balance is not None
+    fig, (ax, bx) = subplots(2, 1, figsize=(10.0, 7.5), sharex=True, height_ratios=[1.6, 1.0])
+    place(fig, ax.get_gridspec(), left=1.0, right=1.0, top=0.95, bottom=0.6, hgap=0.3)
+    for k, (zone, T) in enumerate(zip(t.zones, t.tension, strict=True)):
+        ax.plot(t.theta, T, color=f"C{k % 10}", lw=1.6 if k == len(t.zones) - 1 else 1.0, label=zone)
+    ax.set_ylabel("tension [N]")
+    gf = ax.secondary_yaxis("right", functions=(lambda n: n / GF, lambda g: g * GF))
+    gf.set_ylabel("[gf]")
+    ax.legend(loc="upper left", fontsize=7.5, ncols=2, framealpha=0.9, title="stretch", title_fontsize=7.5)
+    zone, at = t.peak_at
+    ax.set_title(
+        f"peak {t.peak:.3g} N ({t.peak / GF:.0f} gf) in {zone} at {at:.1f} deg: breaking load "
+        f"{t.breaking_load:.3g} N, margin {t.margin:.2f}; discs' hold {t.hold:.3g} N\n"
+        f"a stitch draws {t.per_stitch / MM:.3f} mm through the discs (stitch formula {t.formula / MM:.2f} mm)"
+        + ("" if t.converged else f"; NOT periodic after {t.cycles} stitches"),
+        fontsize=8.5,
+        pad=16,
+    )
+    bx.plot(t.theta, t.spring / MM, color="C0", label="check spring's travel from rest")
+    bx.axhline(mech.balance.check_spring_travel / MM, color="C0", lw=0.8, ls=":")
+    bx.plot(t.theta, t.drawn / MM, color="C3", label="thread drawn through the discs since the stitch was set")
+    bx.set_ylabel("[mm]")
+    bx.legend(loc="upper left", fontsize=7.5, framealpha=0.9)
+    bx.set_xlabel("main-shaft angle from the needle bar's top dead centre [deg]")
+    angle_ticks(bx, 0.0, 360.0)
+    # Events in the angle's order, their tags at two heights so that near ones stay apart.
+    shown = sorted((head.events[name], tag) for name, tag in _EVENTS.items() if name in head.events)
+    for i, (angle, tag) in enumerate(shown):
+        for a in (ax, bx):
+            a.axvline(angle, color="0.5", lw=0.8, ls="--", zorder=0)
+        _label(ax, tag, angle, dx=2, dy=-2.0 - 11.0 * (i % 2), ha="left", fontsize=7, color="0.35")
+    for a in (ax, bx):
+        a.grid(alpha=0.3)
+    fig.suptitle(title(mech, "needle thread tension over one stitch"), fontsize=11, y=0.995)
+    return save(fig, out_dir, "thread_tension.png")

@@ -1,0 +1,146 @@
+"""The needle thread under tension on the shipped lockstitch head: its published comparisons and
+its cost beside ``simulate takeup``.
+
+Prints, with the shipped head's file and the published defaults, every row of docs/head.md's
+table "The shipped head, against published measurements": the peak and where it is, the local
+peaks of the stitch, the peak without the check spring, with 1.5x the needle tension, with twice
+the thread's elongation at break, with 2, 3 and 4 mm stitches, with 3 mm more spring travel, and
+the peak on a step 2.5x finer. Then the cost: the CPU of the tension of one stitch (to its
+periodic state; the head's timing measured once, before), as the median of ``--repeat`` runs,
+and the CPU of ``python -m mjlink simulate takeup --no-video --no-plots`` in a fresh process,
+interleaved with them, and their ratio.
+
+Run: ``python bench/bench_tension.py [--repeat N]`` (default 5).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mjlink.analysis.tension import NeedleTension, needle_tension
+from mjlink.analysis.timing import head_timing
+from mjlink.model import mechanism
+from mjlink.model.catalogue import shipped
+from mjlink.model.tension import DEFAULTS, GF
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _peaks(t: NeedleTension) -> list[tuple[float, float]]:
+    """(deg, gf) of the stitch's local peaks of the largest tension, above 5 gf."""
+    top = t.tension.max(axis=0)
+    n = len(top)
+    return [
+        (float(t.theta[i]), float(top[i] / GF))
+        for i in range(n)
+        if top[i] > top[i - 1] and top[i] >= top[(i + 1) % n] and top[i] > 5 * GF
+    ]
+
+
+def _row(label: str, t: NeedleTension) -> str:
+    zone, at = t.peak_at
+    return (
+        f"{label:34s} peak {t.peak:6.4f} N ({t.peak / GF:5.1f} gf) in {zone} at {at:6.2f} deg; "
+        f"per stitch {t.per_stitch * 1e3:.5f} mm; spring up to {t.spring.max() * 1e3:4.2f} mm; "
+        f"{t.cycles} stitches{'' if t.converged else ' NOT periodic'}"
+    )
+
+
+def comparisons() -> None:
+    mech = mechanism.load(shipped("mechanisms") / "lockstitch_head.toml")
+    head = head_timing(mech)
+    base = needle_tension(mech, head)
+    print(_row("shipped head, defaults", base))
+    for z, T in zip(base.zones, base.tension, strict=True):
+        print(f"    {z:12s} up to {T.max() / GF:6.1f} gf at {base.theta[int(np.argmax(T))]:6.2f} deg")
+    print("    local peaks (deg, gf): " + ", ".join(f"({a:.1f}, {g:.0f})" for a, g in _peaks(base)))
+    print(_row("without the check spring", needle_tension(mech, head, spring=False)))
+    s = dataclasses.replace(DEFAULTS, needle_tension=1.5 * DEFAULTS.needle_tension)
+    print(_row("1.5x the needle tension", needle_tension(mech, head, settings=s)))
+    s = dataclasses.replace(DEFAULTS, elongation_at_break=2 * DEFAULTS.elongation_at_break)
+    print(_row("twice the elongation at break", needle_tension(mech, head, settings=s)))
+    assert mech.balance is not None
+    for mm in (2.0, 3.0, 4.0):
+        m = dataclasses.replace(mech, balance=dataclasses.replace(mech.balance, stitch_length=mm * 1e-3))
+        print(_row(f"{mm:g} mm stitch", needle_tension(m, head_timing(m))))
+    m = dataclasses.replace(
+        mech, balance=dataclasses.replace(mech.balance, check_spring_travel=mech.balance.check_spring_travel + 3e-3)
+    )
+    print(_row("3 mm more check-spring travel", needle_tension(m, head_timing(m))))
+    print(_row("a step 2.5x finer (3,600 a stitch)", needle_tension(mech, head, samples=3600)))
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _simulate_takeup(out: Path) -> float:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mjlink",
+            "simulate",
+            "takeup",
+            "--out",
+            str(out),
+            "--force",
+            "--no-video",
+            "--no-plots",
+        ],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def cost(repeat: int) -> None:
+    mech = mechanism.load(shipped("mechanisms") / "lockstitch_head.toml")
+    head = head_timing(mech)
+    needle_tension(mech, head)  # warm: imports, caches
+    one: list[float] = []
+    takeup: list[float] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        _simulate_takeup(Path(tmp))
+        for _ in range(repeat):
+            c0, w0 = _cpu(), time.perf_counter()
+            t = needle_tension(mech, head)
+            one.append(_cpu() - c0)
+            print(
+                f"tension: {one[-1]:.3f} s CPU ({time.perf_counter() - w0:.3f} s wall), {t.cycles} stitches", flush=True
+            )
+            takeup.append(_simulate_takeup(Path(tmp)))
+            print(f"simulate takeup --no-video --no-plots: {takeup[-1]:.2f} s CPU", flush=True)
+    a, b = statistics.median(one), statistics.median(takeup)
+    print(f"median of {repeat}: tension {a:.3f} s CPU to its periodic state ({a / t.cycles:.3f} s a stitch); ")
+    print(f"simulate takeup {b:.2f} s CPU; tension / simulate takeup: {a / b:.3f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5, help="runs of each for the cost (default 5)")
+    ap.add_argument("--no-cost", action="store_true", help="only the comparisons")
+    a = ap.parse_args()
+    comparisons()
+    if not a.no_cost:
+        cost(a.repeat)
+
+
+if __name__ == "__main__":
+    main()

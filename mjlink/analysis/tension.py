@@ -1,0 +1,492 @@
+"""The needle thread's tension over a stitch: discs, check spring, capstan friction, elastic thread.
+
+The thread is massless and linear-elastic: a stretch of thread between two contact points
+(guides, eyelets, the check spring's hook, the needle's eye) holds ``m`` of unstretched thread
+over a path of length ``L`` and pulls with ``T = EA * (L - m) / L`` when ``L > m``, nothing when
+it is slack (a loop). The thread moves between neighbouring stretches only by sliding over the
+contact between them, which it does when the tension ratio across the contact reaches the
+capstan bound ``exp(mu * beta)`` (Euler-Eytelwein, ``beta`` the angle the thread turns through
+there): below it the contact holds the thread (stick), at it the thread slides towards the
+higher tension and the ratio stays on the bound. The tension discs feed thread from the spool
+into the first stretch only while the tension downstream of them is at their hold (the
+pre-tension); nothing is drawn back through them. The check spring is a spring-mass-damper
+with its stops: its hook is the thread's contact at the ``[balance] check_spring`` point at
+rest, held against its rest stop by its preload; the thread's pull draws it along the bisector
+of the thread's turn there, up to its travel, where the stop takes the load.
+
+Below the needle's eye the thread's taut length is the kinematic balance's (:mod:`.timing`):
+the needle thread to the last stitch's end, round the hook's blade and the bobbin case while
+the hook carries the loop. From the loop's release until the stitch is set the stitch being
+set (one stitch length along the fabric's top and the fabric's thickness, down to the
+interlacing and back) lies below the eye as well, so the take-up draws the loop tight against
+it; at the setting that stitch's thread is locked in the fabric and leaves the model. The
+thread drawn through the discs per stitch, in the periodic state, is what the stitches lock:
+consumption emerges from the tensions at the setting.
+
+Not modelled (docs/head.md, The thread under tension): the thread's mass and waves along it,
+viscoelasticity, friction below the eye (round the hook's blade and the bobbin case, through
+the fabric), the bobbin thread's pull at the interlacing, the loop's shape in three dimensions.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model.mechanism import Mechanism
+from ..model.tension import DEFAULTS, ThreadTension
+from ..model.timing import StitchType
+from .timing import HeadTiming, _between, _lock_below, hook_crank, stitch_end
+
+__all__ = ["NeedleTension", "TensionError", "disc_hold", "needle_tension", "of_head"]
+
+TOL = 1e-9  # a contact holds while its tension ratio is within this of its capstan bound
+TINY = 1e-9  # N: tensions this small count as none
+TINY_M = 1e-15  # m: thread passed this short counts as none
+PERIODIC = 1e-8  # m: the periodic state: two stitches' draws through the discs this close
+SAMPLES = 1440  # steps per stitch: a quarter degree of the main shaft
+MOST_NEWTON = 12  # Newton steps on the check spring's hook per step, at most
+SPRING_TOL = 1e-12  # m: the hook's place found when a Newton step moves it less
+
+
+class TensionError(ValueError):
+    """A head the tension model does not cover (a chain stitch, no [balance] table)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class NeedleTension:
+    """The needle thread's tension over one stitch in its periodic state.
+
+    ``theta`` (N,) deg from the needle bar's top; ``zones`` (Z,) the stretches from the discs
+    to below the eye, each named by its ends; ``tension`` (Z, N) N; ``spring`` (N,) m the check
+    spring's travel from its rest stop (zeros without one); ``drawn`` (N,) m the thread drawn
+    through the discs since the stitch was set; ``per_stitch`` m the thread drawn through the
+    discs per stitch, which the stitch locks; ``formula`` m the stitch formula's needle thread
+    per stitch (stitch length + fabric); ``set_at`` deg where the stitch is set (its thread
+    locked); ``hold`` N the discs' hold; ``stiffness`` N the thread's EA; ``breaking_load`` N;
+    ``cycles`` the stitches run and ``converged`` whether the last two drew the same thread
+    through the discs within :data:`PERIODIC`."""
+
+    theta: np.ndarray
+    zones: tuple[str, ...]
+    tension: np.ndarray
+    spring: np.ndarray
+    drawn: np.ndarray
+    per_stitch: float
+    formula: float
+    set_at: float
+    hold: float
+    stiffness: float
+    breaking_load: float
+    cycles: int
+    converged: bool
+
+    @property
+    def peak(self) -> float:
+        """The largest tension anywhere over the stitch, N."""
+        return float(self.tension.max())
+
+    @property
+    def peak_at(self) -> tuple[str, float]:
+        """The zone and the angle (deg) of :attr:`peak`."""
+        z, k = np.unravel_index(int(np.argmax(self.tension)), self.tension.shape)
+        return self.zones[int(z)], float(self.theta[int(k)])
+
+    @property
+    def margin(self) -> float:
+        """The breaking load over the peak tension (above 1: the thread holds)."""
+        return self.breaking_load / self.peak if self.peak > 0 else math.inf
+
+    @property
+    def slack(self) -> np.ndarray:
+        """(N,) bool: the thread below the eye is slack (a loop, no tension)."""
+        out: np.ndarray = self.tension[-1] <= TINY
+        return out
+
+    def failures(self) -> tuple[str, ...]:
+        """One line if the thread breaks (its peak tension at or above its breaking load) or the
+        run did not reach its periodic state."""
+        zone, at = self.peak_at
+        out = []
+        if self.margin <= 1.0:
+            out.append(
+                f"tension: the needle thread's peak {self.peak:.3g} N ({zone} at {at:.1f} deg) reaches its "
+                f"breaking load {self.breaking_load:.3g} N"
+            )
+        if not self.converged:
+            out.append(f"tension: no periodic state in {self.cycles} stitches (the last two drew different thread)")
+        return tuple(out)
+
+    def columns(self) -> tuple[list[str], list[np.ndarray]]:
+        """The tension.csv table: names (units in them) and (N,) columns."""
+        names = ["theta_deg", *(f"T {z} [N]" for z in self.zones), "spring_mm", "drawn_mm"]
+        return names, [self.theta, *self.tension, self.spring * 1e3, self.drawn * 1e3]
+
+    def as_dict(self) -> dict[str, object]:
+        zone, at = self.peak_at
+        return {
+            "peak_N": round(self.peak, 6),
+            "peak_zone": zone,
+            "peak_deg": round(at, 3),
+            "breaking_load_N": self.breaking_load,
+            "margin": round(self.margin, 4),
+            "per_stitch_mm": round(self.per_stitch * 1e3, 6),
+            "formula_mm": round(self.formula * 1e3, 6),
+            "disc_hold_N": round(self.hold, 6),
+            "spring_travel_max_mm": round(float(self.spring.max()) * 1e3, 6),
+            "slack_deg": round(float(self.slack.mean()) * 360.0, 3),
+            "cycles": self.cycles,
+            "converged": self.converged,
+        }
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    out: np.ndarray = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    return out
+
+
+def _settle(s: list[float], c: list[float], r: list[float], hold: float, state: list[int]) -> tuple[list[float], float]:
+    """The thread's equilibrium after a step: the stretches ``s`` (m: each stretch's path length
+    minus the thread it holds; tension ``c * s`` where positive) and the contacts' capstan bounds
+    ``r`` (``r[j]`` between stretches j-1 and j; ``r[0]`` unused), the discs holding up to
+    ``hold`` N. ``state[j]`` is contact j's (the discs' for j = 0): 0 holding, +1 the thread
+    sliding towards the eye, -1 away from it (never for the discs); it is the last step's on
+    entry and this one's on return. Returns the new stretches and the thread the discs let in.
+
+    An active set: contacts that slide link their neighbours' tensions (the ratio on its bound),
+    so each run of stretches between holding contacts shares one tension scale and keeps its
+    thread (a run from the discs that slide through them is at their hold); a holding contact
+    beyond its bound starts to slide, one sliding against its direction holds."""
+    n = len(s)
+    for _ in range(16 * n):
+        new = [0.0] * n
+        fed = 0.0
+        start = 0
+        while start < n:
+            end = start
+            while end + 1 < n and state[end + 1] != 0:
+                end += 1
+            # Tensions in the run relative to its first stretch's.
+            w = [1.0]
+            for j in range(start + 1, end + 1):
+                w.append(w[-1] * (r[j] if state[j] > 0 else 1.0 / r[j]))
+            total = sum(s[start : end + 1])
+            if start == 0 and state[0] != 0:
+                scale = hold
+                for i in range(start, end + 1):
+                    new[i] = scale * w[i - start] / c[i]
+                fed = total - sum(new[start : end + 1])
+            else:
+                compliance = sum(w[i - start] / c[i] for i in range(start, end + 1))
+                if total > 0.0:
+                    for i in range(start, end + 1):
+                        new[i] = total * w[i - start] / c[i] / compliance
+                else:
+                    # Slack: no tension; the taut stretches have drawn the slack of the others.
+                    loose = sum(x for x in s[start : end + 1] if x < 0.0)
+                    for i in range(start, end + 1):
+                        new[i] = s[i] * total / loose if s[i] < 0.0 else 0.0
+            start = end + 1
+        # What each contact passed towards the eye (positive), from the discs' feed down; the
+        # worst contact out of its state changes it, one at a time (changing every one at
+        # once can cycle).
+        worst, to, most = -1, 0, 0.0
+        passed = fed
+        if state[0] != 0 and fed < -TINY_M and -fed * c[0] > most:
+            worst, to, most = 0, 0, -fed * c[0]
+        for j in range(1, n):
+            passed += new[j - 1] - s[j - 1]
+            ta, tb = c[j - 1] * max(new[j - 1], 0.0), c[j] * max(new[j], 0.0)
+            if state[j] == 0:
+                if tb > r[j] * ta * (1.0 + TOL) + TINY and tb - r[j] * ta > most:
+                    worst, to, most = j, 1, tb - r[j] * ta
+                elif ta > r[j] * tb * (1.0 + TOL) + TINY and ta - r[j] * tb > most:
+                    worst, to, most = j, -1, ta - r[j] * tb
+            elif state[j] * passed < -TINY_M and abs(passed) * c[j] > most:
+                worst, to, most = j, 0, abs(passed) * c[j]
+        if state[0] == 0 and c[0] * max(new[0], 0.0) > hold * (1.0 + TOL) and c[0] * new[0] - hold > most:
+            worst, to, most = 0, 1, c[0] * new[0] - hold
+        if worst < 0:
+            return new, fed
+        state[worst] = to
+    raise RuntimeError("the thread's contacts found no consistent state")
+
+
+def _hook_stiffness(
+    s: list[float], c: list[float], r: list[float], state: list[int], j: int, ga: float, gb: float
+) -> float:
+    """N/m: how much harder the thread pulls the hook at contact ``j`` (between stretches j-1
+    and j) along its travel per metre it moves there, the contacts' states held: the hook's
+    move shortens the stretch before it by ``ga`` and the one after by ``gb`` per metre, each
+    run of stretches between holding contacts shares one tension scale over its thread (none
+    where the discs slide: they pay out at their hold; none where the run is slack)."""
+    n = len(s)
+
+    def run(i: int) -> tuple[int, int]:
+        a = i
+        while a > 0 and state[a] != 0:
+            a -= 1
+        b = i
+        while b + 1 < n and state[b + 1] != 0:
+            b += 1
+        return a, b
+
+    def weights(a: int, b: int) -> list[float]:
+        w = [1.0]
+        for k in range(a + 1, b + 1):
+            w.append(w[-1] * (r[k] if state[k] > 0 else 1.0 / r[k]))
+        return w
+
+    def part(a: int, b: int, moved: dict[int, float]) -> float:
+        if (a == 0 and state[0] != 0) or sum(s[a : b + 1]) <= 0.0:
+            return 0.0
+        w = weights(a, b)
+        compliance = sum(w[i - a] / c[i] for i in range(a, b + 1))
+        g = sum(w[i - a] * moved[i] for i in moved)
+        return g * g / compliance
+
+    ra, rb = run(j - 1), run(j)
+    if ra == rb:
+        return part(*ra, {j - 1: ga, j: gb})
+    return part(*ra, {j - 1: ga}) + part(*rb, {j: gb})
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Step:
+    """The thread's equilibrium in one step, the spring's hook at one place: the path ``L`` (m),
+    the capstan bounds ``r``, the stretches' ``c = EA / L`` (N/m), the stretches ``s`` (m), the
+    contacts' ``state``, the thread the discs let in (m) and the hook's ``ga``, ``gb`` (how fast
+    the stretches either side shorten as it moves)."""
+
+    L: list[float]
+    r: list[float]
+    c: list[float]
+    s: list[float]
+    state: list[int]
+    fed: float
+    ga: float
+    gb: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Thread:
+    """The path over the stitch as plain floats (the stepping loop's work per step is a few
+    dozen scalar operations): per step ``k`` the lengths (m) and capstan bounds of the stretches
+    and contacts, the check spring's neighbours ``up`` and ``down``, its hook at ``rest`` and
+    its ``travel_dir``; the spring's contact ``spring_at``; the thread's ``friction``,
+    ``stiffness`` (EA, N) and the discs' ``hold`` (N)."""
+
+    lengths: list[list[float]]
+    bounds: list[list[float]]
+    up: list[list[float]]
+    down: list[list[float]]
+    rest: list[list[float]]
+    travel_dir: list[list[float]]
+    spring_at: int
+    friction: float
+    stiffness: float
+    hold: float
+
+    def geometry(self, k: int, xh: float) -> tuple[list[float], list[float], float, float]:
+        """Step ``k``'s lengths and capstan bounds with the spring's hook ``xh`` (m) along its
+        travel, and the hook's ``ga``, ``gb``."""
+        L, r = list(self.lengths[k]), list(self.bounds[k])
+        up, down, rest, d = self.up[k], self.down[k], self.rest[k], self.travel_dir[k]
+        ua = [up[i] - rest[i] - xh * d[i] for i in range(3)]
+        ub = [down[i] - rest[i] - xh * d[i] for i in range(3)]
+        la = math.sqrt(ua[0] * ua[0] + ua[1] * ua[1] + ua[2] * ua[2])
+        lb = math.sqrt(ub[0] * ub[0] + ub[1] * ub[1] + ub[2] * ub[2])
+        j = self.spring_at
+        L[j - 1], L[j] = la, lb
+        turn = -(ua[0] * ub[0] + ua[1] * ub[1] + ua[2] * ub[2]) / (la * lb)
+        r[j] = math.exp(self.friction * math.acos(max(-1.0, min(1.0, turn))))
+        ga = (ua[0] * d[0] + ua[1] * d[1] + ua[2] * d[2]) / la
+        gb = (ub[0] * d[0] + ub[1] * d[1] + ub[2] * d[2]) / lb
+        return L, r, ga, gb
+
+    def settle(self, k: int, xh: float, s: list[float], prev: list[float], state: list[int]) -> _Step:
+        """Step ``k``'s equilibrium from the last step's stretches ``s`` over its path ``prev``
+        and contacts' ``state``, the hook at ``xh``: the thread each stretch holds stays until
+        it slides, so its stretch first follows its path's length."""
+        L, r, ga, gb = self.geometry(k, xh)
+        moved = [si + (Li - Pi) for si, Li, Pi in zip(s, L, prev, strict=True)]
+        c = [self.stiffness / Li for Li in L]
+        st = list(state)
+        moved, fed = _settle(moved, c, r, self.hold, st)
+        return _Step(L=L, r=r, c=c, s=moved, state=st, fed=fed, ga=ga, gb=gb)
+
+
+def _wrap(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(N,) rad: the turn of a thread from ``a`` over ``b`` to ``c`` (each (N, 3))."""
+    u, w = _unit(b - a), _unit(c - b)
+    out: np.ndarray = np.arccos(np.clip(np.sum(u * w, axis=1), -1.0, 1.0))
+    return out
+
+
+def disc_hold(ratio_to_eye: float, settings: ThreadTension) -> float:
+    """The discs' hold, N, that gives ``settings.needle_tension`` to a thread drawn slowly out
+    of the eye through contacts whose capstan bounds multiply to ``ratio_to_eye`` (the thread
+    slides over every one towards the eye: each multiplies the tension by its bound)."""
+    return settings.needle_tension / ratio_to_eye
+
+
+def of_head(mech: Mechanism, head: HeadTiming) -> NeedleTension | None:
+    """:func:`needle_tension` of a lockstitch head with a ``[balance]`` table, else None (a
+    chain-stitch head's needle thread is not modelled under tension)."""
+    if head.balance is None or mech.timing is None or mech.timing.stitch is not StitchType.LOCKSTITCH:
+        return None
+    return needle_tension(mech, head)
+
+
+def needle_tension(
+    mech: Mechanism,
+    head: HeadTiming,
+    *,
+    settings: ThreadTension | None = None,
+    spring: bool = True,
+    samples: int = SAMPLES,
+    most_cycles: int = 80,
+) -> NeedleTension:
+    """The needle thread's tension over one stitch of a lockstitch ``head``, at the file's speed,
+    in its periodic state (the module's docstring says what is modelled).
+
+    Args:
+      mech: a lockstitch head with ``[timing]``, ``[thread]`` and ``[balance]`` tables.
+      head: its timing (:func:`.timing.head_timing`), whose angles ``samples`` divides.
+      settings: the thread and its tensioning parts; ``mech.tension`` or the published
+        defaults (:data:`~mjlink.model.tension.DEFAULTS`) when None.
+      spring: False takes the check spring away (its hook a fixed guide).
+      samples: steps per stitch.
+      most_cycles: stitches run at most to reach the periodic state.
+    Returns:
+      :class:`NeedleTension` on ``samples`` angles.
+    Raises:
+      TensionError: a chain stitch, or a head without a ``[balance]`` table.
+    """
+    tm, bal, path = mech.timing, mech.balance, mech.thread
+    if tm is None or bal is None or not path or head.balance is None:
+        raise TensionError(f"{mech.name}: the tension needs a head with [timing], [thread] and [balance] tables")
+    if tm.stitch is not StitchType.LOCKSTITCH:
+        raise TensionError(f"{mech.name}: the tension model covers a lockstitch (301) head, not a {tm.stitch.value}")
+    cfg = settings or mech.tension or DEFAULTS
+    every = len(head.theta) // samples
+    if every < 1 or every * samples != len(head.theta):
+        raise TensionError(f"{samples} steps do not divide the head's {len(head.theta)} angles")
+    theta = head.theta[::every]
+    P = {p: head.positions[p][::every] for p in path}
+    n = len(theta)
+    dt = math.radians(float(theta[1] - theta[0])) / abs(mech.speed)
+    release = head.events["loop released"]
+    at = stitch_end(head, tm.fabric, bal.stitch_length, release)
+    below = _lock_below(mech, head, hook_crank(mech), at)[::every]
+    formula = bal.stitch_length + tm.fabric
+    set_at = head.balance.phases["needle descending"][0]
+    k0 = int(np.searchsorted(theta, set_at % 360.0)) % n
+    # From the release until the setting the stitch being set lies below the eye too.
+    setting = _between(theta, release, set_at) & (np.arange(n) != k0)
+    below = below + np.where(setting, formula, 0.0)
+    order = np.roll(np.arange(n), -k0)
+
+    segs = len(path)  # the path's stretches and the one below the eye
+    lengths = np.zeros((segs, n))
+    for i in range(segs - 1):
+        lengths[i] = np.linalg.norm(P[path[i + 1]] - P[path[i]], axis=1)
+    lengths[-1] = below
+    # The turn at each contact j (between stretches j-1 and j); the eye's is given.
+    wraps = np.zeros((segs, n))
+    for j in range(1, segs - 1):
+        wraps[j] = _wrap(P[path[j - 1]], P[path[j]], P[path[j + 1]])
+    wraps[-1] = cfg.eye_wrap
+
+    cs = path.index(bal.check_spring)
+    travel = bal.check_spring_travel if spring else 0.0
+    rest, up, down = P[path[cs]], P[path[cs - 1]], P[path[cs + 1]]
+    # The spring's hook moves along the bisector of the thread's turn at rest, towards the
+    # straight line between its neighbours: the way the thread pulls it.
+    pull = _unit(_unit(up - rest) + _unit(down - rest))
+    # The discs' hold: the file's needle tension drawn slowly out of the eye at the needle
+    # bar's top, the spring pulled to its stop.
+    stop = rest[:1] + travel * pull[:1]
+    at_top = wraps[:, 0].copy()
+    at_top[cs] = _wrap(up[:1], stop, down[:1])[0]
+    hold = disc_hold(float(np.exp(cfg.friction * at_top[1:].sum())), cfg)
+
+    thread = _Thread(
+        lengths=lengths.T.tolist(),
+        bounds=np.exp(cfg.friction * wraps).T.tolist(),
+        up=up.tolist(),
+        down=down.tolist(),
+        rest=rest.tolist(),
+        travel_dir=pull.tolist(),
+        spring_at=cs,
+        friction=cfg.friction,
+        stiffness=cfg.stiffness,
+        hold=hold,
+    )
+    m_s, k_s = cfg.spring_mass, cfg.spring_rate
+    c_s = 2.0 * cfg.spring_damping * math.sqrt(k_s * m_s)
+    inertia, damp = m_s / (dt * dt), c_s / dt
+    s = [hold * L / cfg.stiffness for L in lengths[:, order[0]]]  # every stretch at the discs' hold
+    x = v = 0.0
+    out_T = np.zeros((n, segs))
+    out_x = np.zeros(n)
+    out_d = np.zeros(n)
+    state = [0] * segs
+    last, fed = math.nan, 0.0
+    prev = thread.geometry(int(order[0]), x)[0]
+    cycles, converged = 0, False
+    for cycles in range(1, most_cycles + 1):
+        fed = 0.0
+        for step, k in enumerate(order.tolist()):
+            if step == 0 and cycles > 1:
+                # The stitch is set: its thread is locked in the fabric and leaves the stretch
+                # below the eye at the tension it was set with.
+                if s[-1] > 0.0:
+                    s[-1] *= (prev[-1] - formula) / prev[-1]
+                prev[-1] -= formula
+            xh = x
+            now = thread.settle(k, xh, s, prev, state)
+            if travel > 0.0:
+                # Backward Euler on the spring, its hook where its inertia, damping and force
+                # balance the thread's pull (Newton on the hook's place, the thread settled at
+                # each): stable at any speed, the thread being far stiffer than the spring.
+                for _ in range(MOST_NEWTON):
+                    T = [ci * si if si > 0.0 else 0.0 for ci, si in zip(now.c, now.s, strict=True)]
+                    f = T[cs - 1] * now.ga + T[cs] * now.gb
+                    g = inertia * (xh - x - dt * v) + damp * (xh - x) + cfg.spring_force + k_s * xh - f
+                    stiff = inertia + damp + k_s + _hook_stiffness(now.s, now.c, now.r, now.state, cs, now.ga, now.gb)
+                    nxt = min(max(xh - g / stiff, 0.0), travel)
+                    if abs(nxt - xh) <= SPRING_TOL:
+                        break
+                    xh = nxt
+                    now = thread.settle(k, xh, s, prev, state)
+                v = 0.0 if xh in (0.0, travel) else (xh - x) / dt
+                x = xh
+            s, state, prev = now.s, now.state, now.L
+            fed += now.fed
+            out_T[k] = [ci * si if si > 0.0 else 0.0 for ci, si in zip(now.c, s, strict=True)]
+            out_x[k] = x
+            out_d[k] = fed
+        if cycles > 1 and abs(fed - last) <= PERIODIC:
+            converged = True
+            break
+        last = fed
+    zones = (*(f"{a}-{b}" for a, b in itertools.pairwise(path)), f"below {path[-1]}")
+    return NeedleTension(
+        theta=theta,
+        zones=zones,
+        tension=out_T.T.copy(),
+        spring=out_x,
+        drawn=out_d,
+        per_stitch=fed,
+        formula=formula,
+        set_at=set_at,
+        hold=hold,
+        stiffness=cfg.stiffness,
+        breaking_load=cfg.breaking_load,
+        cycles=cycles,
+        converged=converged,
+    )

@@ -1,0 +1,154 @@
+"""A lockstitch head's ``[tension]`` table: the needle thread and the parts that tension it.
+
+Every key is optional; a missing one takes the published default of :data:`DEFAULTS` (each
+with its source, or marked as a choice where no public figure was found; docs/head.md, The
+thread under tension). The file's units are N for forces, N/mm for the spring's rate, g for
+its mass and deg for the eye's wrap; here SI::
+
+    [tension]
+    needle_tension = 1.6      # N: the thread drawn slowly out of the needle's eye
+    breaking_load = 10.5      # N
+    elongation_at_break = 0.125
+    friction = 0.15           # thread on polished steel, at every contact
+    eye_wrap = 180.0          # deg: the turn through the needle's eye
+    spring_force = 0.3        # N: the check spring's force at rest (at its start)
+    spring_rate = 0.03        # N/mm
+    spring_mass = 0.1         # g, at its hook
+    spring_damping = 0.1      # a fraction of critical
+
+The check spring's point and travel are the ``[balance]`` table's (``check_spring``,
+``check_spring_travel``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from ..units import DEG, MM, G
+from .limits import Bound
+from .reader import Reader
+
+__all__ = ["BOUNDS", "DEFAULTS", "SOURCES", "ThreadTension", "read_tension"]
+
+GF = 9.80665e-3  # N per gram-force: makers quote tensions in g
+
+
+@dataclass(frozen=True, kw_only=True)
+class ThreadTension:
+    """The ``[tension]`` table in SI units (see the module's docstring).
+
+    ``needle_tension`` N, the tension a mechanic reads drawing the thread slowly out of the
+    needle's eye with the needle bar at its top (it sets the discs' hold); ``breaking_load`` N
+    and ``elongation_at_break`` (a fraction) the thread's, which give its stiffness
+    ``EA = breaking_load / elongation_at_break`` (the secant modulus to break); ``friction`` the
+    coefficient of thread on steel; ``eye_wrap`` rad; the check spring's ``spring_force`` N at
+    rest, ``spring_rate`` N/m, ``spring_mass`` kg and ``spring_damping`` (of critical)."""
+
+    needle_tension: float
+    breaking_load: float
+    elongation_at_break: float
+    friction: float
+    eye_wrap: float
+    spring_force: float
+    spring_rate: float
+    spring_mass: float
+    spring_damping: float
+
+    @property
+    def stiffness(self) -> float:
+        """EA, N: the thread's tension per unit strain."""
+        return self.breaking_load / self.elongation_at_break
+
+
+# Key -> (default in the file's unit, the factor to SI, bound, source).
+_TABLE: dict[str, tuple[float, float, Bound, str]] = {
+    "needle_tension": (
+        1.6,
+        1.0,
+        Bound(0.0, 50.0, "N", "a needle thread's static tension, some 0.5 to 3 N on industrial heads", lo_open=True),
+        "[choice] 6.5 x the bobbin thread's 25 g (Duerkopp Adler 650-10 instructions, p. 29), "
+        "needle to bobbin about 6:1 to 7:1 (Analysis of the Structure of Lockstitched Seam according "
+        "to Sewing Thread Tension, 2001)",
+    ),
+    "breaking_load": (
+        10.5,
+        1.0,
+        Bound(0.0, 1000.0, "N", "a sewing thread breaks at some 2 to 100 N", lo_open=True),
+        "spun polyester 40s/2, tex 30: 1,050 cN (MH Thread, All About Polyester Threads, 2024)",
+    ),
+    "elongation_at_break": (
+        0.125,
+        1.0,
+        Bound(0.0, 1.0, "", "a fraction: sewing threads break at some 5 to 35 % elongation", lo_open=True),
+        "spun polyester 40s/2, tex 30: 10 to 15 % (MH Thread, All About Polyester Threads, 2024)",
+    ),
+    "friction": (
+        0.15,
+        1.0,
+        Bound(0.0, 2.0, "", "a coefficient of friction of thread on metal, some 0.1 to 0.5"),
+        "[choice] no published value was found for sewing thread on polished steel; at 0.2 the "
+        "discs' hold that gives the default needle tension through the shipped head's path lets "
+        "the thread pull its check spring with less than the spring's 0.3 N, and it never moves",
+    ),
+    "eye_wrap": (
+        180.0,
+        DEG,
+        Bound(0.0, 360.0, "deg", "the turn through the needle's eye, up to a turn"),
+        "[choice] the thread turns back through the eye, down the long groove and up the short one",
+    ),
+    "spring_force": (
+        0.3,
+        1.0,
+        Bound(0.0, 10.0, "N", "a check spring's force, some 0.05 to 0.5 N in makers' manuals"),
+        "Brother S-1110A and SL-710A manuals: 0.25 to 0.35 N for the -3 (medium) specification",
+    ),
+    "spring_rate": (
+        0.03,
+        1.0 / MM,
+        Bound(0.0, 10.0, "N/mm", "a check spring's rate: its force grows by a fraction of itself over its travel"),
+        "[choice] the force at rest grows by 0.21 N over the 7 mm travel",
+    ),
+    "spring_mass": (
+        0.1,
+        G,
+        Bound(0.0, 100.0, "g", "a check spring's moving mass at its hook, a fraction of a gram", lo_open=True),
+        "[choice] a wire spring's arm and hook",
+    ),
+    "spring_damping": (
+        0.1,
+        1.0,
+        Bound(0.0, 10.0, "", "a fraction of critical damping"),
+        "[choice] a lightly damped steel spring",
+    ),
+}
+
+BOUNDS: dict[str, Bound] = {k: v[2] for k, v in _TABLE.items()}
+"""Each key's range in the file's unit, with its reason."""
+SOURCES: dict[str, str] = {k: v[3] for k, v in _TABLE.items()}
+"""Each default's source (or ``[choice]`` and why)."""
+DEFAULTS = ThreadTension(**{k: v[0] * v[1] for k, v in _TABLE.items()})
+"""The published defaults (:data:`SOURCES`), SI."""
+
+
+def read_tension(r: Reader, raw: Any, has_balance: bool) -> ThreadTension:
+    """The ``[tension]`` table: needs a ``[balance]`` table (the thread's path to the eye, the
+    check spring's point and travel)."""
+    t = r.table(raw, "[tension]")
+    if not has_balance:
+        raise r.fail("[tension]", "needs a [balance] table (the check spring's point and travel)")
+    r.keys(t, "[tension]", [], list(_TABLE))
+    values = {}
+    for key, (default, scale, bound, _) in _TABLE.items():
+        unit = f" {bound.unit}" if bound.unit else ""
+        values[key] = r.number(t, key, "[tension]", default=default, unit=unit, bound=bound) * scale
+    out = ThreadTension(**values)
+    if not math.isfinite(out.stiffness):
+        raise r.fail("[tension]", "the thread's stiffness breaking_load / elongation_at_break is not finite")
+    return out
+
+
+def in_grams(force: float) -> float:
+    """A force in N as the gram-force makers quote."""
+    return force / GF

@@ -1,0 +1,278 @@
+"""The needle thread under tension (docs/head.md, The thread under tension): the capstan chain,
+the discs and the elastic thread in closed form; the check spring's force balance; the thread a
+stitch locks against what the discs let through; the published directions; the [tension] table."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from mjlink.analysis.tension import NeedleTension, TensionError, _settle, needle_tension, of_head
+from mjlink.analysis.timing import head_timing
+from mjlink.errors import MjlinkError
+from mjlink.model import mechanism
+from mjlink.model.catalogue import shipped
+from mjlink.model.tension import DEFAULTS, SOURCES
+
+HEAD = shipped("mechanisms") / "lockstitch_head.toml"
+CHAIN = shipped("mechanisms") / "examples" / "chainstitch_head.toml"
+GF = 9.80665e-3  # N per gram-force
+
+# A chain of five stretches from the discs to the anchored end below the eye (m), the turns at
+# the four contacts between them (rad), the thread's EA (N), the discs' hold (N), mu.
+LENGTHS = [0.05, 0.03, 0.04, 0.02, 0.06]
+TURNS = [1.0, 2.0, 0.5, math.pi]
+EA, HOLD, MU = 84.0, 0.2, 0.15
+
+
+def _chain(s, lengths, pull_steps):
+    """Step the chain: each step adds ``d`` (m) to the last stretch's path; returns the stretches,
+    the thread fed through the discs and the final path lengths."""
+    lengths = list(lengths)
+    r = [1.0] + [math.exp(MU * b) for b in TURNS]
+    state = [0] * len(lengths)
+    fed = 0.0
+    for d in pull_steps:
+        lengths[-1] += d
+        s = list(s)
+        s[-1] += d
+        c = [EA / L for L in lengths]
+        s, got = _settle(s, c, r, HOLD, state)
+        fed += got
+    return s, fed, lengths
+
+
+def _tensions(s, lengths):
+    return [EA * max(x, 0.0) / L for x, L in zip(s, lengths, strict=True)]
+
+
+def test_a_thread_drawn_out_of_the_eye_slides_over_every_contact_at_its_capstan_bound():
+    """Euler-Eytelwein: drawn slowly through the discs, the tension leaves them at their hold and
+    grows by exp(mu * turn) over each contact, whatever the stretches' lengths; the discs let
+    through what was drawn less what the stretches took up in stretch."""
+    s0 = [HOLD * L / EA for L in LENGTHS]
+    s, fed, lengths = _chain(s0, LENGTHS, [1e-5] * 500)
+    expected = [HOLD * math.exp(MU * sum(TURNS[:i])) for i in range(len(LENGTHS))]
+    assert _tensions(s, lengths) == pytest.approx(expected, rel=1e-9)
+    assert fed == pytest.approx(5e-3 - (sum(s) - sum(s0)), rel=1e-12, abs=1e-15)
+
+
+def test_a_thread_let_back_holds_at_the_discs_and_slides_back_at_the_reverse_bound():
+    """Let back far enough, every contact slides the other way (the tension falls towards the
+    eye by exp(mu * turn) over each) and the discs pass nothing back: the thread the chain holds
+    is what it held, so the stretches' sum fixes the one tension scale."""
+    s0 = [HOLD * L / EA for L in LENGTHS]
+    s1, _, lengths = _chain(s0, LENGTHS, [1e-5] * 500)
+    back = 6.9e-4  # to about half the hold at the discs: every contact slides back
+    s, fed, lengths = _chain(s1, lengths, [-back / 100] * 100)
+    assert fed == 0.0
+    assert sum(s) == pytest.approx(sum(s1) - back, rel=1e-12)
+    w = [math.exp(-MU * sum(TURNS[:i])) for i in range(len(LENGTHS))]
+    t0 = EA * sum(s) / sum(wi * L for wi, L in zip(w, lengths, strict=True))
+    assert 0.0 < t0 < HOLD
+    assert _tensions(s, lengths) == pytest.approx([t0 * wi for wi in w], rel=1e-9)
+
+
+def test_a_thread_let_back_beyond_its_stretch_goes_slack_everywhere():
+    s0 = [HOLD * L / EA for L in LENGTHS]
+    s, fed, lengths = _chain(s0, LENGTHS, [-1e-4] * 50)
+    assert fed == 0.0
+    assert sum(s) == pytest.approx(sum(s0) - 5e-3, rel=1e-12)
+    assert _tensions(s, lengths) == [0.0] * len(LENGTHS)
+
+
+def test_without_friction_one_tension_holds_the_whole_stretch():
+    """With no friction the thread slides freely: one tension, EA times the chain's stretch over
+    its length, below the discs' hold; at the hold they let thread through."""
+    s0 = [0.0] * len(LENGTHS)
+    r = [1.0] * len(LENGTHS)
+    lengths = list(LENGTHS)
+    lengths[-1] += 1e-4
+    s = list(s0)
+    s[-1] += 1e-4
+    s, fed = _settle(s, [EA / L for L in lengths], r, HOLD, [0] * len(LENGTHS))
+    assert fed == 0.0
+    assert _tensions(s, lengths) == pytest.approx([EA * 1e-4 / sum(lengths)] * len(LENGTHS), rel=1e-9)
+
+
+@pytest.fixture(scope="module")
+def head():
+    mech = mechanism.load(HEAD)
+    return mech, head_timing(mech)
+
+
+@pytest.fixture(scope="module")
+def shipped_tension(head):
+    return needle_tension(*head)
+
+
+def test_a_stitch_draws_through_the_discs_the_thread_it_locks(head, shipped_tension):
+    """In the periodic state the discs let through per stitch what the set stitch locks: its
+    stitch length and fabric (stitch_length + fabric) of thread at the tension below the eye as
+    it is set (T = EA * strain: less thread, stretched, fills the same length)."""
+    mech, _ = head
+    t = shipped_tension
+    assert t.converged
+    k0 = int(np.searchsorted(t.theta, t.set_at % 360.0)) % len(t.theta)
+    at_set = t.tension[-1][k0 - 1]
+    formula = mech.balance.stitch_length + mech.timing.fabric
+    assert t.formula == pytest.approx(formula, rel=1e-15)
+    # A tenth of a micrometre: 2e-5 of the stitch's thread, far below any measurable consumption.
+    assert t.per_stitch == pytest.approx(formula * (1.0 - at_set / t.stiffness), abs=1e-7)
+
+
+def test_the_discs_let_thread_through_only_at_their_hold(shipped_tension):
+    t = shipped_tension
+    drawing = np.diff(t.drawn, prepend=t.drawn[-1]) > 1e-12  # the step drew thread in
+    assert drawing.any()
+    assert t.tension[0][drawing] == pytest.approx(t.hold, rel=1e-9)
+    assert (t.tension[0] <= t.hold * (1 + 1e-9)).all()
+
+
+def test_without_friction_every_taut_stretch_carries_one_tension(head):
+    mech, timing = head
+    t = needle_tension(mech, timing, settings=dataclasses.replace(DEFAULTS, friction=0.0))
+    assert t.hold == pytest.approx(DEFAULTS.needle_tension, rel=1e-12)
+    T = t.tension
+    taut = (T > 1e-6).all(axis=0)
+    assert taut.any()
+    spread = T[:, taut].max(axis=0) - T[:, taut].min(axis=0)
+    assert (spread <= 1e-9 * T[:, taut].max(axis=0)).all()
+
+
+def test_the_check_spring_balances_the_thread_pulling_its_hook(head):
+    """Turned slowly (0.01 rad/s: its inertia and damping then weigh nothing) the spring is in static balance wherever it is off its stops: its
+    force at rest plus its rate times its travel equals the thread's pull along its travel (the
+    tension either side times the cosine between the thread and the travel), with no friction
+    one tension either side."""
+    mech, _ = head
+    slow = dataclasses.replace(mech, speed=0.01)
+    timing = head_timing(slow)
+    cfg = dataclasses.replace(DEFAULTS, friction=0.0)
+    t = needle_tension(slow, timing, settings=cfg)
+    path, cs = mech.thread, mech.thread.index(mech.balance.check_spring)
+    every = len(timing.theta) // len(t.theta)
+    P = {p: timing.positions[p][::every] for p in path}
+    rest, up, down = P[path[cs]], P[path[cs - 1]], P[path[cs + 1]]
+
+    def unit(v):
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    travel = unit(unit(up - rest) + unit(down - rest))
+    hook = rest + t.spring[:, None] * travel
+    pull = t.tension[cs] * (np.sum(unit(up - hook) * travel, axis=1) + np.sum(unit(down - hook) * travel, axis=1))
+    free = (t.spring > 1e-6) & (t.spring < mech.balance.check_spring_travel - 1e-6)
+    assert free.sum() > 10
+    spring = cfg.spring_force + cfg.spring_rate * t.spring
+    # 1e-4: the spring's inertia and damping at 0.01 rad/s and the hook's place found to 1e-12 m
+    # leave 1e-5 (measured); the backward Euler step's lag is the rest.
+    assert pull[free] == pytest.approx(spring[free], rel=1e-4)
+
+
+def test_the_published_directions_hold(head, shipped_tension):
+    """Parameters affecting needle thread tension during lockstitch process (IJFTR): the peak
+    rises with the needle thread's pre-tension and falls with the thread's extensibility; the
+    check-spring study: 3 mm more spring travel gives a higher peak and no more thread per
+    stitch. (The feed rate's rise of the peak the model does not give on the shipped head:
+    docs/head.md, The thread under tension.)"""
+    mech, timing = head
+    base = shipped_tension
+    tighter = needle_tension(mech, timing, settings=dataclasses.replace(DEFAULTS, needle_tension=2.4))
+    assert tighter.peak > base.peak
+    stretchier = needle_tension(mech, timing, settings=dataclasses.replace(DEFAULTS, elongation_at_break=0.25))
+    assert stretchier.peak < base.peak
+    longer = dataclasses.replace(
+        mech, balance=dataclasses.replace(mech.balance, check_spring_travel=mech.balance.check_spring_travel + 3e-3)
+    )
+    more = needle_tension(longer, head_timing(longer))
+    assert more.peak > base.peak
+    assert more.per_stitch <= base.per_stitch
+
+
+def test_the_shipped_head_holds_its_thread_and_reports_it(shipped_tension):
+    t = shipped_tension
+    assert isinstance(t, NeedleTension)
+    assert 1.0 < t.margin
+    assert t.failures() == ()
+    d = t.as_dict()
+    assert d["converged"] is True and d["peak_N"] == pytest.approx(t.peak, abs=1e-6)
+    names, cols = t.columns()
+    assert len(names) == len(cols) == len(t.zones) + 3
+
+
+def test_a_chain_stitch_head_is_not_modelled_under_tension():
+    mech = mechanism.load(CHAIN)
+    timing = head_timing(mech)
+    assert of_head(mech, timing) is None
+    with pytest.raises(TensionError, match="lockstitch"):
+        needle_tension(mech, timing)
+
+
+def test_every_default_names_its_source_or_says_it_is_a_choice():
+    for key, source in SOURCES.items():
+        assert source.startswith("[choice]") or any(ch.isdigit() for ch in source), key
+
+
+def test_the_shipped_head_gives_the_published_defaults():
+    """The shipped file writes every [tension] value out, each with its source in a comment: the
+    defaults a file without the table gets are the same numbers."""
+    assert mechanism.load(HEAD).tension == DEFAULTS
+    assert mechanism.parse(_without_tension()).tension is None
+
+
+TABLE = "\n[tension]\n"
+
+
+def _without_tension() -> str:
+    """The shipped head's text without its [tension] table (comments kept)."""
+    out, inside = [], False
+    for line in HEAD.read_text().splitlines():
+        if line.startswith("["):
+            inside = line.strip() == "[tension]"
+        if not inside:
+            out.append(line)
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ("friction = -0.1", "friction"),
+        ("elongation_at_break = 1.5", "elongation_at_break"),
+        ("elongation_at_break = 0", "elongation_at_break"),
+        ("needle_tension = 1e300", "needle_tension"),
+        ("needle_tension = nan", "needle_tension"),
+        ("breaking_load = '12 kg'", "breaking_load"),
+        ("spring_force = '30 g'", "spring_force"),
+        ("eye_wrap = 400", "eye_wrap"),
+        ("tension = 1", "tension"),
+        ("spring_mass = 0", "spring_mass"),
+    ],
+)
+def test_a_bad_tension_table_is_one_line_naming_its_key(body, message):
+    text = _without_tension() + TABLE + body + "\n"
+    with pytest.raises(MjlinkError) as e:
+        mechanism.parse(text)
+    assert "\n" not in str(e.value) and message in str(e.value)
+
+
+def test_a_tension_table_takes_the_units_makers_quote():
+    text = _without_tension() + TABLE + "needle_tension = '160 gf'\nspring_force = '30cN'\nspring_rate = '30 N/m'\n"
+    t = mechanism.parse(text).tension
+    assert t is not None
+    assert t.needle_tension == pytest.approx(160 * GF, rel=1e-12)
+    assert t.spring_force == pytest.approx(0.3, rel=1e-12)
+    assert t.spring_rate == pytest.approx(30.0, rel=1e-12)
+    assert t.friction == DEFAULTS.friction
+
+
+def test_a_tension_table_needs_a_balance_table():
+    text = _without_tension()
+    start = text.index("[balance]")
+    end = text.index("[dynamics]")
+    cut = text[:start] + text[end:] + TABLE + "friction = 0.1\n"
+    with pytest.raises(MjlinkError, match=r"\[tension\]"):
+        mechanism.parse(cut)
