@@ -3,7 +3,7 @@ its cost beside ``simulate takeup``.
 
 Prints, with the shipped head's file and the published defaults, every row of docs/head.md's
 table "The shipped head, against published measurements": the peak and where it is, the local
-peaks of the stitch, the peak without the check spring, with 1.5x the needle tension, with twice
+peaks of the stitch, the hook point's upper points and where the check spring leaves its rest, the peak without the check spring, with 1.5x the needle tension, with twice
 the thread's elongation at break, with 2, 3 and 4 mm stitches, with 3 mm more spring travel, and
 the peak on a step 2.5x finer. Then the cost: the CPU of the tension of one stitch (to its
 periodic state; the head's timing measured once, before), as the median of ``--repeat`` runs,
@@ -65,6 +65,18 @@ def comparisons() -> None:
     for z, T in zip(base.zones, base.tension, strict=True):
         print(f"    {z:12s} up to {T.max() / GF:6.1f} gf at {base.theta[int(np.argmax(T))]:6.2f} deg")
     print("    local peaks (deg, gf): " + ", ".join(f"({a:.1f}, {g:.0f})" for a, g in _peaks(base)))
+    assert mech.timing is not None
+    hp = head.positions[mech.timing.roles["hook_point"]][:, 1]
+    n = len(hp)
+    tops = [float(head.theta[i]) for i in range(n) if hp[i] >= hp[i - 1] and hp[i] >= hp[(i + 1) % n]]
+    x = base.spring
+    starts = [float(base.theta[i]) for i in range(len(x)) if x[i] > 0.0 and x[i - 1] == 0.0]
+    print(
+        "    the hook point's upper point at (deg): "
+        + ", ".join(f"{a:.2f}" for a in tops)
+        + "; the check spring leaves its rest at (deg): "
+        + ", ".join(f"{a:.2f}" for a in starts)
+    )
     print(_row("without the check spring", needle_tension(mech, head, spring=False)))
     s = dataclasses.replace(DEFAULTS, needle_tension=1.5 * DEFAULTS.needle_tension)
     print(_row("1.5x the needle tension", needle_tension(mech, head, settings=s)))

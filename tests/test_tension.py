@@ -39,21 +39,26 @@ def _chain(s, lengths, pull_steps):
         lengths[-1] += d
         s = list(s)
         s[-1] += d
-        c = [EA / L for L in lengths]
-        s, got = _settle(s, c, r, HOLD, state)
+        s, got = _settle(s, lengths, EA, r, HOLD, state)
         fed += got
     return s, fed, lengths
 
 
 def _tensions(s, lengths):
-    return [EA * max(x, 0.0) / L for x, L in zip(s, lengths, strict=True)]
+    """EA times the strain on the thread's own length: a stretch of path L holds L - s of it."""
+    return [EA * max(x, 0.0) / (L - x) for x, L in zip(s, lengths, strict=True)]
+
+
+def _at(T, L):
+    """The stretch of a path L at tension T: T = EA s / (L - s)."""
+    return T * L / (EA + T)
 
 
 def test_a_thread_drawn_out_of_the_eye_slides_over_every_contact_at_its_capstan_bound():
     """Euler-Eytelwein: drawn slowly through the discs, the tension leaves them at their hold and
     grows by exp(mu * turn) over each contact, whatever the stretches' lengths; the discs let
     through what was drawn less what the stretches took up in stretch."""
-    s0 = [HOLD * L / EA for L in LENGTHS]
+    s0 = [_at(HOLD, L) for L in LENGTHS]
     s, fed, lengths = _chain(s0, LENGTHS, [1e-5] * 500)
     expected = [HOLD * math.exp(MU * sum(TURNS[:i])) for i in range(len(LENGTHS))]
     assert _tensions(s, lengths) == pytest.approx(expected, rel=1e-9)
@@ -64,20 +69,27 @@ def test_a_thread_let_back_holds_at_the_discs_and_slides_back_at_the_reverse_bou
     """Let back far enough, every contact slides the other way (the tension falls towards the
     eye by exp(mu * turn) over each) and the discs pass nothing back: the thread the chain holds
     is what it held, so the stretches' sum fixes the one tension scale."""
-    s0 = [HOLD * L / EA for L in LENGTHS]
+    s0 = [_at(HOLD, L) for L in LENGTHS]
     s1, _, lengths = _chain(s0, LENGTHS, [1e-5] * 500)
     back = 6.9e-4  # to about half the hold at the discs: every contact slides back
     s, fed, lengths = _chain(s1, lengths, [-back / 100] * 100)
     assert fed == 0.0
     assert sum(s) == pytest.approx(sum(s1) - back, rel=1e-12)
     w = [math.exp(-MU * sum(TURNS[:i])) for i in range(len(LENGTHS))]
-    t0 = EA * sum(s) / sum(wi * L for wi, L in zip(w, lengths, strict=True))
+    # The scale whose stretches sum to the chain's, by bisection.
+    lo, hi = 0.0, 10.0
+    for _ in range(200):
+        t0 = (lo + hi) / 2
+        if sum(_at(t0 * wi, L) for wi, L in zip(w, lengths, strict=True)) < sum(s):
+            lo = t0
+        else:
+            hi = t0
     assert 0.0 < t0 < HOLD
     assert _tensions(s, lengths) == pytest.approx([t0 * wi for wi in w], rel=1e-9)
 
 
 def test_a_thread_let_back_beyond_its_stretch_goes_slack_everywhere():
-    s0 = [HOLD * L / EA for L in LENGTHS]
+    s0 = [_at(HOLD, L) for L in LENGTHS]
     s, fed, lengths = _chain(s0, LENGTHS, [-1e-4] * 50)
     assert fed == 0.0
     assert sum(s) == pytest.approx(sum(s0) - 5e-3, rel=1e-12)
@@ -85,17 +97,18 @@ def test_a_thread_let_back_beyond_its_stretch_goes_slack_everywhere():
 
 
 def test_without_friction_one_tension_holds_the_whole_stretch():
-    """With no friction the thread slides freely: one tension, EA times the chain's stretch over
-    its length, below the discs' hold; at the hold they let thread through."""
+    """With no friction the thread slides freely: one tension, EA times the strain of the thread
+    the chain holds, below the discs' hold."""
     s0 = [0.0] * len(LENGTHS)
     r = [1.0] * len(LENGTHS)
     lengths = list(LENGTHS)
     lengths[-1] += 1e-4
     s = list(s0)
     s[-1] += 1e-4
-    s, fed = _settle(s, [EA / L for L in lengths], r, HOLD, [0] * len(LENGTHS))
+    s, fed = _settle(s, lengths, EA, r, HOLD, [0] * len(LENGTHS))
     assert fed == 0.0
-    assert _tensions(s, lengths) == pytest.approx([EA * 1e-4 / sum(lengths)] * len(LENGTHS), rel=1e-9)
+    held = sum(LENGTHS)  # the thread in the chain: its first paths, unstretched
+    assert _tensions(s, lengths) == pytest.approx([EA * (sum(lengths) - held) / held] * len(LENGTHS), rel=1e-9)
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +125,7 @@ def shipped_tension(head):
 def test_a_stitch_draws_through_the_discs_the_thread_it_locks(head, shipped_tension):
     """In the periodic state the discs let through per stitch what the set stitch locks: its
     stitch length and fabric (stitch_length + fabric) of thread at the tension below the eye as
-    it is set (T = EA * strain: less thread, stretched, fills the same length)."""
+    it is set (T = EA * strain: thread stretched by 1 + T / EA fills the same length)."""
     mech, _ = head
     t = shipped_tension
     assert t.converged
@@ -121,7 +134,7 @@ def test_a_stitch_draws_through_the_discs_the_thread_it_locks(head, shipped_tens
     formula = mech.balance.stitch_length + mech.timing.fabric
     assert t.formula == pytest.approx(formula, rel=1e-15)
     # A tenth of a micrometre: 2e-5 of the stitch's thread, far below any measurable consumption.
-    assert t.per_stitch == pytest.approx(formula * (1.0 - at_set / t.stiffness), abs=1e-7)
+    assert t.per_stitch == pytest.approx(formula / (1.0 + at_set / t.stiffness), abs=1e-7)
 
 
 def test_the_discs_let_thread_through_only_at_their_hold(shipped_tension):

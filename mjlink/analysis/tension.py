@@ -2,7 +2,7 @@
 
 The thread is massless and linear-elastic: a stretch of thread between two contact points
 (guides, eyelets, the check spring's hook, the needle's eye) holds ``m`` of unstretched thread
-over a path of length ``L`` and pulls with ``T = EA * (L - m) / L`` when ``L > m``, nothing when
+over a path of length ``L`` and pulls with ``T = EA * (L - m) / m`` when ``L > m``, nothing when
 it is slack (a loop). The thread moves between neighbouring stretches only by sliding over the
 contact between them, which it does when the tension ratio across the contact reaches the
 capstan bound ``exp(mu * beta)`` (Euler-Eytelwein, ``beta`` the angle the thread turns through
@@ -148,13 +148,42 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return out
 
 
-def _settle(s: list[float], c: list[float], r: list[float], hold: float, state: list[int]) -> tuple[list[float], float]:
+def _pull(ea: float, s: float, L: float) -> float:
+    """N: a stretch's tension, ``s`` m of stretch over a path ``L`` m (it holds ``L - s`` of
+    thread): EA times the strain on the thread's own length, none when slack."""
+    return ea * s / (L - s) if s > 0.0 else 0.0
+
+
+def _stretched(ea: float, T: float, L: float) -> float:
+    """m: the stretch of a path ``L`` m at tension ``T`` N (the inverse of :func:`_pull`)."""
+    return T * L / (ea + T)
+
+
+def _scale(ea: float, w: list[float], L: list[float], total: float) -> float:
+    """N: the tension scale ``t`` of a run of stretches whose tensions are ``t * w`` over paths
+    ``L`` with ``total`` m of stretch between them (> 0): Newton on the run's stretch, which
+    grows and bends down with ``t``, from the small-strain value below the root (monotone)."""
+    t = ea * total / sum(wi * Li for wi, Li in zip(w, L, strict=True))
+    for _ in range(60):
+        f = sum(t * wi * Li / (ea + t * wi) for wi, Li in zip(w, L, strict=True)) - total
+        df = sum(ea * wi * Li / (ea + t * wi) ** 2 for wi, Li in zip(w, L, strict=True))
+        step = f / df
+        t -= step
+        if abs(step) <= 1e-14 * t:
+            break
+    return t
+
+
+def _settle(
+    s: list[float], L: list[float], ea: float, r: list[float], hold: float, state: list[int]
+) -> tuple[list[float], float]:
     """The thread's equilibrium after a step: the stretches ``s`` (m: each stretch's path length
-    minus the thread it holds; tension ``c * s`` where positive) and the contacts' capstan bounds
-    ``r`` (``r[j]`` between stretches j-1 and j; ``r[0]`` unused), the discs holding up to
-    ``hold`` N. ``state[j]`` is contact j's (the discs' for j = 0): 0 holding, +1 the thread
-    sliding towards the eye, -1 away from it (never for the discs); it is the last step's on
-    entry and this one's on return. Returns the new stretches and the thread the discs let in.
+    ``L`` minus the thread it holds; tension :func:`_pull`), the thread's ``ea`` (N), the
+    contacts' capstan bounds ``r`` (``r[j]`` between stretches j-1 and j; ``r[0]`` unused), the
+    discs holding up to ``hold`` N. ``state[j]`` is contact j's (the discs' for j = 0): 0
+    holding, +1 the thread sliding towards the eye, -1 away from it (never for the discs); it is
+    the last step's on entry and this one's on return. Returns the new stretches and the thread
+    the discs let in.
 
     An active set: contacts that slide link their neighbours' tensions (the ratio on its bound),
     so each run of stretches between holding contacts shares one tension scale and keeps its
@@ -175,40 +204,39 @@ def _settle(s: list[float], c: list[float], r: list[float], hold: float, state: 
                 w.append(w[-1] * (r[j] if state[j] > 0 else 1.0 / r[j]))
             total = sum(s[start : end + 1])
             if start == 0 and state[0] != 0:
-                scale = hold
                 for i in range(start, end + 1):
-                    new[i] = scale * w[i - start] / c[i]
+                    new[i] = _stretched(ea, hold * w[i - start], L[i])
                 fed = total - sum(new[start : end + 1])
+            elif total > 0.0:
+                scale = _scale(ea, w, L[start : end + 1], total)
+                for i in range(start, end + 1):
+                    new[i] = _stretched(ea, scale * w[i - start], L[i])
             else:
-                compliance = sum(w[i - start] / c[i] for i in range(start, end + 1))
-                if total > 0.0:
-                    for i in range(start, end + 1):
-                        new[i] = total * w[i - start] / c[i] / compliance
-                else:
-                    # Slack: no tension; the taut stretches have drawn the slack of the others.
-                    loose = sum(x for x in s[start : end + 1] if x < 0.0)
-                    for i in range(start, end + 1):
-                        new[i] = s[i] * total / loose if s[i] < 0.0 else 0.0
+                # Slack: no tension; the taut stretches have drawn the slack of the others.
+                loose = sum(x for x in s[start : end + 1] if x < 0.0)
+                for i in range(start, end + 1):
+                    new[i] = s[i] * total / loose if s[i] < 0.0 else 0.0
             start = end + 1
         # What each contact passed towards the eye (positive), from the discs' feed down; the
         # worst contact out of its state changes it, one at a time (changing every one at
-        # once can cycle).
+        # once can cycle). Thread passed is weighed by the stiffness of a stretch, EA / L.
+        T = [_pull(ea, x, Li) for x, Li in zip(new, L, strict=True)]
         worst, to, most = -1, 0, 0.0
         passed = fed
-        if state[0] != 0 and fed < -TINY_M and -fed * c[0] > most:
-            worst, to, most = 0, 0, -fed * c[0]
+        if state[0] != 0 and fed < -TINY_M and -fed * ea / L[0] > most:
+            worst, to, most = 0, 0, -fed * ea / L[0]
         for j in range(1, n):
             passed += new[j - 1] - s[j - 1]
-            ta, tb = c[j - 1] * max(new[j - 1], 0.0), c[j] * max(new[j], 0.0)
+            ta, tb = T[j - 1], T[j]
             if state[j] == 0:
                 if tb > r[j] * ta * (1.0 + TOL) + TINY and tb - r[j] * ta > most:
                     worst, to, most = j, 1, tb - r[j] * ta
                 elif ta > r[j] * tb * (1.0 + TOL) + TINY and ta - r[j] * tb > most:
                     worst, to, most = j, -1, ta - r[j] * tb
-            elif state[j] * passed < -TINY_M and abs(passed) * c[j] > most:
-                worst, to, most = j, 0, abs(passed) * c[j]
-        if state[0] == 0 and c[0] * max(new[0], 0.0) > hold * (1.0 + TOL) and c[0] * new[0] - hold > most:
-            worst, to, most = 0, 1, c[0] * new[0] - hold
+            elif state[j] * passed < -TINY_M and abs(passed) * ea / L[j] > most:
+                worst, to, most = j, 0, abs(passed) * ea / L[j]
+        if state[0] == 0 and T[0] > hold * (1.0 + TOL) and T[0] - hold > most:
+            worst, to, most = 0, 1, T[0] - hold
         if worst < 0:
             return new, fed
         state[worst] = to
@@ -257,13 +285,15 @@ def _hook_stiffness(
 @dataclass(frozen=True, kw_only=True)
 class _Step:
     """The thread's equilibrium in one step, the spring's hook at one place: the path ``L`` (m),
-    the capstan bounds ``r``, the stretches' ``c = EA / L`` (N/m), the stretches ``s`` (m), the
+    the capstan bounds ``r``, the stretches' tangent stiffness ``c`` (N/m), tensions ``T`` (N)
+    and stretches ``s`` (m), the
     contacts' ``state``, the thread the discs let in (m) and the hook's ``ga``, ``gb`` (how fast
     the stretches either side shorten as it moves)."""
 
     L: list[float]
     r: list[float]
     c: list[float]
+    T: list[float]
     s: list[float]
     state: list[int]
     fed: float
@@ -313,10 +343,15 @@ class _Thread:
         it slides, so its stretch first follows its path's length."""
         L, r, ga, gb = self.geometry(k, xh)
         moved = [si + (Li - Pi) for si, Li, Pi in zip(s, L, prev, strict=True)]
-        c = [self.stiffness / Li for Li in L]
         st = list(state)
-        moved, fed = _settle(moved, c, r, self.hold, st)
-        return _Step(L=L, r=r, c=c, s=moved, state=st, fed=fed, ga=ga, gb=gb)
+        moved, fed = _settle(moved, L, self.stiffness, r, self.hold, st)
+        # Each stretch's tangent stiffness dT/ds, for the spring's Newton steps.
+        c = [
+            self.stiffness * Li / (Li - x) ** 2 if x > 0.0 else self.stiffness / Li
+            for x, Li in zip(moved, L, strict=True)
+        ]
+        T = [_pull(self.stiffness, x, Li) for x, Li in zip(moved, L, strict=True)]
+        return _Step(L=L, r=r, c=c, T=T, s=moved, state=st, fed=fed, ga=ga, gb=gb)
 
 
 def _wrap(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -429,7 +464,7 @@ def needle_tension(
     m_s, k_s = cfg.spring_mass, cfg.spring_rate
     c_s = 2.0 * cfg.spring_damping * math.sqrt(k_s * m_s)
     inertia, damp = m_s / (dt * dt), c_s / dt
-    s = [hold * L / cfg.stiffness for L in lengths[:, order[0]]]  # every stretch at the discs' hold
+    s = [_stretched(cfg.stiffness, hold, L) for L in lengths[:, order[0]]]  # every stretch at the discs' hold
     x = v = 0.0
     out_T = np.zeros((n, segs))
     out_x = np.zeros(n)
@@ -454,7 +489,7 @@ def needle_tension(
                 # balance the thread's pull (Newton on the hook's place, the thread settled at
                 # each): stable at any speed, the thread being far stiffer than the spring.
                 for _ in range(MOST_NEWTON):
-                    T = [ci * si if si > 0.0 else 0.0 for ci, si in zip(now.c, now.s, strict=True)]
+                    T = now.T
                     f = T[cs - 1] * now.ga + T[cs] * now.gb
                     g = inertia * (xh - x - dt * v) + damp * (xh - x) + cfg.spring_force + k_s * xh - f
                     stiff = inertia + damp + k_s + _hook_stiffness(now.s, now.c, now.r, now.state, cs, now.ga, now.gb)
@@ -467,7 +502,7 @@ def needle_tension(
                 x = xh
             s, state, prev = now.s, now.state, now.L
             fed += now.fed
-            out_T[k] = [ci * si if si > 0.0 else 0.0 for ci, si in zip(now.c, s, strict=True)]
+            out_T[k] = now.T
             out_x[k] = x
             out_d[k] = fed
         if cycles > 1 and abs(fed - last) <= PERIODIC:
