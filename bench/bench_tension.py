@@ -5,7 +5,9 @@ Prints, with the shipped head's file and the published defaults, every row of do
 table "The shipped head, against published measurements": the peak and where it is, the local
 peaks of the stitch, the hook point's upper points and where the check spring leaves its rest, the peak without the check spring, with 1.5x the needle tension, with twice
 the thread's elongation at break, with 2, 3 and 4 mm stitches, with 3 mm more spring travel, and
-the peak on a step 2.5x finer. Then the cost: the CPU of the tension of one stitch (to its
+the peak on a step 2.5x finer; then MuJoCo's thread (a tendon that only pulls, the spring a
+sprung slide) against the reference's anchored thread with friction off, and the reference with
+friction beside it. Then the cost: the CPU of the tension of one stitch (to its
 periodic state; the head's timing measured once, before), as the median of ``--repeat`` runs,
 and the CPU of ``python -m mjlink simulate takeup --no-video --no-plots`` in a fresh process,
 interleaved with them, and their ratio.
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import itertools
 import os
 import resource
 import statistics
@@ -93,6 +96,43 @@ def comparisons() -> None:
     print(_row("a step 2.5x finer (3,600 a stitch)", needle_tension(mech, head, samples=3600)))
 
 
+def mujoco_comparison() -> None:
+    """MuJoCo's tendon and sprung check spring against the reference's anchored thread, friction
+    off (tests/test_tension.py holds it), and the reference with the file's friction beside."""
+    from mjlink.sim.thread import run_thread
+
+    mech = mechanism.load(shipped("mechanisms") / "lockstitch_head.toml")
+    head = head_timing(mech)
+    assert mech.thread is not None
+    path = mech.thread
+    L = sum(np.linalg.norm(head.positions[b] - head.positions[a], axis=1) for a, b in itertools.pairwise(path))
+    held = float(L.max()) - 5e-3
+    off = dataclasses.replace(DEFAULTS, friction=0.0)
+    c0 = _cpu()
+    mj = run_thread(mech, held, settings=off, cycles=3)
+    print(
+        f"MuJoCo, friction off: {_cpu() - c0:.2f} s CPU, timestep {mj.timestep:.3g} s, {len(mj.theta)} samples a stitch"
+    )
+    for samples in (1440, 7200):
+        ref = needle_tension(mech, head, settings=off, anchored=held, cycles=3, samples=samples)
+        T = np.interp(mj.theta, ref.theta, ref.tension[0])
+        x = np.interp(mj.theta, ref.theta, ref.spring)
+        away = (x > 2e-4) & (mj.spring > 2e-4)
+        print(
+            f"  reference on {samples} steps a stitch: peak {ref.peak:.5f} N against MuJoCo's {mj.tension.max():.5f}; "
+            f"tension within {np.abs(T - mj.tension).max() / mj.tension.max():.2%} of the peak; spring travel up to "
+            f"{ref.spring.max() * 1e3:.3f} mm against {mj.spring.max() * 1e3:.3f}, within "
+            f"{np.abs(x - mj.spring)[away].max() * 1e3:.3f} mm off its rest stop, {np.abs(x - mj.spring).max() * 1e3:.3f} mm "
+            f"in all (MuJoCo's least {mj.spring.min() * 1e3:.3f} mm)"
+        )
+    on = needle_tension(mech, head, anchored=held, cycles=3)
+    zone, at = on.peak_at
+    print(
+        f"  with the file's friction ({DEFAULTS.friction:g}): peak {on.peak:.4f} N in {zone} at {at:.1f} deg, the spring up to "
+        f"{on.spring.max() * 1e3:.2f} mm"
+    )
+
+
 def _cpu() -> float:
     r = resource.getrusage(resource.RUSAGE_SELF)
     return r.ru_utime + r.ru_stime
@@ -150,6 +190,7 @@ def main() -> None:
     ap.add_argument("--no-cost", action="store_true", help="only the comparisons")
     a = ap.parse_args()
     comparisons()
+    mujoco_comparison()
     if not a.no_cost:
         cost(a.repeat)
 

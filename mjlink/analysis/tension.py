@@ -384,6 +384,8 @@ def needle_tension(
     spring: bool = True,
     samples: int = SAMPLES,
     most_cycles: int = 80,
+    anchored: float | None = None,
+    cycles: int | None = None,
 ) -> NeedleTension:
     """The needle thread's tension over one stitch of a lockstitch ``head``, at the file's speed,
     in its periodic state (the module's docstring says what is modelled).
@@ -396,6 +398,12 @@ def needle_tension(
       spring: False takes the check spring away (its hook a fixed guide).
       samples: steps per stitch.
       most_cycles: stitches run at most to reach the periodic state.
+      anchored: hold this much thread (m, unstretched) at the discs (they never let it
+        through) and at the eye, with nothing below it, the spring at rest at the needle bar's
+        top and any slack there in the first stretch: what a MuJoCo tendon through the same
+        path models (:mod:`mjlink.sim.thread`).
+      cycles: run exactly this many stitches from the start and give the last (``converged``
+        then says only that they ran).
     Returns:
       :class:`NeedleTension` on ``samples`` angles.
     Raises:
@@ -425,16 +433,19 @@ def needle_tension(
     below = below + np.where(setting, formula, 0.0)
     order = np.roll(np.arange(n), -k0)
 
-    segs = len(path)  # the path's stretches and the one below the eye
+    if anchored is not None:
+        order = np.arange(n)
+    segs = len(path) - (1 if anchored is not None else 0)  # the path's stretches and the one below the eye
     lengths = np.zeros((segs, n))
-    for i in range(segs - 1):
+    for i in range(len(path) - 1):
         lengths[i] = np.linalg.norm(P[path[i + 1]] - P[path[i]], axis=1)
-    lengths[-1] = below
     # The turn at each contact j (between stretches j-1 and j); the eye's is given.
     wraps = np.zeros((segs, n))
-    for j in range(1, segs - 1):
+    for j in range(1, len(path) - 1):
         wraps[j] = _wrap(P[path[j - 1]], P[path[j]], P[path[j + 1]])
-    wraps[-1] = cfg.eye_wrap
+    if anchored is None:
+        lengths[-1] = below
+        wraps[-1] = cfg.eye_wrap
 
     cs = path.index(bal.check_spring)
     travel = bal.check_spring_travel if spring else 0.0
@@ -447,7 +458,7 @@ def needle_tension(
     stop = rest[:1] + travel * pull[:1]
     at_top = wraps[:, 0].copy()
     at_top[cs] = _wrap(up[:1], stop, down[:1])[0]
-    hold = disc_hold(float(np.exp(cfg.friction * at_top[1:].sum())), cfg)
+    hold = math.inf if anchored is not None else disc_hold(float(np.exp(cfg.friction * at_top[1:].sum())), cfg)
 
     thread = _Thread(
         lengths=lengths.T.tolist(),
@@ -464,7 +475,12 @@ def needle_tension(
     m_s, k_s = cfg.spring_mass, cfg.spring_rate
     c_s = 2.0 * cfg.spring_damping * math.sqrt(k_s * m_s)
     inertia, damp = m_s / (dt * dt), c_s / dt
-    s = [_stretched(cfg.stiffness, hold, L) for L in lengths[:, order[0]]]  # every stretch at the discs' hold
+    # Every stretch at the discs' hold, or the thread held with its slack in the first.
+    if anchored is None:
+        s = [_stretched(cfg.stiffness, hold, L) for L in lengths[:, order[0]]]
+    else:
+        s = [0.0] * segs
+        s[0] = float(lengths[:, order[0]].sum()) - anchored
     x = v = 0.0
     out_T = np.zeros((n, segs))
     out_x = np.zeros(n)
@@ -472,11 +488,12 @@ def needle_tension(
     state = [0] * segs
     last, fed = math.nan, 0.0
     prev = thread.geometry(int(order[0]), x)[0]
-    cycles, converged = 0, False
-    for cycles in range(1, most_cycles + 1):
+    converged = False
+    ran = 0
+    for ran in range(1, (cycles or most_cycles) + 1):
         fed = 0.0
         for step, k in enumerate(order.tolist()):
-            if step == 0 and cycles > 1:
+            if step == 0 and ran > 1 and anchored is None:
                 # The stitch is set: its thread is locked in the fabric and leaves the stretch
                 # below the eye at the tension it was set with.
                 if s[-1] > 0.0:
@@ -505,10 +522,11 @@ def needle_tension(
             out_T[k] = now.T
             out_x[k] = x
             out_d[k] = fed
-        if cycles > 1 and abs(fed - last) <= PERIODIC:
+        if cycles is None and ran > 1 and abs(fed - last) <= PERIODIC:
             converged = True
             break
         last = fed
+    converged = converged or cycles is not None
     zones = (*(f"{a}-{b}" for a, b in itertools.pairwise(path)), f"below {path[-1]}")
     return NeedleTension(
         theta=theta,
@@ -522,6 +540,6 @@ def needle_tension(
         hold=hold,
         stiffness=cfg.stiffness,
         breaking_load=cfg.breaking_load,
-        cycles=cycles,
+        cycles=ran,
         converged=converged,
     )
