@@ -317,3 +317,41 @@ def test_mujoco_carries_the_thread_and_its_spring_as_the_reference_does(head):
     off = (x > 2e-4) & (mj.spring > 2e-4)
     assert np.abs(x - mj.spring)[off].max() <= 1e-4  # m; the docstring says why
     assert np.abs(x - mj.spring).max() <= 2e-4  # m; the docstring says why
+
+
+def test_a_study_varies_the_tension_table_and_measures_each_head_as_simulate_would(tmp_path):
+    """The study metric 'tension' (studies/lockstitch_head_tension.toml ships one) gives each
+    variant what needle_tension gives the head with that variant's numbers, on the study's
+    crank angles: the table's numbers and the speed reach the model."""
+    from mjlink.api import read_study, run_study
+
+    study = tmp_path / "t.toml"
+    study.write_text(
+        f"""[study]
+mechanism = "{HEAD.as_posix()}"
+title = "tension"
+angles = 720
+[sampling]
+method = "grid"
+[verify]
+mujoco = "none"
+[[parameter]]
+path = "tension.needle_tension"
+values = [1.6, 2.4]
+[[parameter]]
+path = "input.speed"
+values = [314.159, 523.599]
+[[metric]]
+kind = "tension"
+"""
+    )
+    run_study(study, tmp_path / "out", workers=0, plots=False)
+    table = read_study(tmp_path / "out" / "t-study")
+    base = mechanism.load(HEAD)
+    assert len(table) == 4
+    for i in range(4):
+        nt, w = float(table["tension.needle_tension_N"][i]), float(table["input.speed_rad_s"][i])
+        own = dataclasses.replace(base, speed=w, tension=dataclasses.replace(DEFAULTS, needle_tension=nt))
+        expected = needle_tension(own, head_timing(own, samples=720), samples=720)
+        assert float(table["tension_peak_N"][i]) == pytest.approx(expected.peak, rel=1e-6)
+        assert float(table["tension_spring_mm"][i]) == pytest.approx(expected.spring.max() * 1e3, rel=1e-6, abs=1e-9)

@@ -30,18 +30,22 @@ the fabric), the bobbin thread's pull at the interlacing, the loop's shape in th
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
 from ..model.timing import StitchType
-from .timing import HeadTiming, _between, _lock_below, hook_crank, stitch_end
+from ..reference.batch import Batch
+from .metric_base import Column, Curve, Loads, MetricError
+from .timing import HeadTiming, TimingChecks, _between, _lock_below, hook_crank, stitch_end
 
-__all__ = ["NeedleTension", "TensionError", "disc_hold", "needle_tension", "of_head"]
+__all__ = ["NeedleTension", "TensionError", "TensionMetric", "disc_hold", "needle_tension", "of_head"]
 
 TOL = 1e-9  # a contact holds while its tension ratio is within this of its capstan bound
 TINY = 1e-9  # N: tensions this small count as none
@@ -543,3 +547,65 @@ def needle_tension(
         cycles=ran,
         converged=converged,
     )
+
+
+class TensionMetric(TimingChecks):
+    """A lockstitch head's needle thread under tension, per variant (:func:`needle_tension` at
+    the variant's speed and [tension] numbers, on the study's crank angles): ``tension_peak``
+    N, ``tension_margin`` (the breaking load over the peak), ``tension_per_stitch`` mm (drawn
+    through the discs), ``tension_slack`` deg (of the stitch with the thread below the eye
+    slack: a loop), ``tension_spring`` mm (the check spring's largest travel) and
+    ``tension_periodic`` (1 where the stitch reached its periodic state)."""
+
+    kind = "tension"
+    options = ()
+
+    def read(self, raw: dict[str, Any]) -> None:
+        tm, bal = self.mech.timing, self.mech.balance
+        if tm is None or bal is None or not self.mech.thread or tm.stitch is not StitchType.LOCKSTITCH:
+            raise MetricError(
+                f"{self.where}: {self.mech.name} is not a lockstitch head with [timing], [thread] and [balance] "
+                "tables (docs/head.md, The thread under tension)"
+            )
+        self.maker, self.tag = tm.target, ""
+
+    def columns(self) -> list[Column]:
+        return [
+            Column("tension_peak", "N", "the needle thread's largest tension over the stitch"),
+            Column("tension_margin", "", "the thread's breaking load over its peak tension"),
+            Column("tension_per_stitch", "mm", "needle thread drawn through the discs per stitch"),
+            Column("tension_slack", "deg", "of the stitch the thread below the eye is slack (a loop)"),
+            Column("tension_spring", "mm", "the check spring's largest travel"),
+            Column("tension_periodic", "", "1 if the stitch reached its periodic state"),
+        ]
+
+    def _tensions(self, b: Batch) -> list[tuple[HeadTiming, NeedleTension]]:
+        out = []
+        for head, bal, _, own in self.variants(b):
+            whole = dataclasses.replace(head, balance=bal)
+            out.append((whole, needle_tension(own, whole, samples=len(head.theta))))
+        return out
+
+    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
+        rows = []
+        for _, t in self._tensions(b):
+            rows.append(
+                [
+                    t.peak,
+                    t.margin,
+                    t.per_stitch * 1e3,
+                    float(t.slack.mean()) * 360.0,
+                    float(t.spring.max()) * 1e3,
+                    float(t.converged),
+                ]
+            )
+        out = np.array(rows, dtype=float).reshape(b.variants, 6)
+        return {c.name: out[:, j] for j, c in enumerate(self.columns())}
+
+    def curve(self, b: Batch, loads: Loads) -> Curve | None:
+        """The largest tension of any stretch over the stitch, N."""
+        values = np.full((b.variants, b.angles), np.nan)
+        for i, (head, t) in enumerate(self._tensions(b)):
+            assert head.order is not None
+            values[i, head.order] = t.tension.max(axis=0)
+        return Curve("needle thread: largest tension", "N", values)

@@ -13,7 +13,7 @@ import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -339,7 +339,7 @@ class TimingChecks(Metric):
     :func:`head_timing` does, on the study's crank angles."""
 
     kind = "timing"
-    options = ("settings",)
+    options: ClassVar[tuple[str, ...]] = ("settings",)
 
     def read(self, raw: dict[str, Any]) -> None:
         tm = self.mech.timing
@@ -367,13 +367,18 @@ class TimingChecks(Metric):
 
     def _heads(self, b: Batch) -> list[tuple[HeadTiming, ThreadBalance | None, dict[str, TimingRow]]]:
         """Each variant's timing, thread balance (None without [balance]) and rows by key."""
+        return [(head, bal, rows) for head, bal, rows, _ in self.variants(b)]
+
+    def variants(self, b: Batch) -> list[tuple[HeadTiming, ThreadBalance | None, dict[str, TimingRow], Mechanism]]:
+        """Each variant's timing, thread balance, rows by key and its own head (the file's with
+        the variant's numbers of the [timing], [balance], [tension] tables and its speed)."""
         mech = b.mechanism
         tm = self.mech.timing
         assert tm is not None
         tm = dataclasses.replace(tm, target=self.maker)
         hook = hook_crank(self.mech)
         # The batch's angles run from phi0 counter-clockwise; the shaft's own sense may not.
-        u = b.theta if mech.speed >= 0 else np.mod(-b.theta, 2.0 * math.pi)
+        u = b.theta if _of(mech.speed, 0, b) >= 0 else np.mod(-b.theta, 2.0 * math.pi)
         names = set(tm.roles.values()) | {hook.pivot} | set(self.mech.thread or ())
         pts = {p: b.per_variant(np.broadcast_to(b.kin.points[p].v, (b.variants * b.angles, 3))) for p in names}
         out = []
@@ -395,10 +400,20 @@ class TimingChecks(Metric):
                         stretch=_of(vb.stretch, i, b),
                     ),
                 )
+            own = dataclasses.replace(own, speed=_of(mech.speed, i, b))
+            if self.mech.tension is not None or mech.tension is not None:
+                vt = mech.tension or self.mech.tension
+                assert vt is not None
+                own = dataclasses.replace(
+                    own,
+                    tension=dataclasses.replace(
+                        vt, **{f.name: _of(getattr(vt, f.name), i, b) for f in dataclasses.fields(vt)}
+                    ),
+                )
             head = measure(own_tm, hook, u, {p: v[i] for p, v in pts.items()})
             bal = thread_balance(own, head) if own.balance is not None and own.thread else None
             rows = {r.key: r for r in (*head.rows, *(bal.rows if bal else ())) if r.maker in (None, self.maker)}
-            out.append((head, bal, rows))
+            out.append((head, bal, rows, own))
         return out
 
     def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:

@@ -47,6 +47,9 @@ from ..units import DEG, MM, G
 from . import synthesis as synth
 from . import tomlio
 from .mechanism import Counterweight, Force, Mechanism, parse
+from .tension import BOUNDS as TENSION_BOUNDS
+from .tension import DEFAULTS as TENSION_DEFAULTS
+from .tension import SCALES as TENSION_SCALES
 from .timing import StitchType
 
 _AXES = ("x", "y", "z")
@@ -161,6 +164,10 @@ def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None
         add(f"balance.{body}", MM, "mm", True, getattr(mech.balance, body))
         add("balance.check_spring_travel", MM, "mm", False, mech.balance.check_spring_travel)
         add("balance.stretch", 1.0, "", False, mech.balance.stretch)
+        # The thread under tension: the file's [tension] numbers or the defaults it would take.
+        given = mech.tension or TENSION_DEFAULTS
+        for key, scale in TENSION_SCALES.items():
+            add(f"tension.{key}", scale, TENSION_BOUNDS[key].unit, False, getattr(given, key))
     if mech.synthesis is not None:
         sy = mech.synthesis
         add("synthesis.stroke", MM, "mm", True, sy.stroke)
@@ -251,6 +258,9 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
         elif sec == "balance":
             assert mech.balance is not None
             top["balance"] = dataclasses.replace(top.get("balance", mech.balance), **{parts[1]: v})
+        elif sec == "tension":
+            given = top.get("tension", mech.tension or TENSION_DEFAULTS)
+            top["tension"] = dataclasses.replace(given, **{parts[1]: v})
         else:  # catalogue() lists no other section
             raise PathError(f"{mech.name}: parameter path '{p.path}' cannot be varied")
     d = mech.dynamics
@@ -443,7 +453,7 @@ def _set(raw: dict, path: str, v: float) -> None:
         step[parts[2]] = v
     elif sec == "links":
         raw["links"][parts[1]][parts[2]] = v
-    elif sec in ("input", "steady", "thread", "synthesis", "counterweight", "timing", "balance"):
+    elif sec in ("input", "steady", "thread", "synthesis", "counterweight", "timing", "balance", "tension"):
         raw.setdefault(sec, {})[parts[1]] = v
     elif sec == "dynamics" and parts[1] == "motor":
         raw["dynamics"]["motor"][parts[2]] = v

@@ -30,7 +30,7 @@ from ..units import DEG, MM, G
 from .limits import Bound
 from .reader import Reader
 
-__all__ = ["BOUNDS", "DEFAULTS", "SOURCES", "ThreadTension", "read_tension"]
+__all__ = ["BOUNDS", "DEFAULTS", "SCALES", "SOURCES", "ThreadTension", "read_tension"]
 
 GF = 9.80665e-3  # N per gram-force: makers quote tensions in g
 
@@ -125,6 +125,8 @@ _TABLE: dict[str, tuple[float, float, Bound, str]] = {
 }
 
 BOUNDS: dict[str, Bound] = {k: v[2] for k, v in _TABLE.items()}
+SCALES: dict[str, float] = {k: v[1] for k, v in _TABLE.items()}
+"""Each key's factor from the file's unit to SI."""
 """Each key's range in the file's unit, with its reason."""
 SOURCES: dict[str, str] = {k: v[3] for k, v in _TABLE.items()}
 """Each default's source (or ``[choice]`` and why)."""
