@@ -3,7 +3,8 @@ its cost beside ``simulate takeup``.
 
 Prints, with the shipped head's file and the published defaults, every row of docs/head.md's
 table "The shipped head, against published measurements": the peak and where it is, the local
-peaks of the stitch, the hook point's upper points and where the check spring leaves its rest, the peak without the check spring, with 1.5x the needle tension, with twice
+peaks of the stitch, the hook point's upper points and where the check spring leaves its rest, the peak and the local
+peaks without the check spring, with 1.5x the needle tension, with twice
 the thread's elongation at break, with 2, 3 and 4 mm stitches, with 3 mm more spring travel, and
 the peak on a step 2.5x finer; then MuJoCo's thread (a tendon that only pulls, the spring a
 sprung slide) against the reference's anchored thread with friction off, and the reference with
@@ -80,7 +81,9 @@ def comparisons() -> None:
         + "; the check spring leaves its rest at (deg): "
         + ", ".join(f"{a:.2f}" for a in starts)
     )
-    print(_row("without the check spring", needle_tension(mech, head, spring=False)))
+    bare = needle_tension(mech, head, spring=False)
+    print(_row("without the check spring", bare))
+    print("    local peaks (deg, gf): " + ", ".join(f"({a:.1f}, {g:.0f})" for a, g in _peaks(bare)))
     s = dataclasses.replace(DEFAULTS, needle_tension=1.5 * DEFAULTS.needle_tension)
     print(_row("1.5x the needle tension", needle_tension(mech, head, settings=s)))
     s = dataclasses.replace(DEFAULTS, elongation_at_break=2 * DEFAULTS.elongation_at_break)

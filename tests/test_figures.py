@@ -155,6 +155,13 @@ def _head_report_and_page(run_figures) -> None:
     assert "needle thread tension (thread_tension.png)" in printed
     assert "thread_tension.png: needle thread tension" in page
     assert (out / "tension.csv").read_text().splitlines()[0].startswith("theta_deg,")
+    # The head's summary (report and first screen) carries the peak, its margin and the thread a
+    # stitch draws through the discs: the run's own tension, named as a study's metric.
+    rows = {r["metric"]: r["value"] for r in report["design"]["summary"]}
+    assert rows["tension_peak"] == pytest.approx(tension["peak_N"], abs=1e-6)
+    assert rows["tension_margin"] == pytest.approx(tension["breaking_load_N"] / tension["peak_N"], rel=1e-6)
+    assert rows["tension_per_stitch"] == pytest.approx(tension["per_stitch_mm"], abs=1e-6)
+    assert page.index("data-metric='tension_peak'") < page.index("id='timing'")
 
 
 @pytest.mark.slow

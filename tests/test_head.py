@@ -99,7 +99,7 @@ def test_the_shipped_head_meets_its_composite_target_and_says_which_machines_win
     # than the take-up gives beyond what the thread stretches (docs/head.md, The thread balance).
     assert [r.key for r in timing.rows if r.counts and not r.ok] == ["thread_shortfall"]
     for r in timing.rows:  # the general rows and the target's count, the slack is for information
-        assert r.counts == (r.maker in (None, TARGET) and r.key != "thread_slack")
+        assert r.counts == (r.maker in (None, TARGET) and r.key not in ("thread_slack", "loop_thread"))
     # The hook timing where the file's numbers put it (the head is built to the manual's 2.0 and
     # 1.4 mm): the same geometry solved in closed form; measured 1e-14 mm apart.
     pick, rise, above = hook_meets_needle()
@@ -343,11 +343,11 @@ def test_the_most_sensitive_tolerance_is_ranked_first_with_the_slope_of_a_finite
 
 
 # ----------------------------------------------------------------------------- thread balance
-def test_the_loop_wrapped_around_a_circle_in_closed_form():
+def test_the_chain_stitch_loop_wrapped_around_its_looper_in_closed_form():
     """A thread from a point straight above a circle's centre, carried round the circle by a
-    point on a larger radius: tangent + arc + tangent, each in closed form, to 1e-12 m; and
-    straight while the circle is not yet in the way."""
-    from mjlink.analysis.timing import wrapped
+    point on a larger radius (a chain stitch's looper): tangent + arc + tangent, each in closed
+    form, to 1e-12 m; and straight while the circle is not yet in the way."""
+    from mjlink.analysis.loop import wrapped
 
     R, d, rb = 0.0105, 0.02, 0.0135
     centre = np.array([0.0, 0.0])
@@ -365,13 +365,78 @@ def test_the_loop_wrapped_around_a_circle_in_closed_form():
     assert (np.diff(got) > 0).all()  # the loop grows as the hook carries it round
 
 
-def test_the_demand_of_a_straight_path_with_a_circular_loop_in_closed_form(head):
-    """The demand while the hook carries the loop, rebuilt from the traced points by the
-    formula of docs/head.md written out here: both legs wrapped round the bobbin case (the
-    fabric's from the underside of the needle's hole), the fabric's thickness, and the stitch
-    length along the top back to the last stitch's end; less the thread that ran straight from
-    the eye to that end when the stitch was set. It meets the demand before the pick-up without
-    a jump (the loop's legs start at the eye and the fabric's underside)."""
+def _leg_by_search(a, b, c, r, w):
+    """One leg of the loop (docs/head.md, The thread balance) from ``a`` to ``b`` (2D, m) outside
+    a case of radius ``r`` and half-width ``w`` on centre ``c``, written out here and minimised by
+    a plain grid search (0.25 deg, then 0.002 deg round the best) instead of Newton's method:
+    straight while the segment clears the rim; else the shorter of tangent + arc + tangent the
+    short way round, and the path over the face through two edge points, each free end straight
+    to its edge point where it sees it, else tangent to the side and up a helix (unrolled: one
+    straight line)."""
+    a, b, c = (np.asarray(v, float) for v in (a, b, c))
+    d = b - a
+    f = a - c
+    t = np.clip(-f @ d / (d @ d), 0.0, 1.0)
+    if np.linalg.norm(f + t * d) >= r:
+        return float(np.linalg.norm(d))
+    da, db = np.linalg.norm(a - c), np.linalg.norm(b - c)
+    between = math.acos(np.clip((a - c) @ (b - c) / (da * db), -1, 1))
+    rim = math.sqrt(da**2 - r**2) + math.sqrt(db**2 - r**2) + r * (between - math.acos(r / da) - math.acos(r / db))
+
+    def end(p, beta):
+        dp = np.linalg.norm(p - c)
+        toward = math.atan2(*(p - c)[::-1])
+        delta = np.angle(np.exp(1j * (beta - toward)))
+        seen = math.acos(r / dp)
+        straight = np.sqrt(dp**2 + r**2 - 2 * dp * r * np.cos(delta) + w**2)
+        helix = np.hypot(math.sqrt(dp**2 - r**2) + r * (np.abs(delta) - seen), w)
+        return np.where(np.abs(delta) <= seen, straight, helix)
+
+    def face(b1, b2):
+        return end(a, b1[:, None]) + 2 * r * np.abs(np.sin((b1[:, None] - b2[None, :]) / 2)) + end(b, b2[None, :])
+
+    grid = np.radians(np.arange(-180.0, 180.0, 0.25))
+    L = face(grid, grid)
+    i, j = np.unravel_index(np.argmin(L), L.shape)
+    fine = np.radians(np.arange(-0.5, 0.5, 0.002))
+    best = face(grid[i] + fine, grid[j] + fine).min()
+    return float(min(rim, best))
+
+
+def test_a_leg_of_the_loop_over_the_bobbin_case_in_closed_form_and_by_search():
+    """The leg from a point straight above the case's centre to the blade point straight below
+    it crosses the face from the top of the rim to its bottom: sqrt((d - r)^2 + w^2) + 2 r +
+    sqrt((rb - r)^2 + w^2), to 1e-12 m; everywhere round the hook's turn the leg is what a grid
+    search of the same paths finds (to 1e-9 m), straight while the case is not in the way, and
+    it varies without a jump as the blade point goes round (the rim's path hands over to the
+    face's where both are as long)."""
+    from mjlink.analysis.loop import case_leg, over_face
+
+    r, w, d, rb = 0.0105, 0.005, 0.0188, 0.0135
+    c = np.zeros(2)
+    got, edges = over_face(np.array([[0.0, d]]), np.array([[0.0, -rb]]), c, r, w)
+    closed = math.hypot(d - r, w) + 2 * r + math.hypot(rb - r, w)
+    assert got[0] == pytest.approx(closed, abs=1e-12)
+    np.testing.assert_allclose(np.degrees(edges[0]), [90.0, -90.0], atol=1e-9)
+    turned = np.radians(np.arange(0.0, 270.0, 0.5))
+    a = np.tile([0.002, d], (len(turned), 1))
+    blade = np.column_stack([-rb * np.sin(turned), rb * np.cos(turned)])  # carried round from the top
+    legs = case_leg(a, blade, c, r, w)
+    for k in (10, 100, 200, 280, 300, 330, 360, 420, 500, 530):
+        assert legs[k] == pytest.approx(_leg_by_search(a[k], blade[k], c, r, w), abs=1e-9)
+    assert legs[10] == pytest.approx(math.dist(a[10], blade[10]), abs=1e-15)  # 5 deg: not yet in the way
+    # No jump: the largest step between samples 0.5 deg apart is the blade point's own speed.
+    assert np.abs(np.diff(legs)).max() < rb * math.radians(0.5) * 1.01
+
+
+def test_the_demand_of_a_straight_path_with_a_loop_over_the_bobbin_case(head):
+    """The demand while the hook carries the loop, rebuilt from the traced points by the legs of
+    the test above (a grid search, not the program's Newton): the fabric's leg from the
+    underside of the needle's hole, the eye's from the eye while it is under the plate and
+    otherwise straight to the hole's top and down through the fabric; the fabric's thickness and
+    the stitch length along the top back to the last stitch's end; less the thread that ran
+    straight from the eye to that end when the stitch was set. It meets the demand before the
+    pick-up without a jump (the loop's legs start at the eye and the fabric's underside)."""
     t = head_timing(head)
     b = t.balance
     tm, bal = head.timing, head.balance
@@ -379,29 +444,54 @@ def test_the_demand_of_a_straight_path_with_a_circular_loop_in_closed_form(head)
     loop = ((t.theta - t.events["hook picks the loop"]) % 360) <= (
         (t.events["loop released"] - t.events["hook picks the loop"]) % 360
     )
-    i = np.nonzero(loop)[0][[5, 200, 1000, 2000, 2690]]
+    i = np.nonzero(loop)[0][[5, 200, 1000, 1800, 2690]]
     eye, hp, nt = P["NE"][i, :2], P["HP"][i, :2], P["NT"][i, :2]
-    c, R = head.ground["H"][:2], bal.bobbin_case / 2
-    turned = np.radians((t.theta[i] - t.events["hook picks the loop"]) % 360) * 2.0
-
-    def wrap(a, p, k):
-        da, dp = np.linalg.norm(a - c), np.linalg.norm(p - c)
-        ga = math.atan2(*(a - c)[::-1]) + math.acos(R / da)
-        gp = math.atan2(*(p - c)[::-1]) - math.acos(R / dp)
-        arc = gp - ga
-        arc += (
-            2 * math.pi * round((turned[k] - (math.atan2(*(p - c)[::-1]) - math.atan2(*(a - c)[::-1]))) / (2 * math.pi))
-        )
-        return math.sqrt(da**2 - R**2) + R * arc + math.sqrt(dp**2 - R**2) if arc > 0 else math.dist(a, p)
-
+    c, r, w = head.ground["H"][:2], bal.bobbin_case / 2, bal.bobbin_case_width / 2
     below = []
     for k, (e, h, n) in enumerate(zip(eye, hp, nt, strict=True)):
-        fabric = np.array([n[0] + b.hole[i[k]] * 1e-3, tm.plate])
-        below.append(wrap(e, h, k) + wrap(fabric, h, k) + tm.fabric + bal.stitch_length)
+        hole = n[0] + b.hole[i[k]] * 1e-3
+        fabric = _leg_by_search([hole, tm.plate], h, c, r, w)
+        if e[1] <= tm.plate:
+            to_eye = _leg_by_search(e, h, c, r, w)
+        else:
+            to_eye = math.hypot(e[0] - hole, e[1] - tm.plate - tm.fabric) + tm.fabric + fabric
+        below.append(to_eye + fabric + tm.fabric + bal.stitch_length)
     at_setting, tol = thread_at_setting(t, tm)
-    np.testing.assert_allclose(b.demand[i] * 1e-3, np.array(below) - at_setting, atol=tol + 1e-12)
+    np.testing.assert_allclose(b.demand[i] * 1e-3, np.array(below) - at_setting, atol=tol + 1e-9)
     j = np.nonzero(loop)[0][0]
     assert abs(b.demand[j] - b.demand[j - 1]) < 0.05  # mm, one sample apart at the pick-up
+
+
+def test_the_loop_takes_most_thread_below_the_material_with_the_blade_point_at_six_oclock(head):
+    """The third balance row: the loop's most thread below the throat plate (both legs), for
+    information against Union Special's "approximately 3-1/2 inches or 8.9 cm" per stitch (301
+    Stitch manual), a window of 15 %; the largest is where the blade point is lowest, within one
+    hour of the clock (30 deg) of six o'clock, as mechanics describe the greatest pull. A chain
+    stitch has no such row."""
+    t = head_timing(head)
+    row = _row(t, "loop_thread")
+    assert not row.counts and row.unit == "mm"
+    # The manual gives both 3-1/2 in (88.9 mm) and 8.9 cm: the window is either's within 0.2 %.
+    assert row.window.lo == pytest.approx(0.85 * 3.5 * 25.4e-3, rel=2e-3)
+    assert row.window.hi == pytest.approx(1.15 * 3.5 * 25.4e-3, rel=2e-3)
+    under = t.balance.under
+    # The row's value is refined between samples (a parabola's vertex); the largest sample is
+    # within 1 um of it on the 0.05 deg grid.
+    assert row.value == pytest.approx(np.nanmax(under) * 1e-3, abs=1e-6)
+    i = int(np.nanargmax(under))
+    v = t.positions["HP"][i, :2] - head.ground["H"][:2]
+    from_six = math.degrees(math.atan2(v[0], -v[1]))  # 0 with the blade point straight below the axis
+    assert abs(from_six) < 30.0
+    assert abs(t.balance.most_under_at) == pytest.approx(abs(from_six), abs=1e-9)
+    assert np.isnan(under[~_loop_phase(t)]).all() and np.isfinite(under[_loop_phase(t)]).all()
+    chain = head_timing(mechanism.load(shipped("mechanisms") / "examples" / "chainstitch_head.toml"))
+    assert "loop_thread" not in [r.key for r in chain.rows] and math.isnan(chain.balance.most_under)
+
+
+def _loop_phase(t):
+    return ((t.theta - t.events["hook picks the loop"]) % 360) <= (
+        (t.events["loop released"] - t.events["hook picks the loop"]) % 360
+    )
 
 
 def test_a_take_up_with_its_stroke_cut_by_30_percent_cannot_supply_the_loop(tmp_path):
@@ -451,11 +541,16 @@ def test_stitch_and_fabric_are_study_parameters_measured_per_variant(head, tmp_p
             .replace("fabric = 1.5 ", f"fabric = {t} "),
             HEAD,
         )
-        expect = _row(head_timing(own), "thread_shortfall").value * 1e3
+        own_timing = head_timing(own)
+        expect = _row(own_timing, "thread_shortfall").value * 1e3
         # The study's 0.5 deg grid against simulate's 0.05 deg (extremes refined between samples).
         assert table["timing_thread_shortfall_mm"][i] == pytest.approx(expect, abs=0.02)
+        assert table["timing_loop_thread_mm"][i] == pytest.approx(own_timing.balance.most_under, abs=0.02)
+        assert table["timing_ok"][i] == float(not any(r.counts and not r.ok for r in own_timing.rows))
+    # The thinnest fabric with the shortest stitch is sewn, the thickest fabric with either is not.
+    thin = (table["timing.fabric_mm"] == 0.5) & (table["balance.stitch_length_mm"] == 1.0)
     thick = table["timing.fabric_mm"] == 4.0
-    assert (table["timing_ok"][thick] == 0).all() and (table["timing_ok"][~thick] == 1).all()
+    assert (table["timing_ok"][thin] == 1).all() and (table["timing_ok"][thick] == 0).all()
     with pytest.raises(MechanismFileError, match="fabric"):
         paths.check_values(head, {paths.resolve(head, "timing.fabric"): -1.0})
 
@@ -499,23 +594,24 @@ SIZED_PATHS = (
 
 
 def test_the_eyelet_take_up_as_the_paper_sizes_it_cannot_supply_this_heads_loop():
-    """The eyelet take-up paper's lever on the head's shaft: its feed is about a third of what
-    this head's loop takes, so the balance falls tens of mm short (the study's "before")."""
+    """The eyelet take-up paper's lever on the head's shaft feeds far less than this head's loop
+    takes while the hook carries it round the bobbin case: the balance falls tens of mm short
+    (the study's "before")."""
     t = head_timing(mechanism.load(EYELETS))
     short = _row(t, "thread_shortfall")
-    assert not short.ok and short.value > 0.05  # m
+    assert not short.ok and short.value > 0.02  # m
     assert [r.key for r in t.rows if r.counts and not r.ok] == ["thread_shortfall"]
 
 
 def test_the_eyelet_take_up_sized_for_the_head_falls_short_of_the_thread_under_its_tolerances():
-    """The study's winner, as shipped, was sized against the demand that set the last stitch's
-    end at the needle's line when the stitch was set (docs/head.md, The eyelet take-up, sized
-    for this head): counted where the feed has carried that end, the loop takes more than the
-    lever gives, beyond the study's 3 mm margin and beyond what the thread stretches, and the
-    shortfall row fails; every other counted row passes and the slack is within the check
-    spring's travel. So too for manufacturing deviations of +-0.02 mm on every length and
-    coordinate the study varied (16 random sets, other than the study's 8, measured by
-    head_timing itself at 0.05 deg)."""
+    """The study's winner, as shipped, was sized against a loop drawn round the bobbin case's
+    rim in the head's plane (docs/head.md, The eyelet take-up, sized for this head): over the
+    case's faces the loop grows faster at first, beyond what the lever gives by more than the
+    study's 3 mm margin and what the thread stretches (the shortfall row fails), and takes back
+    thread after the blade passes six o'clock, so that the lever's feed leaves far more slack
+    than the check spring travels; every other counted row passes. So too for manufacturing
+    deviations of +-0.02 mm on every length and coordinate the study varied (16 random sets,
+    other than the study's 8, measured by head_timing itself at 0.05 deg)."""
     from mjlink.model import paths
 
     sized = mechanism.load(SIZED)
@@ -525,7 +621,7 @@ def test_the_eyelet_take_up_sized_for_the_head_falls_short_of_the_thread_under_i
     t = head_timing(sized)
     assert [r.key for r in t.rows if r.counts and not r.ok] == ["thread_shortfall"]
     assert _row(t, "thread_shortfall").value > margin
-    assert _row(t, "thread_slack").ok and _row(t, "thread_slack").value <= travel
+    assert not _row(t, "thread_slack").ok and _row(t, "thread_slack").value > 2 * travel
     rng = np.random.default_rng(2026)
     for _ in range(16):
         dev = {
@@ -534,7 +630,7 @@ def test_the_eyelet_take_up_sized_for_the_head_falls_short_of_the_thread_under_i
         }
         tv = head_timing(paths.apply(sized, dev))
         assert [r.key for r in tv.rows if r.counts and not r.ok] == ["thread_shortfall"]
-        assert _row(tv, "thread_slack").value <= travel
+        assert _row(tv, "thread_slack").value > 2 * travel
 
 
 CHAIN = shipped("mechanisms") / "examples" / "chainstitch_head.toml"
@@ -638,6 +734,7 @@ HEAD_RANGES = [
     ("timing.feed_in_fabric", ["0", "50", "0.2", '"5 cm"'], ["-0.001", "50.01", "1e300"]),
     ("balance.stitch_length", ["0.1", "50", "3", '"100 um"', '"0.01 cm"'], ["0.099", "0", "-3", "50.01", '"99 um"']),
     ("balance.bobbin_case", ["0.001", "26.99", "21", '"2 cm"'], ["0", "-21", "27", "30", "1e6"]),
+    ("balance.bobbin_case_width", ["0.001", "100", "10", '"1 cm"'], ["0", "-10", "100.01", "1e6"]),
     ("balance.check_spring_travel", ["0", "100", "7", '"10 cm"'], ["-0.01", "100.01", "1e300"]),
     ("balance.stretch", ["0", "0.2", "0.01"], ["-0.001", "0.21", "1", "1e300"]),
 ]

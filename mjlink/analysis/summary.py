@@ -22,6 +22,7 @@ from ..model import paths
 from ..model.mechanism import Mechanism
 from ..reference import batch
 from . import key_point, mass_centres, metrics
+from .tension import NeedleTension, TensionMetric
 
 PER_TURN = 360  # crank angles per input turn of the summary's reference
 
@@ -142,6 +143,20 @@ class Summary:
         }
 
 
-def summarize(mech: Mechanism) -> Summary:
-    """:class:`Summary` of ``mech``."""
-    return Summary(math.degrees(mech.phi0), mech.speed, design_summary(mech), point_strokes(mech), dimensions(mech))
+def tension_rows(thread: NeedleTension) -> tuple[Row, ...]:
+    """A head's needle thread in the summary, as a study's ``tension`` metric names it: the peak
+    tension (N), its margin to the breaking load and the thread drawn through the discs per
+    stitch (mm), from the run's own tension (:func:`mjlink.analysis.tension.needle_tension`)."""
+    values = {
+        "tension_peak": thread.peak,
+        "tension_margin": thread.margin,
+        "tension_per_stitch": thread.per_stitch * 1e3,
+    }
+    return tuple(Row(c.name, c.label, values[c.name], c.unit) for c in TensionMetric.COLUMNS if c.name in values)
+
+
+def summarize(mech: Mechanism, thread: NeedleTension | None = None) -> Summary:
+    """:class:`Summary` of ``mech``; a head's headline ends with its needle thread's tension
+    (:func:`tension_rows`) when the run's ``thread`` is given."""
+    headline = design_summary(mech) + (tension_rows(thread) if thread is not None else ())
+    return Summary(math.degrees(mech.phi0), mech.speed, headline, point_strokes(mech), dimensions(mech))

@@ -34,7 +34,7 @@ import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -428,7 +428,7 @@ def needle_tension(
     dt = math.radians(float(theta[1] - theta[0])) / abs(mech.speed)
     release = head.events["loop released"]
     at = stitch_end(head, tm.fabric, bal.stitch_length, release)
-    below = _lock_below(mech, head, hook_crank(mech), at)[::every]
+    below = _lock_below(mech, head, hook_crank(mech), at)[0][::every]
     formula = bal.stitch_length + tm.fabric
     set_at = head.balance.phases["needle descending"][0]
     k0 = int(np.searchsorted(theta, set_at % 360.0)) % n
@@ -569,15 +569,17 @@ class TensionMetric(TimingChecks):
             )
         self.maker, self.tag = tm.target, ""
 
+    COLUMNS: ClassVar[tuple[Column, ...]] = (
+        Column("tension_peak", "N", "the needle thread's largest tension over the stitch"),
+        Column("tension_margin", "", "the thread's breaking load over its peak tension"),
+        Column("tension_per_stitch", "mm", "needle thread drawn through the discs per stitch"),
+        Column("tension_slack", "deg", "of the stitch the thread below the eye is slack (a loop)"),
+        Column("tension_spring", "mm", "the check spring's largest travel"),
+        Column("tension_periodic", "", "1 if the stitch reached its periodic state"),
+    )
+
     def columns(self) -> list[Column]:
-        return [
-            Column("tension_peak", "N", "the needle thread's largest tension over the stitch"),
-            Column("tension_margin", "", "the thread's breaking load over its peak tension"),
-            Column("tension_per_stitch", "mm", "needle thread drawn through the discs per stitch"),
-            Column("tension_slack", "deg", "of the stitch the thread below the eye is slack (a loop)"),
-            Column("tension_spring", "mm", "the check spring's largest travel"),
-            Column("tension_periodic", "", "1 if the stitch reached its periodic state"),
-        ]
+        return list(self.COLUMNS)
 
     def _tensions(self, b: Batch) -> list[tuple[HeadTiming, NeedleTension]]:
         out = []

@@ -23,6 +23,7 @@ from ..model.mechanism import Mechanism
 from ..model.timing import SETTINGS, Balance, StitchType, Timing, Window
 from ..reference.batch import Batch
 from ..units import DEG, MM
+from .loop import case_leg, wrapped
 from .metric_base import Column, Curve, Loads, Metric, MetricError
 
 GENERAL = {
@@ -39,12 +40,19 @@ BALANCE = {
     "the tension, or torn)",
     "thread_slack": "largest slack of thread from the stitch's setting to the loop's release: the check spring's "
     "travel it needs (beyond the spring's, loose loops form)",
+    "loop_thread": "most needle thread below the material while the hook carries the loop round the bobbin case, "
+    "against the 8.9 cm of Union Special's 301 Stitch manual (within 15 %; a comparison, not a requirement)",
 }
-"""The thread balance's checks (a head with a ``[balance]`` table)."""
+"""The thread balance's checks (a head with a ``[balance]`` table; ``loop_thread`` a lockstitch's)."""
+
+UNION_SPECIAL_LOOP = 89.0 * MM
+"""Needle thread carried below the material and round the bobbin per stitch, m: "approximately
+3-1/2 inches or 8.9 cm" (Union Special, *301 Stitch* technical manual, Introduction)."""
 
 LABELS = {
     "thread_shortfall": "thread short of what needle and loop take",
     "thread_slack": "check spring travel the slack needs",
+    "loop_thread": "most thread below the material (loop)",
     "dog_below_while_needle_down": "feed dog below the plate while the needle is",
     "feed_in_fabric": "feed with the needle in the fabric",
     "take_up_after_release": "take-up top after the loop's release",
@@ -355,6 +363,8 @@ class TimingChecks(Metric):
     def _keys(self) -> list[str]:
         assert self.mech.timing is not None
         extra = list(BALANCE) if self.mech.balance is not None and self.mech.thread else []
+        if self.mech.timing.stitch is StitchType.CHAIN:
+            extra = [k for k in extra if k != "loop_thread"]
         return [*GENERAL, *self.mech.timing.maker(self.maker).windows, *extra]
 
     def columns(self) -> list[Column]:
@@ -396,6 +406,7 @@ class TimingChecks(Metric):
                         stitch_length=_of(vb.stitch_length, i, b),
                         bobbin_case=_of(vb.bobbin_case, i, b),
                         looper=_of(vb.looper, i, b),
+                        bobbin_case_width=_of(vb.bobbin_case_width, i, b),
                         check_spring_travel=_of(vb.check_spring_travel, i, b),
                         stretch=_of(vb.stretch, i, b),
                     ),
@@ -436,31 +447,6 @@ class TimingChecks(Metric):
         return Curve("needle thread: supply - demand", "mm", values, limit=0.0)
 
 
-def wrapped(
-    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, turned: np.ndarray, sense: float
-) -> np.ndarray:
-    """Length of a thread from points ``a`` to points ``b`` (each (N, 2), m) that the hook has
-    drawn around a circle (the bobbin case: ``centre`` (2,), ``radius``) in its sense of
-    rotation ``sense`` (+1 counter-clockwise): tangent from ``a``, the arc, tangent to ``b``,
-    or the straight segment where the arc would be negative (the circle is not yet in the way).
-    ``turned`` (N,) rad is how far round from ``a``'s side ``b`` has been carried (unwrapped),
-    which tells the arc's turns apart."""
-    ra, rb = a - centre, b - centre
-    da, db = np.hypot(*ra.T), np.hypot(*rb.T)
-    ta = np.sqrt(np.maximum(da**2 - radius**2, 0.0))
-    tb = np.sqrt(np.maximum(db**2 - radius**2, 0.0))
-    # Tangent points: leaving a forwards, arriving at b from behind (angles from the centre).
-    ga = np.arctan2(ra[:, 1], ra[:, 0]) + sense * np.arccos(np.clip(radius / da, -1.0, 1.0))
-    gb = np.arctan2(rb[:, 1], rb[:, 0]) - sense * np.arccos(np.clip(radius / db, -1.0, 1.0))
-    # The arc from a's tangent point to b's, the turns counted from how far b was carried.
-    start = np.arctan2(ra[:, 1], ra[:, 0])
-    arc = sense * (gb - ga)
-    arc = arc + 2.0 * np.pi * np.round((turned - sense * (np.arctan2(rb[:, 1], rb[:, 0]) - start)) / (2.0 * np.pi))
-    straight = np.hypot(*(b - a).T)
-    out: np.ndarray = np.where(arc > 0.0, ta + radius * arc + tb, straight)
-    return out
-
-
 @dataclass(frozen=True, kw_only=True)
 class ThreadBalance:
     """The needle thread over one stitch (docs/head.md, The thread balance), on the timing's
@@ -471,7 +457,10 @@ class ThreadBalance:
     demand (slack > 0, shortfall < 0), NaN in the stitch-setting phase where the take-up draws
     the thread tight; ``phases`` name -> (start, end) deg; ``per_stitch`` the needle thread a
     stitch holds, mm; ``rows`` the checks; ``hole`` and ``end`` (N,) mm, the needle's hole and
-    the last stitch's end behind the needle's line (:class:`StitchEnd`)."""
+    the last stitch's end behind the needle's line (:class:`StitchEnd`); ``under`` (N,) mm the
+    needle thread below the material while the hook carries a lockstitch's loop (NaN
+    elsewhere), ``most_under`` its largest and ``most_under_at`` where the blade point then is,
+    deg of the hook's turn past its lowest point (six o'clock), NaN for a chain stitch."""
 
     theta: np.ndarray
     path: np.ndarray
@@ -483,6 +472,9 @@ class ThreadBalance:
     rows: tuple[TimingRow, ...]
     hole: np.ndarray
     end: np.ndarray
+    under: np.ndarray
+    most_under: float
+    most_under_at: float
 
 
 def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
@@ -520,12 +512,13 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     window = _between(th, release, enters)
     i0 = int(np.argmax(np.where(window, path, -np.inf)))
     drawn = float(th[i0])
+    under = np.full(len(th), np.nan)
     if tm.stitch is StitchType.CHAIN:
         below = _chain_below(mech, head, hook, at)
         forming = _between(th, drawn, pick)
         per_stitch = 3.0 * bal.stitch_length + 2.0 * tm.fabric
     else:
-        below = _lock_below(mech, head, hook, at)
+        below, under = _lock_below(mech, head, hook, at)
         forming = _between(th, drawn, release)
         per_stitch = bal.stitch_length + tm.fabric
     path_at, below_at = path[i0], below[i0]
@@ -565,6 +558,26 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
             counts=False,  # the check spring's travel is information: a loose loop, not a failed stitch
         ),
     )
+    most_under = most_under_at = math.nan
+    if tm.stitch is StitchType.LOCKSTITCH and np.isfinite(under).any():
+        j = int(np.nanargmax(under))
+        most_under = _peak(np.nan_to_num(under, nan=-np.inf), np.isfinite(under))
+        # The blade point's angle past the hook's lowest point, in the hook's sense.
+        _, _, sense, _, _, hp, centre = _geometry(mech, head, hook)
+        v = hp[j, :2] - centre
+        most_under_at = math.degrees(sense * (math.atan2(v[1], v[0]) + math.pi / 2.0))
+        most_under_at = (most_under_at + 180.0) % 360.0 - 180.0
+        rows += (
+            TimingRow(
+                key="loop_thread",
+                what=BALANCE["loop_thread"],
+                maker=None,
+                value=most_under,
+                window=Window(0.85 * UNION_SPECIAL_LOOP, 1.15 * UNION_SPECIAL_LOOP),
+                unit="mm",
+                counts=False,  # one published figure for the stitch type, not this head's maker's setting
+            ),
+        )
     if tm.stitch is StitchType.CHAIN:
         spread = _carried(tm, hook, pick)
         phases = {}
@@ -591,6 +604,9 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         rows=rows,
         hole=at.hole / MM,
         end=at.end / MM,
+        under=under / MM,
+        most_under=most_under / MM,
+        most_under_at=most_under_at,
     )
 
 
@@ -687,10 +703,17 @@ def _geometry(
     return tm, bal, sense, nt, eye, hp, P[hook.pivot][0, :2]
 
 
-def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> np.ndarray:
-    """(N,) m: a lockstitch's needle thread below the eye (:func:`thread_balance`), the last
-    stitch's end and the needle's hole where ``at`` puts them."""
-    tm, bal, sense, nt, eye, hp, centre = _geometry(mech, head, hook)
+def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> tuple[np.ndarray, np.ndarray]:
+    """A lockstitch's needle thread below the eye (:func:`thread_balance`), the last stitch's
+    end and the needle's hole where ``at`` puts them: ``(below the eye (N,) m, below the throat
+    plate (N,) m)``, the second the loop's two legs while the hook carries it, NaN elsewhere.
+
+    Each leg runs to the hook's blade point outside the bobbin case on its own side
+    (:func:`mjlink.analysis.loop.case_leg`): the fabric's from the underside of the needle's
+    hole, the eye's from the eye while it is under the plate, and otherwise from the eye down
+    the needle (the eye in the fabric) or straight to the hole's top, through the fabric and
+    from the hole's underside."""
+    tm, bal, _, nt, eye, hp, centre = _geometry(mech, head, hook)
     th, ev = head.theta, head.events
     x_n = nt[:, 0]
     bottom = np.column_stack([x_n + at.hole, np.full(len(th), tm.plate)])  # the needle's hole's underside
@@ -700,13 +723,23 @@ def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -
     above = y_eye >= top_y
     below = np.where(above, np.hypot(eye[:, 0] - x_n - at.end, y_eye - top_y), (top_y - y_eye) + at.end)
     loop = _between(th, pick, release)
-    turned = np.radians((th - pick) % 360.0) * abs(hook.ratio)
-    r = bal.bobbin_case / 2.0
-    leg_eye = wrapped(eye[:, :2], hp[:, :2], centre, r, turned, sense)
-    leg_fabric = wrapped(bottom, hp[:, :2], centre, r, turned, sense)
-    # Up through the needle's hole and along the top to the last stitch's end.
-    out: np.ndarray = np.where(loop, leg_eye + leg_fabric + tm.fabric + (at.end - at.hole), below)
-    return out
+    under = np.full(len(th), np.nan)
+    if loop.any():
+        i = np.nonzero(loop)[0]
+        r, w = bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0
+        blade = hp[i, :2]
+        leg_fabric = case_leg(bottom[i], blade, centre, r, w)
+        under_plate = y_eye[i] <= tm.plate
+        leg_eye = np.where(under_plate, case_leg(eye[i, :2], blade, centre, r, w), leg_fabric)
+        to_hole = np.where(
+            y_eye[i] <= top_y,
+            y_eye[i] - tm.plate,  # down the needle in its hole
+            np.hypot(eye[i, 0] - x_n[i] - at.hole[i], y_eye[i] - top_y) + tm.fabric,
+        )
+        under[i] = leg_eye + leg_fabric
+        # Up through the needle's hole and along the top to the last stitch's end.
+        below[i] = under[i] + np.where(under_plate, 0.0, to_hole) + tm.fabric + (at.end[i] - at.hole[i])
+    return below, under
 
 
 def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> np.ndarray:

@@ -178,6 +178,13 @@ HEAD: dict[str, Bound] = {
     "balance.loop_body": Bound(
         0.0, 200.0, "mm", "across what the loop is drawn round: the shipped bobbin case is 21 mm", lo_open=True
     ),
+    "balance.bobbin_case_width": Bound(
+        0.0,
+        100.0,
+        "mm",
+        "across the bobbin case's faces, which the loop passes over: 10 mm on the shipped head",
+        lo_open=True,
+    ),
     "balance.check_spring_travel": Bound(
         0.0, 100.0, "mm", "a check spring's stroke, 6-8 mm on the shipped head's class"
     ),

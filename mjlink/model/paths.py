@@ -162,6 +162,8 @@ def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None
         add("balance.stitch_length", MM, "mm", True, mech.balance.stitch_length)
         body = (mech.timing.stitch if mech.timing is not None else StitchType.LOCKSTITCH).loop_body
         add(f"balance.{body}", MM, "mm", True, getattr(mech.balance, body))
+        if body == "bobbin_case":
+            add("balance.bobbin_case_width", MM, "mm", True, mech.balance.bobbin_case_width)
         add("balance.check_spring_travel", MM, "mm", False, mech.balance.check_spring_travel)
         add("balance.stretch", 1.0, "", False, mech.balance.stretch)
         # The thread under tension: the file's [tension] numbers or the defaults it would take.

@@ -87,6 +87,11 @@ class StitchType(enum.Enum):
 _DESCRIPTION = {StitchType.LOCKSTITCH: "lockstitch", StitchType.CHAIN: "single-thread chain stitch"}
 _LOOP_BODY = {StitchType.LOCKSTITCH: "bobbin_case", StitchType.CHAIN: "looper"}
 
+BOBBIN_CASE_WIDTH = 10.0 * MM
+"""A lockstitch's ``[balance] bobbin_case_width`` when the file gives none, m: a case round an
+industrial bobbin about 9 mm wide [choice: no public hook catalogue with the case's width was
+found]."""
+
 
 SETTINGS = {
     "hook_rise": "needle bar rise from its bottom dead centre when the hook point reaches the needle's centre line",
@@ -246,7 +251,7 @@ def _maker(r: Reader, name: str, raw: Any) -> MakerSettings:
     return MakerSettings(name, r.string(body, "source", where, default="", max_length=MAX_TITLE_CHARS), windows)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Balance:
     """A head's ``[balance]`` table in SI units: the stitch (``stitch_length``; the fabric's
     thickness and the stitch type are the ``[timing]`` table's), the diameter of what the loop
@@ -261,6 +266,7 @@ class Balance:
     check_spring_travel: float
     stretch: float = 0.01  # the thread's elastic elongation at its working tension, a fraction
     looper: float = 0.0
+    bobbin_case_width: float = 0.0  # a lockstitch's: across the case's faces, which the loop passes over
 
 
 def read_balance(
@@ -273,7 +279,8 @@ def read_balance(
     if timing is None:
         raise r.fail("[balance]", "needs a [timing] table (the needle, the hook and the plate)")
     body = timing.stitch.loop_body
-    r.keys(t, "[balance]", ["stitch_length", body, "check_spring", "check_spring_travel"], ["stretch"])
+    optional = ["stretch", "bobbin_case_width"] if timing.stitch is StitchType.LOCKSTITCH else ["stretch"]
+    r.keys(t, "[balance]", ["stitch_length", body, "check_spring", "check_spring_travel"], optional)
     if not thread or thread[-1] != timing.roles["needle_eye"]:
         raise r.fail(
             "[balance]",
@@ -298,4 +305,9 @@ def read_balance(
         check_spring_travel=_number(r, t, "check_spring_travel", "[balance]", "balance.check_spring_travel", MM),
         stretch=_number(r, t, "stretch", "[balance]", "balance.stretch", default=0.01),
         looper=diameter if timing.stitch is StitchType.CHAIN else 0.0,
+        bobbin_case_width=(
+            _number(r, t, "bobbin_case_width", "[balance]", "balance.bobbin_case_width", MM, default=BOBBIN_CASE_WIDTH)
+            if timing.stitch is StitchType.LOCKSTITCH
+            else 0.0
+        ),
     )

@@ -210,7 +210,7 @@ def run(
             video=video,
             provenance=provenance(command, dataclasses.asdict(opts)),
             timing=head,
-            design=summary.summarize(mech),
+            design=summary.summarize(mech, thread),
             tension=thread,
         )
         write_json(stage / "report.json", result.as_dict())

@@ -3,6 +3,7 @@ angle over one stitch, with the events and the windows of the head's target sett
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -167,7 +168,13 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
         0.5,
         f"largest shortfall {short.value / MM:.2f} mm ({'within' if short.ok else 'FAIL: beyond'} the thread's "
         f"stretch, {(short.window.hi or 0.0) / MM:.2f} mm)\nlargest slack {slack.value / MM:.2f} mm (check spring "
-        f"travel {travel:g} mm, shaded below)\na stitch holds {b.per_stitch:.2f} mm of needle thread",
+        f"travel {travel:g} mm, shaded below)\na stitch holds {b.per_stitch:.2f} mm of needle thread"
+        + (
+            f"; the loop takes up to {b.most_under:.1f} mm below the material,\nthe blade point "
+            f"{b.most_under_at + 0.0:+.0f} deg from six o'clock (Union Special's 301 manual: about 89 mm)"
+            if math.isfinite(b.most_under)
+            else ""
+        ),
         transform=ax.transAxes,
         ha="center",
         va="center",

@@ -1,0 +1,194 @@
+"""The needle thread's loop round the bobbin case: the geometry of its legs.
+
+A leg runs from a point of the head's plane (the needle's eye, or the underside of the needle's
+hole) to the hook's blade point, which carries the loop's middle. The bobbin case is a cylinder
+on the hook's axis (normal to the head's plane), its diameter and width the ``[balance]``
+table's; the needle and the blade point turn in its middle plane [choice: docs/head.md, The
+thread balance]. The blade spreads the loop over the case: one leg passes its front face, the
+other its back face, each the shortest thread outside the case on its own side. By the case's
+symmetry both sides measure alike, so one function serves both legs.
+
+Lengths are m, points (N, 2) m in the head's plane; every function works on N samples at once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+NEWTON_STEPS = 40
+"""Most Newton steps of the path over a face; from the segment's crossings of the case's rim the
+shipped head's samples meet their tolerance in about ten."""
+
+
+def wrapped(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, turned: np.ndarray, sense: float
+) -> np.ndarray:
+    """Length of a thread from points ``a`` to points ``b`` (each (N, 2), m) that the hook has
+    drawn around a circle (a chain stitch's looper: ``centre`` (2,), ``radius``) in its sense of
+    rotation ``sense`` (+1 counter-clockwise): tangent from ``a``, the arc, tangent to ``b``,
+    or the straight segment where the arc would be negative (the circle is not yet in the way).
+    ``turned`` (N,) rad is how far round from ``a``'s side ``b`` has been carried (unwrapped),
+    which tells the arc's turns apart."""
+    ra, rb = a - centre, b - centre
+    da, db = np.hypot(*ra.T), np.hypot(*rb.T)
+    ta = np.sqrt(np.maximum(da**2 - radius**2, 0.0))
+    tb = np.sqrt(np.maximum(db**2 - radius**2, 0.0))
+    # Tangent points: leaving a forwards, arriving at b from behind (angles from the centre).
+    ga = np.arctan2(ra[:, 1], ra[:, 0]) + sense * np.arccos(np.clip(radius / da, -1.0, 1.0))
+    gb = np.arctan2(rb[:, 1], rb[:, 0]) - sense * np.arccos(np.clip(radius / db, -1.0, 1.0))
+    # The arc from a's tangent point to b's, the turns counted from how far b was carried.
+    start = np.arctan2(ra[:, 1], ra[:, 0])
+    arc = sense * (gb - ga)
+    arc = arc + 2.0 * np.pi * np.round((turned - sense * (np.arctan2(rb[:, 1], rb[:, 0]) - start)) / (2.0 * np.pi))
+    straight = np.hypot(*(b - a).T)
+    out: np.ndarray = np.where(arc > 0.0, ta + radius * arc + tb, straight)
+    return out
+
+
+def crossing(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where the segments ``a`` -> ``b`` ((N, 2) each) cross a circle: ``(hits, (N, 2) s)``,
+    ``hits`` (N,) bool where the segment passes inside it, ``s`` the fractions along the segment
+    of its entry and exit (NaN where it misses)."""
+    d = b - a
+    f = a - centre
+    A = np.einsum("ij,ij->i", d, d)
+    B = 2.0 * np.einsum("ij,ij->i", f, d)
+    C = np.einsum("ij,ij->i", f, f) - radius**2
+    disc = B * B - 4.0 * A * C
+    with np.errstate(invalid="ignore", divide="ignore"):
+        root = np.sqrt(disc)
+        s = np.column_stack([(-B - root) / (2.0 * A), (-B + root) / (2.0 * A)])
+    hits = (disc > 0.0) & (s[:, 1] > 0.0) & (s[:, 0] < 1.0)
+    return hits, np.where(hits[:, None], s, np.nan)
+
+
+def around_rim(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
+    """(N,) m: the shortest thread from ``a`` to ``b`` in the plane round a circle (the case's
+    rim) the shorter way: tangent, arc, tangent; the straight segment where the circle is not
+    in the way. A point inside the circle has no such path: +inf."""
+    ra, rb = a - centre, b - centre
+    da, db = np.hypot(*ra.T), np.hypot(*rb.T)
+    with np.errstate(invalid="ignore"):
+        between = np.arccos(np.clip(np.einsum("ij,ij->i", ra, rb) / (da * db), -1.0, 1.0))
+        arc = between - np.arccos(np.clip(radius / da, -1.0, 1.0)) - np.arccos(np.clip(radius / db, -1.0, 1.0))
+        wrap = np.sqrt(np.maximum(da**2 - radius**2, 0.0)) + np.sqrt(np.maximum(db**2 - radius**2, 0.0)) + radius * arc
+    straight = np.hypot(*(b - a).T)
+    out: np.ndarray = np.where((da < radius) | (db < radius), np.inf, np.where(arc > 0.0, wrap, straight))
+    return out
+
+
+def _end(a: np.ndarray, centre: np.ndarray, radius: float) -> tuple[np.ndarray, ...]:
+    """What :func:`over_face` needs of one free end ``a`` (N, 2): its direction from the centre
+    (rad), the half-width of the rim's arc it sees (rad), its distance and its tangent's length."""
+    ra = a - centre
+    da = np.hypot(*ra.T)
+    seen = np.arccos(np.clip(radius / da, -1.0, 1.0))
+    return np.arctan2(ra[:, 1], ra[:, 0]), seen, da, np.sqrt(np.maximum(da**2 - radius**2, 0.0))
+
+
+def _to_edge(
+    beta: np.ndarray, end: tuple[np.ndarray, ...], radius: float, half_width: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The thread from a free end to the face's edge at angle ``beta`` (rad): straight where the
+    end sees that point of the rim; past the arc it sees, tangent to the case's side and up it
+    on a helix, which the side unrolled into a plane makes one straight line. Returns the
+    length and its first and second derivatives in ``beta``."""
+    toward, seen, da, ta = end
+    delta = np.angle(np.exp(1j * (beta - toward)))  # from the end's direction, in (-pi, pi]
+    w2 = half_width**2
+    direct = np.abs(delta) <= seen
+    f_d = np.sqrt(np.maximum(da**2 + radius**2 - 2.0 * da * radius * np.cos(delta), 0.0) + w2)
+    u = ta + radius * (np.abs(delta) - seen)
+    f_h = np.sqrt(u**2 + w2)
+    f = np.where(direct, f_d, f_h)
+    g = np.where(direct, da * radius * np.sin(delta) / f_d, np.sign(delta) * radius * u / f_h)
+    h = np.where(
+        direct,
+        da * radius * np.cos(delta) / f_d - (da * radius * np.sin(delta)) ** 2 / f_d**3,
+        radius**2 * w2 / f_h**3,
+    )
+    return f, g, h
+
+
+def over_face(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The shortest thread from ``a`` to ``b`` (both in the middle plane) over one face of the
+    case, a cylinder of ``radius`` whose faces lie ``half_width`` either side of that plane: to a
+    point of the face's edge, straight across the face, and from a second point of the edge to
+    ``b``. Each free end reaches the edge straight where it sees that point of the rim, and
+    otherwise runs tangent to the case's side and climbs it on a helix (:func:`_to_edge`).
+
+    Returns ``(length (N,) m, (N, 2) edge angles rad)``. The two angles minimise the length by
+    Newton's method on its exact gradient and Hessian (a gradient step where the Hessian is not
+    positive; either halved until it shortens the path), started where the segment a -> b
+    crosses the rim (where it misses, where it passes nearest)."""
+    d = b - a
+    hits, s = crossing(a, b, centre, radius)
+    near = np.clip(np.einsum("ij,ij->i", centre - a, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+    s = np.where(hits[:, None], s, near[:, None])
+    p = a[:, None, :] + s[:, :, None] * d[:, None, :]
+    beta = np.arctan2(p[..., 1] - centre[1], p[..., 0] - centre[0])
+    ea, eb = _end(a, centre, radius), _end(b, centre, radius)
+
+    def terms(bt: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The length and its derivatives at the edge angles ``bt`` of the samples ``k``."""
+        ek = tuple(x[k] for x in ea), tuple(x[k] for x in eb)
+        fa, ga, ha = _to_edge(bt[:, 0], ek[0], radius, half_width)
+        fb, gb, hb = _to_edge(bt[:, 1], ek[1], radius, half_width)
+        half = 0.5 * (bt[:, 0] - bt[:, 1])
+        sn = np.sign(np.sin(half))
+        chord = 2.0 * radius * np.abs(np.sin(half))
+        dc = radius * np.cos(half) * sn  # in beta_1; minus this in beta_2
+        hc = -0.5 * radius * np.abs(np.sin(half))  # both second derivatives; minus it mixed
+        return fa + chord + fb, ga + dc, gb - dc, ha + hc, hb + hc, -hc
+
+    active = np.arange(len(a))
+    for _ in range(NEWTON_STEPS):
+        f0, g1, g2, h11, h22, h12 = terms(beta[active], active)
+        det = h11 * h22 - h12 * h12
+        convex = (h11 > 0.0) & (det > 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            n1 = np.where(convex, -(h22 * g1 - h12 * g2) / det, -g1 / radius**2)
+            n2 = np.where(convex, -(h11 * g2 - h12 * g1) / det, -g2 / radius**2)
+        # Damped: no step longer than a quarter turn.
+        scale = np.minimum(1.0, (np.pi / 4.0) / np.maximum(np.hypot(n1, n2), 1e-300))
+        step = np.nan_to_num(np.column_stack([n1, n2]) * scale[:, None])
+        # Backtracking: a step that lengthens the path (beyond rounding) is halved until it does not.
+        for _ in range(40):
+            longer = terms(beta[active] + step, active)[0] > f0 * (1.0 + 1e-14)
+            if not longer.any():
+                break
+            step[longer] *= 0.5
+        beta[active] += step
+        # A sample is done once its step is 1e-10 rad: at the minimum the length then errs by the
+        # step's square times the radius, far below what double precision resolves in it.
+        active = active[np.abs(step).max(axis=1) >= 1e-10]
+        if not len(active):
+            break
+    length = terms(beta, np.arange(len(a)))[0]
+    return length, beta
+
+
+def case_leg(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float) -> np.ndarray:
+    """(N,) m: one leg of the loop, from ``a`` to the blade point ``b`` ((N, 2) each, in the
+    case's middle plane), the shortest thread outside the bobbin case on the leg's side:
+    straight while the case is not in its way; then the shorter of the thread round the case's
+    rim in the middle plane (:func:`around_rim`) and the thread over the case's face
+    (:func:`over_face`, which climbs the case's side where that is shorter)."""
+    hits, _ = crossing(a, b, centre, radius)
+    out: np.ndarray = np.hypot(*(b - a).T)
+    if hits.any():
+        rim = around_rim(a[hits], b[hits], centre, radius)
+        # Over the face the thread climbs the half-width and comes back down: never shorter than
+        # that climb unrolled beside the straight segment. Where the rim's path is no longer,
+        # the face's need not be sought.
+        may = rim > np.hypot(out[hits], 2.0 * half_width)
+        if may.any():
+            k = np.nonzero(hits)[0][may]
+            rim[may] = np.minimum(rim[may], over_face(a[k], b[k], centre, radius, half_width)[0])
+        out[hits] = rim
+    return out
+
+
+__all__ = ["NEWTON_STEPS", "around_rim", "case_leg", "crossing", "over_face", "wrapped"]
