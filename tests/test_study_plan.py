@@ -138,3 +138,27 @@ def test_a_sampled_studys_clock_counts_its_slowest_variant():
     slowest = float(np.abs(st.values()[:, 0]).min())
     assert c.most == _turn_steps(slowest)
     assert _turn_steps(197.0) < c.mean < c.most
+
+
+def test_a_study_of_costly_variants_calibrates_on_as_few_as_fit_its_budget(tmp_path, monkeypatch):
+    """The calibration evaluates a task's worth of variants (at least 16) unless the first one
+    shows that they would not fit plan.CALIBRATION_SECONDS: then as many as fit, at least one
+    (here a budget of none: one variant a batch), and the plan still estimates the study."""
+    path = tmp_path / "speeds.toml"
+    path.write_text(SPEEDS.replace('mujoco = "all"', 'mujoco = "none"'))
+    study = spec.load(path)
+    sizes: list[int] = []
+    real = plan.reference_chunk
+
+    def chunk(st, values):
+        sizes.append(len(values))
+        return real(st, values)
+
+    monkeypatch.setattr(plan, "reference_chunk", chunk)
+    full = plan.calibrate(study)
+    assert set(sizes[1:]) == {plan.CALIBRATION_VARIANTS}
+    sizes.clear()
+    monkeypatch.setattr(plan, "CALIBRATION_SECONDS", 0.0)
+    one = plan.calibrate(study)
+    assert set(sizes) == {1}
+    assert math.isfinite(one.row_seconds) and one.row_seconds > 0 and math.isfinite(full.row_seconds)

@@ -63,6 +63,10 @@ CALIBRATION_VARIANTS = 16
 # cost per row (most where a study has few angles).
 CALIBRATION_ROWS = 4096
 CALIBRATION_RUNS = 3
+# CPU seconds one calibration batch may take: a study whose variants each cost much (a head's
+# thread under tension, stepped to its periodic state) calibrates on as few of them as fit, at
+# least one, rather than spend on the estimate many times what the study itself costs.
+CALIBRATION_SECONDS = 2.0
 
 
 class PlanError(InputError):
@@ -173,8 +177,9 @@ class Calibration:
 
 def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     """Evaluate as many variants of ``study`` as one of its tasks does (at least
-    :data:`CALIBRATION_VARIANTS`, at most :data:`CALIBRATION_ROWS` variant-angles; all at the
-    nominal values, or the middle of the ranges of an optimization) here, traced and timed
+    :data:`CALIBRATION_VARIANTS`, at most :data:`CALIBRATION_ROWS` variant-angles, and no more
+    than fit in :data:`CALIBRATION_SECONDS` by the first variant's cost; all at the nominal
+    values, or the middle of the ranges of an optimization) here, traced and timed
     (the fastest of :data:`CALIBRATION_RUNS`); with ``mujoco``, verify one in MuJoCo, timed."""
     angles = len(angle_grid(study.mechanism, study.per_turn))
     per_task = budget(study).per_generation if study.optimize is not None else min(study.samples, REFERENCE_CHUNK[1])
@@ -189,7 +194,12 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     else:
         row = [v.param.nominal if math.isfinite(v.param.nominal) else 0.0 for v in study.varied]
     values = np.tile(np.array(row, dtype=float), (n, 1))
+    t = time.process_time()
     reference_chunk(study, values[:1])  # the nominal batch and first-call costs, not timed
+    first = time.process_time() - t
+    if first * n > CALIBRATION_SECONDS:  # an upper bound of a variant's cost: it holds the first call's too
+        n = max(1, int(CALIBRATION_SECONDS / first))
+        values = values[:n]
     tracemalloc.start()
     try:
         reference_chunk(study, values)
