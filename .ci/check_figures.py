@@ -36,15 +36,20 @@ from mjlink.plotting import style  # noqa: E402
 # At most this many of each (a study keeps its own smaller numbers). The head's eyelet
 # take-up needs a larger population to find a feasible design at all.
 CAPS = {"samples": 12, "population": 24, "generations": 4, "seeds": 1, "polish_evaluations": 12, "count": 1}
+OPTIMIZE_BUDGET = ("population", "generations", "seeds", "polish_evaluations")
 
 
 def cut_budget(text: str, folder: Path) -> str:
     """A study file's text with its budget capped (:data:`CAPS`) and a relative mechanism
-    path made absolute (the copy is written elsewhere)."""
+    path made absolute (the copy is written elsewhere). An optimization's budget keys the file
+    leaves at their defaults (3 runs, a polish of 2,000 evaluations a parameter) are written in
+    at their caps."""
     for key, most in CAPS.items():
         text = re.sub(
             rf"(?m)^({key}\s*=\s*)(\d+)", lambda m, most=most: m.group(1) + str(min(int(m.group(2)), most)), text
         )
+    absent = "".join(f"{k} = {CAPS[k]}\n" for k in OPTIMIZE_BUDGET if not re.search(rf"(?m)^{k}\s*=", text))
+    text = re.sub(r"(?m)^\[optimize\]\n", lambda m: m.group(0) + absent, text, count=1)
     return re.sub(r'(?m)^(mechanism\s*=\s*")(\.\.?/)', lambda m: m.group(1) + str(folder) + "/" + m.group(2), text)
 
 
