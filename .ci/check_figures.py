@@ -45,15 +45,17 @@ OPTIMIZE_BUDGET = ("population", "generations", "seeds", "polish_evaluations")
 
 def cut_budget(text: str, folder: Path, caps: dict[str, int] = CAPS) -> str:
     """A study file's text with its budget capped (:data:`CAPS`) and a relative mechanism
-    path made absolute (the copy is written elsewhere). An optimization's budget keys the file
-    leaves at their defaults (3 runs, a polish of 2,000 evaluations a parameter) are written in
-    at their caps."""
+    path made absolute (the copy is written elsewhere). A single-objective optimization's budget
+    keys the file leaves at their defaults (3 runs, a polish of 2,000 evaluations a parameter)
+    are written in at their caps."""
     for key, most in caps.items():
         text = re.sub(
             rf"(?m)^({key}\s*=\s*)(\d+)", lambda m, most=most: m.group(1) + str(min(int(m.group(2)), most)), text
         )
+    # A Pareto search runs once and polishes each point of its front: left as the file has it.
+    single = not re.search(r"(?m)^pareto\s*=", text)
     absent = "".join(
-        f"{k} = {caps[k]}\n" for k in OPTIMIZE_BUDGET if k in caps and not re.search(rf"(?m)^{k}\s*=", text)
+        f"{k} = {caps[k]}\n" for k in OPTIMIZE_BUDGET if single and k in caps and not re.search(rf"(?m)^{k}\s*=", text)
     )
     text = re.sub(r"(?m)^\[optimize\]\n", lambda m: m.group(0) + absent, text, count=1)
     return re.sub(r'(?m)^(mechanism\s*=\s*")(\.\.?/)', lambda m: m.group(1) + str(folder) + "/" + m.group(2), text)
