@@ -43,7 +43,8 @@ from ..model.tension import DEFAULTS, ThreadTension
 from ..model.timing import StitchType
 from ..reference.batch import Batch
 from .metric_base import Column, Curve, Loads, MetricError
-from .timing import HeadTiming, TimingChecks, _between, _lock_below, hook_crank, stitch_end
+from .stitch import _between, stitch_end
+from .timing import HeadTiming, TimingChecks, _lock_below, hook_crank
 
 __all__ = ["NeedleTension", "TensionError", "TensionMetric", "disc_hold", "needle_tension", "of_head"]
 

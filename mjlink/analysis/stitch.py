@@ -1,0 +1,126 @@
+"""Where the needle thread meets the fabric over a stitch, and the grid helpers the head's
+timing and its thread share: events placed between samples, extremes refined between them,
+angles taken forwards round the stitch."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..units import MM
+
+if TYPE_CHECKING:
+    from .timing import HeadTiming
+
+
+def _crossing(theta: np.ndarray, f: np.ndarray, level: float, falling: bool) -> np.ndarray:
+    """Angles (deg) where ``f`` crosses ``level`` (falling or rising), interpolated; the grid is
+    periodic (the last sample is followed by the first, one stitch later)."""
+    a, b = f - level, np.roll(f - level, -1)
+    i = np.nonzero((a > 0) & (b <= 0) if falling else (a < 0) & (b >= 0))[0]
+    t1 = np.where(i + 1 < len(theta), theta[(i + 1) % len(theta)], theta[0] + 360.0)
+    frac = a[i] / (a[i] - b[i])
+    out: np.ndarray = theta[i] + frac * (t1 - theta[i])
+    return out
+
+
+def _at(theta: np.ndarray, f: np.ndarray, t: float) -> float:
+    return float(np.interp(t % 360.0, np.append(theta, theta[0] + 360.0), np.append(f, f[0])))
+
+
+def _travel(head: HeadTiming, start: float, stitch_length: float) -> np.ndarray:
+    """(N,) m: how far the feed has carried the fabric since the angle ``start`` (deg): the
+    dog's advance while it is above the plate (the part of each step between two samples it
+    spends there, its height taken linear between them), summed round the stitch from
+    ``start`` and scaled so that one turn carries it the stitch length."""
+    th = head.theta
+    adv = head.curves["dog advance"] * MM
+    h = head.curves["dog height"]
+    h1 = np.roll(h, -1)
+    # The fraction of each step the dog is above the plate: all of it, none, or up to (from)
+    # where it passes the plate.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cut = np.clip(h / (h - h1), 0.0, 1.0)
+    up = np.where((h > 0) & (h1 > 0), 1.0, np.where(h > 0, cut, np.where(h1 > 0, 1.0 - cut, 0.0)))
+    step = np.diff(np.append(adv, adv[0]))
+    fed = np.where(step > 0, step, 0.0) * up
+    total = float(fed.sum())
+    if total <= 0:
+        return np.zeros(len(th))
+    cum = np.concatenate([[0.0], np.cumsum(fed)])  # at each sample and at 360 deg
+    at = float(np.interp(start % 360.0, np.append(th, 360.0), cum))
+    moved = np.where(th >= start % 360.0, cum[:-1] - at, cum[:-1] + total - at)
+    out: np.ndarray = moved / total * stitch_length
+    return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class StitchEnd:
+    """Where the needle thread meets the fabric's top, behind the needle's line (in the feed's
+    direction, m), by the one convention both stitch types follow.
+
+    ``hole`` (N,): the hole the needle is in or last left. At the needle's line from the
+    point's entry into the fabric until it leaves it, rising; then the feed carries it (the
+    dog's advance while it is above the plate, since the needle left, scaled to the stitch
+    length) until the needle enters again, a stitch length on when the feed is done.
+    ``end`` (N,): the end of the last stitch on the fabric's top, where the thread from the
+    needle runs to: the hole the needle left; from the needle's entry into its next hole until
+    the loop's release (``unset``) the stitch through that hole is not yet set, and the thread
+    runs along the top from the needle's new hole back to the old one, which the feed goes on
+    carrying (a stitch length behind the new hole once the needle has left it too).
+    ``inside`` (N,) bool: the needle point in the fabric, from ``enters`` to ``leaves`` (deg).
+    """
+
+    hole: np.ndarray
+    end: np.ndarray
+    inside: np.ndarray
+    unset: np.ndarray
+    enters: float
+    leaves: float
+
+
+def stitch_end(head: HeadTiming, fabric: float, stitch_length: float, release: float) -> StitchEnd:
+    """The last stitch's end and the needle's hole over the stitch ``head`` measured
+    (:class:`StitchEnd`), for a fabric ``fabric`` thick (m) sewn at ``stitch_length`` (m); the
+    loop is released (a chain stitch's held loop cast off) at ``release`` (deg)."""
+    th, ev = head.theta, head.events
+    point = head.curves["needle point"]
+    entry = _crossing(th, point, fabric / MM, True)
+    enters = float(entry[0]) if len(entry) else ev["needle point through the plate, down"]
+    out_of = _crossing(th, point, fabric / MM, False)
+    leaves = float(out_of[0]) if len(out_of) else ev["needle point through the plate, up"]
+    since = _travel(head, leaves, stitch_length)  # the hole left, from the moment it was left
+    inside = _between(th, enters, leaves)
+    hole = np.where(inside, 0.0, since)
+    unset = _between(th, enters, release)
+    # The stitch not yet set: its hole is the one left a turn before, carried on from there.
+    old = np.where(inside, since, since + stitch_length)
+    return StitchEnd(
+        hole=hole, end=np.where(unset, old, hole), inside=inside, unset=unset, enters=enters, leaves=leaves
+    )
+
+
+def _peak(x: np.ndarray, where: np.ndarray) -> float:
+    """The largest of ``x`` over the samples ``where``, refined between samples: the vertex of
+    the parabola through the best sample and its neighbours when both are in ``where`` (a
+    study's coarse angles then find what simulate's fine ones do)."""
+    if not where.any():
+        return math.nan
+    j = int(np.argmax(np.where(where, x, -np.inf)))
+    n = len(x)
+    a, b, c = x[(j - 1) % n], x[j], x[(j + 1) % n]
+    curv = a - 2.0 * b + c
+    if where[(j - 1) % n] and where[(j + 1) % n] and curv < 0:
+        return float(b - (a - c) ** 2 / (8.0 * curv))
+    return float(b)
+
+
+def _between(theta: np.ndarray, a: float, b: float) -> np.ndarray:
+    """(N,) bool: the angles from ``a`` to ``b`` (deg), going forwards round the stitch."""
+    return (theta - a) % 360.0 <= (b - a) % 360.0
+
+
+__all__ = ["StitchEnd", "stitch_end"]
