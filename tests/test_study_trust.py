@@ -245,6 +245,39 @@ def test_a_damaged_chunk_is_recomputed_not_a_traceback(tmp_path, caplog, damage)
     assert again.resumed >= 1
 
 
+
+def test_a_chunk_write_interrupted_leaves_no_open_archive(tmp_path, monkeypatch):
+    """Ctrl-C while a chunk is written: the interrupt goes through, the chunk file is not
+    left behind, and no half-written archive is finalised later onto its closed file (which
+    prints a traceback as the process exits)."""
+    from mjlink.study import cache
+
+    st = spec.parse(BIG, tmp_path / "s.toml")
+    c = cache.Cache(tmp_path / "c", st, variants=4, chunking={"chunks": [[0, 4]]})
+    real = np.lib.format.write_array
+    calls = []
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:  # the second array: the archive holds one member already
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(np.lib.format, "write_array", interrupted)
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    with pytest.raises(KeyboardInterrupt):
+        c.save("ref", 0, 4, {"a": np.arange(3.0), "b": np.ones(2)})
+    import gc
+
+    gc.collect()
+    assert unraisable == [] and not list((tmp_path / "c").glob("*.npz*"))
+    monkeypatch.setattr(np.lib.format, "write_array", real)
+    c.save("ref", 0, 4, {"a": np.arange(3.0), "b": np.ones(2)})
+    got = c.load("ref", 0, 4)
+    assert got is not None and np.array_equal(got["a"], np.arange(3.0)) and np.array_equal(got["b"], np.ones(2))
+
+
 # ================================================================= 3. a winner check would refuse
 COARSE = f"""
 [study]

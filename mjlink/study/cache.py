@@ -33,9 +33,10 @@ import json
 import os
 import shutil
 import tempfile
+import zipfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -203,7 +204,7 @@ class Cache:
         arrays = {k: np.asarray(v) for k, v in arrays.items()}
         arrays[CHECKSUM] = np.frombuffer(_digest(arrays), dtype=np.uint8)
         with atomic_path(f, suffix=".npz") as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
+            _write_npz(fh, arrays)
 
     def _make(self) -> None:
         """The folder, born with its manifest: made under a temporary name, then renamed."""
@@ -225,6 +226,16 @@ class Cache:
     def remove(self) -> None:
         """Remove the cache (the study's outputs are published): only if it is mjlink's."""
         remove(self.folder)
+
+
+def _write_npz(fh: BinaryIO, arrays: dict[str, np.ndarray]) -> None:
+    """``np.savez``'s format, with the archive closed however the write ends: numpy 1.26's
+    savez leaves it open on an interrupt (Ctrl-C while a chunk is written), and the archive's
+    finaliser then writes to the closed file as the process exits, printing a traceback."""
+    with zipfile.ZipFile(fh, mode="w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for key, val in arrays.items():
+            with zf.open(key + ".npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, val, allow_pickle=False)
 
 
 def remove(folder: Path | None) -> None:
