@@ -450,7 +450,7 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.nda
     """Column names of a trace of N samples, and its columns as (values (N,) or (N, 3) in SI,
     factor into the column's unit): time s, crank angle deg, speed rad/s and rpm, acceleration
     rad/s^2, point positions mm, velocities mm/s and accelerations mm/s^2, link speeds rad/s and
-    accelerations rad/s^2, thread length mm, loop gap um. The CSV writer scales them as it
+    accelerations rad/s^2, transmission and pressure angles deg, thread length mm, loop gap um. The CSV writer scales them as it
     copies the rows (no scaled copy of each column first)."""
     names = ["time_s", "phi1_deg", "omega1_rad_s", "eps1_rad_s2", "n1_rpm"]
     # A point's three axes stay one (N, 3) block, not sliced into columns.
@@ -472,6 +472,9 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.nda
         if l.name in trace.link_omega:
             names += [f"{l.name}_omega_rad_s", f"{l.name}_eps_rad_s2"]
             blocks += [(trace.link_omega[l.name], 1.0), (trace.link_eps[l.name], 1.0)]
+    for name, angle in block_angle_traces(mech, trace.points):
+        names.append(name)
+        blocks.append((angle, 1.0))
     if trace.thread_length is not None:
         names.append("thread_length_mm")
         blocks.append((trace.thread_length, _MM_PER_M))
@@ -479,6 +482,22 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.nda
         names.append("loop_gap_um")
         blocks.append((trace.loop_gap, _UM_PER_M))
     return names, blocks
+
+
+_ANGLE_COLUMN = {"transmission angle": "transmission", "pressure angle": "pressure"}
+
+
+def block_angle_traces(mech: Mechanism, points: Mapping[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+    """Every dyad's transmission angle and every slider's pressure angle along a trace, deg,
+    each (N,), named by the point the block places: ``<P>_transmission_deg`` (0..180, dead at
+    0 and 180), ``<P>_pressure_deg`` (0..90, dead at 90). Computed from the trace's own
+    positions (MuJoCo's for a MuJoCo run), as the dead-point check measures them."""
+    out = []
+    for s in mech.steps:
+        dp = s.dead_point(points)
+        if dp is not None:
+            out.append((f"{s.point}_{_ANGLE_COLUMN[dp.quantity]}_deg", dp.value_deg))
+    return out
 
 
 def write_csv(path: Path, mech: Mechanism, trace: Trace) -> Path:

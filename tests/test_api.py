@@ -84,6 +84,45 @@ def test_traces_carry_units_in_their_names_and_agree_with_the_reference():
         mj["C_x_m"]
 
 
+def _joint_angle(tr, p, a, b):  # deg: the angle at p between p->a and p->b, from the position columns
+    u, v = ([tr[f"{q}_{ax}_mm"] - tr[f"{p}_{ax}_mm"] for ax in "xy"] for q in (a, b))
+    cos = (u[0] * v[0] + u[1] * v[1]) / (np.hypot(*u) * np.hypot(*v))
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+@pytest.mark.parametrize("name", ["lockstitch_head", "warp_knitting"])
+def test_traces_hold_every_blocks_transmission_and_pressure_angle(name):
+    """Every dyad's transmission angle (at its joint, between its two links) and every slider's
+    pressure angle (between its rod and its guide) along the run, as the designer reads them,
+    rebuilt here from the trace's own position columns; MuJoCo's from MuJoCo's positions."""
+    mech = mjlink.load(name)
+    mj = mjlink.traces(mech, cycles=1)
+    ref = mjlink.traces(mech, cycles=1, source="reference")
+    want = []
+    for s in mech.steps:
+        if s.kind == "dyad":
+            want.append((f"{s.point}_transmission_deg", lambda tr, s=s: _joint_angle(tr, s.point, s.a, s.b)))
+        elif s.kind == "slider":
+
+            def pressure(tr, s=s):  # the rod against the guide line: 0 along it, 90 square to it
+                rod = [tr[f"{s.point}_{ax}_mm"] - tr[f"{s.start}_{ax}_mm"] for ax in "xy"]
+                g = [tr[f"{s.guide[1]}_{ax}_mm"] - tr[f"{s.guide[0]}_{ax}_mm"] for ax in "xy"]
+                cos = np.abs(rod[0] * g[0] + rod[1] * g[1]) / (np.hypot(*rod) * np.hypot(*g))
+                return np.degrees(np.arccos(np.clip(cos, 0.0, 1.0)))
+
+            want.append((f"{s.point}_pressure_deg", pressure))
+    assert len(want) >= 2 and {"dyad", "slider"} <= {s.kind for s in mech.steps}
+    assert [n for n in mj if n.endswith(("_transmission_deg", "_pressure_deg"))] == [n for n, _ in want]
+    # MuJoCo's positions are within the agreement threshold of the exact ones, over links of 5 mm
+    # or more: its angles within 2 * threshold / 5 mm rad (the column takes the links' lengths
+    # from the file and the distance their ends keep from MuJoCo's positions).
+    tol = np.degrees(2 * LIMIT["position_um"] * 1e-3 / 5.0)
+    for col, angle in want:
+        assert np.abs(ref[col] - angle(ref)).max() <= 1e-6, col
+        assert np.abs(mj[col] - angle(mj)).max() <= tol, col
+        assert np.abs(mj[col] - ref[col]).max() <= tol, col
+
+
 def test_a_study_in_this_process_starts_no_cluster(tmp_path, monkeypatch):
     import distributed
 

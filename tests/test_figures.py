@@ -289,6 +289,7 @@ def test_simulate_takeup_end_to_end_and_its_page_in_headless_chromium(run_figure
         "P5_x_mm",
         "P5_y_mm",
         "P5_z_mm",
+        "P3_transmission_deg",
         "thread_length_mm",
     ):
         assert col in kin
