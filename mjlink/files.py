@@ -487,7 +487,7 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.nda
 _ANGLE_COLUMN = {"transmission angle": "transmission", "pressure angle": "pressure"}
 
 
-def block_angle_traces(mech: Mechanism, points: Mapping[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+def block_angle_traces(mech: Mechanism, points: dict[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
     """Every dyad's transmission angle and every slider's pressure angle along a trace, deg,
     each (N,), named by the point the block places: ``<P>_transmission_deg`` (0..180, dead at
     0 and 180), ``<P>_pressure_deg`` (0..90, dead at 90). Computed from the trace's own

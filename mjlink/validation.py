@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from . import reference
+from .analysis import intent
 from .analysis.timing import HeadTiming, head_timing
 from .errors import AssemblyError, MechanismFileError, MjlinkError, SimulationError, UnknownMechanismError
 from .model import catalogue
@@ -577,12 +578,15 @@ def with_crank_settings(mech: Mechanism, phi0_deg: float | None = None, phase_de
 # ------------------------------------------------------------------------ the check report
 @dataclass(frozen=True)
 class PointInfo:
-    """A named point: ``ground`` True for a [ground] point; ``made_by`` how it is built; the links carrying it."""
+    """A named point: ``ground`` True for a [ground] point; ``made_by`` how it is built; the
+    links carrying it; ``at`` its position (3,) m at the input crank's setting (None where the
+    linkage does not assemble there)."""
 
     name: str
     ground: bool
     made_by: str
     links: tuple[str, ...]
+    at: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -678,12 +682,21 @@ def check(mech: Mechanism) -> CheckReport:
     """Describe ``mech`` and collect every problem (see the module docstring). Never raises
     for the mechanism's geometry or structure."""
     made_by = {s.point: s.describe() for s in mech.steps}
+    cycle = _cycle(mech)
+    full, ranges = cycle.full, cycle.ranges
+    P = cycle.kin.positions()  # the first sample is the input crank's setting
+
+    def at(n: str) -> tuple[float, float, float] | None:
+        x = P[n][0]
+        return (float(x[0]), float(x[1]), float(x[2])) if np.all(np.isfinite(x)) else None
+
     points = tuple(
         PointInfo(
-            n,
-            n in mech.ground,
-            made_by.get(n) or "fixed at (" + ", ".join(f"{x * 1e3:g}" for x in mech.ground[n]) + ") mm",
-            tuple(l.name for l in mech.links if n in l.points),
+            name=n,
+            ground=n in mech.ground,
+            made_by=made_by.get(n) or "fixed at (" + ", ".join(f"{x * 1e3:g}" for x in mech.ground[n]) + ") mm",
+            links=tuple(l.name for l in mech.links if n in l.points),
+            at=at(n) if cycle.kin.assembles()[0] else None,
         )
         for n in mech.point_names
     )
@@ -705,8 +718,6 @@ def check(mech: Mechanism) -> CheckReport:
         GearInfo(s.point, next(iter(s.carriers(mech.links)), "?"), s.ratio, s.phase or 0.0) for s in mech.geared
     )
 
-    cycle = _cycle(mech)
-    full, ranges = cycle.full, cycle.ranges
     with np.errstate(all="ignore"):
         angles = block_angles(mech, cycle.kin)
         probs = tuple((type(e).__name__, str(e)) for e in _problems(mech, True, cycle))
@@ -738,6 +749,8 @@ def check(mech: Mechanism) -> CheckReport:
     if point_masses:
         notes.append(f"{', '.join(point_masses)}: mass without inertia, treated as a point mass at its 'com'")
     notes += plausibility(mech)
+    if full:
+        notes += intent.warnings(mech, P)
     return CheckReport(
         name=mech.name,
         title=mech.title,

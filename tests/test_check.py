@@ -69,7 +69,7 @@ def test_takeup_report():
     assert abs(a.phi_deg - (math.degrees(math.atan2(y4, x4)) + 180.0)) < 0.2
     text = format_report(r)
     for s in (
-        "points (4 ground, 6 moving)",
+        "points (4 ground, 6 moving;",
         "links (3 moving)",
         "revolute  at P3",
         "closes a loop",

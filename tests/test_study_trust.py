@@ -245,7 +245,6 @@ def test_a_damaged_chunk_is_recomputed_not_a_traceback(tmp_path, caplog, damage)
     assert again.resumed >= 1
 
 
-
 def test_a_chunk_write_interrupted_leaves_no_open_archive(tmp_path, monkeypatch):
     """Ctrl-C while a chunk is written: the interrupt goes through, the chunk file is not
     left behind, and no half-written archive is finalised later onto its closed file (which

@@ -193,6 +193,16 @@ def synthesis(res: SynthResult) -> str:
     return "\n".join(out)
 
 
+def _mm(x: tuple[float, float, float]) -> str:
+    """'(12.345, -3.2, 0) mm' from metres: to 0.001 mm, as a saved design rounds."""
+
+    def one(v: float) -> str:
+        t = f"{v * 1e3:.3f}".rstrip("0").rstrip(".")
+        return "0" if t in ("-0", "") else t
+
+    return "(" + ", ".join(one(v) for v in x) + ") mm"
+
+
 def format_report(r: validation.CheckReport, *, speed: float | None = None) -> str:
     """What ``check`` prints: the points, links, pairs, loops, gears, degrees of freedom,
     assembly and dead points of a file, its notes and problems (masses g, angles deg, lengths
@@ -203,10 +213,19 @@ def format_report(r: validation.CheckReport, *, speed: float | None = None) -> s
     out.append("")
     w = max([len(p.name) for p in r.points] + [4])
     wm = max(len(p.made_by) for p in r.points)
-    out.append(f"points ({sum(p.ground for p in r.points)} ground, {sum(not p.ground for p in r.points)} moving)")
+    moving = [p for p in r.points if not p.ground]
+    where = {p.name: "at " + _mm(p.at) if p.at is not None else "not assembled" for p in moving}
+    wa = max((len(v) for v in where.values()), default=0)
+    out.append(
+        f"points ({len(r.points) - len(moving)} ground, {len(moving)} moving"
+        + ("; a moving one 'at' where it is at the input crank's setting)" if moving else ")")
+    )
     for p in r.points:
         on = f"on {', '.join(p.links)}" if p.links else "on no link"
-        out.append(f"  {p.name:<{w}}  {'ground' if p.ground else 'moving'}  {p.made_by:<{wm}}  {on}")
+        if p.ground:
+            out.append(f"  {p.name:<{w}}  ground  {p.made_by:<{wm}}  {on}")
+        else:
+            out.append(f"  {p.name:<{w}}  moving  {p.made_by:<{wm}}  {where[p.name]:<{wa}}  {on}")
     out.append("")
     out.append(f"links ({len(r.links)} moving)")
     wl = max([len(l.name) for l in r.links] + [4])
