@@ -29,7 +29,7 @@ from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
 from ..model.mechanism import Mechanism
 from ..reference.batch import Batch
 from ..reference.kinematics import angle_ranges
-from . import kinematic_metrics, load_metrics, tension, timing
+from . import kinematic_metrics, load_metrics, motion, tension, timing
 from .metric_base import AtSpeed, Column, Curve, Loads, Metric, MetricError, MetricLimitError
 
 __all__ = [
@@ -46,6 +46,7 @@ __all__ = [
     "feasibility",
     "kinematic_metrics",
     "load_metrics",
+    "motion",
     "read",
     "tension",
     "timing",
@@ -62,7 +63,19 @@ def read(mech: Mechanism, raw: Any, i: int) -> Metric:
     if not isinstance(kind, str):
         raise MetricError(f"{where}: needs 'kind' (one of {', '.join(Metric.types)})")
     if kind not in Metric.types:
-        hint = did_you_mean(kind, list(Metric.types))
+        # A point's own motion is one metric with options, not a kind per quantity: a near
+        # name such as 'acceleration_peak' for 'velocity_peak' would mislead.
+        motion = (
+            "a point's position, velocity, acceleration or jerk, as a statistic or at an event, is "
+            "kind = 'motion' with its quantity; "
+        )
+        low = kind.lower()
+        if any(w in low for w in ("position", "velocity", "jerk", "motion")):
+            hint = motion
+        elif "acceleration" in low:
+            hint = did_you_mean(kind, list(Metric.types)) + motion
+        else:
+            hint = did_you_mean(kind, list(Metric.types))
         raise MetricError(f"{where}: unknown metric '{kind}' ({hint}valid: {', '.join(Metric.types)})")
     return Metric.types[kind](mech, raw, f"{where} ({kind})")
 
@@ -130,9 +143,15 @@ def compute(metrics: Sequence[Metric], b: Batch, nominal: Batch) -> dict[str, np
 def columns(metrics: Sequence[Metric]) -> list[Column]:
     """Every metric's columns, in order; a name used twice is a MetricError."""
     cols = list(itertools.chain.from_iterable(m.columns() for m in metrics))
-    seen: set[str] = set()
-    for c in cols:
+    owner = [m.where for m in metrics for _ in m.columns()]
+    seen: dict[str, str] = {}
+    for c, where in zip(cols, owner, strict=True):
         if c.name in seen:
-            raise MetricError(f"[[metric]]: column '{c.name}' is computed twice (two identical metrics)")
-        seen.add(c.name)
+            raise MetricError(
+                f"[[metric]]: column '{c.name}' is computed twice ({seen[c.name]} and {where}): two identical "
+                "metrics, or a motion metric's 'name' that another's column has"
+                if seen[c.name] != where
+                else f"{where}: column '{c.name}' is computed twice"
+            )
+        seen[c.name] = where
     return cols

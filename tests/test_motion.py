@@ -1,0 +1,233 @@
+"""The designer's own motion metric (``kind = "motion"``): every statistic and event checked
+against a plain solution written here (a scalar root of the reference's position, dense
+samples, finite differences) and against the crank-slider's closed forms; its errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from mjlink import api, reference, study
+from mjlink.analysis.metric_base import MetricError
+from mjlink.study import engine, spec
+
+HEAD = api.load("lockstitch_head")
+W = HEAD.speed  # rad/s, the file's
+PLATE, FABRIC = -100.0, 1.5  # mm, the head's [timing] plate and fabric (docs/head.md)
+CRANKS = [15.35, 14.0, 16.5]  # the needle bar crank's radius, mm: the file's and two variants
+ROD = 52.0  # mm, the needle link
+
+
+def _evaluate(metrics: list[dict], values=CRANKS) -> dict[str, np.ndarray]:
+    return study.evaluate(HEAD, {"construct.P6.length": values}, metrics).columns
+
+
+def _variant(r_mm: float):
+    return study.override(HEAD, {"construct.P6.length": r_mm})
+
+
+def _y(mech, point: str, phi: float, order: int = 0) -> float:
+    kin = reference.solve(mech, [phi], check=False)
+    p = kin.points[point]
+    return float((p.v, p.d, p.dd)[order][0, 1])
+
+
+def test_the_needle_bar_meets_the_crank_sliders_closed_forms():
+    """An in-line crank-slider of radius r and rod l (the head's needle bar: the crank's pivot
+    on the bar's line): at the bottom dead centre the bar's acceleration is r w^2 (1 + r / l)
+    towards the crank; with the crank pointing down (270 deg) the bar is r + l below its pivot."""
+    cols = _evaluate(
+        [
+            {"kind": "motion", "point": "NB", "quantity": "acceleration", "axis": "y", "event": {"extreme": "min"}},
+            {"kind": "motion", "point": "NB", "quantity": "position", "axis": "y", "event": {"angle": 270.0}},
+            {"kind": "motion", "point": "NB", "quantity": "position", "axis": "y", "statistic": "range"},
+        ]
+    )
+    r = np.array(CRANKS) * 1e-3
+    assert np.allclose(cols["acceleration_y_NB_at_NB_y_min"], r * W * W * (1 + r / (ROD * 1e-3)), rtol=1e-10, atol=0)
+    assert np.allclose(cols["position_y_NB_at_270deg"], -(np.array(CRANKS) + ROD), rtol=0, atol=1e-9)
+    assert np.allclose(cols["position_y_NB_range"], 2 * np.array(CRANKS), rtol=0, atol=1e-9)  # the stroke, 2 r
+
+
+def _first_crossing(mech, point: str, height_m: float, down: bool, speed: float) -> float:
+    """The plain twin: the first crank angle after the setting, in time, where the point's y
+    passes the height the wanted way, bracketed on 0.1 deg samples and solved by brentq."""
+    sense = 1 if speed > 0 else -1
+    phi = mech.phi0 + sense * np.radians(np.arange(3601) * 0.1)
+    y = reference.solve(mech, phi, check=False).points[point].v[:, 1] - height_m
+    hit = (y[:-1] > 0) & (y[1:] <= 0) if down else (y[:-1] < 0) & (y[1:] >= 0)
+    j = int(np.argmax(hit))
+    assert hit[j], "no crossing"
+    return brentq(lambda p: _y(mech, point, p) - height_m, *sorted((phi[j], phi[j + 1])), xtol=1e-15, rtol=1e-15)
+
+
+@pytest.mark.parametrize("speed_sign", [1, -1])
+def test_the_needles_velocity_as_it_passes_the_fabric_is_the_plain_solutions(speed_sign):
+    """The needle point's velocity at its first crossing of the fabric's top going down (and
+    coming up), for a crank turning either way: equal to the reference's exact velocity at the
+    crank angle a scalar root-finder gives."""
+    h = (PLATE + FABRIC) * 1e-3
+    w = speed_sign * W
+    mets = [
+        {
+            "kind": "motion",
+            "name": f"v_{d}",
+            "point": "NT",
+            "quantity": "velocity",
+            "axis": "y",
+            "speed": w,
+            "event": {"height": PLATE + FABRIC, "direction": d},
+        }
+        for d in ("down", "up")
+    ]
+    cols = _evaluate(mets)
+    for i, r in enumerate(CRANKS):
+        mech = _variant(r)
+        for d in ("down", "up"):
+            phi = _first_crossing(mech, "NT", h, d == "down", w)
+            want = _y(mech, "NT", phi, 1) * w
+            assert cols[f"v_{d}"][i] == pytest.approx(want, rel=1e-9), (r, d)
+            assert (want < 0) == (d == "down")  # down in time is a negative velocity
+    # Turning the other way meets the same angles in reverse: its down crossing is the
+    # counter-clockwise up crossing, its velocity reversed.
+    if speed_sign < 0:
+        ccw = _evaluate([{**m, "speed": W} for m in mets])
+        assert np.allclose(cols["v_down"], -ccw["v_up"], rtol=1e-9)
+
+
+def test_an_event_that_does_not_happen_gives_nan():
+    cols = _evaluate(
+        [
+            {
+                "kind": "motion",
+                "point": "NT",
+                "quantity": "velocity",
+                "axis": "y",
+                "event": {"height": 1000.0, "direction": "down"},
+                "name": "never",
+            }
+        ]
+    )
+    assert np.isnan(cols["never"]).all()
+
+
+def test_statistics_are_the_dense_samples():
+    """Peak, RMS and range of the take-up eyelet's speed and the needle bar's jerk, against
+    36,000 samples of the reference (the jerk by central differences of the exact
+    acceleration)."""
+    cols = _evaluate(
+        [
+            {"kind": "motion", "point": "P5", "quantity": "velocity", "statistic": stat}
+            for stat in ("peak", "rms", "range", "min")
+        ]
+        + [{"kind": "motion", "point": "NB", "quantity": "jerk", "axis": "y", "statistic": "peak"}],
+        values=[15.35],
+    )
+    phi = HEAD.phi0 + np.linspace(0, 2 * math.pi, 36000, endpoint=False)
+    kin = reference.solve(HEAD, phi, check=False)
+    speed = np.linalg.norm(kin.points["P5"].d, axis=1) * abs(W)
+    assert cols["velocity_P5_peak"][0] == pytest.approx(speed.max(), rel=1e-7)
+    assert cols["velocity_P5_rms"][0] == pytest.approx(np.sqrt(np.mean(speed**2)), rel=1e-10)
+    assert cols["velocity_P5_range"][0] == pytest.approx(np.ptp(speed), rel=1e-6)
+    assert cols["velocity_P5_min"][0] == pytest.approx(speed.min(), rel=1e-6, abs=1e-6)
+    e = 1e-4
+    ahead, back = (reference.solve(HEAD, phi + s, check=False).points["NB"].dd[:, 1] for s in (e, -e))
+    jerk = (ahead - back) / (2 * e) * W**3
+    assert cols["jerk_y_NB_peak"][0] == pytest.approx(np.abs(jerk).max(), rel=1e-6)
+
+
+def test_a_study_file_names_its_own_metric_and_bounds_it(tmp_path):
+    text = f"""
+[study]
+mechanism = "lockstitch_head"
+name = "penetration"
+angles = 360
+
+[sampling]
+method = "grid"
+
+[[parameter]]
+path = "construct.P6.length"
+values = {CRANKS}
+
+[[metric]]
+kind = "motion"
+name = "penetration_velocity"
+point = "NT"
+quantity = "velocity"
+axis = "y"
+event = {{ height = {PLATE + FABRIC}, direction = "down" }}
+
+[[bound]]
+metric = "penetration_velocity"
+min = -8.5
+"""
+    st = spec.parse(text, tmp_path / "s.toml")
+    res = engine.run(st)
+    v = res.columns["penetration_velocity"]
+    assert v.shape == (3,) and np.all(v < 0)
+    # The same numbers as the metric asked for directly, and the bound applied to them.
+    direct = _evaluate(
+        [
+            {
+                "kind": "motion",
+                "point": "NT",
+                "quantity": "velocity",
+                "axis": "y",
+                "event": {"height": PLATE + FABRIC, "direction": "down"},
+            }
+        ]
+    )
+    assert np.array_equal(v, direct["velocity_y_NT_at_NT_y_down_m98p5mm"])
+    assert [c.name for c in st.metrics[0].columns()] == ["penetration_velocity"]
+
+
+@pytest.mark.parametrize(
+    ("metric", "words"),
+    [
+        ({"kind": "velocity_peak", "point": "NT"}, "kind = 'motion' with its quantity"),
+        ({"kind": "motion", "point": "NT", "quantity": "speed"}, "position, velocity, acceleration, jerk"),
+        ({"kind": "motion", "point": "NT", "quantity": "position"}, "a position needs an axis"),
+        ({"kind": "motion", "point": "NT", "quantity": "velocity", "statistic": "mean"}, "peak, rms, range, max, min"),
+        (
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"height": 1.0, "angle": 2.0}},
+            "exactly one of height (mm), height_of (a point), extreme (max/min) or angle",
+        ),
+        (
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"height": 1.0}},
+            "direction must be 'up' or 'down'",
+        ),
+        (
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"point": "XX", "extreme": "max"}},
+            "'XX' is not a point of lockstitch_head (points: P1, ",
+        ),
+        (
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"when": 1}},
+            "unknown key 'when' (valid: point, axis, height, height_of, direction, extreme, angle)",
+        ),
+        ({"kind": "motion", "point": "NT", "quantity": "velocity", "name": "2fast"}, "name must be a column name"),
+        ({"kind": "motion", "point": "NT", "quantity": "velocity", "name": "feasible"}, "every study table has"),
+        (
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "statistic": "peak", "event": {"angle": 1}},
+            "either 'statistic' or 'event'",
+        ),
+    ],
+)
+def test_a_wrong_motion_metric_is_one_line_naming_what_exists(metric, words):
+    with pytest.raises(MetricError) as e:
+        study.evaluate(HEAD, {"construct.P6.length": [15.35]}, [metric])
+    msg = str(e.value)
+    assert words in msg and "\n" not in msg, msg
+    assert "did you mean 'acceleration_peak'" not in msg
+
+
+def test_a_name_another_metrics_column_has_is_refused_naming_both():
+    mine = {"kind": "motion", "point": "NB", "quantity": "velocity", "axis": "y", "name": "stroke_NB"}
+    with pytest.raises(
+        MetricError,
+        match=r"'stroke_NB' is computed twice \(\[\[metric\]\] #1 \(motion\) and \[\[metric\]\] #2 \(stroke\)\)",
+    ):
+        study.evaluate(HEAD, {"construct.P6.length": [15.35]}, [mine, {"kind": "stroke", "point": "NB"}])
