@@ -190,6 +190,16 @@ min = -8.5
     [
         ({"kind": "velocity_peak", "point": "NT"}, "kind = 'motion' with its quantity"),
         ({"kind": "motion", "point": "NT", "quantity": "speed"}, "position, velocity, acceleration, jerk"),
+        ({"kind": "motion", "link": "lever", "quantity": "velocity"}, "angle, angular_velocity, angular_acceleration"),
+        ({"kind": "motion", "link": "levr", "quantity": "angle"}, "is not a link of lockstitch_head (links: crank,"),
+        ({"kind": "motion", "block": "NB", "quantity": "transmission_angle"}, "is a slider: its quantity is pressure"),
+        ({"kind": "motion", "block": "P5", "statistic": "max"}, "is not a dyad's or a slider's point"),
+        ({"kind": "motion", "quantity": "velocity"}, "needs exactly one of point"),
+        ({"kind": "motion", "link": "lever", "quantity": "angle", "axis": "y"}, "takes no axis"),
+        (
+            {"kind": "motion", "link": "lever", "quantity": "angle", "event": {"extreme": "max"}},
+            "needs its point",
+        ),
         ({"kind": "motion", "point": "NT", "quantity": "position"}, "a position needs an axis"),
         ({"kind": "motion", "point": "NT", "quantity": "velocity", "statistic": "mean"}, "peak, rms, range, max, min"),
         (
@@ -231,3 +241,54 @@ def test_a_name_another_metrics_column_has_is_refused_naming_both():
         match=r"'stroke_NB' is computed twice \(\[\[metric\]\] #1 \(motion\) and \[\[metric\]\] #2 \(stroke\)\)",
     ):
         study.evaluate(HEAD, {"construct.P6.length": [15.35]}, [mine, {"kind": "stroke", "point": "NB"}])
+
+
+def _dense(mech, n: int = 36000):
+    phi = mech.phi0 + np.linspace(0, 2 * math.pi, n, endpoint=False)
+    return phi, reference.solve(mech, phi, check=False)
+
+
+def test_a_links_angle_angular_velocity_and_ratio_are_the_plain_ones():
+    """The feed rocker's swing and its largest velocity ratio to the input, from the direction
+    of its own two pivots' line (atan2 of the positions, differentiated numerically), and the
+    take-up crank's angular velocity at a crank angle from the reference's exact derivative."""
+    cols = _evaluate(
+        [
+            {"kind": "motion", "link": "feed_rocker", "quantity": "angle", "statistic": "range"},
+            {"kind": "motion", "link": "feed_rocker", "quantity": "velocity_ratio", "statistic": "peak"},
+            {"kind": "motion", "link": "rocker", "quantity": "angular_velocity", "event": {"angle": 200.0}},
+            {"kind": "motion", "link": "rocker", "quantity": "angle", "statistic": "max", "name": "turning"},
+        ],
+        values=[15.35],
+    )
+    phi, kin = _dense(HEAD)
+    rc = kin.points["C"].v - kin.points["R"].v
+    a = np.unwrap(np.arctan2(rc[:, 1], rc[:, 0]))
+    assert cols["angle_feed_rocker_range"][0] == pytest.approx(math.degrees(np.ptp(a)), rel=1e-7)
+    ratio = np.gradient(a, phi[1] - phi[0])
+    assert cols["velocity_ratio_feed_rocker_peak"][0] == pytest.approx(np.abs(ratio).max(), rel=1e-5)
+    one = reference.solve(HEAD, [math.radians(200.0)], check=False)
+    assert cols["angular_velocity_rocker_at_200deg"][0] == pytest.approx(one.angles["rocker"].d[0] * W, rel=1e-10)
+    assert np.isnan(cols["turning"][0])  # the take-up's rocker turns fully: it has no largest angle
+
+
+def test_a_blocks_transmission_and_pressure_angle_are_the_plain_ones():
+    """The needle bar's crank-slider (in line): its largest pressure angle is asin(r / l); the
+    take-up dyad's smallest transmission angle from the angle at its joint (dense samples)."""
+    cols = _evaluate(
+        [
+            {"kind": "motion", "block": "NB", "statistic": "max"},
+            {"kind": "motion", "block": "P3", "statistic": "min"},
+            {"kind": "motion", "block": "P3", "event": {"angle": 101.0}},
+        ]
+    )
+    r = np.array(CRANKS)
+    assert np.allclose(cols["pressure_angle_NB_max"], np.degrees(np.arcsin(r / ROD)), rtol=1e-9, atol=0)
+    _, kin = _dense(HEAD)
+    u, v = (kin.points[q].v[:, :2] - kin.points["P3"].v[:, :2] for q in ("P2", "P4"))
+    mu = np.degrees(np.arccos((u * v).sum(1) / np.linalg.norm(u, axis=1) / np.linalg.norm(v, axis=1)))
+    assert cols["transmission_angle_P3_min"][0] == pytest.approx(mu.min(), rel=1e-7)
+    one = reference.solve(HEAD, [math.radians(101.0)], check=False)
+    u, v = (one.points[q].v[0, :2] - one.points["P3"].v[0, :2] for q in ("P2", "P4"))
+    at = math.degrees(math.acos(u @ v / np.linalg.norm(u) / np.linalg.norm(v)))
+    assert cols["transmission_angle_P3_at_101deg"][0] == pytest.approx(at, rel=1e-9)

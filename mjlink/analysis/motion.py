@@ -1,16 +1,22 @@
-"""A designer's own motion metric: a point's position, velocity, acceleration or jerk, along an
-axis or as a magnitude, taken as its peak, RMS, range, largest or smallest value over the
-period, or as its value at an event of the cycle.
+"""A designer's own motion metric: a point's position, velocity, acceleration or jerk (along an
+axis or as a magnitude), a link's angle, angular velocity, angular acceleration or velocity
+ratio to the input crank, or a dyad's transmission or a slider's pressure angle, taken as its
+peak, RMS, range, largest or smallest value over the period, or as its value at an event of
+the cycle.
 
 ::
 
     [[metric]]
     kind = "motion"
     name = "penetration_velocity"        # the column's name (optional)
-    point = "NT"
+    point = "NT"                         # or link = "lever", or block = "P3"
     quantity = "velocity"                # position (mm), velocity, acceleration, jerk (SI)
     axis = "y"                           # x, y or z; without it the vector's magnitude
     event = { point = "NT", height = -98.5, direction = "down" }   # or statistic = "peak"
+
+A link's angle is its direction in the plane (deg), continuous over the period from its value
+at the setting in -180..180; at an event, as the link stands (-180..180). A link that turns
+fully has no largest or smallest angle: its statistics are NaN.
 
 Events (``event``, a table; without one, ``statistic``):
 
@@ -47,7 +53,9 @@ from ..model.reader import shown
 from ..reference.batch import Batch
 from .metric_base import AtSpeed, Column, Curve, Loads, MetricError
 
-QUANTITIES = {"position": "mm", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
+POINT = {"position": "mm", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
+LINK = {"angle": "deg", "angular_velocity": "rad/s", "angular_acceleration": "rad/s^2", "velocity_ratio": ""}
+TIMED = ("velocity", "acceleration", "jerk", "angular_velocity", "angular_acceleration")  # depend on the speed
 STATISTICS = ("peak", "rms", "range", "max", "min")
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _EVENT_KEYS = ("point", "axis", "height", "height_of", "direction", "extreme", "angle")
@@ -80,21 +88,74 @@ class Event:
 
 
 class Motion(AtSpeed):
-    """A point's position (mm), velocity (m/s), acceleration (m/s^2) or jerk (m/s^3) at constant
-    crank speed, along ``axis`` or as the vector's magnitude, taken as ``statistic`` (peak:
-    largest magnitude; rms; range; max; min) over the period or at ``event`` (module doc)."""
+    """The motion of a point, a link or a block at constant crank speed, taken as ``statistic``
+    (peak: largest magnitude; rms; range; max; min) over the period or at ``event`` (module
+    doc). A point's position (mm), velocity (m/s), acceleration (m/s^2) or jerk (m/s^3), along
+    ``axis`` or as the vector's magnitude; a link's angle (deg), angular velocity (rad/s),
+    angular acceleration (rad/s^2) or velocity ratio to the input crank (-); a dyad's
+    transmission angle or a slider's pressure angle (deg), named by the block's point."""
 
     kind = "motion"
-    needs_point = True
     needs_loads = False
-    options: ClassVar[tuple[str, ...]] = ("speed", "quantity", "axis", "statistic", "event", "name")
+    options: ClassVar[tuple[str, ...]] = (
+        "point",
+        "link",
+        "block",
+        "speed",
+        "quantity",
+        "axis",
+        "statistic",
+        "event",
+        "name",
+    )
 
     def read(self, raw: dict[str, Any]) -> None:
         super().read(raw)
+        subject = [k for k in ("point", "link", "block") if k in raw]
+        if len(subject) != 1:
+            raise MetricError(
+                f"{self.where}: needs exactly one of point (its position, velocity, acceleration, jerk), link "
+                "(its angle, angular velocity, angular acceleration, velocity ratio) or block (a dyad's or a "
+                f"slider's point: its transmission or pressure angle), got {', '.join(subject) or 'none'}"
+            )
+        self.subject = subject[0]
+        self.link = self.block = ""
         q = raw.get("quantity")
-        if q not in QUANTITIES:
-            raise MetricError(f"{self.where}: quantity must be one of {', '.join(QUANTITIES)}, got {shown(q)}")
+        if self.subject == "point":
+            self._point(raw["point"], f"{self.where}: point")
+            self.point = raw["point"]
+            table = POINT
+        elif self.subject == "link":
+            links = [l.name for l in self.mech.links]
+            if raw["link"] not in links:
+                raise MetricError(
+                    f"{self.where}: link {shown(raw['link'])} is not a link of {self.mech.name} (links: {', '.join(links)})"
+                )
+            self.link = raw["link"]
+            table = LINK
+        else:
+            blocks = {s.point: s.kind for s in self.mech.steps if s.kind in ("dyad", "slider")}
+            if raw["block"] not in blocks:
+                raise MetricError(
+                    f"{self.where}: block {shown(raw['block'])} is not a dyad's or a slider's point of "
+                    f"{self.mech.name} (blocks: {', '.join(blocks) or 'none'})"
+                )
+            self.block = raw["block"]
+            own = "transmission_angle" if blocks[self.block] == "dyad" else "pressure_angle"
+            q = own if q is None else q
+            if q != own:
+                raise MetricError(
+                    f"{self.where}: block {self.block} is a {blocks[self.block]}: its quantity is {own}, got {shown(q)}"
+                )
+            table = {own: "deg"}
+        if q not in table:
+            raise MetricError(
+                f"{self.where}: a {self.subject}'s quantity must be one of {', '.join(table)}, got {shown(q)}"
+            )
         self.quantity = str(q)
+        self.unit = table[self.quantity]
+        if self.subject != "point" and "axis" in raw:
+            raise MetricError(f"{self.where}: a {self.subject}'s {self.quantity} takes no axis")
         self.axis = _axis(raw.get("axis"), f"{self.where}: axis", default=None)
         if self.quantity == "position" and self.axis is None:
             raise MetricError(
@@ -117,8 +178,9 @@ class Motion(AtSpeed):
             raise MetricError(f"{self.where}: name '{name}' is a column every study table has; choose another")
         ax = "" if self.axis is None else "_" + "xyz"[self.axis]
         how = self.event.tag() if self.event is not None else self.statistic
-        self.name = name or f"{self.quantity}{ax}_{self.point}_{how}" + (
-            self._tag() if self.quantity != "position" else ""
+        timed = self.quantity in TIMED
+        self.name = name or f"{self.quantity}{ax}_{self.point or self.link or self.block}_{how}" + (
+            self._tag() if timed else ""
         )
 
     def _event(self, raw: Any) -> Event:
@@ -140,6 +202,8 @@ class Motion(AtSpeed):
                 raise MetricError(f"{where}: a crank angle takes no {', '.join(extra)}")
             return Event(angle=math.radians(_number(raw["angle"], f"{where} angle", 1e6)))
         point = raw.get("point", self.point)
+        if not point:
+            raise MetricError(f"{where} needs its point (a {self.subject}'s event is a point's crossing or extreme)")
         self._point(point, f"{where} point")
         axis = _axis(raw.get("axis"), f"{where} axis", default=1)
         assert axis is not None
@@ -168,50 +232,92 @@ class Motion(AtSpeed):
                 f"{where}: {shown(p)} is not a point of {self.mech.name} (points: {', '.join(self.mech.point_names)})"
             )
 
+    def _what(self) -> str:
+        if self.subject == "point":
+            return f"{self.quantity} {'|.|' if self.axis is None else 'xyz'[self.axis]} of {self.point}"
+        return f"{self.quantity.replace('_', ' ')} of {self.link or self.block}"
+
     def columns(self) -> list[Column]:
-        unit = QUANTITIES[self.quantity]
-        what = f"{self.quantity} {'|.|' if self.axis is None else 'xyz'[self.axis]} of {self.point}"
         how = f"at {self.event.tag()[3:]}" if self.event is not None else self.statistic
-        return [Column(self.name, unit, f"{what}, {how}")]
+        return [Column(self.name, self.unit, f"{self._what()}, {how}")]
 
     # -- the quantity over the cycle ----------------------------------------------------------
     def _components(self, b: Batch) -> np.ndarray:
-        """(V, A, C) the quantity's components (C = 1 along an axis, 3 for a magnitude)."""
-        p = b.kin.points[self.point]
+        """(V, A, C) the quantity's components (C = 1 along an axis or for a link's or block's
+        angle, 3 for a magnitude); a link's angle with its turns taken out (:meth:`_turns`)."""
+        rows = b.variants * b.angles
         w = self.speed
+        if self.subject == "block":
+            step = next(s for s in b.mechanism.steps if s.point == self.block)
+            dp = step.dead_point(b.kin.positions())
+            assert dp is not None
+            return b.per_variant(np.broadcast_to(dp.value_deg, (rows,)))[:, :, None]
+        if self.subject == "link":
+            a = b.kin.angles[self.link]
+            if self.quantity == "angle":
+                u = np.unwrap(b.per_variant(np.broadcast_to(a.v, (rows,))), axis=1)
+                out: np.ndarray = u - self._turns(u)[:, None] * 2.0 * math.pi * b.theta[None, :] / _period(b)
+                return out[:, :, None]
+            q = {"angular_velocity": a.d * w, "angular_acceleration": a.dd * w * w, "velocity_ratio": a.d}[
+                self.quantity
+            ]
+            return b.per_variant(np.broadcast_to(q, (rows,)))[:, :, None]
+        p = b.kin.points[self.point]
         if self.quantity == "position":
             q = p.v * 1e3
         elif self.quantity == "velocity":
             q = p.d * w
         else:
             q = p.dd * w * w
-        q = b.per_variant(np.broadcast_to(q, (b.variants * b.angles, 3)))
+        q = b.per_variant(np.broadcast_to(q, (rows, 3)))
         if self.quantity == "jerk":  # d/dt = omega d/dphi of the exact acceleration
             q = _derivative(q, _period(b), axis=1) * w
         return q if self.axis is None else q[:, :, self.axis : self.axis + 1]
 
+    @staticmethod
+    def _turns(u: np.ndarray) -> np.ndarray:
+        """(V,) whole turns a link makes over the period, from its unwrapped angle samples (V, A)."""
+        last = np.angle(np.exp(1j * (u[:, 0] - u[:, -1])))  # the step from the last sample back to the first
+        turns: np.ndarray = np.round((u[:, -1] + last - u[:, 0]) / (2.0 * math.pi))
+        return turns
+
     def _signal(self, c: np.ndarray) -> np.ndarray:
-        return c[..., 0] if self.axis is not None else np.sqrt((c * c).sum(axis=-1))
+        return c[..., 0] if c.shape[-1] == 1 else np.sqrt((c * c).sum(axis=-1))
 
     def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
         c = self._components(b)
         T = _period(b)
+        angle = self.subject == "link" and self.quantity == "angle"
+        turns = (
+            self._turns(
+                np.unwrap(b.per_variant(np.broadcast_to(b.kin.angles[self.link].v, (b.variants * b.angles,))), axis=1)
+            )
+            if angle
+            else None
+        )
         if self.event is not None:
             t = self._instant(b, self.event)
             ok = np.isfinite(t)
-            value = self._signal(_evaluate(np.fft.rfft(c, axis=1), T, np.where(ok, t, 0.0), b.angles))
+            t = np.where(ok, t, 0.0)
+            value = self._signal(_evaluate(np.fft.rfft(c, axis=1), T, t, b.angles))
+            if turns is not None:  # the turns back, then the angle as the link stands: -180..180 deg
+                value = np.degrees(np.angle(np.exp(1j * (value + turns * 2.0 * math.pi * t / T))))
             return {self.name: np.where(ok, value, np.nan)}
         s = self._signal(c)
+        if turns is not None:
+            # A link's angle over the period, continuous from its value at the setting (in
+            # -180..180 deg); a link that turns has no such extremes: NaN.
+            s = np.degrees(s - s[:, :1] + np.angle(np.exp(1j * s[:, :1])))
         if self.statistic == "rms":
-            return {self.name: np.sqrt((s * s).mean(axis=1))}
-        spec = np.fft.rfft(s, axis=1)
-        hi, lo = _extreme(spec, s, T, True), _extreme(spec, s, T, False)
-        value = {"max": hi, "min": lo, "range": hi - lo, "peak": np.maximum(np.abs(hi), np.abs(lo))}[self.statistic]
-        return {self.name: value}
+            value = np.sqrt((s * s).mean(axis=1))
+        else:
+            spec = np.fft.rfft(s, axis=1)
+            hi, lo = _extreme(spec, s, T, True), _extreme(spec, s, T, False)
+            value = {"max": hi, "min": lo, "range": hi - lo, "peak": np.maximum(np.abs(hi), np.abs(lo))}[self.statistic]
+        return {self.name: value if turns is None else np.where(turns == 0, value, np.nan)}
 
     def curve(self, b: Batch, loads: Loads) -> Curve | None:
-        what = f"{self.quantity} {'|.|' if self.axis is None else 'xyz'[self.axis]} of {self.point}"
-        return Curve(what, QUANTITIES[self.quantity], self._signal(self._components(b)))
+        return Curve(self._what(), self.unit, self._signal(self._components(b)))
 
     # -- events --------------------------------------------------------------------------------
     def _instant(self, b: Batch, ev: Event) -> np.ndarray:
