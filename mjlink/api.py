@@ -45,6 +45,7 @@ from .pipeline.study import run as _study_run
 from .reference import constant_speed, reference_trace
 from .sim import simulate as _sim
 from .sim.steps import kinematic_clock
+from .study.spec import load as _study_load
 from .units import RunKind
 
 __all__ = [
@@ -323,6 +324,7 @@ def run_study(
     plots: bool = True,
     force: bool = False,
     progress: bool = False,
+    metrics: Mapping[str, Callable[[Mapping[str, np.ndarray]], Any] | tuple[Callable[..., Any], str]] | None = None,
 ) -> StudyResult | OptimizeResult:
     """What ``python -m mjlink study`` does, into ``out/NAME-study/``: a sweep, tolerance
     study or optimization of a study file (studies/README.md).
@@ -336,6 +338,11 @@ def run_study(
       plots: write the PNG figures.
       force: publish into an existing folder mjlink did not write (your files are kept).
       progress: report progress on stderr.
+      metrics: the designer's own metrics, column name -> function (or (function, unit)): each
+        gets the variants' traces by column name (the names of ``kinematics.csv``), arrays of
+        shape (V, A) (V variants, A crank angles over one period), and returns shape (V,).
+        The study file's bounds, objective and ``[verify] by`` may name their columns
+        (docs/api.md, Your own metric in Python).
     Returns:
       A :class:`~mjlink.pipeline.study.StudyResult` (``out_dir``, ``summary``), or for an
       ``[optimize]`` study an :class:`~mjlink.pipeline.optimize.OptimizeResult` (its
@@ -353,8 +360,10 @@ def run_study(
     if scheduler is not None and not isinstance(scheduler, str):
         raise _refuse(fn, "scheduler", scheduler, "a Dask scheduler's address 'tcp://HOST:PORT' or None")
     flags = {k: _flag(fn, k, v) for k, v in (("plots", plots), ("force", force), ("progress", progress))}
+    if metrics is not None and not isinstance(metrics, Mapping):
+        raise _refuse(fn, "metrics", metrics, "a mapping of column name to function, or None")
     return _study_run(
-        spec,
+        _study_load(spec, metrics) if metrics else spec,
         root,
         workers=None if workers is None else int(workers),
         scheduler=scheduler,

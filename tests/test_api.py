@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
@@ -27,7 +28,10 @@ def test_the_documented_script_runs_as_written(tmp_path, monkeypatch, capsys):
     exec(compile(_script("api.md"), "docs/api.md", "exec"), {"__name__": "__docs__"})
     out = capsys.readouterr().out
     assert "thresholds missed: none" in out
-    assert re.search(r"\d+ of 806 variants feasible; smallest pressure angle \d+\.\d+ deg", out)
+    m = re.search(r"(\d+) of 806 variants within the bounds; smallest pressure angle \d+\.\d+ deg", out)
+    assert m is not None, out
+    summary = json.loads((tmp_path / "renders" / "crank_slider_grid-study" / "summary.json").read_text())
+    assert int(m[1]) == summary["within_bounds"]  # the table's column says what the summary counts
     import mujoco
 
     model = mujoco.MjModel.from_xml_path(str(tmp_path / "takeup.xml"))

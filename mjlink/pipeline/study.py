@@ -66,6 +66,7 @@ def table(o: engine.Outcome) -> dict[str, Any]:
     for c in st.columns:
         cols[column_name(c.name, c.unit)] = o.columns[c.name]
     cols["feasible"] = o.feasible.astype(np.int8)
+    cols["within_bounds"] = within_bounds(o).astype(np.int8)
     cols["reason"] = list(o.reason)
     cols["mujoco"] = ["" if v < 0 else ("pass" if v else "FAIL") for v in o.verified]
     cols["mujoco_position_error_um"] = o.mujoco["position_error"]
@@ -73,6 +74,14 @@ def table(o: engine.Outcome) -> dict[str, Any]:
     cols["mujoco_thread_error_um"] = o.mujoco["thread_error"]
     cols["mujoco_reason"] = list(o.mujoco_reason)
     return cols
+
+
+def within_bounds(o: engine.Outcome) -> np.ndarray:
+    """(V,) bool: the variant is feasible and holds every [[bound]] (all feasible ones without)."""
+    within = o.feasible.copy()
+    for b in o.study.bounds:
+        within &= b.holds(o.columns[b.column])
+    return within
 
 
 def _stats(x: np.ndarray) -> dict[str, float]:
@@ -146,9 +155,7 @@ def sensitivity(o: engine.Outcome, top: int = 5) -> dict[str, dict[str, Any]]:
 def summary(o: engine.Outcome, command: str | None = None) -> dict[str, Any]:
     """What ``summary.json`` holds (see the module docstring)."""
     st = o.study
-    within = np.ones(len(o.values), dtype=bool) & o.feasible
-    for b in st.bounds:
-        within &= b.holds(o.columns[b.column])
+    within = within_bounds(o)
     verified = o.verified >= 0
     worst = {k: float(np.max(v[np.isfinite(v)])) if np.isfinite(v).any() else None for k, v in o.mujoco.items()}
     thresholds = compare.thresholds()

@@ -14,6 +14,7 @@ import hashlib
 import math
 import sys
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from .. import validation
+from ..analysis import function_metric as _functions
 from ..analysis import metrics as _metrics
 from ..errors import InputError, MjlinkError, did_you_mean
 from ..model import catalogue, paths
@@ -266,8 +268,9 @@ def find(name_or_path: str | Path) -> Path:
     raise StudyFileError(f"{shown(str(name_or_path))}: no such study file ({hint}shipped: {', '.join(known)})")
 
 
-def load(name_or_path: str | Path) -> Study:
-    """Read and validate a study file (a path, or the name of a shipped one)."""
+def load(name_or_path: str | Path, functions: Mapping[str, Any] | None = None) -> Study:
+    """Read and validate a study file (a path, or the name of a shipped one); ``functions``
+    the designer's Python metrics (:func:`parse`)."""
     p = find(name_or_path)
     try:
         size = p.stat().st_size
@@ -278,11 +281,15 @@ def load(name_or_path: str | Path) -> Study:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise StudyFileError(f"{p}: cannot read: {e}") from None
-    return parse(text, p)
+    return parse(text, p, functions)
 
 
-def parse(text: str, path: Path | str = "<string>") -> Study:
-    """Parse and validate a study file's text; the mechanism path is relative to the file."""
+def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any] | None = None) -> Study:
+    """Parse and validate a study file's text; the mechanism path is relative to the file.
+    ``functions`` adds the designer's Python metrics after the file's, name -> function or
+    (function, unit) (:mod:`mjlink.analysis.function_metric`): their columns may be bounded,
+    optimized and ranked by like the file's, and their code is part of what a resumed run
+    must match."""
     src = path
     if len(text) > MAX_FILE_BYTES:
         raise _limit(src, "", f"{len(text)} characters; a study file is at most {MAX_FILE_BYTES} (1 MiB)")
@@ -377,10 +384,11 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
             raise _limit(src, "[[parameter]]", f"the grid has {samples} variants, at most {MAX_VARIANTS}")
 
     raw_metrics = data.get("metric", [])
-    if not isinstance(raw_metrics, list) or not raw_metrics:
+    if not isinstance(raw_metrics, list) or not (raw_metrics or functions):
         raise _fail(src, "[[metric]]", "needs at least one [[metric]] table (what to compute for each variant)")
     try:
-        mets = tuple(_metrics.read(mech, m, i) for i, m in enumerate(raw_metrics))
+        own = _functions.functions(mech, functions)
+        mets = tuple(_metrics.read(mech, m, i) for i, m in enumerate(raw_metrics)) + own
         cols = _metrics.columns(mets)
     except MjlinkError as e:
         raise (StudyLimitError if isinstance(e, InputError) else StudyFileError)(f"{src}: {e}") from None
@@ -436,7 +444,8 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         )
     values.check_varied(src, text, base, fixed, varied, method, samples, seed, robust)
 
-    digest = hashlib.sha256(text.encode() + b"\0" + mtext).hexdigest()[:16]
+    code = _functions.fingerprint(own)
+    digest = hashlib.sha256(text.encode() + b"\0" + mtext + code).hexdigest()[:16]
     return Study(
         name=name,
         title=title,
@@ -458,7 +467,7 @@ def parse(text: str, path: Path | str = "<string>") -> Study:
         robust=robust,
         fixed=fixed,
         file_mechanism=base,
-        definition_digest=hashlib.sha256(text.encode()).hexdigest()[:16],
+        definition_digest=hashlib.sha256(text.encode() + code).hexdigest()[:16],
         mechanism_digest=hashlib.sha256(mtext).hexdigest()[:16],
     )
 
