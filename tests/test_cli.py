@@ -214,3 +214,45 @@ def test_the_exit_status_the_docs_give_for_strict_is_the_one_a_run_exits_with(tm
     assert json.loads((tmp_path / "lockstitch_head" / "report.json").read_text())["failures"]
     strict = mjlink(*args, "--strict").returncode
     assert [(w, s) for w, s in found if s != strict] == []
+
+
+def _design_rows(stdout: str) -> dict[str, list[str]]:
+    """The lines of 'What the design does' and its dimensions, by their last word."""
+    start = stdout.index("What the design does")
+    rows = {}
+    for line in stdout[start:].splitlines()[1:]:
+        if not line.startswith("  "):
+            if line.startswith("Dimensions"):
+                continue
+            break
+        rows[line.split()[-1] if not line.split()[0].startswith("construct.") else line.split()[0]] = line.split()
+    return rows
+
+
+def test_simulate_prints_what_the_design_does_beside_its_base(tmp_path):
+    """A copy of the take-up with one length changed: the terminal gives every headline number
+    (the report's), the shipped design's beside it and the change, and the dimension changed."""
+    mine = tmp_path / "my_takeup.toml"
+    text = (ROOT / "mechanisms" / "takeup.toml").read_text()
+    assert "length_a = 22.0" in text
+    mine.write_text(text.replace("length_a = 22.0", "length_a = 23.0", 1))
+    r = mjlink("simulate", str(mine), "--out", str(tmp_path), "--no-video", "--no-plots", "--no-dynamics")
+    assert r.returncode == 0, r.stderr
+    assert "What the design does, beside the shipped takeup" in r.stdout
+    rows = _design_rows(r.stdout)
+    assert rows["construct.P3.length_a"][1:] == ["23", "22", "+1", "mm"]
+    rep = json.loads((tmp_path / "takeup" / "report.json").read_text())
+    r0 = mjlink("simulate", "takeup", "--out", str(tmp_path / "base"), "--no-video", "--no-plots", "--no-dynamics")
+    assert r0.returncode == 0, r0.stderr
+    assert "What the design does (drawn at phi1 = 101 deg" in r0.stdout and "beside" not in r0.stdout
+    base = {
+        s["metric"]: s["value"]
+        for s in json.loads((tmp_path / "base" / "takeup" / "report.json").read_text())["design"]["summary"]
+    }
+    for s in rep["design"]["summary"]:
+        row = rows[s["metric"]]
+        value, was = float(row[-5]), float(row[-4])
+        assert value == pytest.approx(s["value"], rel=1e-5) and was == pytest.approx(base[s["metric"]], rel=1e-5)
+    r = mjlink("simulate", str(mine), "--base", str(tmp_path / "nosuch.toml"), "--out", str(tmp_path / "x"))
+    assert r.returncode == 1 and r.stderr.strip().count("\n") == 0 and "nosuch.toml" in r.stderr
+    assert not (tmp_path / "x").exists()

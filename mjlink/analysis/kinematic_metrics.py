@@ -209,7 +209,9 @@ class TransmissionMin(Metric):
     kind = "transmission_min"
 
     def columns(self) -> list[Column]:
-        return [Column("transmission_min", "deg", "minimum transmission angle")]
+        # The folded value is how far the angle keeps from a dead point (0 or 180 deg), not the
+        # angle itself: the take-up's 25.4 is an angle reaching 154.6.
+        return [Column("transmission_min", "deg", "transmission angle's least distance from a dead point")]
 
     def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
         worst = np.full(b.variants, np.nan)
@@ -225,7 +227,7 @@ class TransmissionMin(Metric):
             if dp.quantity == "transmission angle":
                 m = b.per_variant(dp.margin_deg)
                 worst = m if worst is None else np.fmin(worst, m)
-        return None if worst is None else Curve("smallest transmission angle", "deg", worst)
+        return None if worst is None else Curve("transmission angle's distance from a dead point", "deg", worst)
 
 
 class PressureMax(Metric):

@@ -160,3 +160,45 @@ def summarize(mech: Mechanism, thread: NeedleTension | None = None) -> Summary:
     (:func:`tension_rows`) when the run's ``thread`` is given."""
     headline = design_summary(mech) + (tension_rows(thread) if thread is not None else ())
     return Summary(math.degrees(mech.phi0), mech.speed, headline, point_strokes(mech), dimensions(mech))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Change:
+    """One design number against a base design: ``name`` a study metric or parameter path,
+    ``label``, ``value`` and ``base`` in ``unit`` (None where that design has no such number)."""
+
+    name: str
+    label: str
+    value: float | None
+    base: float | None
+    unit: str
+
+    @property
+    def delta(self) -> float | None:
+        return None if self.value is None or self.base is None else self.value - self.base
+
+
+def against(summary: Summary, base: Mechanism) -> tuple[tuple[Change, ...], tuple[Change, ...]]:
+    """What the design does and its dimensions beside a ``base`` design's: the headline rows
+    (the base's own numbers by the same metric names; None where the base has none) and every
+    dimension that differs (by study path; a number only one design has is listed too)."""
+    rows = {r.metric: r for r in design_summary(base)}
+    head = tuple(
+        Change(
+            name=r.metric,
+            label=r.label,
+            value=r.value,
+            base=rows[r.metric].value if r.metric in rows else None,
+            unit=r.unit,
+        )
+        for r in summary.headline
+    )
+    mine = {p: (v, u) for p, v, u in summary.dimensions}
+    theirs = {p: (v, u) for p, v, u in dimensions(base)}
+    dims = []
+    for p in [*mine, *(q for q in theirs if q not in mine)]:
+        v, u = mine.get(p, (None, theirs[p][1] if p in theirs else ""))
+        b = theirs[p][0] if p in theirs else None
+        if v is None or b is None or not math.isclose(v, b, rel_tol=1e-12, abs_tol=1e-12):
+            dims.append(Change(name=p, label=p, value=v, base=b, unit=u))
+    return head, tuple(dims)

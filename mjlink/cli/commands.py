@@ -325,6 +325,12 @@ def _simulate_arguments(s: argparse.ArgumentParser) -> None:
     )
     s.add_argument("--strict", action="store_true", help="exit 3 if any agreement threshold is missed")
     s.add_argument(
+        "--base",
+        metavar="NAME|FILE",
+        help="print what the design does beside this design's numbers, and the dimensions that differ "
+        "(default: the shipped mechanism of the file's name, when the file is another one)",
+    )
+    s.add_argument(
         "--dynamics",
         action="store_true",
         help="all dynamics studies: forward dynamics, driving torque and reactions, steady motion",
@@ -375,6 +381,7 @@ def _simulate(args: argparse.Namespace) -> int:
         height=h,
         steady=args.dynamics,
     )
+    base = _base(mech, args.base)
     estimate = pipeline.estimate(mech, opts)  # the absurd is refused here, before anything runs
     if not args.no_video:
         from ..sim.render import check_backend  # here: MuJoCo, only for a video
@@ -391,8 +398,29 @@ def _simulate(args: argparse.Namespace) -> int:
         command=args.command_line,
         progress=_progress if estimate.long is not None else None,
     )
-    print(text.simulation(res))
+    against = None
+    if base is not None and res.design is not None:
+        from ..analysis import summary  # here: the base's numbers only when there is a base
+
+        against = (base[0], *summary.against(res.design, base[1]))
+    print(text.simulation(res, against))
     return _verdict(res.failures, args.strict)
+
+
+def _base(mech: Mechanism, given: str | None) -> tuple[str, Mechanism] | None:
+    """The design ``simulate`` prints its numbers beside: ``--base``'s, or the shipped
+    mechanism of the file's name when the file is another file (a copy being edited)."""
+    if given is not None:
+        return (f"the base {given}", validation.get(given))
+    if mech.name not in catalogue.names() or mech.path is None:
+        return None
+    shipped = catalogue.path_of(mech.name)
+    try:
+        if Path(mech.path).resolve() == shipped.resolve():
+            return None
+    except OSError:
+        return None
+    return (f"the shipped {mech.name}", validation.get(mech.name))
 
 
 # ----------------------------------------------------------------------------- torque, reactions, steady

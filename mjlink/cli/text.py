@@ -20,6 +20,7 @@ from ..model.tension import GF
 from ..units import MM, G, PairKind, PairRole, to_mm, to_rpm
 
 if TYPE_CHECKING:
+    from ..analysis.summary import Change, Summary
     from ..model.mechanism import Mechanism
     from ..pipeline import LoadsResult, SimulateResult, SteadyResult, SteadySummary, SynthResult
     from ..pipeline.optimize import OptimizeResult
@@ -75,9 +76,60 @@ def catalogue_listing(mechs: Sequence[Mechanism]) -> str:
     return "\n".join(out)
 
 
-def simulation(res: SimulateResult) -> str:
+def _num(v: float | None) -> str:
+    return "-" if v is None else f"{v:.6g}"
+
+
+def design_table(d: Summary, base: tuple[str, Sequence[Change], Sequence[Change]] | None = None) -> str:
+    """What the design does: the summary's headline numbers with their study metric names;
+    with a ``base`` (its name, :func:`mjlink.analysis.summary.against`'s rows) each beside
+    the base's and the change, then every dimension that differs."""
+    where = f"drawn at phi1 = {d.phi0_deg:g} deg; loads at {crank_speed(d.speed)}"
+    if base is None:
+        rows = [(r.label, _num(r.value), r.unit, r.metric) for r in d.headline]
+        w = max(len(r[0]) for r in rows) if rows else 0
+        wv = max(len(r[1]) for r in rows) if rows else 0
+        wu = max(len(r[2]) for r in rows) if rows else 0
+        out = [f"What the design does ({where}):"]
+        out += [f"  {a:<{w}}  {v:>{wv}} {u:<{wu}}  {m}" for a, v, u, m in rows]
+        return "\n".join(out)
+    name, head, dims = base
+    out = [f"What the design does, beside {name} ({where}):"]
+    table = [("", "this design", "base", "change", "", "")]
+    table += [(c.label, _num(c.value), _num(c.base), _signed(c.delta, c.base), c.unit, c.name) for c in head]
+    out += _columns(table)
+    if dims:
+        out.append(f"Dimensions that differ from {name} ({len(dims)}):")
+        out += _columns(
+            [("", "this design", "base", "change", "", "")]
+            + [(c.name, _num(c.value), _num(c.base), _signed(c.delta, c.base), c.unit, "") for c in dims]
+        )
+    else:
+        out.append(f"Dimensions: the same as {name}'s")
+    return "\n".join(out)
+
+
+def _signed(v: float | None, base: float | None) -> str:
+    """A change as '+0.2861'; '0' where it is rounding (below 1e-9 of the base)."""
+    if v is None:
+        return "-"
+    return "0" if abs(v) <= 1e-9 * abs(base or 0.0) else f"{v:+.4g}"
+
+
+def _columns(rows: Sequence[tuple[str, ...]]) -> list[str]:
+    """Rows as aligned text: the first column left, the numbers right, unit and name left."""
+    w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    out = []
+    for r in rows:
+        cells = [r[0].ljust(w[0])] + [r[i].rjust(w[i]) for i in (1, 2, 3)] + [r[4].ljust(w[4]), r[5]]
+        out.append(("  " + "  ".join(cells)).rstrip())
+    return out
+
+
+def simulation(res: SimulateResult, base: tuple[str, Sequence[Change], Sequence[Change]] | None = None) -> str:
     """What ``simulate`` prints after the runs: the agreement table, the paper's RK4 against the
-    tight solution, the loads, steady motion and video summaries, the files and the time taken."""
+    tight solution, the loads, steady motion and video summaries, what the design does (beside
+    a ``base`` design when given: :func:`design_table`), the files and the time taken."""
     k = res.kinematics
     out = [f"kinematic run: {crank_speed(k.speed)}, for {k.duration:.4g} s"]
     if res.dynamics is not None:
@@ -89,10 +141,17 @@ def simulation(res: SimulateResult) -> str:
     ]
     if res.dynamics is not None and res.dynamics.rk4 is not None:
         r = res.dynamics.rk4
+        d = res.dynamics
+        per_turn = (
+            2.0 * math.pi * r.steps / (abs(d.omega_final_mujoco) * d.duration) if d.omega_final_mujoco else math.inf
+        )
         out.append(
             f"fixed-step RK4 ({r.steps} steps, the paper's method) vs tight ODE: omega differs by up "
             f"to {r.omega_max_abs_diff:.3g} rad/s ({r.omega_max_rel_diff:.2%} of max), final "
-            f"{r.omega_final_rel_diff:.2%}"
+            f"{r.omega_final_rel_diff:.2%}: the paper's constant moment has no steady state, the crank "
+            f"speeds up to {crank_speed(d.omega_final_mujoco)}, where its {1e3 * d.duration / r.steps:.3g} ms "
+            f"step is only {per_turn:.3g} steps per crank turn (docs/verification.md); the tight "
+            "solution is the reference"
         )
     if res.timing is not None:
         out.append(timing_table(res.timing))
@@ -114,6 +173,8 @@ def simulation(res: SimulateResult) -> str:
     if res.video is not None:
         v = res.video
         out.append(f"video: {v.frames} frames at {v.fps} fps, slowed down {v.slowed_down_by:.1f}x ({v.backend})")
+    if res.design is not None:
+        out.append(design_table(res.design, base))
     out.append(f"outputs in {res.out_dir}/: {', '.join(res.files)}")
     out.append(f"total {res.timings.total:.2f} s")
     return "\n".join(out)
