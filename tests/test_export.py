@@ -37,12 +37,24 @@ def test_the_dxf_read_back_holds_the_reference_positions_in_mm(name, tmp_path):
         assert np.allclose(start, at[a], rtol=0, atol=1e-9) and np.allclose(end, at[b], rtol=0, atol=1e-9)
         assert any(layer == link.name and a in link.points and b in link.points for link in mech.links)
     assert len(got["points"]) == len(at)
-    assert {tuple(np.round(c, 9)) for c, _ in got["circles"]} == {tuple(np.round(at[p], 9)) for p in mech.ground}
+    # A pivot is a ground point a link carries; a thread guide one of the thread's that no link
+    # carries: each drawn as its kind, on its own layer.
+    carried = {p for link in mech.links for p in link.points}
+    pivots = {p for p in mech.ground if p in carried}
+    guides = {p for p in mech.ground if p not in carried and p in (mech.thread or ())}
+    for layer, radius, want in (("PIVOTS", export.PIVOT_MM, pivots), ("GUIDES", export.GUIDE_MM, guides)):
+        drawn = {tuple(np.round(c, 9)) for lay, c, r in got["circles"] if lay == layer and r == radius}
+        assert drawn == {tuple(np.round(at[p], 9)) for p in want}, layer
+    assert len(got["circles"]) == len(pivots) + len(guides)
     moving = [p for p in mech.moving_points if p not in analysis.mass_centres(mech)]
     path_kin = reference.solve(mech, mech.phi0 + np.linspace(0.0, mech.period, export.PATH_SAMPLES))
-    assert len(got["paths"]) == len(moving)
-    for p, verts in zip(moving, got["paths"], strict=True):
-        assert np.allclose(verts, to_mm(path_kin.position(p))[:-1], rtol=0, atol=1e-9)
+    assert sorted(got["paths"]) == sorted(f"PATH_{p}" for p in moving)  # each point's path on its own layer
+    for p in moving:
+        assert np.allclose(got["paths"][f"PATH_{p}"], to_mm(path_kin.position(p))[:-1], rtol=0, atol=1e-9)
+    if mech.thread:  # the thread at that angle, through its points in order
+        assert np.allclose(got["thread"], [at[p] for p in mech.thread], rtol=0, atol=1e-9)
+    else:
+        assert got["thread"] is None
 
 
 def test_the_points_file_of_the_crank_slider_is_its_closed_form(tmp_path):
@@ -60,10 +72,16 @@ def test_the_points_file_of_the_crank_slider_is_its_closed_form(tmp_path):
         t = math.radians(t_deg)
         b = (r_ * math.cos(t), r_ * math.sin(t))
         c = (r_ * math.cos(t) + math.sqrt(l_**2 - (r_ * math.sin(t) + e_) ** 2), -e_)
-        for name, xy in (("B", b), ("C", c)):
-            assert float(rows[name]["x_mm"]) == pytest.approx(xy[0], abs=1e-9)
-            assert float(rows[name]["y_mm"]) == pytest.approx(xy[1], abs=1e-9)
-        assert rows["A"]["ground"] in (True, "True") and rows["C"]["ground"] in (False, "False")
+        for name, xy in (("B", b), ("C", c)):  # to 1e-6 mm, as the file writes them
+            assert float(rows[name]["x_mm"]) == pytest.approx(xy[0], abs=5e-7)
+            assert float(rows[name]["y_mm"]) == pytest.approx(xy[1], abs=5e-7)
+        if fmt == "csv":  # flags a spreadsheet reads, six decimals, the crank's angle on every row
+            assert (rows["A"]["ground"], rows["C"]["ground"]) == ("1", "0")
+            assert all(len(row[k].split(".")[1]) == 6 for row in rows.values() for k in ("x_mm", "y_mm", "z_mm"))
+            assert {float(row["phi1_deg"]) for row in rows.values()} == {t_deg}
+        else:
+            assert rows["A"]["ground"] is True and rows["C"]["ground"] is False
+            assert json.loads(out.read_text())["phi1_deg"] == t_deg
 
 
 @pytest.mark.parametrize(
@@ -111,13 +129,14 @@ EXAMPLE = (catalogue.MECHANISMS_DIR / "examples" / "crank_rocker.toml").read_tex
     ("crank", "coupler", "rocker", "layers"),
     [
         # Expected from the rule docs/outputs.md states: the link's name, or the first free
-        # suffix _2, _3, ... when a layer has it ignoring case (0, Defpoints, the four fixed
-        # layers, a link listed before).
+        # suffix _2, _3, ... when a layer has it ignoring case (0, Defpoints, the five fixed
+        # layers, a point's path layer PATH_<point>, a link listed before).
         ("PIVOTS", "POINTS", "LABELS", ["PIVOTS_2", "POINTS_2", "LABELS_2"]),
-        ("PATHS", "Defpoints", "defpoints", ["PATHS_2", "Defpoints_2", "defpoints_3"]),
+        ("THREAD", "Defpoints", "defpoints", ["THREAD_2", "Defpoints_2", "defpoints_3"]),
         ("lever", "Lever", "LEVER", ["lever", "Lever_2", "LEVER_3"]),
-        ("PATHS_2", "paths", "Paths", ["PATHS_2", "paths_3", "Paths_4"]),
+        ("GUIDES_2", "guides", "Guides", ["GUIDES_2", "guides_3", "Guides_4"]),
         ("pivots", "crank", "rocker", ["pivots_2", "crank", "rocker"]),
+        ("PATH_B", "path_c", "PATHS", ["PATH_B_2", "path_c_2", "PATHS"]),  # a point's path has its layer
     ],
 )
 def test_every_link_has_its_own_valid_layer(tmp_path, crank, coupler, rocker, layers):
@@ -134,7 +153,8 @@ def test_every_link_has_its_own_valid_layer(tmp_path, crank, coupler, rocker, la
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
     got = export.read_back(dxf)
     expected = dict(zip((crank, coupler, rocker), layers, strict=True))
-    assert got["layers"] == {"0", "Defpoints", *export.LAYERS, *layers}
+    paths = export.path_layers(mechanism.load(src)).values()
+    assert got["layers"] == {"0", "Defpoints", *export.LAYERS, *paths, *layers}
     assert len({n.casefold() for n in got["layers"]}) == len(got["layers"])  # DXF compares ignoring case
     mech = mechanism.load(src)
     for layer, _, _ in got["lines"]:

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import mjlink
-from mjlink import reference
+from mjlink import reference, study
 from mjlink.errors import MjlinkError
 from mjlink.study import spec
 
@@ -76,7 +76,7 @@ def test_the_function_gets_the_references_traces_and_its_column_is_bounded(tmp_p
     assert np.allclose(tab.columns["stroke_fn"], 2 * np.array(CRANKS), rtol=0, atol=1e-9)
     head = mjlink.load("lockstitch_head")
     for i, r in enumerate(CRANKS):
-        mech = mjlink.study.override(head, {"construct.P6.length": r})
+        mech = study.override(head, {"construct.P6.length": r})
         one = reference.solve(mech, [mech.phi0 + math.radians(17.0)], check=False)
         want = one.points["NB"].d[0, 1] * mech.speed * 1e3
         assert tab.columns["v17_mm_s"][i] == pytest.approx(want, rel=1e-12)

@@ -5,16 +5,21 @@ The DXF (R2010, millimetres, ``$INSUNITS`` = 4) holds, in the mechanism's own fr
 * one layer per link (:func:`layer_names`: its name in the file, unless DXF forbids that name
   or another layer already has it, ignoring case), the link's centre lines as LINEs, joining
   each of its points to the point it was built from (the shape the drawings show);
-* ``PIVOTS``: a CIRCLE of radius :data:`PIVOT_MM` round every ground point, ``POINTS``: a POINT
-  at every named point, ``LABELS``: each point's name beside it;
-* ``PATHS``: the closed path over the period of every moving point that is not merely a
-  link's centre of mass, as a closed polyline of :data:`PATH_SAMPLES` vertices: an LWPOLYLINE at
-  the path's elevation where the path keeps one z (every planar path; one entity, as a CAD
-  user draws an outline), a 3D POLYLINE where its z varies.
+* ``PIVOTS``: a CIRCLE of radius :data:`PIVOT_MM` round every ground point a link turns or
+  slides on; ``GUIDES``: a CIRCLE of radius :data:`GUIDE_MM` round every ground point of the
+  thread's path that no link carries (a thread guide, an eyelet in the frame);
+  ``POINTS``: a POINT at every named point, ``LABELS``: each point's name beside it;
+* ``PATH_<point>``, one layer per point: the closed path over the period of every moving point
+  that is not merely a link's centre of mass, as a closed polyline of :data:`PATH_SAMPLES`
+  vertices: an LWPOLYLINE at the path's elevation where the path keeps one z (every planar
+  path; one entity, as a CAD user draws an outline), a 3D POLYLINE where its z varies;
+* ``THREAD``: the thread's path at that angle (a file with ``[thread]``), an open polyline
+  through its points in order.
 
-The points file lists every named point at that angle: name, whether it is on the ground, x, y,
-z in mm (CSV, or JSON by the file's extension). Positions are the reference's
-(:func:`mjlink.reference.solve`), the same as ``simulate`` checks MuJoCo against.
+The points file lists every named point at that angle: name, whether it is on the ground (1/0
+in CSV, true/false in JSON), the input crank's angle, x, y, z in mm to 1e-6 mm (CSV, or JSON
+by the file's extension). Positions are the reference's (:func:`mjlink.reference.solve`), the
+same as ``simulate`` checks MuJoCo against.
 
 The two files are claimed before anything is computed (:func:`mjlink.files.claim_outputs`) and
 written together, both or neither (:func:`mjlink.files.write_files`).
@@ -40,8 +45,10 @@ from ..model.mechanism import Mechanism
 from ..units import DEG, to_mm
 
 PIVOT_MM = 2.0  # radius of the circle drawn round a ground pivot, mm
+GUIDE_MM = 0.5  # radius of the circle drawn round a thread guide in the frame, mm
 PATH_SAMPLES = 361  # vertices of a point's path over the period (closed)
-LAYERS = ("PIVOTS", "POINTS", "LABELS", "PATHS")  # besides one per link
+LAYERS = ("PIVOTS", "GUIDES", "POINTS", "LABELS", "THREAD")  # besides one per link and per path
+DECIMALS = 6  # the points file's coordinates, mm: to 1e-6 mm
 # Layers every DXF has (a CAD program gives them their own meaning), and the characters a layer
 # name may not hold (besides control characters): a link's layer never takes them.
 STANDARD_LAYERS = ("0", "Defpoints")
@@ -74,13 +81,20 @@ def _paths(mech: Mechanism) -> dict[str, np.ndarray]:
     return {p: to_mm(kin.position(p)) for p in moving}
 
 
+def path_layers(mech: Mechanism) -> dict[str, str]:
+    """Point -> the layer of its path (``PATH_P5``): every moving point that is not merely a
+    link's centre of mass (a point's name is a valid layer name)."""
+    coms = mass_centres(mech)
+    return {p: f"PATH_{p}" for p in mech.moving_points if p not in coms}
+
+
 def layer_names(mech: Mechanism) -> dict[str, str]:
     """Link name -> its DXF layer: the link's name, with any character a layer name may not hold
     replaced by ``_``; a name that a layer already has, ignoring case as DXF does (``0``,
-    ``Defpoints``, :data:`LAYERS`, a link listed before it), gets the first free suffix of
-    ``_2``, ``_3``, ... (``PATHS`` -> ``PATHS_2``; ``lever`` and ``Lever`` -> ``lever``,
-    ``Lever_2``). One layer per link, every name valid and readable."""
-    taken = {n.casefold() for n in (*STANDARD_LAYERS, *LAYERS)}
+    ``Defpoints``, :data:`LAYERS`, a path's ``PATH_<point>``, a link listed before it), gets the
+    first free suffix of ``_2``, ``_3``, ... (``THREAD`` -> ``THREAD_2``; ``lever`` and ``Lever``
+    -> ``lever``, ``Lever_2``). One layer per link, every name valid and readable."""
+    taken = {n.casefold() for n in (*STANDARD_LAYERS, *LAYERS, *path_layers(mech).values())}
     names: dict[str, str] = {}
     for link in mech.links:
         base = "".join("_" if c in _NOT_IN_LAYER_NAMES or not c.isprintable() else c for c in link.name)
@@ -103,7 +117,8 @@ def dxf_text(mech: Mechanism, angle_deg: float) -> str:
     doc.header["$INSUNITS"] = 4  # millimetres
     doc.header["$MEASUREMENT"] = 1  # metric
     layer = layer_names(mech)
-    for i, name in enumerate([*LAYERS, *layer.values()]):
+    paths = path_layers(mech)
+    for i, name in enumerate([*LAYERS, *paths.values(), *layer.values()]):
         doc.layers.add(name, color=1 + i % 254)
     msp = doc.modelspace()
     for link, a, b in link_segments(mech):
@@ -114,18 +129,37 @@ def dxf_text(mech: Mechanism, angle_deg: float) -> str:
         msp.add_text(
             name, height=size, dxfattribs={"layer": "LABELS", "insert": (xyz[0] + size, xyz[1] + size, xyz[2])}
         )
-        if name in mech.ground:
+        role = ground_role(mech, name)
+        if role == "pivot":
             msp.add_circle(xyz, PIVOT_MM, dxfattribs={"layer": "PIVOTS"})
-    for xyz in _paths(mech).values():
-        ring = np.asarray(xyz[:-1], dtype=float)
-        if np.all(ring[:, 2] == ring[0, 2]):
-            attribs = {"layer": "PATHS", "elevation": float(ring[0, 2])}
-            msp.add_lwpolyline(ring[:, :2].tolist(), format="xy", close=True, dxfattribs=attribs)
-        else:
-            msp.add_polyline3d([tuple(map(float, v)) for v in ring], close=True, dxfattribs={"layer": "PATHS"})
+        elif role == "guide":
+            msp.add_circle(xyz, GUIDE_MM, dxfattribs={"layer": "GUIDES"})
+    for p, xyz in _paths(mech).items():
+        _polyline(msp, np.asarray(xyz[:-1], dtype=float), paths[p], closed=True)
+    if mech.thread:
+        _polyline(msp, np.array([at[p] for p in mech.thread], dtype=float), "THREAD", closed=False)
     stream = io.StringIO()
     doc.write(stream)
     return stream.getvalue()
+
+
+def ground_role(mech: Mechanism, point: str) -> str:
+    """What a point is in the drawing: 'pivot' (a ground point a link carries), 'guide' (a
+    ground point of the thread's path no link carries), '' for any other point."""
+    if point not in mech.ground:
+        return ""
+    if any(point in link.points for link in mech.links):
+        return "pivot"
+    return "guide" if mech.thread and point in mech.thread else ""
+
+
+def _polyline(msp: Any, verts: np.ndarray, layer: str, *, closed: bool) -> None:
+    """An LWPOLYLINE at its elevation where every vertex has one z, else a 3D POLYLINE."""
+    if np.all(verts[:, 2] == verts[0, 2]):
+        attribs = {"layer": layer, "elevation": float(verts[0, 2])}
+        msp.add_lwpolyline(verts[:, :2].tolist(), format="xy", close=closed, dxfattribs=attribs)
+    else:
+        msp.add_polyline3d([tuple(map(float, v)) for v in verts], close=closed, dxfattribs={"layer": layer})
 
 
 def _extent(at: dict[str, tuple[float, float, float]]) -> float:
@@ -133,16 +167,25 @@ def _extent(at: dict[str, tuple[float, float, float]]) -> float:
     return float(np.max(np.ptp(xy, axis=0))) if len(xy) > 1 else 1.0
 
 
-def points_text(at: dict[str, tuple[float, float, float]], mech: Mechanism, fmt: str) -> str:
-    """The points file's text, ``fmt`` 'csv' or 'json'."""
-    rows = [{"point": p, "ground": p in mech.ground, "x_mm": x, "y_mm": y, "z_mm": z} for p, (x, y, z) in at.items()]
+def _mm(v: float) -> float:
+    """A coordinate to 1e-6 mm (no negative zero)."""
+    return round(v, DECIMALS) + 0.0
+
+
+def points_text(at: dict[str, tuple[float, float, float]], mech: Mechanism, fmt: str, angle_deg: float) -> str:
+    """The points file's text, ``fmt`` 'csv' or 'json', for the input crank at ``angle_deg``."""
+    rows = [
+        {"point": p, "ground": p in mech.ground, "phi1_deg": angle_deg, "x_mm": _mm(x), "y_mm": _mm(y), "z_mm": _mm(z)}
+        for p, (x, y, z) in at.items()
+    ]
     if fmt == "json":
-        return json.dumps({"mechanism": mech.name, "points": rows}, indent=1) + "\n"
+        return json.dumps({"mechanism": mech.name, "phi1_deg": angle_deg, "points": rows}, indent=1) + "\n"
     out = io.StringIO()
     w = csv.DictWriter(out, fieldnames=list(rows[0]), lineterminator="\n")
     w.writeheader()
     for r in rows:
-        w.writerow({**r, **{k: repr(v) for k, v in r.items() if isinstance(v, float)}})
+        coords = {k: f"{r[k]:.{DECIMALS}f}" for k in ("x_mm", "y_mm", "z_mm")}
+        w.writerow({**r, "ground": int(bool(r["ground"])), "phi1_deg": repr(angle_deg), **coords})
     return out.getvalue()
 
 
@@ -167,7 +210,7 @@ def export(
     if dxf is not None:
         texts.append((targets["--dxf"], dxf_text(mech, angle)))
     if points is not None:
-        texts.append((targets["--points"], points_text(at, mech, points.suffix.lower()[1:])))
+        texts.append((targets["--points"], points_text(at, mech, points.suffix.lower()[1:], angle)))
     write_files(texts, force=force)
     return ExportResult(mech.name, angle, at, dxf, points)
 
@@ -181,14 +224,16 @@ def read_back(path: Path) -> dict[str, Any]:
     doc = ezdxf.readfile(str(path))
     msp = doc.modelspace()
     lines = [(e.dxf.layer, tuple(e.dxf.start), tuple(e.dxf.end)) for e in msp.query("LINE")]
+    polylines = [e for e in msp.query("POLYLINE LWPOLYLINE") if isinstance(e, (Polyline, LWPolyline))]
     return {
         "units": doc.header.get("$INSUNITS"),
         "layers": {layer.dxf.name for layer in doc.layers},
         "lines": lines,
         "points": [tuple(e.dxf.location) for e in msp.query("POINT")],
         "labels": {e.dxf.text: tuple(e.dxf.insert) for e in msp.query("TEXT")},
-        "circles": [(tuple(e.dxf.center), e.dxf.radius) for e in msp.query("CIRCLE")],
-        "paths": [_vertices(e) for e in msp.query("POLYLINE LWPOLYLINE") if isinstance(e, (Polyline, LWPolyline))],
+        "circles": [(e.dxf.layer, tuple(e.dxf.center), e.dxf.radius) for e in msp.query("CIRCLE")],
+        "paths": {e.dxf.layer: _vertices(e) for e in polylines if e.dxf.layer.startswith("PATH_")},
+        "thread": next((_vertices(e) for e in polylines if e.dxf.layer == "THREAD"), None),
     }
 
 
