@@ -11,6 +11,7 @@ The public API (documented in docs/api.md; each name is a function of :mod:`mjli
     res = mjlink.simulate(mech, "renders")    # `python -m mjlink simulate`: files and report
     st = mjlink.run_study("crank_slider_grid", "renders", workers=0)
     tab = mjlink.read_study(st.out_dir)       # the study's table and summary
+    rep = mjlink.check(mech)                  # and check, export, design, loads, steady, synth
 
 The names load on first use: ``import mjlink`` alone imports neither numpy nor MuJoCo.
 """
@@ -23,31 +24,59 @@ from .version import __version__
 
 if TYPE_CHECKING:
     from .api import (
+        CheckReport,
+        ExportResult,
+        LoadsResult,
+        OptimizeResult,
+        SimulateResult,
+        SteadyResult,
+        StudyResult,
         StudyTable,
+        SynthResult,
         Traces,
+        check,
+        design,
+        export,
         load,
+        loads,
         mjcf,
         read_study,
         read_traces,
         run_study,
         simulate,
+        steady,
+        synth,
         traces,
     )
     from .errors import MjlinkError
     from .model.mechanism import Mechanism
 
 __all__ = [
+    "CheckReport",
+    "ExportResult",
+    "LoadsResult",
     "Mechanism",
     "MjlinkError",
+    "OptimizeResult",
+    "SimulateResult",
+    "SteadyResult",
+    "StudyResult",
     "StudyTable",
+    "SynthResult",
     "Traces",
     "__version__",
+    "check",
+    "design",
+    "export",
     "load",
+    "loads",
     "mjcf",
     "read_study",
     "read_traces",
     "run_study",
     "simulate",
+    "steady",
+    "synth",
     "traces",
 ]
 

@@ -33,11 +33,27 @@ import numpy as np
 
 from . import files, validation
 from .errors import ArgumentError, InputError, MjlinkError
+from .files import claim_outputs
+from .model import catalogue
 from .model.mechanism import Mechanism
 from .model.reader import shown
-from .pipeline import BuildResult, Options, SimulateResult, build, estimate
+from .pipeline import (
+    BuildResult,
+    LoadsResult,
+    Options,
+    SimulateResult,
+    SteadyResult,
+    SynthResult,
+    build,
+    estimate,
+    synthesize,
+    write_design,
+)
+from .pipeline import loads as _pipeline_loads
 from .pipeline import run as _simulate_run
+from .pipeline import steady as _pipeline_steady
 from .pipeline.cost import enough_samples
+from .pipeline.export import ExportResult
 from .pipeline.optimize import OptimizeResult
 from .pipeline.options import check_duration
 from .pipeline.study import StudyResult
@@ -47,16 +63,31 @@ from .sim import simulate as _sim
 from .sim.steps import kinematic_clock
 from .study.spec import load as _study_load
 from .units import RunKind
+from .validation import CheckReport
 
 __all__ = [
+    "CheckReport",
+    "ExportResult",
+    "LoadsResult",
+    "OptimizeResult",
+    "SimulateResult",
+    "SteadyResult",
+    "StudyResult",
     "StudyTable",
+    "SynthResult",
     "Traces",
+    "check",
+    "design",
+    "export",
     "load",
+    "loads",
     "mjcf",
     "read_study",
     "read_traces",
     "run_study",
     "simulate",
+    "steady",
+    "synth",
     "traces",
 ]
 
@@ -374,11 +405,12 @@ def run_study(
 
 
 @dataclass(frozen=True)
-class StudyTable:
-    """A finished study's results: ``columns`` its table by column name (``results.parquet``:
-    one row per variant; numbers as float arrays in the unit the name ends with, text as
-    object arrays), ``summary`` its ``summary.json`` (for an optimization: ``converged``,
-    the ``winner``, ``caveats``...), ``out_dir`` the folder."""
+class StudyTable(Mapping[str, np.ndarray]):
+    """A finished study's results, a mapping like :class:`Traces`: its table by column name
+    (``results.parquet``: one row per variant; numbers as float arrays in the unit the name
+    ends with, text as object arrays; ``keys()`` the names), ``rows`` the number of variants,
+    ``summary`` its ``summary.json`` (for an optimization: ``converged``, the ``winner``,
+    ``caveats``...), ``out_dir`` the folder."""
 
     out_dir: Path
     columns: dict[str, np.ndarray] = field(repr=False)
@@ -390,7 +422,15 @@ class StudyTable:
         except KeyError:
             raise KeyError(f"no column {name!r} (names: {', '.join(self.columns)})") from None
 
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.columns)
+
     def __len__(self) -> int:
+        """The number of columns, as for any mapping (``rows`` is the number of variants)."""
+        return len(self.columns)
+
+    @property
+    def rows(self) -> int:
         """The number of rows (variants)."""
         return len(next(iter(self.columns.values()))) if self.columns else 0
 
@@ -412,3 +452,170 @@ def read_study(folder: PathLike) -> StudyTable:
     if not isinstance(summary, dict):
         raise InputError(f"{summ}: not a readable study summary")
     return StudyTable(d, files.read_parquet(table), summary)
+
+
+# ----------------------------------------------------------------------------- the other commands
+def check(mechanism: Mechanism | PathLike) -> CheckReport:
+    """What ``python -m mjlink check`` finds: the points (each moving one where it is at the
+    crank's setting), links, pairs, degrees of freedom, assembly, dead points, a head's timing,
+    the notes and warnings, and every problem. Never raises for the geometry: a file that
+    cannot be simulated faithfully has its ``problems`` (``ok`` False, ``error()`` the first as
+    the error :func:`load` would raise).
+
+    Args:
+      mechanism: a :class:`Mechanism`, or a shipped mechanism's name or a file's path.
+    Raises:
+      MjlinkError: an unknown name, a missing file, or a file that cannot be read into a
+        mechanism at all (one line).
+    """
+    if isinstance(mechanism, Mechanism):
+        return validation.check(mechanism)
+    p = _path("check", "mechanism", mechanism, "a Mechanism, a shipped mechanism's name or a path (str or os.PathLike)")
+    return validation.check_file(p)
+
+
+def export(
+    mechanism: Mechanism | PathLike,
+    *,
+    dxf: PathLike | None = None,
+    points: PathLike | None = None,
+    angle_deg: float | None = None,
+    force: bool = False,
+) -> ExportResult:
+    """What ``python -m mjlink export`` writes: the mechanism at one crank angle as a DXF (mm,
+    a layer per link and per path, pivots, guides, the thread) and its points as CSV or JSON
+    (by the extension), both or neither (docs/outputs.md).
+
+    Args:
+      mechanism: a :class:`Mechanism` or a name or path for :func:`load`.
+      dxf, points: the files to write (at least one).
+      angle_deg: the input crank's angle, deg (default: the file's setting ``phi0``).
+      force: replace files that exist (never the mechanism's own file).
+    Returns:
+      :class:`~mjlink.pipeline.export.ExportResult`: ``points`` name -> (x, y, z) mm.
+    """
+    from .pipeline import export as _export  # here: ezdxf, only for this function
+
+    fn = "export"
+    mech = _mechanism(fn, mechanism)
+    targets = [None if v is None else Path(_path(fn, k, v)) for k, v in (("dxf", dxf), ("points", points))]
+    angle = _number(fn, "angle_deg", angle_deg, "deg")
+    if angle is not None:
+        _checked(fn, lambda: validation.check_angle("angle_deg", angle))
+    return _export.export(mech, angle, targets[0], targets[1], force=_flag(fn, "force", force))
+
+
+def design(
+    mechanism: Mechanism | PathLike, output: PathLike | None = None, *, out: PathLike = "renders", force: bool = False
+) -> Path:
+    """What ``python -m mjlink design`` writes: the drag-to-design page, at ``out/NAME/design.html``
+    (where ``simulate`` puts it, the run's other files kept) or at ``output``.
+
+    Returns:
+      The page's path.
+    """
+    from .pipeline import design as _design
+
+    fn = "design"
+    mech = _mechanism(fn, mechanism)
+    page = None if output is None else Path(_path(fn, "output", output))
+    root = Path(_path(fn, "out", out))
+    return _design.design_page(mech, page, out_root=root, force=_flag(fn, "force", force))
+
+
+def loads(
+    mechanism: Mechanism | PathLike,
+    out: PathLike = "renders",
+    *,
+    speed_rpm: float | None = None,
+    plots: bool = True,
+    force: bool = False,
+) -> LoadsResult:
+    """What ``python -m mjlink torque`` and ``reactions`` compute, into ``out/NAME_loads/``: the
+    driving torque and every pair's reaction at constant crank speed, MuJoCo's against the
+    kinetostatic reference.
+
+    Args:
+      speed_rpm: crank speed, rpm, signed (default: the file's).
+    Returns:
+      :class:`~mjlink.pipeline.LoadsResult` (``loads`` the numbers, ``failures``).
+    """
+    fn = "loads"
+    mech = _mechanism(fn, mechanism)
+    root = Path(_path(fn, "out", out))
+    speed = _speed(fn, speed_rpm)
+    flags = {k: _flag(fn, k, v) for k, v in (("plots", plots), ("force", force))}
+    _checked(fn, lambda: estimate(mech, Options(speed=speed, dynamics=False, video=False), names=_NAMES))
+    return _pipeline_loads(mech, root, speed=speed, plots=flags["plots"], force=flags["force"])
+
+
+def steady(
+    mechanism: Mechanism | PathLike, out: PathLike = "renders", *, plots: bool = True, force: bool = False
+) -> SteadyResult:
+    """What ``python -m mjlink steady`` computes with the file's drive (``[steady]``, else
+    ``[dynamics.motor]``), into ``out/NAME_steady/``: the periodic steady motion, the coefficient
+    of speed fluctuation, the flywheel for the target and MuJoCo on both orbits. (The command's
+    drive options have no counterpart here: give the drive in the file.)
+
+    Returns:
+      :class:`~mjlink.pipeline.SteadyResult`.
+    """
+    fn = "steady"
+    mech = _mechanism(fn, mechanism)
+    root = Path(_path(fn, "out", out))
+    flags = {k: _flag(fn, k, v) for k, v in (("plots", plots), ("force", force))}
+    return _pipeline_steady(mech, root, plots=flags["plots"], force=flags["force"])
+
+
+def synth(
+    *,
+    stroke_mm: float | None = None,
+    offset_mm: float | None = None,
+    ratio: float | None = None,
+    max_pressure_deg: float | None = None,
+    write: PathLike | None = None,
+    force: bool = False,
+) -> SynthResult:
+    """What ``python -m mjlink synth crank_slider`` does: the offset crank-slider's metric
+    synthesis for a stroke, guide offset, lambda = r / l and allowed pressure angle (each None
+    takes ``crank_slider.toml``'s), and with ``write`` the accepted design saved as a mechanism
+    file (never over an existing one unless ``force``).
+
+    Returns:
+      :class:`~mjlink.pipeline.SynthResult`.
+    """
+    fn = "synth"
+    values = {
+        k: _number(fn, k, v, u)
+        for k, v, u in (
+            ("stroke_mm", stroke_mm, "mm"),
+            ("offset_mm", offset_mm, "mm"),
+            ("ratio", ratio, "-"),
+            ("max_pressure_deg", max_pressure_deg, "deg"),
+        )
+    }
+    target = None if write is None else Path(_path(fn, "write", write))
+    again = _flag(fn, "force", force)
+    if target is not None:  # refused before any work
+        claim_outputs({"write": target}, [catalogue.path_of("crank_slider")], force=again)
+    names = {
+        "--stroke": "stroke_mm",
+        "--offset": "offset_mm",
+        "--lambda": "ratio",
+        "--max-pressure-angle": "max_pressure_deg",
+    }
+
+    def run() -> SynthResult:
+        try:
+            return synthesize("crank_slider", **values)
+        except MjlinkError as e:  # the command's check, in the arguments' names
+            text = str(e)
+            for option, name in names.items():
+                if text.startswith(option + " "):
+                    raise ArgumentError(f"{fn}(): {name}{text[len(option) :]}") from None
+            raise
+
+    res = run()
+    if target is not None:
+        write_design(res, target, force=again)
+    return res

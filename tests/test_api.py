@@ -136,7 +136,9 @@ def test_a_study_in_this_process_starts_no_cluster(tmp_path, monkeypatch):
     monkeypatch.setattr(distributed, "LocalCluster", refuse)
     res = mjlink.run_study("crank_slider_grid", tmp_path, workers=0, plots=False)
     tab = mjlink.read_study(res.out_dir)
-    assert len(tab) == 806 and tab.summary["variants"] == 806
+    assert tab.rows == 806 and tab.summary["variants"] == 806
+    # A mapping like Traces: its column names, len their count.
+    assert list(tab.keys()) == list(tab.columns) and len(tab) == len(tab.columns) and "within_bounds" in tab
     assert tab["reason"].dtype == object and tab["synthesis.lambda"].dtype == float
 
 
@@ -225,7 +227,21 @@ VALID = {
         "progress": False,
     },
     "read_study": {"folder": "TMP"},
+    "check": {"mechanism": "MECH"},
+    "export": {"mechanism": "MECH", "dxf": "TMPDXF", "points": None, "angle_deg": 37.0, "force": False},
+    "design": {"mechanism": "MECH", "output": None, "out": "TMP", "force": False},
+    "loads": {"mechanism": "MECH", "out": "TMP", "speed_rpm": 955.0, "plots": False, "force": False},
+    "steady": {"mechanism": "MECH", "out": "TMP", "plots": False, "force": False},
+    "synth": {
+        "stroke_mm": 45.0,
+        "offset_mm": 15.0,
+        "ratio": 0.3,
+        "max_pressure_deg": 40.0,
+        "write": None,
+        "force": False,
+    },
 }
+BAD_OPTIONAL_PATH = [5, ["x.dxf"], b"x.dxf", "", "a\x00b"]  # None: the file is not asked for
 BAD = {
     "name_or_path": BAD_PATH,
     "mechanism": BAD_PATH[:-1],
@@ -246,6 +262,15 @@ BAD = {
     "scheduler": [5, ["tcp://127.0.0.1:8786"], b"tcp://127.0.0.1:8786"],
     "progress": BAD_FLAG,
     "folder": BAD_PATH,
+    "dxf": BAD_OPTIONAL_PATH,
+    "points": BAD_OPTIONAL_PATH,
+    "output": BAD_OPTIONAL_PATH,
+    "write": BAD_OPTIONAL_PATH,
+    "angle_deg": ["100", [1.0], True, float("nan"), float("inf"), 1e300, 10**400, 721.0],
+    "stroke_mm": [*BAD_NUMBER],
+    "offset_mm": ["100", [1.0], True, float("nan"), float("inf"), -1.0, 1e300, 10**400],
+    "ratio": [*BAD_NUMBER, 1.5],
+    "max_pressure_deg": [*BAD_NUMBER, 90.0],
 }
 CASES = [(fn, arg, bad) for fn, args in VALID.items() for arg in args for bad in BAD[arg]]
 
@@ -260,7 +285,12 @@ def test_every_public_function_refuses_a_wrong_argument_in_one_line_naming_it(tm
     """docs/api.md: a wrong type or a value beyond the command line's limits is one MjlinkError
     line naming the argument, before any work (nothing written)."""
     (tmp_path / "t.csv").write_text("time_s,phi1_deg\n0,0\n")
-    fill = {"MECH": takeup, "TMP": str(tmp_path / "out"), "CSV": str(tmp_path / "t.csv")}
+    fill = {
+        "MECH": takeup,
+        "TMP": str(tmp_path / "out"),
+        "CSV": str(tmp_path / "t.csv"),
+        "TMPDXF": str(tmp_path / "out" / "t.dxf"),
+    }
     kwargs = {k: fill.get(v, v) if isinstance(v, str) else v for k, v in VALID[fn].items()}
     kwargs[arg] = bad
     with pytest.raises(mjlink.MjlinkError) as e:
@@ -336,3 +366,52 @@ def test_read_study_refuses_a_damaged_table_in_one_line(tmp_path):
     with pytest.raises(mjlink.MjlinkError) as e:
         mjlink.read_study(tmp_path)
     assert "\n" not in str(e.value) and "results.parquet: not a readable Parquet table" in str(e.value)
+
+
+def test_every_command_has_its_function_and_they_agree(tmp_path):
+    """check, export, design, torque and reactions (loads), steady and synth, each through the
+    API and through the command line: the same report, the same files, the same numbers."""
+    from conftest import in_process
+
+    from mjlink.cli.text import format_report
+    from mjlink.pipeline import export as _export
+
+    mech = mjlink.load("takeup")
+    rep = mjlink.check("takeup")
+    assert isinstance(rep, mjlink.CheckReport) and rep.ok and mjlink.check(mech).points == rep.points
+    cli = in_process("check", "takeup")
+    assert cli.returncode == 0 and format_report(rep, speed=mech.speed) == cli.stdout.rstrip("\n")
+
+    res = mjlink.export(mech, dxf=tmp_path / "a.dxf", points=tmp_path / "a.csv", angle_deg=190.0)
+    assert isinstance(res, mjlink.ExportResult) and res.angle_deg == 190.0
+    cli = in_process(
+        "export", "takeup", "--dxf", str(tmp_path / "b.dxf"), "--points", str(tmp_path / "b.csv"), "--angle", "190"
+    )
+    assert cli.returncode == 0
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+    a, b = _export.read_back(tmp_path / "a.dxf"), _export.read_back(tmp_path / "b.dxf")
+    assert a["lines"] == b["lines"] and a["circles"] == b["circles"] and a["layers"] == b["layers"]
+    with pytest.raises(mjlink.MjlinkError, match="exists: give --force"):
+        mjlink.export(mech, points=tmp_path / "a.csv")
+
+    page = mjlink.design(mech, tmp_path / "p.html")
+    assert page == tmp_path / "p.html"
+    assert in_process("design", "takeup", "-o", str(tmp_path / "q.html")).returncode == 0
+    assert page.read_text() == (tmp_path / "q.html").read_text()
+
+    got = mjlink.loads(mech, tmp_path / "api", plots=False)
+    assert isinstance(got, mjlink.LoadsResult) and got.failures == ()
+    assert in_process("torque", "takeup", "--no-plots", "--out", str(tmp_path / "cli")).returncode == 0
+    mine = json.loads((got.out_dir / "report.json").read_text())["loads"]
+    theirs = json.loads((tmp_path / "cli" / "takeup_loads" / "report.json").read_text())["loads"]
+    assert mine["torque_peak_N_m"] == theirs["torque_peak_N_m"]
+
+    st = mjlink.steady(mech, tmp_path / "api", plots=False)
+    assert isinstance(st, mjlink.SteadyResult) and st.failures == ()
+
+    syn = mjlink.synth(stroke_mm=45.0, write=tmp_path / "cs.toml")
+    assert isinstance(syn, mjlink.SynthResult) and mjlink.check(tmp_path / "cs.toml").ok
+    before = (tmp_path / "cs.toml").read_text()
+    with pytest.raises(mjlink.MjlinkError, match="exists: give --force"):
+        mjlink.synth(stroke_mm=40.0, write=tmp_path / "cs.toml")
+    assert (tmp_path / "cs.toml").read_text() == before

@@ -308,7 +308,7 @@ def test_the_timing_study_measures_each_head_as_simulate_does(tolerance_study, h
     assert table["timing_ok"].sum() == 0 and (table["timing_thread_shortfall_mm"] > limit).all()
     lo, hi = tomllib.loads(HEAD.read_text())["timing"][TARGET]["needle_at_dog_flush"]
     flush = table["timing_needle_at_dog_flush_mm"]
-    assert 0 < ((flush >= lo) & (flush <= hi)).sum() < len(table)
+    assert 0 < ((flush >= lo) & (flush <= hi)).sum() < table.rows
     assert res.summary["within_bounds"] == int(table["timing_ok"].sum())
     for i in (0, 7, 23, 41):
         values = {v.param: float(table[f"{v.param.path}_{v.param.unit}"][i]) for v in st.varied}
@@ -533,7 +533,7 @@ def test_stitch_and_fabric_are_study_parameters_measured_per_variant(head, tmp_p
     table = mjlink.read_study(res.out_dir)
     assert paths.resolve(head, "timing.fabric").nominal == pytest.approx(1.5)
     assert paths.resolve(head, "balance.stitch_length").nominal == pytest.approx(3.0)
-    for i in range(len(table)):
+    for i in range(table.rows):
         s, t = table["balance.stitch_length_mm"][i], table["timing.fabric_mm"][i]
         own = mechanism.parse(
             HEAD.read_text()

@@ -348,7 +348,7 @@ kind = "tension"
     run_study(study, tmp_path / "out", workers=0, plots=False)
     table = read_study(tmp_path / "out" / "t-study")
     base = mechanism.load(HEAD)
-    assert len(table) == 4
+    assert table.rows == 4
     for i in range(4):
         nt, w = float(table["tension.needle_tension_N"][i]), float(table["input.speed_rad_s"][i])
         own = dataclasses.replace(base, speed=w, tension=dataclasses.replace(DEFAULTS, needle_tension=nt))
