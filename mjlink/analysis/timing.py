@@ -34,6 +34,13 @@ GENERAL = {
 }
 """The checks every head gets, whatever the maker: the stitch cannot form otherwise."""
 
+GENERAL_ROLES = {
+    "dog_below_while_needle_down": ("needle_bar", "needle_point", "feed_dog"),
+    "feed_in_fabric": ("needle_bar", "needle_point", "feed_dog"),
+    "take_up_after_release": ("hook_point", "take_up"),
+}
+"""The parts each general check needs named: it is made where they are."""
+
 
 BALANCE = {
     "thread_shortfall": "largest shortfall of thread from the stitch's setting to the loop's release: what the "
@@ -137,6 +144,8 @@ class HeadTiming:
     positions: dict[str, np.ndarray] = dataclasses.field(default_factory=dict, repr=False)
     balance: ThreadBalance | None = None
     order: np.ndarray | None = dataclasses.field(default=None, repr=False)  # input sample of each angle
+    values: dict[str, tuple[float, str]] = dataclasses.field(default_factory=dict)  # measured, informational
+    origin: str = "the needle bar's top dead centre"  # where the angles start
 
     def failures(self) -> tuple[str, ...]:
         """One line per counting check that misses its window."""
@@ -149,8 +158,10 @@ class HeadTiming:
 
     def as_dict(self) -> dict[str, object]:
         return {
-            "target": self.target,
+            "target": self.target or None,
+            "angles_from": self.origin,
             "events_deg": {k: round(v, 3) for k, v in self.events.items()},
+            "values": {k: {"value": v, "unit": u} for k, (v, u) in self.values.items()},
             "checks": [r.as_dict() for r in self.rows],
         }
 
@@ -167,7 +178,9 @@ def head_timing(mech: Mechanism, samples: int = 7200) -> HeadTiming:
       mech: a mechanism with a ``[timing]`` table.
       samples: input angles per stitch.
     Returns:
-      :class:`HeadTiming`.
+      :class:`HeadTiming`; with the needle named, its point's velocity as it passes the fabric's
+      top going down (penetration) and coming up (exit), m/s, from the reference's exact
+      derivative at the crossing (``values``).
     Raises:
       ValueError: the mechanism has no ``[timing]`` table.
     """
@@ -176,10 +189,27 @@ def head_timing(mech: Mechanism, samples: int = 7200) -> HeadTiming:
         raise ValueError(f"{mech.name} has no [timing] table")
     sense = 1.0 if mech.speed >= 0 else -1.0
     u = np.arange(samples) / samples * mech.period  # shaft turn from phi0, rad
-    hook = hook_crank(mech)
     kin = reference.solve(mech, mech.phi0 + sense * u)
-    pos = {p: kin.position(p) for p in set(tm.roles.values()) | {hook.pivot} | set(mech.thread or ())}
+    names = set(tm.roles.values()) | set(mech.thread or ())
+    hook = hook_crank(mech) if tm.has("hook_point") else None
+    if hook is not None:
+        names.add(hook.pivot)
+    pos = {p: kin.position(p) for p in names}
     head = measure(tm, hook, u, pos)
+    if tm.has("needle_point"):
+        assert head.order is not None
+        vy = kin.points[tm.roles["needle_point"]].d[head.order, 1] * mech.speed
+        values = dict(head.values)
+        for event, key in (
+            ("needle point into the fabric, down", "penetration velocity"),
+            ("needle point out of the fabric, up", "exit velocity"),
+        ):
+            values[key] = (
+                (_at(head.theta, vy, head.events[event]), "m/s")
+                if math.isfinite(head.events[event])
+                else (math.nan, "m/s")
+            )
+        head = dataclasses.replace(head, values=values)
     if mech.balance is None or not mech.thread:
         return head
     bal = thread_balance(mech, head)
@@ -192,100 +222,137 @@ def hook_crank(mech: Mechanism) -> Crank:
     return next(s for s in mech.steps if isinstance(s, Crank) and s.point == mech.timing.roles["hook_point"])
 
 
-def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) -> HeadTiming:
-    """The events and checks of one stitch from positions sampled over it.
+def measure(tm: Timing, hook: Crank | None, u: np.ndarray, pos: dict[str, np.ndarray]) -> HeadTiming:
+    """The events and checks of one stitch from positions sampled over it, for the parts the
+    ``[timing]`` table names (a check is made where its parts are).
 
     Args:
       tm: the head's ``[timing]`` table.
-      hook: the hook's crank (its pivot and ratio).
+      hook: the hook's crank (its pivot and ratio); None without a hook.
       u: (A,) main-shaft turn of each sample in the shaft's sense of rotation, rad, in
         [0, 2 pi): one stitch is one turn of the main shaft (a [timing] table requires it).
       pos: each role's point and the hook's pivot -> (A, 3) positions, m.
     Returns:
-      :class:`HeadTiming`, its angles counted from the needle bar's top dead centre.
+      :class:`HeadTiming`, its angles counted from the needle bar's top dead centre (without a
+      needle: from the crank's setting).
     """
     roles = tm.roles
     first = np.argsort(u, kind="stable")
-    y_bar = pos[roles["needle_bar"]][first, 1]
-    top = int(np.argmax(y_bar))
+    needle = tm.has("needle_bar", "needle_point")
+    top = int(np.argmax(pos[roles["needle_bar"]][first, 1])) if needle else 0
     # Main-shaft angle from the needle bar's top dead centre, rolled to start there.
     order = np.roll(first, -top)
     theta = np.degrees(u[order] - u[order[0]]) % 360.0
     theta[0] = 0.0
     P = {k: v[order] for k, v in pos.items()}
     plate = tm.plate
-    bar = P[roles["needle_bar"]][:, 1]
-    tip = P[roles["needle_point"]][:, 1] - plate
-    eye = P[roles["needle_eye"]][:, 1] - plate
-    hp = P[roles["hook_point"]]
-    dog = P[roles["feed_dog"]]
-    dog_h = dog[:, 1] - plate
-    take = P[roles["take_up"]][:, 1]
-    centre = P[hook.pivot][0]
-    bdc = int(np.argmin(bar))
-    rise = bar - bar[bdc]
-    hook_angle = np.degrees(np.arctan2(hp[:, 1] - centre[1], hp[:, 0] - centre[0])) % 360.0
+    events: dict[str, float] = {}
+    curves: dict[str, np.ndarray] = {}
+    values: dict[str, tuple[float, str]] = {}
+    rows: list[TimingRow] = []
+    measured: dict[str, float] = {}
 
-    # The hook point against the needle's centre line (the line through the bar's two points).
-    line = P[roles["needle_bar"]] - P[roles["needle_point"]]
-    rel = hp - P[roles["needle_point"]]
-    side = line[:, 0] * rel[:, 1] - line[:, 1] * rel[:, 0]
-    cross = np.concatenate([_crossing(theta, side, 0.0, True), _crossing(theta, side, 0.0, False)])
-    above = np.array([_at(theta, hp[:, 1] - centre[1], t) > 0 for t in cross], dtype=bool)
-    picks = cross[above]
-    pick = float(picks[np.argmin((picks - theta[bdc]) % 360.0)]) if len(picks) else math.nan
-    if tm.stitch is StitchType.CHAIN:
-        # A chain stitch's looper holds its loop until it takes the next: the held loop is cast
-        # off at the pick-up (the needle has passed through it), and the take-up draws it tight.
-        release = pick
-    else:
-        release = _carried(tm, hook, pick) if math.isfinite(pick) else math.nan
-    j = int(np.argmax(take))
-    a, b, c = take[j - 1], take[j], take[(j + 1) % len(take)]
-    # The top between samples: the vertex of the parabola through the best one and its neighbours.
-    shift = 0.5 * (a - c) / (a - 2.0 * b + c) if (a - 2.0 * b + c) < 0 else 0.0
-    take_top = float(theta[j] + shift * 360.0 / len(theta)) % 360.0
-    flush = _crossing(theta, dog_h, 0.0, True)
-    flush_at = float(flush[0]) if len(flush) else math.nan
-    tip_down = _crossing(theta, tip, 0.0, True)
-    tip_up = _crossing(theta, tip, 0.0, False)
-    dog_up = _crossing(theta, dog_h, 0.0, False)
+    if needle:
+        bar = P[roles["needle_bar"]][:, 1]
+        tip = P[roles["needle_point"]][:, 1] - plate
+        bdc = int(np.argmin(bar))
+        rise = bar - bar[bdc]
+        tip_down, tip_up = _crossing(theta, tip, 0.0, True), _crossing(theta, tip, 0.0, False)
+        into, out = _crossing(theta, tip, tm.fabric, True), _crossing(theta, tip, tm.fabric, False)
+        events |= {
+            "needle bar top": 0.0,
+            "needle bar bottom": float(theta[bdc]),
+            "needle point into the fabric, down": float(into[0]) if len(into) else math.nan,
+            "needle point through the plate, down": float(tip_down[0]) if len(tip_down) else math.nan,
+            "needle point through the plate, up": float(tip_up[0]) if len(tip_up) else math.nan,
+            "needle point out of the fabric, up": float(out[0]) if len(out) else math.nan,
+        }
+        curves |= {"needle point": tip / MM, "needle bar rise": rise / MM}
+    if tm.has("needle_eye"):
+        eye = P[roles["needle_eye"]][:, 1] - plate
+        curves["needle eye"] = eye / MM
 
-    # The dog's advance: along the direction it moves in at its highest point.
-    hi = int(np.argmax(dog_h))
-    vx = np.gradient(dog[:, 0])
-    forward = 1.0 if vx[hi] >= 0 else -1.0
-    advance = forward * (dog[:, 0] - dog[:, 0].min() if forward > 0 else dog[:, 0] - dog[:, 0].max())
-    # The conditions on a grid ten times finer, the curves interpolated linearly between the
-    # samples: a coarse study grid then gives what simulate's fine one does.
-    fine = np.arange(10 * len(theta)) * (36.0 / len(theta))
-    ext = np.append(theta, 360.0)
-    f_tip, f_dog, f_x = (np.interp(fine, ext, np.append(v, v[0])) for v in (tip, dog_h, dog[:, 0]))
-    step = forward * np.diff(np.append(f_x, f_x[0]))
-    in_fabric = (f_tip < tm.fabric) | (np.roll(f_tip, -1) < tm.fabric)
-    feeding = (f_dog > 0) & (np.roll(f_dog, -1) > 0) & (step > 0)
-    fed_in_fabric = float(step[feeding & in_fabric].sum())
-    down = f_tip < 0
-    # The dog's height where the needle point is below the plate, its ends (the crossings) included.
-    ends = [_at(theta, dog_h, t) for t in (*tip_down, *tip_up)]
-    worst = max([*ends, float(f_dog[down].max()) if down.any() else -math.inf])
+    pick = release = math.nan
+    if hook is not None:
+        hp = P[roles["hook_point"]]
+        centre = P[hook.pivot][0]
+        hook_angle = np.degrees(np.arctan2(hp[:, 1] - centre[1], hp[:, 0] - centre[0])) % 360.0
+        # The hook point against the needle's centre line (the line through the bar's two points).
+        line = P[roles["needle_bar"]] - P[roles["needle_point"]]
+        rel = hp - P[roles["needle_point"]]
+        side = line[:, 0] * rel[:, 1] - line[:, 1] * rel[:, 0]
+        cross = np.concatenate([_crossing(theta, side, 0.0, True), _crossing(theta, side, 0.0, False)])
+        above = np.array([_at(theta, hp[:, 1] - centre[1], t) > 0 for t in cross], dtype=bool)
+        picks = cross[above]
+        pick = float(picks[np.argmin((picks - theta[bdc]) % 360.0)]) if len(picks) else math.nan
+        if tm.stitch is StitchType.CHAIN:
+            # A chain stitch's looper holds its loop until it takes the next: the held loop is
+            # cast off at the pick-up (the needle has passed through it), and the take-up draws
+            # it tight.
+            release = pick
+        else:
+            release = _carried(tm, hook, pick) if math.isfinite(pick) else math.nan
+        events |= {"hook picks the loop": pick, "loop released": release}
+        curves |= {"hook angle": hook_angle, "hook point height": (hp[:, 1] - plate) / MM}
+        measured["hook_rise"] = _at(theta, rise, pick) if math.isfinite(pick) else math.nan
+        measured["hook_above_eye"] = _at(theta, hp[:, 1] - plate - eye, pick) if math.isfinite(pick) else math.nan
 
-    rows: list[TimingRow] = [
-        _general("dog_below_while_needle_down", worst, Window(None, 0.0), "mm"),
-        _general("feed_in_fabric", fed_in_fabric, Window(0.0, tm.feed_in_fabric), "mm"),
-        _general(
-            "take_up_after_release",
-            math.radians((take_top - release) % 360.0) if math.isfinite(release) else math.nan,
-            Window(0.0, math.pi),
-            "deg",
-        ),
-    ]
-    measured = {
-        "hook_rise": _at(theta, rise, pick) if math.isfinite(pick) else math.nan,
-        "hook_above_eye": _at(theta, hp[:, 1] - plate - eye, pick) if math.isfinite(pick) else math.nan,
-        "dog_height": float(dog_h.max()),
-        "needle_at_dog_flush": _at(theta, tip, flush_at) if math.isfinite(flush_at) else math.nan,
-    }
+    if tm.has("take_up"):
+        take = P[roles["take_up"]][:, 1]
+        j = int(np.argmax(take))
+        a, b, c = take[j - 1], take[j], take[(j + 1) % len(take)]
+        # The top between samples: the vertex of the parabola through the best one and its neighbours.
+        shift = 0.5 * (a - c) / (a - 2.0 * b + c) if (a - 2.0 * b + c) < 0 else 0.0
+        take_top = float(theta[j] + shift * 360.0 / len(theta)) % 360.0
+        events["take-up top"] = take_top
+        curves["take-up eyelet"] = (take - take.min()) / MM
+        rows.append(
+            _general(
+                "take_up_after_release",
+                math.radians((take_top - release) % 360.0) if math.isfinite(release) else math.nan,
+                Window(0.0, math.pi),
+                "deg",
+            )
+        )
+
+    if tm.has("feed_dog"):
+        dog = P[roles["feed_dog"]]
+        dog_h = dog[:, 1] - plate
+        flush = _crossing(theta, dog_h, 0.0, True)
+        flush_at = float(flush[0]) if len(flush) else math.nan
+        dog_up = _crossing(theta, dog_h, 0.0, False)
+        # The dog's advance: along the direction it moves in at its highest point.
+        hi = int(np.argmax(dog_h))
+        vx = np.gradient(dog[:, 0])
+        forward = 1.0 if vx[hi] >= 0 else -1.0
+        advance = forward * (dog[:, 0] - dog[:, 0].min() if forward > 0 else dog[:, 0] - dog[:, 0].max())
+        events |= {
+            "dog flush, descending": flush_at,
+            "dog through the plate, rising": float(dog_up[0]) if len(dog_up) else math.nan,
+        }
+        curves |= {"dog height": dog_h / MM, "dog advance": advance / MM}
+        measured["dog_height"] = float(dog_h.max())
+        values["dog height above the plate"] = (float(dog_h.max()) / MM, "mm")
+        if needle:
+            measured["needle_at_dog_flush"] = _at(theta, tip, flush_at) if math.isfinite(flush_at) else math.nan
+            # The conditions on a grid ten times finer, the curves interpolated linearly
+            # between the samples: a coarse study grid then gives what simulate's fine one does.
+            fine = np.arange(10 * len(theta)) * (36.0 / len(theta))
+            ext = np.append(theta, 360.0)
+            f_tip, f_dog, f_x = (np.interp(fine, ext, np.append(v, v[0])) for v in (tip, dog_h, dog[:, 0]))
+            step = forward * np.diff(np.append(f_x, f_x[0]))
+            in_fabric = (f_tip < tm.fabric) | (np.roll(f_tip, -1) < tm.fabric)
+            feeding = (f_dog > 0) & (np.roll(f_dog, -1) > 0) & (step > 0)
+            fed_in_fabric = float(step[feeding & in_fabric].sum())
+            down = f_tip < 0
+            # The dog's height where the needle point is below the plate, its ends (the crossings) included.
+            ends = [_at(theta, dog_h, t) for t in (*tip_down, *tip_up)]
+            worst = max([*ends, float(f_dog[down].max()) if down.any() else -math.inf])
+            rows[:0] = [
+                _general("dog_below_while_needle_down", worst, Window(None, 0.0), "mm"),
+                _general("feed_in_fabric", fed_in_fabric, Window(0.0, tm.feed_in_fabric), "mm"),
+            ]
+
     for m in tm.settings:
         for key, window in m.windows.items():
             rows.append(
@@ -299,29 +366,16 @@ def measure(tm: Timing, hook: Crank, u: np.ndarray, pos: dict[str, np.ndarray]) 
                     counts=m.name == tm.target,
                 )
             )
-    events = {
-        "needle bar top": 0.0,
-        "needle bar bottom": float(theta[bdc]),
-        "hook picks the loop": pick,
-        "loop released": release,
-        "take-up top": take_top,
-        "dog flush, descending": flush_at,
-        "dog through the plate, rising": float(dog_up[0]) if len(dog_up) else math.nan,
-        "needle point through the plate, down": float(tip_down[0]) if len(tip_down) else math.nan,
-        "needle point through the plate, up": float(tip_up[0]) if len(tip_up) else math.nan,
-    }
-    curves = {
-        "needle point": tip / MM,
-        "needle eye": eye / MM,
-        "needle bar rise": rise / MM,
-        "take-up eyelet": (take - take.min()) / MM,
-        "hook angle": hook_angle,
-        "hook point height": (hp[:, 1] - plate) / MM,
-        "dog height": dog_h / MM,
-        "dog advance": advance / MM,
-    }
     return HeadTiming(
-        theta=theta, curves=curves, events=events, rows=tuple(rows), target=tm.target, positions=P, order=order
+        theta=theta,
+        curves=curves,
+        events=events,
+        rows=tuple(rows),
+        target=tm.target,
+        positions=P,
+        order=order,
+        values=values,
+        origin="the needle bar's top dead centre" if needle else "the crank's setting",
     )
 
 
@@ -341,24 +395,30 @@ class TimingChecks(Metric):
             raise MetricError(f"{self.where}: {self.mech.name} has no [timing] table (docs/head.md)")
         name = raw.get("settings", tm.target)
         makers = [m.name for m in tm.settings]
-        if name not in makers:
-            raise MetricError(f"{self.where}: settings '{name}' is not one of {', '.join(makers)}")
+        if name not in makers and (makers or "settings" in raw):
+            raise MetricError(
+                f"{self.where}: settings '{name}' is not one of {', '.join(makers) or 'none: [timing] has no settings table'}"
+            )
         self.maker = str(name)
         self.tag = "" if self.maker == tm.target else f"_{self.maker}"
 
     def _keys(self) -> list[str]:
         assert self.mech.timing is not None
+        tm = self.mech.timing
         extra = list(BALANCE) if self.mech.balance is not None and self.mech.thread else []
-        if self.mech.timing.stitch is StitchType.CHAIN:
+        if tm.stitch is StitchType.CHAIN:
             extra = [k for k in extra if k != "loop_thread"]
-        return [*GENERAL, *self.mech.timing.maker(self.maker).windows, *extra]
+        general = [k for k in GENERAL if tm.has(*GENERAL_ROLES[k])]
+        windows = list(tm.maker(self.maker).windows) if self.maker else []
+        return [*general, *windows, *extra]
 
     def columns(self) -> list[Column]:
         cols = [
             Column(f"timing_{k}{self.tag}", "deg" if k == "take_up_after_release" else "mm", LABELS[k])
             for k in self._keys()
         ]
-        cols.append(Column(f"timing_ok{self.tag}", "", f"1 if every timing window holds ({self.maker} and general)"))
+        which = f"{self.maker} and general" if self.maker else "general"
+        cols.append(Column(f"timing_ok{self.tag}", "", f"1 if every timing window holds ({which})"))
         return cols
 
     def _heads(self, b: Batch) -> list[tuple[HeadTiming, ThreadBalance | None, dict[str, TimingRow]]]:
@@ -372,10 +432,10 @@ class TimingChecks(Metric):
         tm = self.mech.timing
         assert tm is not None
         tm = dataclasses.replace(tm, target=self.maker)
-        hook = hook_crank(self.mech)
+        hook = hook_crank(self.mech) if tm.has("hook_point") else None
         # The batch's angles run from phi0 counter-clockwise; the shaft's own sense may not.
         u = b.theta if _of(mech.speed, 0, b) >= 0 else np.mod(-b.theta, 2.0 * math.pi)
-        names = set(tm.roles.values()) | {hook.pivot} | set(self.mech.thread or ())
+        names = set(tm.roles.values()) | ({hook.pivot} if hook else set()) | set(self.mech.thread or ())
         pts = {p: b.per_variant(np.broadcast_to(b.kin.points[p].v, (b.variants * b.angles, 3))) for p in names}
         out = []
         for i in range(b.variants):

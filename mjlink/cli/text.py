@@ -373,8 +373,9 @@ def format_report(r: validation.CheckReport, *, speed: float | None = None) -> s
     missed = len(r.timing.failures()) if r.timing is not None else 0
     if missed and not r.problems:
         out.append(
-            f"timing: {missed} window(s) missed (the general checks and the {r.timing.target if r.timing else ''} "
-            "settings): the head assembles and runs, but would not form its stitch as set"
+            f"timing: {missed} window(s) missed (the general checks"
+            + (f" and the {r.timing.target} settings" if r.timing and r.timing.target else "")
+            + "): the head assembles and runs, but would not form its stitch as set"
         )
     if r.problems:
         out.append(f"problems ({len(r.problems)}):")
@@ -506,7 +507,8 @@ def study(res: StudyResult | OptimizeResult) -> str:
 def timing_table(head: HeadTiming) -> str:
     """A head's timing checks, one row each: value, window, result; the target maker's and the
     general rows decide the run, the other makers' are shown for comparison."""
-    rows = [f"\nTiming over one stitch (main-shaft angle from the needle bar's top; built to '{head.target}'):"]
+    built = f"built to '{head.target}'" if head.target else "no maker's settings: the general checks"
+    rows = [f"\nTiming over one stitch (main-shaft angle from {head.origin}; {built}):"]
     # A settings table is named by its machine's model: the column as wide as the longest name.
     w = max([len("settings"), *(len(r.maker or "every") for r in head.rows)])
     rows.append(f"{'settings':{w}s} {'check':47s} {'measured':>9s} {'window':>17s} unit  result")
@@ -515,6 +517,8 @@ def timing_table(head: HeadTiming) -> str:
             f"{r.maker or 'every':{w}s} {r.label:47s} {r.shown(r.value):>9s} {r.window_text():>17s} {r.unit:4s}  {r.verdict}"
         )
     rows.append("events (deg): " + ", ".join(f"{k} {v:.1f}" for k, v in head.events.items() if k != "needle bar top"))
+    if head.values:
+        rows.append("measured: " + ", ".join(f"{k} {v:.4g} {u}" for k, (v, u) in head.values.items()))
     return "\n".join(rows)
 
 

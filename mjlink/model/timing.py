@@ -60,10 +60,33 @@ ROLES = {
 """The points a head's ``[timing]`` table names, each with what its point does in the checks:
 every one must move with the mechanism (not a ``[ground]`` point, nor one built from ground
 points only), the hook point must be a geared crank's (its pivot is the hook shaft), and the
-needle's three points ride on one link (the needle's centre line runs through its bar and its
-point, which differ)."""
+needle's points ride on one link (the needle's centre line runs through its bar and its
+point, which differ).
+
+A table names the parts it has (:data:`NEEDS`): a needle drive alone (``needle_bar`` and
+``needle_point``), a feed alone (``feed_dog``), or a whole head. The hook needs the needle and
+its eye, the take-up the hook; each check is made where its parts are named."""
 
 NEEDLE = ("needle_bar", "needle_point", "needle_eye")
+
+NEEDS = {
+    "needle_bar": ("needle_point",),
+    "needle_point": ("needle_bar",),
+    "needle_eye": ("needle_bar", "needle_point"),
+    "hook_point": ("needle_bar", "needle_point", "needle_eye"),
+    "take_up": ("hook_point",),
+    "feed_dog": (),
+}
+"""What each role needs named besides it: the needle's line runs through its bar and its point,
+the hook meets the needle at its eye, the take-up is timed against the hook's release."""
+
+WINDOW_ROLES = {
+    "hook_rise": ("needle_bar", "needle_point", "hook_point"),
+    "hook_above_eye": ("needle_bar", "needle_point", "needle_eye", "hook_point"),
+    "dog_height": ("feed_dog",),
+    "needle_at_dog_flush": ("needle_bar", "needle_point", "feed_dog"),
+}
+"""The roles a maker's window measures."""
 
 
 class StitchType(enum.Enum):
@@ -133,12 +156,16 @@ class Timing:
     fabric: float
     loop_release: float
     feed_in_fabric: float
-    target: str
+    target: str  # '' for a table without a maker's settings
     settings: tuple[MakerSettings, ...]
     stitch: StitchType = StitchType.LOCKSTITCH
 
     def maker(self, name: str) -> MakerSettings:
         return next(s for s in self.settings if s.name == name)
+
+    def has(self, *roles: str) -> bool:
+        """Whether every one of ``roles`` is named."""
+        return all(r in self.roles for r in roles)
 
 
 def moving(steps: Iterable[Block]) -> set[str]:
@@ -164,7 +191,19 @@ def _roles(r: Reader, scalars: dict, ground: set[str], steps: Sequence[Block], l
     moves = moving(steps)
     hooks = {s.point: s for s in steps if isinstance(s, Crank) and not s.is_input}
     roles = {}
+    named = [k for k in ROLES if k in scalars]
+    for role in named:
+        missing = [k for k in NEEDS[role] if k not in named]
+        if missing:
+            raise r.fail(f"[timing] {role}", f"needs {' and '.join(missing)} named too ({ROLES[role]})")
+    if not ({"needle_bar", "needle_point"} <= set(named) or "feed_dog" in named):
+        raise r.fail(
+            "[timing]",
+            "names no part to time: give the needle (needle_bar and needle_point), the feed dog (feed_dog), or both",
+        )
     for role, does in ROLES.items():
+        if role not in scalars:
+            continue
         where = f"[timing] {role}"
         p = r.name(scalars[role], where)
         if p not in ground and p not in built:
@@ -178,17 +217,21 @@ def _roles(r: Reader, scalars: dict, ground: set[str], steps: Sequence[Block], l
                 f"'{p}' must be the point of a geared crank (the hook turns with its shaft; {does})",
             )
         roles[role] = p
-    bar, tip, eye = (roles[k] for k in NEEDLE)
-    if bar == tip:
+    if "needle_bar" not in roles:
+        return roles
+    needle = {k: roles[k] for k in NEEDLE if k in roles}
+    if needle["needle_bar"] == needle["needle_point"]:
         raise r.fail(
             "[timing] needle_point",
-            f"'{tip}' is the needle_bar's point too: the needle's centre line runs through two points of it",
+            f"'{needle['needle_point']}' is the needle_bar's point too: the needle's centre line runs through two "
+            "points of it",
         )
-    if not any({bar, tip, eye} <= set(l.points) for l in links):
+    if not any(set(needle.values()) <= set(l.points) for l in links):
+        named = " and ".join(f"{k} '{v}'" for k, v in needle.items())
         raise r.fail(
             "[timing]",
-            f"needle_bar '{bar}', needle_point '{tip}' and needle_eye '{eye}' are on no one link: the needle "
-            "is held in its bar, so one link carries all three",
+            f"{named} are on no one link: the needle is held in its bar, so one link carries "
+            f"{'all three' if len(needle) == 3 else 'both'}",
         )
     return roles
 
@@ -200,18 +243,26 @@ def read(r: Reader, raw: Any, ground: set[str], steps: Sequence[Block], links: S
     t = r.table(raw, "[timing]")
     makers = {k: v for k, v in t.items() if isinstance(v, dict)}
     scalars = {k: v for k, v in t.items() if not isinstance(v, dict)}
-    required, optional = [*ROLES, "plate", "target"], ["fabric", "loop_release", "feed_in_fabric", "stitch"]
+    required = ["plate"]
+    optional = [*ROLES, "target", "fabric", "loop_release", "feed_in_fabric", "stitch"]
     for k in makers:  # a table is a maker's settings, never the value of one of [timing]'s own keys
         if k in required or k in optional:
             raise r.fail(f"[timing] {k}", f"must be a {'point name' if k in ROLES else 'value'}, got a table")
     r.keys(scalars, "[timing]", required, optional)
     roles = _roles(r, scalars, ground, steps, links)
-    if not makers:
-        raise r.fail("[timing]", "needs at least one maker's settings table, e.g. [timing.juki_lu2210n7]")
-    settings = tuple(_maker(r, name, body) for name, body in makers.items())
-    target = r.string(scalars, "target", "[timing]")
-    if target not in makers:
-        raise r.fail("[timing] target", f"'{target}' is not one of the settings tables {', '.join(makers)}")
+    settings = tuple(_maker(r, name, body, roles) for name, body in makers.items())
+    if makers:
+        if "target" not in scalars:
+            raise r.fail(
+                "[timing]", f"needs 'target': which of the settings tables {', '.join(makers)} the head is built to"
+            )
+        target = r.string(scalars, "target", "[timing]")
+        if target not in makers:
+            raise r.fail("[timing] target", f"'{target}' is not one of the settings tables {', '.join(makers)}")
+    elif "target" in scalars:
+        raise r.fail("[timing] target", "names settings, but the table has no maker's settings table ([timing.NAME])")
+    else:
+        target = ""
     written = r.string(scalars, "stitch", "[timing]", default=StitchType.LOCKSTITCH.value)
     try:
         stitch = StitchType(written)
@@ -230,7 +281,7 @@ def read(r: Reader, raw: Any, ground: set[str], steps: Sequence[Block], links: S
     )
 
 
-def _maker(r: Reader, name: str, raw: Any) -> MakerSettings:
+def _maker(r: Reader, name: str, raw: Any, roles: dict[str, str]) -> MakerSettings:
     where = f"[timing.{r.name(name, '[timing]')}]"
     body = r.table(raw, where)
     r.keys(body, where, [], ["source", *SETTINGS])
@@ -238,6 +289,12 @@ def _maker(r: Reader, name: str, raw: Any) -> MakerSettings:
     for key in SETTINGS:
         if key not in body:
             continue
+        missing = [k for k in WINDOW_ROLES[key] if k not in roles]
+        if missing:
+            raise r.fail(
+                f"{where} {key}",
+                f"measures the {' and '.join(missing)}, which [timing] does not name ({SETTINGS[key]})",
+            )
         pair = body[key]
         if not (isinstance(pair, list) and len(pair) == 2):
             raise r.fail(f"{where} {key}", f"must be a window [lo, hi] in mm, got {r.shown(pair)}")
@@ -278,6 +335,8 @@ def read_balance(
     t = r.table(raw, "[balance]")
     if timing is None:
         raise r.fail("[balance]", "needs a [timing] table (the needle, the hook and the plate)")
+    if not timing.has("needle_eye", "hook_point"):
+        raise r.fail("[balance]", "needs the needle's eye and the hook named in [timing] (needle_eye, hook_point)")
     body = timing.stitch.loop_body
     optional = ["stretch", "bobbin_case_width"] if timing.stitch is StitchType.LOCKSTITCH else ["stretch"]
     r.keys(t, "[balance]", ["stitch_length", body, "check_spring", "check_spring_travel"], optional)

@@ -169,10 +169,10 @@ def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
         counted = [r for r in head.rows if r.counts]
         met = sum(r.ok for r in counted)
         ok = int(met == len(counted))
+        which = f"{e(head.target)} settings and the general ones" if head.target else "the general ones"
         rows += (
-            f"<tr><td><a href='#timing'>timing checks met</a> ({e(head.target)} settings and the general "
-            f"ones; 1 when all are)</td><td class='num' data-metric='timing_ok'>{ok}</td>"
-            f"<td>{met} of {len(counted)}</td></tr>"
+            f"<tr><td><a href='#timing'>timing checks met</a> ({which}; 1 when all are)</td>"
+            f"<td class='num' data-metric='timing_ok'>{ok}</td><td>{met} of {len(counted)}</td></tr>"
         )
     dims = "".join(
         f"<tr><td>{e(p)}</td><td class='num' data-param='{e(p)}'>{_value(v)}</td><td>{e(u)}</td></tr>"
@@ -268,9 +268,15 @@ def index_html(result: Any, files: Iterable[str]) -> str:
         parts += _design(result, pngs, names)
         contents.append(("design", "Design"))
     if head is not None:
+        built = (
+            f"built to the {e(head.target)} settings; the other makers' rows show which of their windows the head "
+            "also meets"
+            if head.target
+            else "no maker's settings: the general checks of the parts named"
+        )
         parts += [
-            f"<section id='timing'><h2>Timing over one stitch</h2><p class='sub'>built to the {e(head.target)} "
-            "settings; the other makers' rows show which of their windows the head also meets</p>",
+            f"<section id='timing'><h2>Timing over one stitch</h2><p class='sub'>{built}; angles from "
+            f"{e(head.origin)}</p>",
             "<div class='wide'><table><thead><tr><th>settings</th><th>check</th><th>measured</th><th>window</th>"
             "<th>unit</th><th>result</th></tr></thead><tbody>",
         ]
@@ -281,7 +287,14 @@ def index_html(result: Any, files: Iterable[str]) -> str:
                 f"<td class='num' data-metric='timing_{e(r.key)}'>{e(r.shown(r.value))}</td>"
                 f"<td class='num'>{e(r.window_text())}</td><td>{e(r.unit)}</td><td class='{cls}'>{e(text)}</td></tr>"
             )
-        parts.append("</tbody></table></div></section>")
+        parts.append("</tbody></table></div>")
+        if head.values:
+            parts.append(
+                "<p>"
+                + "; ".join(f"{e(k)} {v:.4g} {e(u)}" for k, (v, u) in head.values.items())
+                + " (measured, for information)</p>"
+            )
+        parts.append("</section>")
         contents.append(("timing", "Timing over one stitch"))
     later = [
         "<section id='agreement'><h2>Agreement of MuJoCo with the vector-method reference</h2>",

@@ -54,55 +54,66 @@ def _rise_band(head: HeadTiming, lo: float, hi: float) -> tuple[float, float] | 
 
 def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path:
     """``cyclogram.png``: needle point and eye, take-up eyelet, hook angle, feed dog height and
-    advance over one stitch; the events as vertical lines; the target maker's windows shaded
-    (the hook timing as the band of main-shaft angles its needle-bar rise allows, the dog's
-    height as a band of heights)."""
+    advance over one stitch (the panels of the parts the ``[timing]`` table names); the events as
+    vertical lines; the target maker's windows shaded (the hook timing as the band of main-shaft
+    angles its needle-bar rise allows, the dog's height as a band of heights)."""
     assert mech.timing is not None
-    maker = mech.timing.maker(head.target)
-    fig, axes = subplots(5, 1, figsize=(10.0, 10.5), sharex=True)
-    place(fig, axes[0].get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=0.6, hgap=0.25)
+    maker = mech.timing.maker(head.target) if head.target else None
     th, c = head.theta, head.curves
+    panels = [k for k in ("needle point", "take-up eyelet", "hook angle", "dog height", "dog advance") if k in c]
+    fig, axes = subplots(len(panels), 1, figsize=(10.0, 1.2 + 1.9 * len(panels)), sharex=True, squeeze=False)
+    axes = axes[:, 0]
+    place(fig, axes[0].get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=0.6, hgap=0.25)
     band = None
-    if "hook_rise" in maker.windows:
+    if maker is not None and "hook_rise" in maker.windows:
         w = maker.windows["hook_rise"]
         band = _rise_band(head, (w.lo or 0.0) / MM, (w.hi or 0.0) / MM)
     fabric = mech.timing.fabric / MM
+    ax_of = dict(zip(panels, axes, strict=True))
 
-    ax = axes[0]
-    ax.plot(th, c["needle point"], color="C0", label="needle point")
-    ax.plot(th, c["needle eye"], color="C0", ls="--", lw=1.0, label="top of the eye")
-    ax.plot(th, c["hook point height"], color="C3", lw=0.8, alpha=0.6, label="hook point")
-    ax.axhline(0.0, color="0.3", lw=1.0)
-    ax.axhline(fabric, color="0.5", lw=0.8, ls=":")
-    ax.set_ylabel("height above\nthe plate [mm]")
-    low = min(c["needle point"].min(), c["hook point height"].min())
-    ax.set_ylim(low - 0.45 * (c["needle point"].max() - low), c["needle point"].max() + 4)
-    ax.legend(loc="lower center", fontsize=8, ncols=3, framealpha=0.9)
+    if "needle point" in ax_of:
+        ax = ax_of["needle point"]
+        ax.plot(th, c["needle point"], color="C0", label="needle point")
+        if "needle eye" in c:
+            ax.plot(th, c["needle eye"], color="C0", ls="--", lw=1.0, label="top of the eye")
+        low = c["needle point"].min()
+        if "hook point height" in c:
+            ax.plot(th, c["hook point height"], color="C3", lw=0.8, alpha=0.6, label="hook point")
+            low = min(low, c["hook point height"].min())
+        ax.axhline(0.0, color="0.3", lw=1.0)
+        ax.axhline(fabric, color="0.5", lw=0.8, ls=":")
+        ax.set_ylabel("height above\nthe plate [mm]")
+        ax.set_ylim(low - 0.45 * (c["needle point"].max() - low), c["needle point"].max() + 4)
+        ax.legend(loc="lower center", fontsize=8, ncols=3, framealpha=0.9)
 
-    ax = axes[1]
-    ax.plot(th, c["take-up eyelet"], color="C2")
-    ax.set_ylabel("take-up eyelet above\nits lowest [mm]")
+    if "take-up eyelet" in ax_of:
+        ax = ax_of["take-up eyelet"]
+        ax.plot(th, c["take-up eyelet"], color="C2")
+        ax.set_ylabel("take-up eyelet above\nits lowest [mm]")
 
-    ax = axes[2]
-    hook = np.where(np.abs(np.diff(c["hook angle"], append=c["hook angle"][0])) > 180.0, np.nan, c["hook angle"])
-    ax.plot(th, hook, color="C3")
-    ax.set_yticks([0, 90, 180, 270, 360])
-    ax.set_ylim(-10, 370)
-    ax.set_ylabel("hook angle [deg]")
+    if "hook angle" in ax_of:
+        ax = ax_of["hook angle"]
+        hook = np.where(np.abs(np.diff(c["hook angle"], append=c["hook angle"][0])) > 180.0, np.nan, c["hook angle"])
+        ax.plot(th, hook, color="C3")
+        ax.set_yticks([0, 90, 180, 270, 360])
+        ax.set_ylim(-10, 370)
+        ax.set_ylabel("hook angle [deg]")
 
-    ax = axes[3]
-    ax.plot(th, c["dog height"], color="C1")
-    ax.axhline(0.0, color="0.3", lw=1.0)
-    if "dog_height" in maker.windows:
-        w = maker.windows["dog_height"]
-        ax.axhspan((w.lo or 0.0) / MM, (w.hi or 0.0) / MM, color="C1", alpha=0.2, lw=0)
-    ax.set_ylabel("feed dog above\nthe plate [mm]")
+    if "dog height" in ax_of:
+        ax = ax_of["dog height"]
+        ax.plot(th, c["dog height"], color="C1")
+        ax.axhline(0.0, color="0.3", lw=1.0)
+        if maker is not None and "dog_height" in maker.windows:
+            w = maker.windows["dog_height"]
+            ax.axhspan((w.lo or 0.0) / MM, (w.hi or 0.0) / MM, color="C1", alpha=0.2, lw=0)
+        ax.set_ylabel("feed dog above\nthe plate [mm]")
 
-    ax = axes[4]
-    ax.plot(th, c["dog advance"], color="C4")
-    ax.set_ylabel("feed dog\nadvance [mm]")
-    ax.set_xlabel("main-shaft angle from the needle bar's top dead centre [deg]")
-    angle_ticks(ax, 0.0, 360.0)
+    if "dog advance" in ax_of:
+        ax = ax_of["dog advance"]
+        ax.plot(th, c["dog advance"], color="C4")
+        ax.set_ylabel("feed dog\nadvance [mm]")
+    axes[-1].set_xlabel(f"main-shaft angle from {head.origin} [deg]")
+    angle_ticks(axes[-1], 0.0, 360.0)
 
     for a in axes:
         if band is not None:
@@ -122,9 +133,8 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
             tags.setdefault(at, []).append(tag)
     for x, names in tags.items():
         _label(top, " / ".join(names), x, dx=2, ha="left", fontsize=8, rotation=90, color="0.3")
-    fig.suptitle(
-        title(mech, f"timing diagram over one stitch; shaded: the {head.target} settings' windows"), fontsize=11
-    )
+    shaded = f"; shaded: the {head.target} settings' windows" if maker is not None else ""
+    fig.suptitle(title(mech, f"timing diagram over one stitch{shaded}"), fontsize=11)
     return save(fig, out_dir, "cyclogram.png")
 
 
