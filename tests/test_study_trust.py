@@ -559,6 +559,11 @@ def test_caveats_name_range_bounds_active_constraints_and_redundant_parameters(t
     # The rocker pivot does not move the crank pin's path: the objective does not depend on it.
     assert any(t.startswith("ground.D.x: the objective does not change") for t in res.caveats.redundant)
     assert res.caveats.seeds is not None and res.caveats.seeds.agree
+    # Runs that agree speak for the winner: a finding, not a caveat.
+    assert not [c for c in res.caveats.lines() if c.startswith("runs:")]
+    assert [f[:40] for f in res.caveats.findings()] == [
+        f"runs: the {len(res.caveats.seeds.seeds)} independent runs' optima agree"[:40]
+    ]
     edge = spec.parse(CIRCLE.replace("range = [8.0, 20.0]", "range = [8.0, 11.0]"), "c.toml")
     at = optimize.run(edge).caveats.at_bounds
     assert any("construct.B.length = 11 mm is within 1% of its range's high end" in t for t in at)

@@ -423,6 +423,8 @@ def optimization(res: OptimizeResult) -> str:
         )
     for c in s["caveats_text"]:
         lines.append(f"caveat: {c}")
+    for c in s.get("findings_text", ()):
+        lines.append(f"found: {c}")
     if s["rejected"]:
         n = len(s["rejected"])
         more = f" ({n} better candidates set aside in all: summary.json lists them)" if n > 1 else ""

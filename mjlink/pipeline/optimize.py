@@ -310,6 +310,8 @@ def _header(
     )
     for c in summ["caveats_text"] if row == 0 else ():
         lines.append(f"Caveat: {c}.")
+    for c in summ["findings_text"] if row == 0 else ():
+        lines.append(f"Found: {c}.")
     if fly is not None:
         lines.append(
             f"Flywheel for delta = {fly.target:g}: {fly.inertia:.4g} kg*m^2 added to links.{fly.link}.inertia "
@@ -418,6 +420,7 @@ def summary(
         },
         "caveats": caveats.as_dict(),
         "caveats_text": caveats.lines(),
+        "findings_text": caveats.findings(),
         "optimizer": {
             "algorithm": "scipy.optimize.differential_evolution (vectorized, deferred updating), then a local CMA-ES polish",
             "objective": opt.label,
@@ -545,6 +548,7 @@ def page(summ: dict[str, Any], files: list[str]) -> str:
     )
     mets = "".join(f"<tr><td>{e(k)}</td><td>{m['value']:.6g} {e(m['unit'])}</td></tr>" for k, m in w["metrics"].items())
     caveats = "".join(f"<li>{e(c)}</li>" for c in summ["caveats_text"]) or "<li>none</li>"
+    found = "".join(f"<li>{e(c)}</li>" for c in summ["findings_text"])
     rejected = "".join(f"<li>{e(r['reason'])}</li>" for r in summ["rejected"])
     figs = "".join(f"<figure><img src='{e(f)}' alt='{e(f)}'></figure>" for f in files if f.endswith(".png"))
     links = " ".join(f"<a href='{e(f)}'>{e(f)}</a>" for f in files if not f.endswith(".png") and f != "index.html")
@@ -558,7 +562,8 @@ def page(summ: dict[str, Any], files: list[str]) -> str:
         f"<p>{e(summ['optimizer']['objective'])}</p>{head}"
         f"<p class='criterion'>Criterion: {e(conv['criterion'])}</p>{objective}"
         f"<h2>Caveats</h2><ul>{caveats}</ul>"
-        "<h2>Winner (rounded to the resolution, as written in winner.toml)</h2><table><tr><th>parameter</th>"
+        + (f"<h2>In the winner's favour</h2><ul>{found}</ul>" if found else "")
+        + "<h2>Winner (rounded to the resolution, as written in winner.toml)</h2><table><tr><th>parameter</th>"
         f"<th>winner</th><th>optimum found</th><th>range</th><th>file</th></tr>{rows}</table>"
         f"<table><tr><th>metric</th><th>as written</th></tr>{mets}</table>"
         + (f"<h2>Candidates set aside</h2><ul>{rejected}</ul>" if rejected else "")

@@ -78,9 +78,13 @@ class Caveats:
         out += [f"active constraint: {t}" for t in self.active]
         out += [f"at the edge of feasibility: {t}" for t in self.edge]
         out += [f"redundant: {t}" for t in self.redundant]
-        if self.seeds is not None:
+        if self.seeds is not None and not self.seeds.agree:
             out.append(f"runs: {self.seeds.text()}")
         return out
+
+    def findings(self) -> list[str]:
+        """What speaks for the winner rather than against it: the seeds' runs agreeing."""
+        return [f"runs: {self.seeds.text()}"] if self.seeds is not None and self.seeds.agree else []
 
     def as_dict(self) -> dict[str, Any]:
         s = self.seeds
