@@ -489,3 +489,22 @@ def test_a_client_registration_race_is_retried_once() -> None:
 
     with pytest.raises(AssertionError):
         runtime_cluster._connect(Broken, "tcp://x:1")
+
+
+def test_a_speed_in_a_column_name_reads_in_rpm_and_the_old_name_still_works(caplog) -> None:
+    """523.6 rad/s is 5,000 rpm (523.6 x 60 / 2 pi = 4999.99): the column says so; a study
+    naming it the earlier way, in rad/s, runs with one note giving the new name."""
+    text = (ROOT / "studies" / "takeup_counterweight.toml").read_text()
+    st = spec.parse(text, ROOT / "studies" / "takeup_counterweight.toml")
+    assert "shaking_force_peak_at_5000rpm" in [c.name for c in st.columns]
+    assert st.optimize is not None and st.optimize.objective[0][0] == "shaking_force_peak_at_5000rpm"
+    old = text.replace('objective = "shaking_force_peak_at_5000rpm"', 'objective = "shaking_force_peak_at_523p6rad_s"')
+    assert old != text
+    with caplog.at_level("INFO", logger="mjlink"):
+        again = spec.parse(old, ROOT / "studies" / "takeup_counterweight.toml")
+    assert again.optimize is not None and again.optimize.objective == st.optimize.objective
+    notes = [r.message for r in caplog.records if "is now named" in r.message]
+    assert (
+        len(notes) == 1
+        and "'shaking_force_peak_at_523p6rad_s' is now named 'shaking_force_peak_at_5000rpm'" in notes[0]
+    )

@@ -9,6 +9,7 @@ study side (read, columns, feasibility, compute).
 from __future__ import annotations
 
 import math
+import re
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -181,6 +182,24 @@ def _dead_points(b: Batch) -> list[Any]:
     return [d for d in (s.dead_point(P) for s in b.mechanism.steps) if d is not None]
 
 
+def speed_tag(speed: float) -> str:
+    """A column name's speed, as a designer reads it: ``_at_5000rpm`` for 523.6 rad/s (four
+    significant digits of rpm; ``m`` for a clockwise speed, ``p`` for a decimal point)."""
+    rpm = speed * 60.0 / (2.0 * math.pi)
+    text = f"{rpm:.4g}" if abs(rpm) < 1e4 else f"{rpm:.0f}"
+    return f"_at_{text}rpm".replace("-", "m").replace(".", "p")
+
+
+def old_speed_name(name: str) -> str | None:
+    """The column a name of the earlier form (``shaking_force_peak_at_523p6rad_s``) now has
+    (``shaking_force_peak_at_5000rpm``), or None for a name of another form."""
+    m = re.fullmatch(r"(.*)_at_(m?)([0-9]+(?:p[0-9]+)?)rad_s", name)
+    if m is None:
+        return None
+    value = float(m[3].replace("p", "."))
+    return m[1] + speed_tag(-value if m[2] else value)
+
+
 class AtSpeed(Metric):
     """A metric at constant crank speed: its ``speed`` option (rad/s, default the file's), in its
     columns' names when it is not the file's."""
@@ -192,7 +211,7 @@ class AtSpeed(Metric):
         self.speed = self._speed(raw)
 
     def _tag(self) -> str:
-        return "" if self.speed == self.mech.speed else f"_at_{self.speed:g}rad_s".replace("-", "m").replace(".", "p")
+        return "" if self.speed == self.mech.speed else speed_tag(self.speed)
 
     def _torque(self, b: Batch, loads: Loads) -> np.ndarray:
         """(V, A) driving torque at constant speed, N*m (the reference's inverse dynamics)."""

@@ -24,12 +24,14 @@ import numpy as np
 from .. import validation
 from ..analysis import function_metric as _functions
 from ..analysis import metrics as _metrics
+from ..analysis.metric_base import old_speed_name
 from ..errors import InputError, MjlinkError, did_you_mean
 from ..model import catalogue, paths
 from ..model import names as _names
 from ..model.limits import MAX_FILE_BYTES, MAX_TITLE_CHARS
 from ..model.mechanism import Mechanism
 from ..model.reader import digits, shown
+from ..notes import note
 from ..quantity import QuantityError
 from ..quantity import parse as parse_quantity
 from . import sampling, values
@@ -475,6 +477,10 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
 def _column(src: object, name: Any, names: list[str], where: str) -> str:
     if isinstance(name, str) and name in names:
         return name
+    now = old_speed_name(name) if isinstance(name, str) else None
+    if now is not None and now in names:  # the earlier form, in rad/s: still read, said once
+        note(f"{src}: {where}: '{name}' is now named '{now}' (the speed in rpm); the old name still works")
+        return now
     hint = did_you_mean(str(name), names)
     raise _fail(src, where, f"'{name}' is no metric column of this study ({hint}columns: {', '.join(names)})")
 
