@@ -259,7 +259,7 @@ def test_check_prints_the_timing_table_and_names_a_miss(tmp_path):
     # The shipped head misses one window, the thread's supply (its take-up sized against the
     # demand before the stitch's end was counted where the feed has carried it: docs/head.md).
     assert "Timing over one stitch" in r.stdout and "misses" in r.stdout and "timing: 1 window(s) missed" in r.stdout
-    assert re.search(r"every +thread short of what needle and loop take +[\d.]+ +-inf\.\.[\d.]+ mm +FAIL", r.stdout)
+    assert re.search(r"every head +thread short of what needle and loop take +[\d.]+ +-inf\.\.[\d.]+ mm +FAIL", r.stdout)
     late = _edited(tmp_path, *LATE_HOOK, "late.toml")
     r = in_process("check", str(late.path))
     # The hook meets the needle late, and low on it (the loop then comes late for the take-up too).
@@ -280,7 +280,7 @@ def test_the_timing_tables_columns_line_up_whatever_the_settings_names_length(ti
     assert {r.maker for r in timing.rows} == {None, *TABLES} and len({len(n) for n in TABLES}) > 1
     start = lines[header].index(" check ") + 1
     for line, r in zip(rows, timing.rows, strict=True):
-        assert line[:start].rstrip() == (r.maker or "every") and line[start:].startswith(r.label), line
+        assert line[:start].rstrip() == (r.maker or "every head") and line[start:].startswith(r.label), line
 
 
 @pytest.fixture(scope="module")

@@ -61,7 +61,7 @@ LABELS = {
     "thread_shortfall": "thread short of what needle and loop take",
     "thread_slack": "check spring travel the slack needs",
     "loop_thread": "most thread below the material (loop)",
-    "dog_below_while_needle_down": "feed dog below the plate while the needle is",
+    "dog_below_while_needle_down": "feed dog below the plate while the needle is below it",
     "feed_in_fabric": "feed with the needle in the fabric",
     "take_up_after_release": "take-up top after the loop's release",
     "hook_rise": "needle bar rise when the hook meets the needle",
@@ -122,7 +122,7 @@ class TimingRow:
             "lo": None if self.window.lo is None else self.window.lo / k,
             "hi": None if self.window.hi is None else self.window.hi / k,
             "unit": self.unit,
-            "result": "pass" if self.ok else "FAIL",
+            "result": self.verdict,  # the terminal's and the page's word for the row
             "counts": self.counts,
         }
 

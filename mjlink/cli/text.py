@@ -512,14 +512,15 @@ def timing_table(head: HeadTiming) -> str:
     built = f"built to '{head.target}'" if head.target else "no maker's settings: the general checks"
     rows = [f"\nTiming over one stitch (main-shaft angle from {head.origin}; {built}):"]
     # A settings table is named by its machine's model: the column as wide as the longest name.
-    w = max([len("settings"), *(len(r.maker or "every") for r in head.rows)])
+    w = max([len("settings"), *(len(r.maker or "every head") for r in head.rows)])
+    wl = max([len("check"), *(len(r.label) for r in head.rows)])
     if head.rows:
-        rows.append(f"{'settings':{w}s} {'check':47s} {'measured':>9s} {'window':>17s} unit  result")
+        rows.append(f"{'settings':{w}s} {'check':{wl}s} {'measured':>9s} {'window':>17s} unit  result")
     else:
         rows.append("no check applies to the parts [timing] names (docs/head.md, The timing table)")
     for r in head.rows:
         rows.append(
-            f"{r.maker or 'every':{w}s} {r.label:47s} {r.shown(r.value):>9s} {r.window_text():>17s} {r.unit:4s}  {r.verdict}"
+            f"{r.maker or 'every head':{w}s} {r.label:{wl}s} {r.shown(r.value):>9s} {r.window_text():>17s} {r.unit:4s}  {r.verdict}"
         )
     rows.append("events (deg): " + ", ".join(f"{k} {v:.1f}" for k, v in head.events.items() if k != "needle bar top"))
     if head.values:

@@ -283,7 +283,7 @@ def index_html(result: Any, files: Iterable[str]) -> str:
         for r in head.rows:
             text, cls = _MARK[r.verdict] if r.counts else (r.verdict, "info")
             parts.append(
-                f"<tr><td>{e(r.maker or 'every head')}</td><td title='{e(r.what)}'>{e(r.label)}</td>"
+                f"<tr><td>{e(r.maker or 'every head')}</td><td>{e(r.label)}<br><small>{e(r.what)}</small></td>"
                 f"<td class='num' data-metric='timing_{e(r.key)}'>{e(r.shown(r.value))}</td>"
                 f"<td class='num'>{e(r.window_text())}</td><td>{e(r.unit)}</td><td class='{cls}'>{e(text)}</td></tr>"
             )
