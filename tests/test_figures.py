@@ -168,6 +168,16 @@ def _head_report_and_page(run_figures) -> None:
     assert rows["tension_margin"] == pytest.approx(tension["breaking_load_N"] / tension["peak_N"], rel=1e-6)
     assert rows["tension_per_stitch"] == pytest.approx(tension["per_stitch_mm"], abs=1e-6)
     assert page.index("data-metric='tension_peak'") < page.index("id='timing'")
+    # A head is read as a head: its needle bar's stroke (2 x the 15.35 mm crank) and its dog's
+    # feed first, its thread's tension and its timing verdict, then the rest; the dimensions
+    # folded by member.
+    metrics = [r["metric"] for r in report["design"]["summary"]]
+    assert metrics[:5] == ["stroke_NB_y", "stroke_F_x", "tension_peak", "tension_margin", "tension_per_stitch"]
+    assert rows["stroke_NB_y"] == pytest.approx(2 * 15.35, abs=1e-9)
+    at = [page.index(f"data-metric='{m}'") for m in ("stroke_NB_y", "tension_per_stitch", "timing_ok", metrics[5])]
+    assert at == sorted(at)
+    assert "<details><summary>needle_bar (" in page and "<details><summary>frame (" in page
+    assert all(f"data-param='{d['param']}'" in page for d in report["design"]["dimensions"])
 
 
 @pytest.mark.slow

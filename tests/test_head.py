@@ -259,7 +259,9 @@ def test_check_prints_the_timing_table_and_names_a_miss(tmp_path):
     # The shipped head misses one window, the thread's supply (its take-up sized against the
     # demand before the stitch's end was counted where the feed has carried it: docs/head.md).
     assert "Timing over one stitch" in r.stdout and "misses" in r.stdout and "timing: 1 window(s) missed" in r.stdout
-    assert re.search(r"every head +thread short of what needle and loop take +[\d.]+ +-inf\.\.[\d.]+ mm +FAIL", r.stdout)
+    assert re.search(
+        r"every head +thread short of what needle and loop take +[\d.]+ +-inf\.\.[\d.]+ mm +FAIL", r.stdout
+    )
     late = _edited(tmp_path, *LATE_HOOK, "late.toml")
     r = in_process("check", str(late.path))
     # The hook meets the needle late, and low on it (the loop then comes late for the take-up too).

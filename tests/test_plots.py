@@ -124,11 +124,19 @@ def _expected(m) -> set[str]:
         at0 = R.solve(m, [m.phi0])
         if any(abs(float(at0.position(p)[0, 2])) > 1e-12 for p in m.point_names):
             names.add("thread_contour.png")  # a spatial thread
+    # A phase study where a geared crank's setting changes a path: some point moved by both the
+    # input crank and a geared one (a point moved by one alone keeps its path, only its timing
+    # moves: the head's needle and feed are driven apart, warp knitting's needle by both).
+    cranks = {s.point for s in m.steps if isinstance(s, mechanism.Crank)}
+    moved: dict[str, set[str]] = {}
+    for s in m.steps:
+        moved[s.point] = {c for p in s.inputs for c in moved.get(p, set())} | ({s.point} & cranks)
+    both = [p for p, c in moved.items() if len(c) >= 2 and m.input_crank.point in c]
     for s in m.steps:
         if isinstance(s, mechanism.Slider):
             names |= {f"slider_{s.point}.png", f"slider_{s.point}_spectrum.png", f"pressure_angle_{s.point}.png"}
-        if isinstance(s, mechanism.Crank) and s.ratio != 1.0:
-            names.add("phase_study.png")
+    if both:
+        names.add("phase_study.png")
     names |= {f"link_{l}.png" for l in analysis.motion_links(m)}
     if m.timing is not None:
         names.add("cyclogram.png")  # a sewing head's timing diagram

@@ -221,6 +221,36 @@ def geared_crank(mech: Mechanism) -> Crank | None:
     return mech.geared[0] if mech.geared else None
 
 
+def cranks_moving(mech: Mechanism) -> dict[str, set[str]]:
+    """Each point -> the cranks (by their points) that move it: a crank's point moves with its
+    crank, a built point with every crank its inputs move with; a ground point with none."""
+    out: dict[str, set[str]] = {g: set() for g in mech.ground}
+    for s in mech.steps:  # in build order: a block's inputs come first
+        out[s.point] = set().union(*(out.get(p, set()) for p in s.inputs)) | (
+            {s.point} if isinstance(s, Crank) else set()
+        )
+    return out
+
+
+def phase_point(mech: Mechanism) -> tuple[Crank, str] | None:
+    """A geared crank and a point whose path its setting changes: a point moved by both the
+    input crank and that crank (a point moved by one of them alone only moves at other times
+    when the setting changes, along the same path). The key point if it is one, else the first
+    such point in the file's order that is not merely a centre of mass; None where there is none
+    (a head whose needle and feed are driven apart)."""
+    moved = cranks_moving(mech)
+    coms = mass_centres(mech)
+    key = key_point(mech)
+    for g in mech.geared:
+        both = [p for p in mech.moving_points if {mech.input_crank.point, g.point} <= moved.get(p, set())]
+        if key in both:
+            return g, key
+        rest = [p for p in both if p not in coms]
+        if rest:
+            return g, rest[0]
+    return None
+
+
 def geared_path(mech: Mechanism, crank: Crank, phase: float, point: str, phi: np.ndarray) -> np.ndarray:
     """Positions (m), (N, 3), of ``point`` at the input angles ``phi`` (N,) rad when the geared
     ``crank`` is set to ``phase`` (rad, its angle at phi0) instead of its file's phase.

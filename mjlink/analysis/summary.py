@@ -57,6 +57,24 @@ def _loaded(mech: Mechanism) -> bool:
     return any(l.mass > 0 for l in mech.links) and bool(mech.speed)
 
 
+def head_rows(mech: Mechanism) -> tuple[Row, ...]:
+    """What a sewing head is read by first (its ``[timing]`` roles): the needle bar's stroke
+    (along y, the needle's line in the head's convention) and the feed dog's travel along the
+    plate (x), each as a study's ``stroke`` metric names it; none for another mechanism."""
+    tm = mech.timing
+    if tm is None:
+        return ()
+    tables = []
+    if tm.has("needle_bar"):
+        tables.append(({"kind": "stroke", "point": tm.roles["needle_bar"], "axis": "y"}, "needle bar's stroke"))
+    if tm.has("feed_dog"):
+        tables.append(
+            ({"kind": "stroke", "point": tm.roles["feed_dog"], "axis": "x"}, "feed dog's travel along the plate")
+        )
+    rows = _rows(mech, [t for t, _ in tables])
+    return tuple(dataclasses.replace(r, label=f"{what} ({r.label})") for r, (_, what) in zip(rows, tables, strict=True))
+
+
 def design_summary(mech: Mechanism) -> tuple[Row, ...]:
     """The headline numbers of ``mech`` (see the module's docstring); a row whose metric does
     not apply (no thread, no dyad, no slider, no masses) is left out."""
@@ -119,7 +137,7 @@ def dimensions(mech: Mechanism) -> tuple[tuple[str, float, str], ...]:
     return tuple(out)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Summary:
     """The design of a run at a glance: the crank's setting ``phi0_deg`` (deg) at which the
     design is drawn, the file's ``speed`` (rad/s, signed, CCW positive) at which the loads are
@@ -131,6 +149,8 @@ class Summary:
     headline: tuple[Row, ...]
     points: tuple[Row, ...]
     dimensions: tuple[tuple[str, float, str], ...]
+    lead: int = 0  # a head's: the headline rows it is read by first (stroke, feed, tension)
+    members: dict[str, str] = dataclasses.field(default_factory=dict)  # dimension -> the member it shapes
 
     def as_dict(self) -> dict[str, Any]:
         """The report's ``design`` entry."""
@@ -158,8 +178,32 @@ def tension_rows(thread: NeedleTension) -> tuple[Row, ...]:
 def summarize(mech: Mechanism, thread: NeedleTension | None = None) -> Summary:
     """:class:`Summary` of ``mech``; a head's headline ends with its needle thread's tension
     (:func:`tension_rows`) when the run's ``thread`` is given."""
-    headline = design_summary(mech) + (tension_rows(thread) if thread is not None else ())
-    return Summary(math.degrees(mech.phi0), mech.speed, headline, point_strokes(mech), dimensions(mech))
+    lead = head_rows(mech) + (tension_rows(thread) if thread is not None else ())
+    headline = lead + design_summary(mech)
+    dims = dimensions(mech)
+    return Summary(
+        phi0_deg=math.degrees(mech.phi0),
+        speed=mech.speed,
+        headline=headline,
+        points=point_strokes(mech),
+        dimensions=dims,
+        lead=len(lead),
+        members=members(mech, dims),
+    )
+
+
+def members(mech: Mechanism, dims: tuple[tuple[str, float, str], ...]) -> dict[str, str]:
+    """Each dimension's member, as a designer folds a long table: a ground point's coordinates
+    the frame, a block's numbers the first link (in the file's order) that carries its point
+    (the frame for a point no link carries), the input's setting the input."""
+    out = {}
+    for path, _, _ in dims:
+        part = path.split(".")
+        if part[0] == "construct":
+            out[path] = next((l.name for l in mech.links if part[1] in l.points), "frame")
+        else:
+            out[path] = "frame" if part[0] == "ground" else part[0]
+    return out
 
 
 @dataclass(frozen=True, kw_only=True)

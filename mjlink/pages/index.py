@@ -19,6 +19,8 @@ from typing import Any
 
 _CSS = """
 :root { color-scheme: light dark; --fg: #222; --bg: #fff; --muted: #555; --line: #ccc; --ok: #1a7f37; --bad: #c62828; }
+#timing th, #timing td:not(:nth-child(2)) { white-space: nowrap; }
+#timing td small { color: var(--muted); }
 @media (prefers-color-scheme: dark) {
   :root { --fg: #e6e6e6; --bg: #16181b; --muted: #a8a8a8; --line: #444; --ok: #4ccb6c; --bad: #ff6b6b; }
   img { background: #fff; }
@@ -163,9 +165,10 @@ def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
     d = result.design
     rpm = abs(d.speed) * 60.0 / (2.0 * math.pi)
     sense = "counter-clockwise" if d.speed > 0 else "clockwise"
-    rows = _metric_rows(d.headline)
+    lead = getattr(d, "lead", 0)
+    rows = _metric_rows(d.headline[:lead])
     head = getattr(result, "timing", None)
-    if head is not None:  # a sewing head: its timing at a glance, the table below
+    if head is not None:  # a sewing head: its timing at a glance after its stroke and feed, the table below
         counted = [r for r in head.rows if r.counts]
         met = sum(r.ok for r in counted)
         ok = int(met == len(counted))
@@ -174,10 +177,8 @@ def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
             f"<tr><td><a href='#timing'>timing checks met</a> ({which}; 1 when all are)</td>"
             f"<td class='num' data-metric='timing_ok'>{ok}</td><td>{met} of {len(counted)}</td></tr>"
         )
-    dims = "".join(
-        f"<tr><td>{e(p)}</td><td class='num' data-param='{e(p)}'>{_value(v)}</td><td>{e(u)}</td></tr>"
-        for p, v, u in d.dimensions
-    )
+    rows += _metric_rows(d.headline[lead:])
+    dims = _dimensions(getattr(d, "members", {}), d.dimensions)
     left = (
         f"<a href='positions.png'><img src='positions.png' alt='{e(_caption('positions.png'))}' loading='eager'></a>"
         f"<p class='sub'>bold: the design at the crank's setting φ0 = {d.phi0_deg:g}°; grey: 23 more positions "
@@ -202,10 +203,31 @@ def _design(result: Any, pngs: list[str], names: list[str]) -> list[str]:
         rows,
         "</tbody></table>",
         "<h3>Dimensions (the file's, by study path)</h3>",
-        "<table id='dimensions'><thead><tr><th>parameter</th><th>value</th><th>unit</th></tr></thead><tbody>",
         dims,
-        "</tbody></table></div></div></section>",
+        "</div></div></section>",
     ]
+
+
+def _dimensions(members: dict[str, str], dims: Iterable[tuple[str, float, str]]) -> str:
+    """The file's dimensions, one folded table per member of the mechanism (the frame, each
+    link, the input: :func:`mjlink.analysis.summary.members`), every value on an element naming
+    its study path."""
+    e = html.escape
+    groups: dict[str, list[tuple[str, float, str]]] = {}
+    for p, v, u in dims:
+        groups.setdefault(members.get(p, "dimensions"), []).append((p, v, u))
+    out = ["<div id='dimensions'>"]
+    for member, rows in groups.items():
+        body = "".join(
+            f"<tr><td>{e(p)}</td><td class='num' data-param='{e(p)}'>{_value(v)}</td><td>{e(u)}</td></tr>"
+            for p, v, u in rows
+        )
+        out.append(
+            f"<details><summary>{e(member)} ({len(rows)})</summary><table><thead><tr><th>parameter</th>"
+            f"<th>value</th><th>unit</th></tr></thead><tbody>{body}</tbody></table></details>"
+        )
+    out.append("</div>")
+    return "".join(out)
 
 
 def _strokes(result: Any) -> list[str]:

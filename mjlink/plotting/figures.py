@@ -378,14 +378,14 @@ def _link_number(mech: Mechanism, crank: Crank) -> int:
 def phase_study_plot(
     mech: Mechanism, out_dir, point: str | None = None, offsets_deg=(-90, -60, -30, 0, 30, 60, 90)
 ) -> Path | None:
-    """``phase_study.png``: the path of ``point`` (default :func:`mjlink.analysis.key_point`)
+    """``phase_study.png``: the path of ``point`` (default: :func:`mjlink.analysis.phase_point`'s)
     over one period for several mutual settings of the cranks: the geared crank's phase is its
     file's phase plus each offset (seed 004, Fig. 3). Settings that cannot assemble are
-    listed, not drawn. None without a geared crank (see :func:`mjlink.analysis.geared_crank`)."""
-    crank = analysis.geared_crank(mech)
-    if crank is None:
+    listed, not drawn. None where no point's path depends on a geared crank's setting."""
+    chosen = analysis.phase_point(mech)
+    if chosen is None:  # no path changes with the geared crank's setting: seven identical curves
         return None
-    point = point or analysis.key_point(mech)
+    crank, point = chosen[0], point or chosen[1]
     i_in, i_g = _link_number(mech, mech.input_crank), _link_number(mech, crank)
     phi = mech.phi0 + math.copysign(mech.period, mech.speed) * np.linspace(0.0, 1.0, 721)
     cmap = plt.get_cmap("coolwarm")
