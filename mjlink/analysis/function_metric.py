@@ -32,10 +32,7 @@ import numpy as np
 
 from ..model.mechanism import Mechanism
 from ..reference.batch import Batch
-from .metric_base import Column, Loads, Metric, MetricError
-
-NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
-_TABLE = ("variant", "feasible", "reason", "within_bounds")
+from .metric_base import COLUMN_NAME, Column, Loads, Metric, MetricError, taken_by_table
 
 
 class Traces(Mapping[str, np.ndarray]):
@@ -114,12 +111,12 @@ class FunctionMetric(Metric):
 
     def __init__(self, mech: Mechanism, name: str, fn: Callable[[Mapping[str, np.ndarray]], Any], unit: str = ""):
         where = f"metrics[{name!r}]"
-        if not isinstance(name, str) or not NAME.fullmatch(name):
+        if not isinstance(name, str) or not COLUMN_NAME.fullmatch(name):
             raise MetricError(
                 f"{where}: a metric's name must be a column name of letters, digits and '_' (not first a digit), "
                 "at most 64 characters"
             )
-        if name in _TABLE or name.startswith("mujoco"):
+        if taken_by_table(name):
             raise MetricError(f"{where}: '{name}' is a column every study table has; choose another name")
         if not callable(fn):
             raise MetricError(

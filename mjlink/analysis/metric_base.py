@@ -182,6 +182,18 @@ def _dead_points(b: Batch) -> list[Any]:
     return [d for d in (s.dead_point(P) for s in b.mechanism.steps) if d is not None]
 
 
+COLUMN_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
+"""A column name a designer gives (a motion metric's ``name``, a Python metric's key)."""
+
+TABLE_COLUMNS = ("variant", "feasible", "reason", "within_bounds")
+"""Columns every study table has (and every ``mujoco...`` one): no metric may take their names."""
+
+
+def taken_by_table(name: str) -> bool:
+    """Whether ``name`` is one of a study table's own columns."""
+    return name in TABLE_COLUMNS or name.startswith("mujoco")
+
+
 def speed_tag(speed: float) -> str:
     """A column name's speed, as a designer reads it: ``_at_5000rpm`` for 523.6 rad/s (four
     significant digits of rpm; ``m`` for a clockwise speed, ``p`` for a decimal point)."""

@@ -43,7 +43,6 @@ an optimization counts it infeasible, a study's table shows it empty.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -51,15 +50,13 @@ import numpy as np
 
 from ..model.reader import shown
 from ..reference.batch import Batch
-from .metric_base import AtSpeed, Column, Curve, Loads, MetricError
+from .metric_base import COLUMN_NAME, AtSpeed, Column, Curve, Loads, MetricError, taken_by_table
 
 POINT = {"position": "mm", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3"}
 LINK = {"angle": "deg", "angular_velocity": "rad/s", "angular_acceleration": "rad/s^2", "velocity_ratio": ""}
 TIMED = ("velocity", "acceleration", "jerk", "angular_velocity", "angular_acceleration")  # depend on the speed
 STATISTICS = ("peak", "rms", "range", "max", "min")
-NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _EVENT_KEYS = ("point", "axis", "height", "height_of", "direction", "extreme", "angle")
-_TABLE = ("variant", "feasible", "reason", "within_bounds")  # a study table's own columns
 _NEWTON = 8  # iterations: quadratic convergence from a bracket one sample wide
 
 
@@ -169,12 +166,12 @@ class Motion(AtSpeed):
             raise MetricError(f"{self.where}: statistic must be one of {', '.join(STATISTICS)}, got {shown(stat)}")
         self.statistic = "" if self.event is not None else str(stat)
         name = raw.get("name")
-        if name is not None and not (isinstance(name, str) and NAME.fullmatch(name)):
+        if name is not None and not (isinstance(name, str) and COLUMN_NAME.fullmatch(name)):
             raise MetricError(
                 f"{self.where}: name must be a column name of letters, digits and '_' (not first a digit), "
                 f"at most 64 characters, got {shown(name)}"
             )
-        if isinstance(name, str) and (name in _TABLE or name.startswith("mujoco")):
+        if isinstance(name, str) and taken_by_table(name):
             raise MetricError(f"{self.where}: name '{name}' is a column every study table has; choose another")
         ax = "" if self.axis is None else "_" + "xyz"[self.axis]
         how = self.event.tag() if self.event is not None else self.statistic
