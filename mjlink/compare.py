@@ -31,7 +31,7 @@ from .model.topology import pairs
 from .reference import reference_trace
 from .reference.batch import FrameLoads, frame_loads
 from .runs import Trace
-from .units import RunKind
+from .units import RunKind, shown
 
 # The acceptance thresholds (tests assert them; never loosen to pass).
 POSITION_UM = 0.1
@@ -178,7 +178,7 @@ class Agreement:
                         f"{self.kind}: only {self.samples} samples: at least {MIN_SAMPLES} are needed to judge a run"
                     )
                 else:
-                    out.append(f"{self.kind}: {c.quantity} error {c.value:.3g} {c.unit} exceeds {c.limit:g}")
+                    out.append(f"{self.kind}: {c.quantity} error {c.value:.3g} {shown(c.unit)} exceeds {c.limit:g}")
         return out
 
     def as_dict(self) -> dict:
@@ -318,7 +318,9 @@ def table(agreements: list[Agreement]) -> str:
     for a in agreements:
         for c in a.checks():
             limit = "-" if c.limit is None else (f">= {c.limit:g}" if c.at_least else f"{c.limit:g}")
-            rows.append(f"{c.run:<11} {c.quantity:<26} {num(c.value, c.unit):>10} {c.unit:<9} {limit:>10}  {c.result}")
+            rows.append(
+                f"{c.run:<11} {c.quantity:<26} {num(c.value, c.unit):>10} {shown(c.unit):<9} {limit:>10}  {c.result}"
+            )
     rows.append(
         "thresholds hold the kinematic run's points, loops, thread and imposed speed and the dynamic run's "
         "crank speed; the rest is informational"

@@ -80,3 +80,12 @@ class Integrator(enum.StrEnum):
     EULER = "Euler"
     IMPLICIT = "implicit"
     IMPLICITFAST = "implicitfast"
+
+
+def shown(unit: str) -> str:
+    """A unit as mjlink prints and draws it, one spelling in the terminal, on the pages and in
+    the figures: 'um' -> 'µm', 'N*m' -> 'N·m', 'kg*m^2' -> 'kg·m²', 'm/s^2' -> 'm/s²'. Names a
+    program reads (column names, CSV headers, JSON keys and values) keep the ASCII spelling,
+    which the files' unit grammar takes as well."""
+    out = unit.strip().replace("*", "·").replace("^2", "²").replace("^3", "³")
+    return "µm" if out == "um" else out.replace("um/", "µm/")

@@ -9,6 +9,8 @@ are skipped (conftest.chromium)."""
 from __future__ import annotations
 
 import math
+import re
+import tomllib
 
 import numpy as np
 import pytest
@@ -159,14 +161,26 @@ def test_dragging_a_pivot_moves_it_and_its_numbers(browser, tmp_path):
 
 
 def test_a_geometry_that_does_not_close_is_said_so_and_not_drawn(browser, tmp_path):
+    """An infeasible design is said so with check's reason and its input angles within one
+    period; the page then draws the last feasible design greyed (no link of the design that
+    does not close) and shows its numbers marked stale, with no number given as the edited
+    design's; a feasible edit brings colour and numbers back."""
     page, _ = _open(browser, "takeup", tmp_path)
+    nominal = page.inner_text("[data-metric='stroke_P5']")
     page.fill("input[data-param='construct.P3.length_a']", "5")
     page.wait_for_function("document.getElementById('status').className === 'bad'")
     status = page.inner_text("#status")
     assert "infeasible: dyad P2-P3-P4 cannot close for input angles" in status and " deg" in status
-    assert page.eval_on_selector_all("#drawing line", "els => els.length") == 0  # no link drawn
-    assert page.get_attribute("[data-metric='stroke_P5']", "data-feasible") == "false"
-    assert page.inner_text("[data-metric='stroke_P5']") == "–"
+    assert "the last feasible design" in page.inner_text("#stale-note")
+    angles = [float(a) for a in re.findall(r"(-?[0-9.]+)\.\.(-?[0-9.]+)", status)[0]]
+    assert all(0.0 <= a < 360.0 for a in angles), status
+    assert page.eval_on_selector_all("#drawing > g > line", "els => els.length") == 0  # none in colour
+    assert page.eval_on_selector_all("#drawing g.stale line", "els => els.length") > 0  # the last, greyed
+    cell = "[data-metric='stroke_P5']"
+    assert page.get_attribute(cell, "data-feasible") == "false"
+    assert page.get_attribute(cell, "data-value") == ""
+    assert page.inner_text(cell) == nominal and "stale" in page.get_attribute(cell, "class")
+    assert "last feasible" in page.inner_text("#angle-value")
     # A crank 0.4 mm longer takes the dyad past its dead-point limit, as `check` and the
     # study metrics say (transmission angle beyond 160 deg near 90 deg from phi0).
     assert not study.evaluate(
@@ -176,31 +190,64 @@ def test_a_geometry_that_does_not_close_is_said_so_and_not_drawn(browser, tmp_pa
     page.fill("input[data-param='construct.P2.length']", "30.4")
     page.wait_for_function("document.getElementById('status').textContent.includes('dead-point')")
     assert "dyad P2-P3-P4 passes its dead-point limit for input angles" in page.inner_text("#status")
+    page.fill("input[data-param='construct.P2.length']", "30")
+    page.wait_for_function("document.getElementById('status').className === 'ok'")
+    assert page.eval_on_selector_all("#drawing g.stale", "els => els.length") == 0
+    assert page.get_attribute(cell, "data-value") != "" and "stale" not in page.get_attribute(cell, "class")
 
 
 def test_the_saved_file_is_accepted_by_check_with_the_edits(browser, tmp_path):
+    """ "Save as TOML" writes the file as read with the changed numbers in their places: every
+    comment, the order of the blocks and every other line kept, a dragged pivot's coordinates
+    to 0.001 mm, no table added; ``check`` accepts it with the edits and the rest as it was."""
     page, _ = _open(browser, "lockstitch_head", tmp_path)
     page.fill("input[data-param='construct.P5.length']", "48.5")
     page.fill("input[data-param='ground.N2.x']", "72")
+    box = page.locator("circle[data-pivot='FG']").bounding_box()
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(cx, cy)
+    page.mouse.down()
+    page.mouse.move(cx + 7.3, cy - 4.1, steps=3)
+    page.mouse.up()
     with page.expect_download():
         page.click("#save")
     text = page.input_value("#toml")
+    original_text = catalogue.path_of("lockstitch_head").read_text(encoding="utf-8")
+    new, old = text.splitlines(), original_text.splitlines()
+    assert len(new) == len(old)
+    changed = [(a, b) for a, b in zip(new, old, strict=True) if a != b]
+    assert [b.split("=")[0].strip() for _, b in changed] == ["N2", "FG", "length"], changed
+    for a, b in changed:  # the value changed, the comment after it kept
+        assert a.split("#")[1:] == b.split("#")[1:], (a, b)
+    fg = tomllib.loads(text)["ground"]["FG"]
+    assert all(round(v, 3) == v for v in fg) and fg != tomllib.loads(original_text)["ground"]["FG"]
     saved = tmp_path / "edited_head.toml"
     saved.write_text(text.replace('name = "lockstitch_head"', 'name = "edited_head"'))
     r = in_process("check", str(saved))
     assert r.returncode == 0, r.stdout + r.stderr
     edited = validation.get(str(saved))
     original = mechanism.load(catalogue.path_of("lockstitch_head"))
-    from mjlink.model import paths
 
     assert paths.resolve(edited, "construct.P5.length").nominal == 48.5
     assert paths.resolve(edited, "ground.N2.x").nominal == 72.0
-    same = [p for p, _, _ in summary.dimensions(original) if p not in ("construct.P5.length", "ground.N2.x")]
-    for p in same:
+    moved = ("construct.P5.length", "ground.N2.x", "ground.FG.x", "ground.FG.y")
+    for p in [p for p, _, _ in summary.dimensions(original) if p not in moved]:
         assert paths.resolve(edited, p).nominal == pytest.approx(
             paths.resolve(original, p).nominal, rel=1e-12, abs=1e-12
         )
     assert edited.timing is not None and edited.balance is not None  # the rest of the file kept
+
+
+def test_a_file_saved_unedited_is_the_file(pristine, name="takeup_eyelets"):
+    """With nothing changed, or a number typed back to its value, the saved file is the file
+    read, byte for byte."""
+    page, _ = pristine(name)
+    text = catalogue.path_of(name).read_text(encoding="utf-8")
+    got = page.evaluate(
+        """() => { const M = JSON.parse(document.getElementById('mechanism-data').textContent);
+        return [mjlinkDesign.saved(M, {}), mjlinkDesign.saved(M, {'input.phi0': M.model.phi0})]; }"""
+    )
+    assert got == [text, text]
 
 
 # A design edited in the page (each variant: study path -> value, file units): the page's
@@ -210,7 +257,7 @@ _JUDGE = """(variants) => {
   return variants.map((edits) => {
     const m = JSON.parse(JSON.stringify(M.model));
     for (const [p, v] of Object.entries(edits)) mjlinkDesign.set(m, p, v);
-    return [mjlinkDesign.problems(m), mjlinkDesign.toml(mjlinkDesign.edited(M.raw, edits))];
+    return [mjlinkDesign.problems(m), mjlinkDesign.saved(M, edits)];
   });
 }"""
 
@@ -345,13 +392,15 @@ def test_every_rule_the_page_holds_a_number_to_is_the_readers(pristine):
 
 def test_a_number_check_refuses_is_infeasible_on_the_page(browser, tmp_path):
     """A negative crank length assembles in the formulas, but the file's reader refuses it:
-    the page says so, shows no numbers, and says feasible again once the length is back."""
+    the page says so, shows no number as the design's (the last feasible one's, marked stale),
+    and says feasible again once the length is back."""
     page, errors = _open(browser, "takeup", tmp_path)
     page.fill("input[data-param='construct.P2.length']", "-30")
     page.wait_for_function("document.getElementById('status').className === 'bad'")
     assert page.inner_text("#status") == "infeasible: construct.P2.length must be > 0, got -30 mm"
     assert page.get_attribute("[data-metric='stroke_P5']", "data-feasible") == "false"
-    assert page.inner_text("[data-metric='stroke_P5']") == "–"
+    assert page.get_attribute("[data-metric='stroke_P5']", "data-value") == ""
+    assert "stale" in page.get_attribute("[data-metric='stroke_P5']", "class")
     page.fill("input[data-param='construct.P2.length']", "30")
     page.wait_for_function("document.getElementById('status').className === 'ok'")
     assert "assembles over the whole cycle" in page.inner_text("#status")

@@ -1,6 +1,6 @@
 """What the commands print: each typed result of :mod:`mjlink.pipeline` (or check report) as text.
 
-Units as printed: speeds rad/s and rev/min, torques N*m, forces N, power W, inertia kg*m^2,
+Units as printed (:func:`mjlink.units.shown`): speeds rad/s and rev/min, torques N·m, forces N, power W, inertia kg·m²,
 lengths mm, masses g, angles deg; errors relative unless a unit is given. Every speed says its
 direction (:func:`crank_speed`): signed speeds are counter-clockwise positive about +Z, as in files.
 """
@@ -17,7 +17,8 @@ from ..analysis.timing import HeadTiming
 from ..model import names
 from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
 from ..model.tension import GF
-from ..units import MM, G, PairKind, PairRole, to_mm, to_rpm
+from ..pipeline.optimize import speed_option
+from ..units import MM, G, PairKind, PairRole, shown, to_mm, to_rpm
 
 if TYPE_CHECKING:
     from ..analysis.summary import Change, Summary
@@ -86,7 +87,7 @@ def design_table(d: Summary, base: tuple[str, Sequence[Change], Sequence[Change]
     the base's and the change, then every dimension that differs."""
     where = f"drawn at phi1 = {d.phi0_deg:g} deg; loads at {crank_speed(d.speed)}"
     if base is None:
-        rows = [(r.label, _num(r.value), r.unit, r.metric) for r in d.headline]
+        rows = [(r.label, _num(r.value), shown(r.unit), r.metric) for r in d.headline]
         w = max(len(r[0]) for r in rows) if rows else 0
         wv = max(len(r[1]) for r in rows) if rows else 0
         wu = max(len(r[2]) for r in rows) if rows else 0
@@ -96,13 +97,13 @@ def design_table(d: Summary, base: tuple[str, Sequence[Change], Sequence[Change]
     name, head, dims = base
     out = [f"What the design does, beside {name} ({where}):"]
     table = [("", "this design", "base", "change", "", "")]
-    table += [(c.label, _num(c.value), _num(c.base), _signed(c.delta, c.base), c.unit, c.name) for c in head]
+    table += [(c.label, _num(c.value), _num(c.base), _signed(c.delta, c.base), shown(c.unit), c.name) for c in head]
     out += _columns(table)
     if dims:
         out.append(f"Dimensions that differ from {name} ({len(dims)}):")
         out += _columns(
             [("", "this design", "base", "change", "", "")]
-            + [(c.name, _num(c.value), _num(c.base), _signed(c.delta, c.base), c.unit, "") for c in dims]
+            + [(c.name, _num(c.value), _num(c.base), _signed(c.delta, c.base), shown(c.unit), "") for c in dims]
         )
     else:
         out.append(f"Dimensions: the same as {name}'s")
@@ -160,8 +161,8 @@ def simulation(res: SimulateResult, base: tuple[str, Sequence[Change], Sequence[
     if res.loads is not None:
         L = res.loads
         out.append(
-            f"driving torque at {crank_speed(L.speed)}: peak {L.torque_peak:.4g} N*m, RMS "
-            f"{L.torque_rms:.4g} N*m, mean power {L.power_mean:.4g} W; MuJoCo vs kinetostatics: torque "
+            f"driving torque at {crank_speed(L.speed)}: peak {L.torque_peak:.4g} N·m, RMS "
+            f"{L.torque_rms:.4g} N·m, mean power {L.power_mean:.4g} W; MuJoCo vs kinetostatics: torque "
             f"{L.torque_error:.2e}, reactions {L.force_error:.2e} of range"
         )
         moment = "not compared (geared)" if L.shaking_moment_error is None else f"{L.shaking_moment_error:.2e} of range"
@@ -191,7 +192,7 @@ def torque(res: LoadsResult) -> str:
     return "\n".join(
         [
             _loads_heading(res),
-            f"  driving torque: peak {L.torque_peak:.5g} N*m, RMS {L.torque_rms:.5g} N*m, mean power {L.power_mean:.5g} W",
+            f"  driving torque: peak {L.torque_peak:.5g} N·m, RMS {L.torque_rms:.5g} N·m, mean power {L.power_mean:.5g} W",
             f"  MuJoCo vs reference: max error {L.torque_error:.2e} of the torque range "
             f"(threshold {L.torque_threshold:g})",
             f"outputs in {res.out_dir}/",
@@ -204,7 +205,7 @@ def reactions(res: LoadsResult) -> str:
     L = res.loads
     out = [_loads_heading(res), f"  {'pair':<28} {'max |F| N':>10} {'MuJoCo N':>10} {'error/range':>12}"]
     for lab, p in L.pairs.items():
-        extra = f"   moment max {p['max_moment_N_m']:.4g} N*m" if "max_moment_N_m" in p else ""
+        extra = f"   moment max {p['max_moment_N_m']:.4g} N·m" if "max_moment_N_m" in p else ""
         out.append(
             f"  {lab:<28} {p['max_force_N']:>10.4g} {p['max_force_mujoco_N']:>10.4g} {p['error_rel']:>12.2e}{extra}"
         )
@@ -213,12 +214,18 @@ def reactions(res: LoadsResult) -> str:
     return "\n".join(out)
 
 
+def _share(ratio: float) -> str:
+    """A ratio with its percentage: '0.0200 (2 %)'."""
+    return f"{ratio:.4g} ({100 * ratio:.3g} %)"
+
+
 def steady_line(s: SteadySummary) -> str:
     """Steady motion in one line: mean speed, delta without and with the flywheel, MuJoCo's."""
     return (
-        f"steady motion: mean {crank_speed(s.omega_mean)}, delta {s.delta:.4f} (MuJoCo {s.delta_mujoco:.4f}); "
-        f"flywheel {s.flywheel:.4g} kg*m^2 gives delta {s.delta_with_flywheel:.4f} "
-        f"(MuJoCo {s.delta_with_flywheel_mujoco:.4f}, target {s.target_delta:g})"
+        f"steady motion: mean {crank_speed(s.omega_mean)}, speed fluctuation delta {_share(s.delta)} "
+        f"(MuJoCo {s.delta_mujoco:.4f}); flywheel {s.flywheel:.4g} kg·m² gives delta {_share(s.delta_with_flywheel)} "
+        f"(MuJoCo {s.delta_with_flywheel_mujoco:.4f}, target {s.target_delta:g}); "
+        "delta = (w_max - w_min) / w_mean, a ratio"
     )
 
 
@@ -293,7 +300,7 @@ def format_report(r: validation.CheckReport, *, speed: float | None = None) -> s
     for l in r.links:
         extra = []
         if l.mass > 0:
-            extra.append(f"mass {l.mass / G:g} g at {l.com}, inertia {l.inertia:g} kg*m^2")
+            extra.append(f"mass {l.mass / G:g} g at {l.com}, inertia {l.inertia:g} kg·m²")
         else:
             extra.append("massless")
         if l.guide:
@@ -419,7 +426,7 @@ def optimization(res: OptimizeResult) -> str:
         lines.append(f"Pareto front: {len(s['front'])} designs; winner: the knee ({s['optimizer']['knee']})")
     for p in s["parameters"]:
         lines.append(
-            f"  {p['path']:<32} {p['winner']:>12.10g} {p['unit']:<7} (file: {p['nominal']:.6g}, range {p['low']:g}..{p['high']:g})"
+            f"  {p['path']:<32} {p['winner']:>12.10g} {shown(p['unit']):<7} (file: {p['nominal']:.6g}, range {p['low']:g}..{p['high']:g})"
         )
     for c in s["caveats_text"]:
         lines.append(f"caveat: {c}")
@@ -436,7 +443,7 @@ def optimization(res: OptimizeResult) -> str:
     head = f"{'metric':<34} {'unit':>6} {'winner':>12}" + (f" {'no tolerances':>13}" if robust else "")
     lines.append(head + f" {'file design':>12}")
     for name, m in w["metrics"].items():
-        row = f"{name:<34} {m['unit']:>6} {m['value']:>12.6g}"
+        row = f"{name:<34} {shown(m['unit']):>6} {m['value']:>12.6g}"
         if robust:
             row += f" {m['nominal_dimensions']:>13.6g}"
         fm = file_metrics.get(name)
@@ -444,19 +451,22 @@ def optimization(res: OptimizeResult) -> str:
     fly = s["flywheel"]
     if fly:
         lines.append(
-            f"flywheel for delta {fly['target_delta']:g}: {fly['inertia_kg_m2']:.4g} kg*m^2 on links.{fly['link']} "
-            f"(delta {fly['delta_without']:.4g} without it, {fly['omega_mean_rad_s']:.4g} rad/s mean)"
+            f"flywheel for a speed fluctuation delta = (w_max - w_min) / w_mean of {_share(fly['target_delta'])}: "
+            f"{fly['inertia_kg_m2']:.4g} kg·m² on links.{fly['link']} "
+            f"(delta {_share(fly['delta_without'])} without it, {fly['omega_mean_rad_s']:.4g} rad/s mean)"
         )
     designs = [w["mujoco"]] + [f["mujoco"] for f in (s["front"] or [])]
     agree = sum(d["passed"] for d in designs)
     worst = max(d["position_error_um"] for d in designs)
     lines.append(
-        f"MuJoCo: {agree} of {len(designs)} designs agree (winner{' and front' if s['front'] else ''}); worst position error {worst:.3g} um"
+        f"MuJoCo: {agree} of {len(designs)} designs agree (winner{' and front' if s['front'] else ''}); worst position error {worst:.3g} µm"
     )
     lines.append(
         f"wrote {res.out_dir}/ (winner.toml, {', '.join(p.name for p in res.files if p.name != 'winner.toml')}) in {s['timing_s']['total']:.1f} s"
     )
-    lines.append(f"next: python -m mjlink simulate {res.winner_file}")
+    rpm = s.get("objective_speed_rpm")
+    at = f" {speed_option(rpm)}" if rpm is not None else ""  # its loads where they were optimized
+    lines.append(f"next: python -m mjlink simulate {res.winner_file}{at}")
     return "\n".join(lines)
 
 
@@ -479,10 +489,10 @@ def study(res: StudyResult | OptimizeResult) -> str:
     lines.append(f"{'metric':<34} {'unit':>5} {'min':>11} {'p50':>11} {'max':>11} {'std':>11}")
     for name, m in s["metrics"].items():
         if not m.get("count"):
-            lines.append(f"{name:<34} {m['unit']:>5} {'(no feasible variant)':>47}")
+            lines.append(f"{name:<34} {shown(m['unit']):>5} {'(no feasible variant)':>47}")
             continue
         lines.append(
-            f"{name:<34} {m['unit']:>5} {m['min']:>11.6g} {m['p50']:>11.6g} {m['max']:>11.6g} {m['std']:>11.4g}"
+            f"{name:<34} {shown(m['unit']):>5} {m['min']:>11.6g} {m['p50']:>11.6g} {m['max']:>11.6g} {m['std']:>11.4g}"
         )
     if s.get("sensitivity"):
         lines.append("most sensitive parameters (share of the metric's variance, from a linear fit):")
@@ -493,7 +503,7 @@ def study(res: StudyResult | OptimizeResult) -> str:
     if mj["verified"]:
         w, t = mj["worst_um"], mj["thresholds_um"]
         worst = ", ".join(
-            f"{k.replace('_', ' ')} {w[k]:.3g} um (<= {t[k]:g})"
+            f"{k.replace('_', ' ')} {w[k]:.3g} µm (<= {t[k]:g})"
             for k in ("position_error", "loop_gap", "thread_error")
             if w.get(k) is not None and math.isfinite(w[k])
         )
@@ -520,7 +530,7 @@ def timing_table(head: HeadTiming) -> str:
         rows.append("no check applies to the parts [timing] names (docs/head.md, The timing table)")
     for r in head.rows:
         rows.append(
-            f"{r.maker or 'every head':{w}s} {r.label:{wl}s} {r.shown(r.value):>9s} {r.window_text():>17s} {r.unit:4s}  {r.verdict}"
+            f"{r.maker or 'every head':{w}s} {r.label:{wl}s} {r.shown(r.value):>9s} {r.window_text():>17s} {shown(r.unit):4s}  {r.verdict}"
         )
     rows.append("events (deg): " + ", ".join(f"{k} {v:.1f}" for k, v in head.events.items() if k != "needle bar top"))
     if head.values:

@@ -117,15 +117,22 @@
     return out;
   }
 
+  // An input angle (deg) within one period (`span`, deg) from 0.
+  function within(phi, span) {
+    const v = ((phi % span) + span) % span;
+    return Math.abs(v - span) < 1e-9 ? 0 : v;
+  }
+
   // The input-angle ranges (deg) where `flags` holds, from the first sample to the last of each,
-  // as `check` writes them (mjlink.reference.angle_ranges).
-  function ranges(phis, flags) {
+  // as `check` writes them (mjlink.reference.angle_ranges), each end within one period (`span`)
+  // from 0: a range across 0 reads "350.0..10.0".
+  function ranges(phis, flags, span) {
     const out = [];
     let start = -1;
     for (let i = 0; i < flags.length; i++) {
       if (flags[i] && start < 0) start = i;
       if ((!flags[i] || i === flags.length - 1) && start >= 0) {
-        out.push(`${phis[start].toFixed(1)}..${phis[flags[i] ? i : i - 1].toFixed(1)}`);
+        out.push(`${within(phis[start], span).toFixed(1)}..${within(phis[flags[i] ? i : i - 1], span).toFixed(1)}`);
         start = -1;
       }
     }
@@ -303,11 +310,8 @@
           }
         }
     }
-    const wrap = (phi) => {
-      const v = ((phi % span) + span) % span;
-      return Math.abs(v - span) < 1e-9 ? 0 : v;
-    };
-    const opened = steps.map((s, j) => open[j] && `${c.labels[j]} cannot close for input angles ${ranges(phis, open[j])} deg`).filter(Boolean);
+    const wrap = (phi) => within(phi, span);
+    const opened = steps.map((s, j) => open[j] && `${c.labels[j]} cannot close for input angles ${ranges(phis, open[j], span)} deg`).filter(Boolean);
     if (opened.length) return opened;
     const pair = pairs.find((d) => !(d.least >= L.direction_min));
     if (pair)
@@ -347,7 +351,7 @@
     })();
     if (near) out.push(near);
     steps.forEach((s, k) => {
-      if (dead[k]) out.push(`${c.labels[k]} passes its dead-point limit for input angles ${ranges(phis, dead[k])} deg`);
+      if (dead[k]) out.push(`${c.labels[k]} passes its dead-point limit for input angles ${ranges(phis, dead[k], span)} deg`);
     });
     return out;
   }
@@ -360,55 +364,25 @@
     else if (path === "input.phi0") m.phi0 = value;
   }
 
-  function edited(raw, edits) {
-    const out = JSON.parse(JSON.stringify(raw));
-    for (const [path, value] of Object.entries(edits)) {
-      const [section, name, key] = path.split(".");
-      if (section === "ground") {
-        const p = out.ground[name];
-        while (p.length < 3 && "xyz".indexOf(key) >= p.length) p.push(0);
-        p["xyz".indexOf(key)] = value;
-      } else if (section === "construct") out.construct.find((c) => c.point === name)[key] = value;
-      else if (path === "input.phi0") out.input.phi0 = value;
-    }
-    return out;
+  // A number as the file's reader reads it back: JavaScript's shortest text that gives the same
+  // double (an integral value as an integer, which the reader takes as the number it is).
+  function num(v) {
+    return String(v);
   }
 
-  // A TOML basic string of `s`: a quote, a backslash and every control character TOML does not
-  // allow raw (U+0000..U+001F, U+007F; the tab too, to keep the line plain) escaped, so that the
-  // file reads back as the same text whatever it holds.
-  const ESCAPES = { '"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r" };
-  function str(s) {
-    return `"${s.replace(/["\\\u0000-\u001f\u007f]/g, (c) => ESCAPES[c] || `\\u${c.charCodeAt(0).toString(16).padStart(4, "0")}`)}"`;
-  }
-
-  // A TOML document of `obj` (the mechanism file as read, edited): tables, arrays of tables,
-  // strings, numbers, booleans and arrays, which is all a mechanism file holds.
-  function toml(obj) {
-    const lines = [];
-    const table = (v) => v !== null && typeof v === "object" && !Array.isArray(v);
-    const tables = (v) => Array.isArray(v) && v.length > 0 && v.every(table);
-    const key = (k) => (/^[A-Za-z0-9_-]+$/.test(k) ? k : str(k));
-    const num = (v) => String(v); // an integral value is written as an integer: the reader takes both
-    const val = (v) =>
-      typeof v === "string" ? str(v) : typeof v === "boolean" ? String(v) : typeof v === "number" ? num(v) : `[${v.map(val).join(", ")}]`;
-    const emit = (prefix, t) => {
-      const entries = Object.entries(t);
-      for (const [k, v] of entries) if (!table(v) && !tables(v)) lines.push(`${key(k)} = ${val(v)}`);
-      for (const [k, v] of entries)
-        if (table(v)) {
-          lines.push("", `[${prefix}${key(k)}]`);
-          emit(`${prefix}${key(k)}.`, v);
-        }
-      for (const [k, v] of entries)
-        if (tables(v))
-          for (const item of v) {
-            lines.push("", `[[${prefix}${key(k)}]]`);
-            emit(`${prefix}${key(k)}.`, item);
-          }
-    };
-    emit("", obj);
-    return lines.join("\n").replace(/^\n+/, "") + "\n";
+  // The file as it was read (`M.text`) with each number of `edits` (study path -> value, file
+  // units) that differs from the file's written in its place and nothing else changed: its
+  // comments, order and every other value's spelling kept. `M.edits` says where each number is
+  // written (mjlink.pages.design.save_edits: the span replaced, and what stands before and after
+  // a number the file did not write, such as a key a block left to its default).
+  function saved(M, edits) {
+    const todo = Object.entries(edits)
+      .filter(([p, v]) => M.edits[p] !== undefined && v !== get(M.model, p))
+      .map(([p, v]) => ({ ...M.edits[p], value: num(v) }))
+      .sort((a, b) => b.start - a.start);
+    let text = M.text;
+    for (const e of todo) text = text.slice(0, e.start) + e.before + e.value + e.after + text.slice(e.end);
+    return text;
   }
 
   // --------------------------------------------------------------------------- the page
@@ -448,34 +422,41 @@
     const scale = span / 100; // stroke widths and labels in drawing units
     const layer = svg("g", { transform: "scale(1,-1)" }, drawing);
 
+    // The design drawn: the last feasible one (`shown`), in colour while it is the design being
+    // edited, greyed while the edited one is infeasible; the ground pivots always where they are
+    // now, to be dragged. A geometry that does not close is never drawn: no position of it
+    // would be true.
+    let shown = null;
     function draw() {
       while (layer.firstChild) layer.removeChild(layer.firstChild);
-      const S = result.samples;
-      if (!result.closes) {
-        // A geometry that does not close is not drawn: no position of it would be true.
-        for (const g in m.ground) pivot(g);
-        return;
+      if (shown) {
+        const fresh = shown.result === result;
+        drawDesign(shown.m, shown.result, fresh ? layer : svg("g", { class: "stale" }, layer));
       }
+      for (const g in m.ground) pivot(g);
+    }
+
+    function drawDesign(d, r, into) {
+      const S = r.samples;
       for (const p of M.moving) {
         const i = names.index(p);
         const pts = S.map((s) => `${s.P[i][0]},${s.P[i][1]}`).join(" ");
-        svg("polygon", { points: pts, fill: "none", stroke: p === m.key ? "#c2185b" : "#9e9e9e", "stroke-width": (p === m.key ? 0.5 : 0.25) * scale }, layer);
+        svg("polygon", { points: pts, fill: "none", stroke: p === d.key ? "#c2185b" : "#9e9e9e", "stroke-width": (p === d.key ? 0.5 : 0.25) * scale }, into);
       }
-      const now = solve(m, Number(angle.value));
-      if (m.thread) {
-        const pts = m.thread.map((p) => `${now.P[p][0]},${now.P[p][1]}`).join(" ");
-        svg("polyline", { points: pts, fill: "none", stroke: "#ef6c00", "stroke-width": 0.35 * scale }, layer);
+      const now = solve(d, Number(angle.value));
+      if (d.thread) {
+        const pts = d.thread.map((p) => `${now.P[p][0]},${now.P[p][1]}`).join(" ");
+        svg("polyline", { points: pts, fill: "none", stroke: "#ef6c00", "stroke-width": 0.35 * scale }, into);
       }
       M.segments.forEach(([a, b], i) => {
-        svg("line", { x1: now.P[a][0], y1: now.P[a][1], x2: now.P[b][0], y2: now.P[b][1], stroke: M.colors[i], "stroke-width": 0.9 * scale, "stroke-linecap": "round" }, layer);
+        svg("line", { x1: now.P[a][0], y1: now.P[a][1], x2: now.P[b][0], y2: now.P[b][1], stroke: M.colors[i], "stroke-width": 0.9 * scale, "stroke-linecap": "round" }, into);
       });
       for (const p in now.P) {
-        if (m.ground[p] === undefined && !M.coms.includes(p)) svg("circle", { cx: now.P[p][0], cy: now.P[p][1], r: 0.7 * scale, fill: "#fff", stroke: "#333", "stroke-width": 0.25 * scale }, layer);
+        if (d.ground[p] === undefined && !M.coms.includes(p)) svg("circle", { cx: now.P[p][0], cy: now.P[p][1], r: 0.7 * scale, fill: "#fff", stroke: "#333", "stroke-width": 0.25 * scale }, into);
       }
-      for (const g in m.ground) pivot(g);
       for (const p in now.P) {
         if (M.coms.includes(p)) continue;
-        const t = svg("text", { x: now.P[p][0] + scale, y: -now.P[p][1] - scale, "font-size": 2.6 * scale, transform: "scale(1,-1)" }, layer);
+        const t = svg("text", { x: now.P[p][0] + scale, y: -now.P[p][1] - scale, "font-size": 2.6 * scale, transform: "scale(1,-1)" }, into);
         t.textContent = p;
       }
     }
@@ -489,8 +470,8 @@
           pt.x = e.clientX;
           pt.y = e.clientY;
           const q = pt.matrixTransform(drawing.getScreenCTM().inverse());
-          change(`ground.${g}.x`, q.x, true);
-          change(`ground.${g}.y`, -q.y, true);
+          change(`ground.${g}.x`, round(q.x), true);
+          change(`ground.${g}.y`, round(-q.y), true);
           update();
         };
         const up = () => {
@@ -502,6 +483,9 @@
       });
     }
 
+    // A dragged coordinate to 0.001 mm: what the saved file holds, and what the page computes.
+    const round = (v) => Math.round(v * 1000) / 1000;
+
     function change(path, value, fromDrag) {
       set(m, path, value);
       edits[path] = value;
@@ -511,38 +495,64 @@
       }
     }
 
+    // The numbers of the design being edited; while it is infeasible, the last feasible design's,
+    // greyed and marked stale (its `data-value` empty: no number of the edited design is shown).
     function update() {
       const t0 = performance.now();
       result = metrics(m, PER_TURN);
       const found = problems(m);
       result.feasible = found.length === 0;
       result.why = found.join("; ");
+      if (result.feasible) shown = { m: JSON.parse(JSON.stringify(m)), result };
+      const stale = !result.feasible && shown !== null;
       for (const el of document.querySelectorAll("[data-metric]")) {
-        const v = result.values[el.dataset.metric];
-        el.textContent = result.feasible && v !== undefined ? fmt(v) : "–";
+        const v = shown ? shown.result.values[el.dataset.metric] : undefined;
+        el.textContent = v !== undefined && (result.feasible || stale) ? fmt(v) : "–";
         el.dataset.value = result.feasible && v !== undefined ? String(v) : ""; // full precision
         el.dataset.feasible = String(result.feasible);
+        el.classList.toggle("stale", stale);
+        el.title = stale ? "the last feasible design's: the edited one is infeasible" : "";
       }
       status.textContent = result.feasible ? "assembles over the whole cycle, clear of dead points" : `infeasible: ${result.why}`;
+      document.getElementById("stale-note").textContent = stale
+        ? "Drawn greyed, numbers in grey: the last feasible design, kept while this one is infeasible."
+        : "";
       status.className = result.feasible ? "ok" : "bad";
+      caption();
       draw();
-      if (feed && result.thread && result.feasible) plotThread(result);
+      if (feed && shown && shown.result.thread) plotThread(shown.result, stale);
       else if (feed) feed.innerHTML = "";
       document.body.dataset.updateMs = (performance.now() - t0).toFixed(2);
       document.body.dataset.updates = String(Number(document.body.dataset.updates || 0) + 1);
     }
 
-    function plotThread(r) {
+    function caption() {
+      const stale = !result.feasible && shown !== null;
+      document.getElementById("angle-value").textContent = `${angle.value} deg` + (stale ? " (the last feasible design)" : "");
+      document.getElementById("angle-value").classList.toggle("stale", stale);
+    }
+
+    function plotThread(r, stale) {
       feed.innerHTML = "";
+      feed.classList.toggle("stale", stale);
       const lf = r.thread, n = lf.length;
       const lo = Math.min(...lf), hi = Math.max(...lf);
       feed.setAttribute("viewBox", `0 0 ${n} 100`);
       const pts = lf.map((v, i) => `${i},${95 - (90 * (v - lo)) / (hi - lo || 1)}`).join(" ");
       svg("polyline", { points: pts, fill: "none", stroke: "#ef6c00", "stroke-width": 1.2, "vector-effect": "non-scaling-stroke" }, feed);
-      document.getElementById("feed-range").textContent = `${fmt(lo)} .. ${fmt(hi)} mm over ${m.turns * 360} deg from phi0`;
+      const range = document.getElementById("feed-range");
+      range.textContent = `${fmt(lo)} .. ${fmt(hi)} mm over ${m.turns * 360} deg from phi0` + (stale ? " (the last feasible design)" : "");
+      range.classList.toggle("stale", stale);
     }
 
     for (const field of document.querySelectorAll("input[data-param]")) {
+      if (M.edits[field.dataset.param] === undefined) {
+        // A number whose place in the file the page could not find is not edited: a saved file
+        // would not hold it.
+        field.disabled = true;
+        field.title = "written in the file in a way the page cannot edit in place: edit the file";
+        continue;
+      }
       field.addEventListener("input", () => {
         const v = Number(field.value);
         if (field.value.trim() === "" || !Number.isFinite(v)) return;
@@ -551,15 +561,15 @@
       });
     }
     angle.addEventListener("input", () => {
-      document.getElementById("angle-value").textContent = `${angle.value} deg`;
+      caption();
       draw();
     });
     document.getElementById("save").addEventListener("click", () => {
-      const text = toml(edited(M.raw, edits));
+      const text = saved(M, edits);
       document.getElementById("toml").value = text;
       const a = document.createElement("a");
       a.href = URL.createObjectURL(new Blob([text], { type: "application/toml" }));
-      a.download = `${M.raw.mechanism.name}.toml`;
+      a.download = `${M.model.name}.toml`;
       document.body.appendChild(a);
       a.click();
       a.remove();
@@ -568,7 +578,7 @@
     document.body.dataset.ready = "true";
   }
 
-  window.mjlinkDesign = { solve, metrics, refused, problems, set, edited, toml, BLOCKS, page };
+  window.mjlinkDesign = { solve, metrics, refused, problems, set, saved, BLOCKS, page };
   const data = document.getElementById("mechanism-data");
   if (data) page(JSON.parse(data.textContent));
 })();

@@ -9,9 +9,11 @@ extremes, the thread feed per turn and the worst transmission and pressure angle
 is said to be infeasible with the reason: a number the file's reader refuses (a length not
 positive, a coordinate beyond the limits), a block that does not close, two points that define a
 direction or a guide meeting, a link that is not rigid, two points of a link almost coinciding, a
-dead point, judged at ``check``'s own input angles; one that does not close is not drawn. "Save
-as TOML" writes the edited file (the original file as read, its comments dropped) for ``check``
-and ``simulate``; ``check`` passes it whenever the page calls the design feasible.
+dead point, judged at ``check``'s own input angles; while it is, the page keeps the last feasible
+design's drawing and numbers, greyed and marked as stale. "Save as TOML" writes the file as it
+was read with the numbers the designer changed, and nothing else, rewritten in place (its
+comments, order and spelling kept; :func:`save_edits`), a dragged pivot's coordinates rounded to
+0.001 mm; ``check`` passes it whenever the page calls the design feasible.
 
 The computation in the browser is ``design.js``: a port of the reference's closed-form position
 analysis (:mod:`mjlink.model.blocks`), one function per block type, in the file's units; the
@@ -31,9 +33,10 @@ from typing import Any
 
 from .. import analysis
 from ..analysis import link_segments, summary
-from ..model import limits
+from ..model import limits, tomledit
 from ..model.blocks import Attached, Crank, Dyad, Slider
 from ..model.mechanism import Mechanism
+from ..units import shown
 
 COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 
@@ -110,6 +113,44 @@ def _number_rule(mech: Mechanism, path: str, unit: str) -> dict[str, Any]:
     return {"unit": unit, **rule}
 
 
+def _raw_path(raw: dict[str, Any], path: str) -> tomledit.Path | None:
+    """Where the number at study ``path`` is written in the file read as ``raw``."""
+    section, name, *rest = path.split(".")
+    if section == "ground":
+        return ("ground", name, "xyz".index(rest[0]))
+    if section == "construct":
+        index = next((i for i, c in enumerate(raw.get("construct", ())) if c.get("point") == name), None)
+        return None if index is None else ("construct", index, rest[0])
+    return ("input", "phi0") if path == "input.phi0" else None
+
+
+def save_edits(mech: Mechanism, text: str) -> dict[str, dict[str, Any]]:
+    """For every number the page may edit (the file's dimensions and every ground coordinate), by
+    study path, how "Save as TOML" writes it into ``text`` in place: the UTF-16 offsets (a
+    JavaScript string's) of the text ``[start, end)`` replaced by ``before`` + the number +
+    ``after`` (:class:`mjlink.model.tomledit.Edit`, each checked against tomllib). A number the
+    text gives no place for is left out, and the page does not let it be edited."""
+    raw = tomllib.loads(text)
+    try:
+        where = tomledit.layout(text)
+    except ValueError:  # a spelling the scanner does not follow: nothing is edited in place
+        return {}
+    astral = [i for i, c in enumerate(text) if ord(c) > 0xFFFF]  # two UTF-16 units each
+
+    def utf16(i: int) -> int:
+        return i + sum(1 for a in astral if a < i)
+
+    paths = [p for p, _, _ in summary.dimensions(mech)]
+    paths += [f"ground.{g}.{ax}" for g in mech.ground for ax in "xyz" if f"ground.{g}.{ax}" not in paths]
+    out = {}
+    for path in paths:
+        at = _raw_path(raw, path)
+        e = tomledit.edit(text, where, at) if at is not None else None
+        if e is not None:
+            out[path] = {"start": utf16(e.start), "end": utf16(e.end), "before": e.before, "after": e.after}
+    return out
+
+
 def script_json(data: Any) -> str:
     """``data`` as JSON to sit inside a ``<script>`` element whatever its strings hold: every
     ``<``, ``>`` and ``&`` written as a ``\\u`` escape, so that no text can end the element or
@@ -137,7 +178,10 @@ h1 { font-size: 1.3em; margin: 0; } .sub { color: var(--muted); margin: 0.2em 0 
 table { border-collapse: collapse; font-size: 0.88em; width: 100%; }
 th, td { border: 1px solid var(--line); padding: 0.15em 0.4em; text-align: left; }
 td.num { text-align: right; font-family: monospace; }
+td.unit { white-space: nowrap; }
 input[type=number] { width: 7.5em; font-family: monospace; }
+.stale { color: var(--muted); font-style: italic; }
+#drawing g.stale, #feed.stale { opacity: 0.4; filter: grayscale(1); }
 #status.ok { color: #1a7f37; } #status.bad { color: #c62828; font-weight: bold; }
 .params { max-height: 420px; overflow-y: auto; }
 textarea { width: 100%; height: 6em; font-family: monospace; font-size: 0.8em; }
@@ -156,7 +200,8 @@ def design_html(mech: Mechanism, text: str) -> str:
     colors = [COLORS[index[link] % len(COLORS)] for link, _, _ in drawn]
     data = {
         "model": m,
-        "raw": tomllib.loads(text),
+        "text": text,
+        "edits": save_edits(mech, text),
         "segments": [list(p) for p in pairs],
         "colors": colors,
         "coms": sorted(coms),
@@ -165,15 +210,16 @@ def design_html(mech: Mechanism, text: str) -> str:
     loads = {"torque_peak", "torque_rms", "power_mean", "shaking_force_peak"}  # need masses and speed: not here
     rows = [r for r in summary.design_summary(mech) if r.metric not in loads]
     metric_rows = "".join(
-        f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'></td><td>{e(r.unit)}</td></tr>"
+        f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'></td><td class='unit'>{e(shown(r.unit))}</td></tr>"
         for r in rows
     )
     params = "".join(
         f"<tr><td>{e(p)}</td><td><input type='number' step='any' data-param='{e(p)}' value='{v:.10g}'></td>"
-        f"<td>{e(u)}</td></tr>"
+        f"<td class='unit'>{e(shown(u))}</td></tr>"
         for p, v, u in summary.dimensions(mech)
     )
     period = 360 * m["turns"]
+    start = m["phi0"] % period  # the slider's angles lie within one period from 0, as the reasons'
     thread = (
         "<h3>Thread length over the cycle</h3><svg id='feed' preserveAspectRatio='none'></svg>"
         "<p class='sub' id='feed-range'></p>"
@@ -189,12 +235,11 @@ def design_html(mech: Mechanism, text: str) -> str:
             f"<h1>{e(mech.name)}: drag to design</h1>",
             f"<p class='sub'>{e(mech.title)}. Drag a blue ground pivot or edit a number; units mm and deg as in "
             "the file. Computed here, offline, with the reference's closed-form kinematics.</p>",
-            "<p id='status'></p>",
+            "<p id='status'></p><p id='stale-note' class='sub stale'></p>",
             "<div class='grid'><div>",
             "<svg id='drawing' xmlns='http://www.w3.org/2000/svg'></svg>",
-            f"<label>input crank angle <input id='angle' type='range' min='{m['phi0']:.6g}' "
-            f"max='{m['phi0'] + period:.6g}' step='1' value='{m['phi0']:.6g}'></label> <span id='angle-value'>"
-            f"{m['phi0']:g} deg</span>",
+            f"<label>input crank angle <input id='angle' type='range' min='0' max='{period}' step='1' "
+            f"value='{start:.6g}'></label> <span id='angle-value'>{start:g} deg</span>",
             thread,
             "</div><div>",
             "<h3>What the design does</h3><table><thead><tr><th>metric</th><th>value</th><th>unit</th></tr></thead>"

@@ -17,10 +17,13 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
+from ..units import shown
+
 _CSS = """
 :root { color-scheme: light dark; --fg: #222; --bg: #fff; --muted: #555; --line: #ccc; --ok: #1a7f37; --bad: #c62828; }
 #timing th, #timing td:not(:nth-child(2)) { white-space: nowrap; }
 #timing td small { color: var(--muted); }
+td.unit { white-space: nowrap; overflow-wrap: normal; }
 @media (prefers-color-scheme: dark) {
   :root { --fg: #e6e6e6; --bg: #16181b; --muted: #a8a8a8; --line: #444; --ok: #4ccb6c; --bad: #ff6b6b; }
   img { background: #fff; }
@@ -153,7 +156,7 @@ def _metric_rows(rows: Iterable[Any]) -> str:
     e = html.escape
     return "".join(
         f"<tr><td>{e(r.label)}</td><td class='num' data-metric='{e(r.metric)}'>{_value(r.value)}</td>"
-        f"<td>{e(r.unit)}</td></tr>"
+        f"<td class='unit'>{e(shown(r.unit))}</td></tr>"
         for r in rows
     )
 
@@ -264,7 +267,7 @@ def index_html(result: Any, files: Iterable[str]) -> str:
             limit = "–" if c.limit is None else (f"≥ {c.limit:g}" if c.at_least else f"{c.limit:g}")
             rows.append(
                 f"<tr><td>{e(c.run)}</td><td>{e(c.quantity)}</td><td class='num'>{_num(c.value, c.unit)}</td>"
-                f"<td>{e(c.unit)}</td><td class='num'>{e(limit)}</td><td class='{cls}'>{text}</td></tr>"
+                f"<td class='unit'>{e(shown(c.unit))}</td><td class='num'>{e(limit)}</td><td class='{cls}'>{text}</td></tr>"
             )
     verdict = (
         "<p class='pass'>✓ MuJoCo agrees with the vector-method reference: every threshold holds "
@@ -307,7 +310,7 @@ def index_html(result: Any, files: Iterable[str]) -> str:
             parts.append(
                 f"<tr><td>{e(r.maker or 'every head')}</td><td>{e(r.label)}<br><small>{e(r.what)}</small></td>"
                 f"<td class='num' data-metric='timing_{e(r.key)}'>{e(r.shown(r.value))}</td>"
-                f"<td class='num'>{e(r.window_text())}</td><td>{e(r.unit)}</td><td class='{cls}'>{e(text)}</td></tr>"
+                f"<td class='num'>{e(r.window_text())}</td><td class='unit'>{e(shown(r.unit))}</td><td class='{cls}'>{e(text)}</td></tr>"
             )
         parts.append("</tbody></table></div>")
         if head.values:

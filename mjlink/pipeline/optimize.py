@@ -282,7 +282,7 @@ def _header(
     assert opt is not None
     what = "winner" if row == 0 else f"Pareto design {row} of {len(res.front) if res.front is not None else 0}"
     verdict = (
-        f"MuJoCo agrees (position {ver.position_error[row]:.3g} um, loop gap {ver.loop_gap[row]:.3g} um)"
+        f"MuJoCo agrees (position {ver.position_error[row]:.3g} µm, loop gap {ver.loop_gap[row]:.3g} µm)"
         if ver.passed[row]
         else f"MuJoCo check FAILED: {ver.reason[row]}"
     )
@@ -314,8 +314,15 @@ def _header(
         lines.append(f"Found: {c}.")
     if fly is not None:
         lines.append(
-            f"Flywheel for delta = {fly.target:g}: {fly.inertia:.4g} kg*m^2 added to links.{fly.link}.inertia "
-            f"(delta {fly.delta_before:.4g} without it, at {fly.omega_mean:.4g} rad/s mean)."
+            f"Flywheel for a speed fluctuation delta = (w_max - w_min) / w_mean of {fly.target:g} "
+            f"({100 * fly.target:.3g} %): {fly.inertia:.4g} kg*m^2 added to links.{fly.link}.inertia "
+            f"(delta {fly.delta_before:.4g}, {100 * fly.delta_before:.3g} %, without it, at {fly.omega_mean:.4g} rad/s mean)."
+        )
+    rpm = summ.get("objective_speed_rpm")
+    if rpm is not None:
+        lines.append(
+            f"Optimized at {rpm:.4g} rpm; this file keeps its own speed, {st.mechanism.speed * 30.0 / math.pi:.4g} rpm: "
+            f"simulate it with {speed_option(rpm)} to see its loads there."
         )
     lines.append(verdict + ".")
     lines.append("Units: lengths mm, angles deg, masses g, inertias kg*m^2, speeds rad/s. The base file's comments")
@@ -356,6 +363,26 @@ def front_table(res: _opt.Result, ver: Verified) -> dict[str, Any]:
     return cols
 
 
+def speed_option(rpm: float) -> str:
+    """The command line's option for a crank speed in rpm (a clockwise one with '=', which a
+    leading minus sign needs)."""
+    return f"--speed={rpm:.4g}rpm" if rpm < 0 else f"--speed {rpm:.4g}rpm"
+
+
+def objective_speed_rpm(st: Study) -> float | None:
+    """The crank speed (rpm, signed) the objective is taken at where it is not the file's own (a
+    shaking force at 5,000 rpm of a file run at 955 rpm), else None: the winner's file keeps
+    its own speed, and ``simulate`` shows its loads at the objective's with ``--speed``."""
+    opt = st.optimize
+    assert opt is not None
+    names = {c for c, _ in opt.objective} | set(opt.pareto or ())
+    for m in st.metrics:
+        speed = getattr(m, "speed", None)
+        if isinstance(speed, int | float) and speed != st.mechanism.speed and names & {c.name for c in m.columns()}:
+            return speed * 30.0 / math.pi
+    return None
+
+
 def summary(
     res: _opt.Result,
     ver: Verified,
@@ -392,6 +419,7 @@ def summary(
         "mechanism_file": str(st.mechanism.path) if st.mechanism.path else None,
         "digest": st.digest,
         "method": "optimize",
+        "objective_speed_rpm": objective_speed_rpm(st),
         "converged": found.converged,
         "convergence": {
             "converged": found.converged,

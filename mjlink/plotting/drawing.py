@@ -21,10 +21,13 @@ from ..analysis import segments
 from ..model.mechanism import Mechanism
 from ..units import to_mm
 from .style import (
+    curve_paths,
     darker,
     direction,
     figure,
+    on_curves,
     place,
+    place_clear,
     save,
     title,
 )
@@ -51,17 +54,18 @@ def _angle_ticks(ax, mech: Mechanism, phi: np.ndarray, xy: np.ndarray, size: flo
 
 
 def _label_ticks(ax, ticks: list) -> None:
-    """Name the ticks of :func:`_angle_ticks` beside the path, on the side away from it; a
-    name that would cover one already written (where the path crosses itself, or its second
-    turn runs beside the first) is left out: the tick stays."""
+    """Name the ticks of :func:`_angle_ticks` beside the path, on either side of it; a name
+    that would cover one already written or a path (where the path crosses itself, or its
+    second turn or another point's path runs beside it) is left out: the tick stays."""
     r = ax.figure.canvas.get_renderer()
     taken = [t.get_window_extent(r) for t in ax.texts if t.get_text().strip()]
+    curves, panel = curve_paths(ax), ax.get_window_extent(r)
     for text, xy, nrm in ticks:
-        for sgn in (1.0, -1.0):
+        for dist, sgn in ((13, 1.0), (13, -1.0), (20, 1.0), (20, -1.0)):
             lab = ax.annotate(
                 text,
                 xy,
-                xytext=tuple(13 * sgn * nrm),
+                xytext=tuple(dist * sgn * nrm),
                 textcoords="offset points",
                 ha="center",
                 va="center",
@@ -72,14 +76,15 @@ def _label_ticks(ax, ticks: list) -> None:
             )
             lab.set_in_layout(False)
             box = lab.get_window_extent(r)
-            if not any(box.overlaps(b) for b in taken):
+            if not any(box.overlaps(b) for b in taken) and not on_curves(box, curves, panel, spare=-3.0):
                 taken.append(box)
                 break
             lab.remove()
 
 
 def _rotation_arrow(ax, mech: Mechanism, size: float) -> None:
-    """A curved arrow around the input crank's pivot in the sense the crank turns, named n1."""
+    """A curved arrow around the input crank's pivot in the sense the crank turns, named n1 in
+    the legend (a name beside it would have no free room in a head's crowded centre)."""
     crank = mech.input_crank
     c = to_mm(mech.ground[crank.pivot][:2])
     r = max(2.2 * size, 0.6 * to_mm(crank.length))
@@ -96,16 +101,15 @@ def _rotation_arrow(ax, mech: Mechanism, size: float) -> None:
         ),
         zorder=6,
     )
-    t = ax.annotate(
-        f"n₁, {direction(mech.speed)}",
-        c + np.array([0.0, -1.35 * r]),
-        ha="center",
-        va="top",
-        fontsize=8,
-        zorder=7,
-        bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.8),
+    ax.plot(
+        [],
+        [],
+        ls="none",
+        marker=r"$\circlearrowleft$" if ccw else r"$\circlearrowright$",
+        ms=11,
+        color="k",
+        label=f"n₁: the input crank turns {direction(mech.speed)}\n(arrow round {crank.pivot})",
     )
-    t.set_in_layout(False)
 
 
 def _place_labels(ax, mech, names, xy0, pairs, P, size, coms, pivots) -> None:
@@ -119,8 +123,9 @@ def _place_labels(ax, mech, names, xy0, pairs, P, size, coms, pivots) -> None:
     feet = [to_mm(xyz[:2]) - (0.0, 0.7 * size) for g, xyz in mech.ground.items() if g in pivots]
     crowd = np.concatenate([xy0] + [np.array(v).reshape(-1, 2) for v in (mids, feet) if v])
     taken = [t.get_window_extent(r) for t in ax.texts if t.get_text().strip()]
-    # Points in pixels: a label must not sit on another point's marker either.
+    # Points in pixels: a label must not sit on another point's marker either, nor on a path.
     marks = ax.transData.transform(xy0)
+    curves, panel = curve_paths(ax), ax.get_window_extent(r)
     order = sorted(range(len(names)), key=lambda i: names[i] in coms)  # joints first, centres of mass after
     for i in order:
         p = names[i]
@@ -129,46 +134,57 @@ def _place_labels(ax, mech, names, xy0, pairs, P, size, coms, pivots) -> None:
         near = r2 > 1e-12
         push = (d[near] / r2[near, None] ** 1.5).sum(axis=0)
         base = math.atan2(push[1], push[0]) if np.hypot(*push) > 0 else math.pi / 4
-        placed = None
-        for dist in (11.0, 17.0, 25.0, 34.0):
-            for k in (0, 1, -1, 2, -2, 3, -3, 4):
-                a = base + k * math.pi / 4
-                t = ax.annotate(
-                    p,
-                    xy0[i],
-                    xytext=(dist * math.cos(a), dist * math.sin(a)),
-                    textcoords="offset points",
-                    ha="center",
-                    va="center",
-                    zorder=7,
-                    fontsize=7.5 if p in coms else 9,
-                    color="0.3" if p in coms else "k",
-                    fontweight="normal" if p in coms else "bold",
-                    bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7),
-                    arrowprops=dict(arrowstyle="-", color="0.5", lw=0.6, shrinkA=0, shrinkB=3) if dist > 11 else None,
-                )
-                t.set_in_layout(False)
+        look = dict(
+            ha="center",
+            va="center",
+            zorder=7,
+            fontsize=7.5 if p in coms else 9,
+            color="0.3" if p in coms else "k",
+            fontweight="normal" if p in coms else "bold",
+            bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7),
+        )
+        t = ax.annotate(p, xy0[i], xytext=(0.0, 0.0), textcoords="offset points", **look)
+        t.set_in_layout(False)
+        # Nearest and facing away from the crowd first; the first spot clear of every label,
+        # marker and path is taken, else the one that covers the least (labels, then markers,
+        # then paths).
+        best: tuple[tuple[int, int, int], tuple[float, float]] | None = None
+        for dist in (11.0, 17.0, 25.0, 34.0, 45.0, 58.0, 72.0, 90.0, 110.0):
+            for k in (0, 1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 6, -6, 7, -7, 8):
+                a = base + k * math.pi / 8
+                t.xyann = (dist * math.cos(a), dist * math.sin(a))
                 box = t.get_window_extent(r)
-                hits_mark = any(box.contains(*m) for j, m in enumerate(marks) if j != i and names[j] not in coms)
-                if not any(box.overlaps(b) for b in taken) and not hits_mark:
-                    placed = box
+                cost = (
+                    sum(box.overlaps(b) for b in taken),
+                    sum(box.contains(*m) for j, m in enumerate(marks) if j != i and names[j] not in coms),
+                    int(on_curves(box, curves, panel, spare=-3.0)),
+                )
+                if best is None or cost < best[0]:
+                    best = (cost, t.xyann)
+                if cost == (0, 0, 0):
                     break
-                t.remove()
-            if placed is not None:
+            if best is not None and best[0] == (0, 0, 0):
                 break
-        if placed is None:  # nowhere free: the first choice, overlapping, beats no name at all
-            t = ax.annotate(
-                p,
-                xy0[i],
-                xytext=(11 * math.cos(base), 11 * math.sin(base)),
-                textcoords="offset points",
-                ha="center",
-                va="center",
-                zorder=7,
-                fontsize=7.5 if p in coms else 9,
-            )
-            placed = t.get_window_extent(r)
-        taken.append(placed)
+        assert best is not None
+        t.remove()
+        far = math.hypot(*best[1]) > 11.5
+        t = ax.annotate(
+            p,
+            xy0[i],
+            xytext=best[1],
+            textcoords="offset points",
+            arrowprops=dict(arrowstyle="-", color="0.5", lw=0.6, shrinkA=0, shrinkB=3) if far else None,
+            **look,
+        )
+        t.set_in_layout(False)
+        taken.append(t.get_window_extent(r))
+
+
+def link_colors(n: int) -> list[tuple[float, float, float]]:
+    """A colour for each of ``n`` links that a reader tells apart: matplotlib's ten, then their
+    light tones (a head has a dozen links)."""
+    dark, light = matplotlib.color_sequences["tab10"], matplotlib.color_sequences["tab20"][1::2]
+    return [(dark if k < 10 else light)[k % 10] for k in range(n)]  # type: ignore[misc]
 
 
 def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None = None) -> Path:
@@ -215,11 +231,11 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
 
     # Every other moving point's closed path, thin, in the colour of its link (of the one
     # pivoted on the ground if it is on several: a crank pin's circle is the crank's).
-    colors = matplotlib.color_sequences["tab10"]
+    colors = link_colors(len(mech.links))
     for p in others:
         carriers = [k for k, l in enumerate(mech.links) if p in l.points]
         k = next((k for k in carriers if any(g in mech.ground for g in mech.links[k].points)), carriers[0])
-        ax.plot(paths[p][:, 0], paths[p][:, 1], color=colors[k % 10], lw=0.9, alpha=0.85, zorder=1.5)
+        ax.plot(paths[p][:, 0], paths[p][:, 1], color=colors[k], lw=0.9, alpha=0.85, zorder=1.5)
     if others:
         ax.plot([], [], color="0.3", lw=0.9, label="paths of the other points\n(in their link's colour)")
     for k, p in enumerate(traced):
@@ -248,7 +264,7 @@ def positions_plot(mech: Mechanism, out_dir, n: int = 24, highlight: str | None 
 
     for k, link in enumerate(mech.links):
         segs = [np.stack([P[a][0, :2], P[b][0, :2]]) for a, b in pairs if a in link.points and b in link.points]
-        c = colors[k % 10]
+        c = colors[k]
         ax.add_collection(LineCollection(segs, colors=[c], linewidths=3.0, zorder=4, capstyle="round"))
         ax.plot([], [], color=c, lw=3.0, label=link.name)  # legend proxy for the collection
         pts = [p for p in link.points if p not in mech.ground and p != link.com]
@@ -389,6 +405,7 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
     at = fig.add_subplot(gs[0, 1], sharex=af)
     al = fig.add_subplot(gs[1, 1])
     al.axis("off")
+    names: list = []  # the eyelets' names, placed clear of the thread once the panels are final
     for ax, j in ((af, 1), (at, 2)):
         for e in eyelets:
             q = to_mm(path.position(e))
@@ -438,16 +455,18 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
                 fontsize=8,
             )
         for e in eyelets:
-            ax.annotate(
-                e,
-                (P[e][0, 0], P[e][0, j]),
-                xytext=(7, 5),
-                textcoords="offset points",
-                fontsize=9,
-                fontweight="bold",
-                color=darker(cols[0]),
-                zorder=8,
-                bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.75),
+            names.append(
+                ax.annotate(
+                    e,
+                    (P[e][0, 0], P[e][0, j]),
+                    xytext=(7, 5),
+                    textcoords="offset points",
+                    fontsize=9,
+                    fontweight="bold",
+                    color=darker(cols[0]),
+                    zorder=8,
+                    bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.75),
+                )
             )
         ax.grid(True, alpha=0.25)
         ax.set_xlabel("x [mm]")
@@ -475,4 +494,6 @@ def contour_plot(mech: Mechanism, out_dir, n: int = 6) -> Path | None:
         title_fontsize=9,
     )
     fig.suptitle(title(mech, f"needle-thread contour in {n} crank positions"), fontsize=10)
+    for t in names:
+        place_clear(t, [(dx, dy) for dy in (5.0, -14.0, 16.0, -25.0) for dx in (7.0, -22.0, 16.0, -31.0)])
     return save(fig, out_dir, "thread_contour.png", tight=True)

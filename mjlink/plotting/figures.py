@@ -234,8 +234,10 @@ def slider_plots(mech: Mechanism, kin_mj: Trace, kin_ref: Trace, out_dir) -> lis
             fig, ax = subplots(figsize=(8.0, 5.0))
             place(fig, ax.get_gridspec(), left=1.2, right=0.25, top=0.75, bottom=0.6)  # one draw
             k = np.arange(1, len(ar) + 1)
-            ax.bar(k - 0.2, am, width=0.4, color="tab:red", alpha=0.75, label=MJ_LABEL)
-            ax.bar(k + 0.2, ar, width=0.4, color="white", edgecolor="k", hatch="////", lw=0.8, label=REF_LABEL)
+            ax.bar(k - 0.2, am, width=0.4, color="tab:red", alpha=0.75, label="MuJoCo (filled)")
+            ax.bar(
+                k + 0.2, ar, width=0.4, color="white", edgecolor="k", hatch="////", lw=0.8, label="reference (hatched)"
+            )
             ax.set_yscale("log")
             ax.set_xticks(k)
             if turns > 1:

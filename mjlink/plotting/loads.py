@@ -27,6 +27,7 @@ from .style import (
     RESIDUAL_GID,
     crank_axis,
     crank_x,
+    darker,
     direction,
     figure,
     finish_x,
@@ -243,7 +244,10 @@ def steady_plot(
         ar = analysis.period_angle(mech, st.phi)
         k = np.argsort(ar)
         ax.plot(
-            np.degrees(ar[k]), np.abs(to_rpm(st.omega[k])), label=f"{what}: reference, δ = {st.delta:.4f}", **REF_STYLE
+            np.degrees(ar[k]),
+            np.abs(to_rpm(st.omega[k])),
+            label=f"{what}: reference, δ = {st.delta:.4f}",
+            **dict(REF_STYLE, color=darker(color)),  # each case's reference in its own hue
         )
         ax.plot(
             np.degrees(a), np.abs(to_rpm(omega)), color=color, label=f"{what}: MuJoCo, δ = {run.delta:.4f}", **MJ_STYLE

@@ -43,6 +43,19 @@ def _title(title: str, what: str, width: int = 90) -> str:
     return "\n".join([*textwrap.wrap(user_text(title), width), *textwrap.wrap(user_text(what), width)])
 
 
+def _phrases(phrases: list[str], width: int) -> list[str]:
+    """``phrases`` in parentheses, comma-separated, on as few lines of at most ``width``
+    characters as they fit, a line breaking only between two of them."""
+    lines: list[str] = []
+    for k, p in enumerate(phrases):
+        p = ("(" if k == 0 else "") + p + (")" if k == len(phrases) - 1 else ",")
+        if lines and len(lines[-1]) + 1 + len(p) <= width:
+            lines[-1] += " " + p
+        else:
+            lines.append(p)
+    return lines
+
+
 def convergence(title: str, res: Result, out_dir: Path) -> Path:
     """``convergence.png``: the best feasible objective so far against the evaluations. One
     run: its value (log scale where positive). A Pareto study's runs minimize different
@@ -77,9 +90,12 @@ def convergence(title: str, res: Result, out_dir: Path) -> Path:
         else "\n".join(textwrap.wrap(user_text(f"best feasible so far: {opt.label} [{_objective_unit(st)}]"), 60))
     )
     ax.grid(True, alpha=0.3)
-    rb = f", robust: {st.robust.samples} tolerance samples each" if st.robust else ""
-    what = f"convergence of differential evolution ({opt.population} candidates per generation{rb}, random seed {opt.seed})"
-    ax.set_title(_title(title, what), fontsize=10)
+    # The title breaks between phrases, never inside one.
+    setting = [f"{opt.population} candidates per generation", f"random seed {opt.seed}"]
+    if st.robust:
+        setting.insert(1, f"robust: {st.robust.samples} tolerance samples each")
+    lines = [*textwrap.wrap(user_text(title), 90), "convergence of differential evolution", *_phrases(setting, 90)]
+    ax.set_title("\n".join(lines), fontsize=10)
     if many:
         fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", fontsize=7.5, ncol=2)
     return save(fig, out_dir, "convergence.png")

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.ticker import MaxNLocator
@@ -113,6 +114,7 @@ def speed_plots(
         start = x0 + TRANSIENT_SHARE * (float(xm[-1]) - x0)
         span = f"{1e3 * (start - x0):.3g} ms" if by_time else f"{start - x0:.3g}° of crank angle"
         early = np.asarray(xm) < start
+        notes: dict[Any, str] = {}
         for ax, y, what in (
             (a_n, nm, f"run-up from {float(np.min(nm[early])):.4g} rpm in the first {span} off scale"),
             (a_e, np.asarray(dyn_mj.eps), ""),
@@ -122,16 +124,11 @@ def speed_plots(
                 continue
             ax.set_ylim(*lim)
             e_abs = float(np.max(np.abs(y[early])))
-            ax.text(
-                0.01,
-                0.04,
-                what or f"start transient off scale: |ε₁| up to {e_abs:.3g} rad/s² in the first {span}",
-                transform=ax.transAxes,
-                fontsize=7.5,
-                color="0.25",
-                zorder=6,
-                bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="0.7", alpha=0.9),
-            )
+            # Not inside the panel, whose curves fill it from end to end: the speed panel's as its
+            # legend's title (its top edge carries the crank turns), the acceleration's above it.
+            notes[ax] = what or f"start transient off scale: |ε₁| up to {e_abs:.3g} rad/s² in the first {span}"
+            if ax is a_e:
+                ax.set_title(notes[ax], loc="left", fontsize=7.5, color="0.25")
         # Zoom: the last turns of the crank, MuJoCo's and the reference's and RK4's.
         turned = np.abs(dyn_mj.phi - dyn_mj.phi[-1])
         z0 = float(np.asarray(xm)[turned <= ZOOM_TURNS * 2.0 * math.pi][0])
@@ -198,7 +195,7 @@ def speed_plots(
         for ax in (a_n, a_e):
             ax.tick_params(labelbottom=False)
         z_n.tick_params(labelbottom=False)
-        a_n.legend(loc="lower right", fontsize=8)
+        a_n.legend(loc="lower right", fontsize=8, title=notes.get(a_n), title_fontsize=7.5)
         d = mech.dynamics
         motor = getattr(d, "motor", None)
         drive = (

@@ -19,6 +19,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import matplotlib
+import matplotlib.colors
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.axis import Axis
@@ -105,6 +107,15 @@ def scatter_matrix(
     if ver.size != V:
         raise ValueError(f"verified has {ver.size} values, expected {V}")
     nominal = nominal or {}
+    for c in params[:MAX_PANELS]:
+        _as_1d(c, V)  # a column of another size is refused before anything is drawn
+    # A metric the same on every feasible variant (a stroke the study synthesizes) has no
+    # relation to the parameters to show: said in the title, not drawn or correlated.
+    constant = [(c, _constant(np.where(feas, _as_1d(c, V), np.nan))) for c in metrics]
+    fixed = [(c, v) for c, v in constant if v is not None]
+    metrics = [c for c, v in constant if v is None]
+    if not metrics:
+        return None
     ps, ms = list(params[:MAX_PANELS]), list(metrics[:MAX_PANELS])
     X = [_as_1d(c, V) for c in ps]
     # Infeasible variants have no metric, whatever the column holds.
@@ -222,6 +233,13 @@ def scatter_matrix(
     ncol, rows = _legend_shape([str(h.get_label()) for h in handles], fig_w - 0.4, 8)
     bottom = 0.12 + 0.22 * rows + 0.1 + 0.14 * max(lab.count("\n") + 1 for lab in xlabels) + 0.08 + 0.25
     what = f"metrics (rows) against parameters (columns) of {_count(V, 'variant')}; r: linear correlation"
+    if fixed:
+        what += "\n" + _wrap(
+            "the same on every feasible variant (not drawn): "
+            + ", ".join(f"{c.name} = {v:.6g} {_shown_unit(c.unit)}".rstrip() for c, v in fixed),
+            _chars(fig_w - 0.4, 10),
+            2,
+        )
     left_out = [c.name for c in [*params[P:], *metrics[M:]]]
     if left_out:
         what += "\n" + _wrap("not shown (in results.csv): " + ", ".join(left_out), _chars(fig_w - 0.4, 10), 3)
@@ -246,6 +264,16 @@ def scatter_matrix(
     )
     fig.suptitle(head, fontsize=10, y=1 - 0.12 / fig_h, va="top")
     return _write(fig, out_dir, name)
+
+
+def _constant(y: np.ndarray) -> float | None:
+    """The value of a metric that is the same on every variant with a value (to 1e-9 of its
+    size: rounding), else None (also with fewer than two values)."""
+    v = y[np.isfinite(y)]
+    if v.size < 2:
+        return None
+    lo, hi = float(v.min()), float(v.max())
+    return 0.5 * (lo + hi) if hi - lo <= 1e-9 * max(abs(lo), abs(hi)) else None
 
 
 def _tick_chars(axis: Axis) -> int:
@@ -540,7 +568,10 @@ def feasible_region(
     if limited:
         handles.append(Patch(fc="white", ec="0.6", lw=0.5, label="assembles, beyond a limit"))
         handles.append(Line2D([], [], color="k", lw=2.4, label="limit"))
-        handles.append(Patch(fc=VEIL, ec="0.6", lw=0.5, label="beyond the limit (washed out)"))
+        # The veil shown over a colour of the panels' map: on white it would be white too.
+        washed = matplotlib.colors.to_rgb(matplotlib.colormaps["viridis"](0.5))
+        veiled = tuple(VEIL[3] * VEIL[k] + (1.0 - VEIL[3]) * washed[k] for k in range(3))
+        handles.append(Patch(fc=veiled, ec="0.6", lw=0.5, label="beyond the limit (washed out)"))
     if math.isfinite(nominal.get(x.name, math.nan)) and math.isfinite(nominal.get(y.name, math.nan)):
         handles.append(Line2D([], [], ls="none", marker="*", ms=10, mfc="white", mec="k", label="nominal"))
     if handles:  # a grid that all assembles, without limits or nominal, needs no key

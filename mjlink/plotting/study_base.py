@@ -12,6 +12,7 @@ import numpy as np
 from matplotlib.axis import Axis
 from matplotlib.ticker import MaxNLocator, ScalarFormatter
 
+from .. import units
 from .style import user_text
 
 MAX_PANELS = 6  # parameters and metrics each, in the scatter matrix: more become unreadable
@@ -50,9 +51,8 @@ class Column:
 
 # ----------------------------------------------------------------------------- text
 def _shown_unit(unit: str) -> str:
-    """A unit as printed (raw text): 'N*m' -> 'N·m', 'um' -> 'µm', 'm^2' -> 'm²'."""
-    shown = unit.strip().replace("*", "·").replace("^2", "²").replace("^3", "³")
-    return "µm" if shown == "um" else shown.replace("um/", "µm/")
+    """A unit as printed (raw text): :func:`mjlink.units.shown`."""
+    return units.shown(unit)
 
 
 def _unit(unit: str) -> str:

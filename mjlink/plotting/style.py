@@ -30,8 +30,10 @@ import matplotlib.axis
 import matplotlib.cbook
 import matplotlib.colors
 import matplotlib.lines
+import matplotlib.patches
 import matplotlib.pyplot as plt
 import matplotlib.text
+import matplotlib.transforms
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
@@ -263,23 +265,28 @@ def residual(
     value as a share of it."""
     d = np.asarray(diff, dtype=float)
     worst = float(np.nanmax(np.abs(d))) if d.size else 0.0
-    ax.plot(x, d, color=color, lw=1.0, zorder=3)
-    ax.axhline(0.0, color="0.5", lw=0.6, zorder=1)
-    ax.set_gid(RESIDUAL_GID)
-    ax.set_ylabel(f"{what}\n[{unit}]", fontsize=8.5)
-    ax.grid(True, alpha=0.3)
     top = worst if worst > 0 else 1.0
     text = f"max |Δ| {_num(worst)} {unit}"
+    drawn = limit is not None and limit > 0 and worst * 25 >= limit
     if limit is not None and limit > 0:
         text += f" = {100 * worst / limit:.2g} % of threshold {_num(limit)} {unit}"
-        if worst * 25 >= limit:
-            for sgn in (1.0, -1.0) if signed else (1.0,):
-                ax.axhline(sgn * limit, color=palette.THRESHOLD, lw=1.0, ls=(0, (5, 3)), zorder=2)
-            top = max(top, limit)
-            text += " (red)"
-        else:
-            text += " (off scale)"
-    ax.set_ylim(-1.3 * top if signed else 0.0, 1.45 * top)
+        text += " (red)" if drawn else " (off scale)"
+        top = max(top, limit) if drawn else top
+    # A residual of 1e-6 deg would get matplotlib's offset label ("1e-6") over the panel above:
+    # the power of ten goes into the axis' unit instead, the tick labels stay short.
+    power = math.floor(math.log10(top))
+    scale = 10.0**power if power <= -3 or power >= 4 else 1.0
+    shown = unit if scale == 1.0 else f"×10{_superscript(power)} {unit}"  # as the study figures write it
+    ax.plot(x, d / scale, color=color, lw=1.0, zorder=3)
+    ax.axhline(0.0, color="0.5", lw=0.6, zorder=1)
+    ax.set_gid(RESIDUAL_GID)
+    ax.set_ylabel(f"{what}\n[{shown}]", fontsize=8.5)
+    ax.grid(True, alpha=0.3)
+    if drawn:
+        assert limit is not None
+        for sgn in (1.0, -1.0) if signed else (1.0,):
+            ax.axhline(sgn * limit / scale, color=palette.THRESHOLD, lw=1.0, ls=(0, (5, 3)), zorder=2)
+    ax.set_ylim((-1.3 * top if signed else 0.0) / scale, 1.45 * top / scale)
     ax.text(
         0.005,
         0.96,
@@ -293,6 +300,10 @@ def residual(
     )
 
 
+def _superscript(n: int) -> str:
+    return str(n).translate(str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹"))
+
+
 def direction(omega: Any) -> str:
     """'counter-clockwise' or 'clockwise': the sense of a crank speed (rad/s, CCW positive)."""
     return "counter-clockwise" if float(np.mean(omega)) >= 0 else "clockwise"
@@ -301,7 +312,8 @@ def direction(omega: Any) -> str:
 def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
     """Pairs of drawn texts of ``fig`` whose boxes overlap on the canvas: titles, axis labels,
     annotations, free texts and legends (a legend counts as one box); tick labels are laid out
-    by matplotlib and not checked. Empty when nothing collides. ``pad`` pixels shrink every
+    by matplotlib and not checked; an annotation's leader line is not its box (a thin line, not
+    a block of ink). Empty when nothing collides. ``pad`` pixels shrink every
     box before testing (touching is not overlapping). The figure is laid out as it is drawn,
     without rasterizing it (matplotlib's ``draw_without_rendering``), unless :func:`save` has
     just written it uncropped and is examining it (:class:`examine`): then it is read at DPI as
@@ -322,7 +334,7 @@ def text_overlaps(fig: Figure, pad: float = 0.0) -> list[tuple[str, str]]:
     for t in found:
         if id(t) in inside or id(t) in ticks or not t.get_visible() or not t.get_text().strip():
             continue
-        boxes.append((t.get_text(), t.get_window_extent(r)))
+        boxes.append((t.get_text(), text_box(t, r)))
     for lg in legends:
         if lg.get_visible():
             boxes.append(("legend", lg.get_window_extent(r)))
@@ -365,6 +377,180 @@ def _shown_tick_labels(axis: matplotlib.axis.Axis) -> list[matplotlib.text.Text]
     return out
 
 
+def _on_white(color: Any) -> np.ndarray:
+    """``color`` as it shows on the white page: RGB with its alpha blended over white."""
+    rgba = np.asarray(matplotlib.colors.to_rgba(color), dtype=float)
+    out: np.ndarray = rgba[:3] * rgba[3] + (1.0 - rgba[3])
+    return out
+
+
+def _look(handle: matplotlib.artist.Artist) -> tuple[Any, ...] | None:
+    """How a legend entry's key looks (colours as seen on white, rounded to what an eye tells
+    apart), or None for a kind of key not compared."""
+
+    def q(c: Any) -> tuple[int, ...]:  # twelve steps a channel
+        return tuple(int(v) for v in np.round(_on_white(c) * 12))
+
+    if isinstance(handle, matplotlib.lines.Line2D):
+        marker = handle.get_marker() if handle.get_marker() not in ("", " ", "None", None) else None
+        style = handle.get_linestyle() if handle.get_linestyle() not in ("", " ", "None") else None
+        return ("line", q(handle.get_color()), style, marker, q(handle.get_markerfacecolor()) if marker else None)
+    if isinstance(handle, matplotlib.patches.Patch):
+        edge = q(handle.get_edgecolor()) if handle.get_linewidth() > 0 else None
+        return ("patch", q(handle.get_facecolor()), edge, handle.get_hatch() or None, handle.get_linestyle())
+    return None
+
+
+# Words a legend label may use to describe its key, and what the key must then be.
+# A line's own dash pattern is not public: "dashed" and "dotted" both ask for a broken line.
+_BROKEN = ("--", "-.", ":")
+_STYLE_WORDS: dict[str, Callable[[matplotlib.artist.Artist], bool]] = {
+    "dashed": lambda h: h.get_linestyle() in _BROKEN,  # type: ignore[attr-defined]
+    "dotted": lambda h: h.get_linestyle() in _BROKEN,  # type: ignore[attr-defined]
+    "solid": lambda h: isinstance(h, matplotlib.lines.Line2D) and h.get_linestyle() == "-",
+    "hatched": lambda h: isinstance(h, matplotlib.patches.Patch) and bool(h.get_hatch()),
+    "filled": lambda h: isinstance(h, matplotlib.patches.Patch) and not h.get_hatch(),
+}
+
+
+def legend_defects(fig: Figure) -> list[str]:
+    """Legends a reader cannot read: two entries with different labels whose keys look the same
+    on the page (colour over white, line style, marker, hatch), and a label that describes its
+    key in words the key contradicts ("dashed" on a filled bar)."""
+    out = []
+    legends = [lg for ax in fig.axes if (lg := ax.get_legend()) is not None] + list(fig.legends)
+    for lg in legends:
+        if not lg.get_visible():
+            continue
+        entries = [(t.get_text(), h) for t, h in zip(lg.get_texts(), lg.legend_handles, strict=False) if h is not None]
+        seen: dict[tuple[Any, ...], str] = {}
+        for text, h in entries:
+            look = _look(h)
+            if look is not None and look in seen and seen[look] != text:
+                out.append(f"legend entries look alike: {seen[look]!r} and {text!r}")
+            elif look is not None:
+                seen[look] = text
+            for word, holds in _STYLE_WORDS.items():
+                if re.search(rf"\b{word}\b", text) and not holds(h):
+                    out.append(f"legend entry {text!r} says {word!r} of a key that is not")
+    return out
+
+
+def labels_on_curves(fig: Figure) -> list[tuple[str, str]]:
+    """Texts placed in a panel (annotations and free texts, not titles or axis labels) that a
+    curve of the same panel runs through, as (text, curve label): a label over a curve hides it
+    and is read as its value. A curve is a drawn line of three points or more (a reference line
+    across the panel is not); only the part of a text inside the panel is tested (the rest is
+    where no curve is drawn)."""
+    if fig in _SAVED_AS_DRAWN:  # as text_overlaps: laid out as written
+        fig.set_dpi(DPI)
+    else:
+        fig.draw_without_rendering()
+    return _labels_on_curves(fig, fig.canvas.get_renderer())  # type: ignore[attr-defined]
+
+
+def curve_paths(ax: Axes) -> list[Any]:
+    """``ax``'s curves as :func:`labels_on_curves` counts them (drawn lines of three points or
+    more), as paths on the canvas (pixels): valid while the panel's place and limits hold."""
+    return [
+        ln.get_transform().transform_path(ln.get_path())
+        for ln in ax.lines
+        if ln.get_visible() and ln.get_linestyle() not in ("", " ", "None") and np.shape(ln.get_xydata())[0] >= 3
+    ]
+
+
+def on_curves(box: Any, paths: list[Any], panel: Any, spare: float = 1.0) -> bool:
+    """Whether one of ``paths`` (:func:`curve_paths`) runs through the part of the canvas box
+    ``box`` inside the panel box ``panel``, ``spare`` pixels at each edge spared (touching is
+    not crossing); a negative ``spare`` asks for that much clearance around the box (a label
+    placed for one resolution stays clear at another, where its text is hinted differently)."""
+    x0, y0 = max(box.x0 + spare, panel.x0), max(box.y0 + spare, panel.y0)
+    x1, y1 = min(box.x1 - spare, panel.x1), min(box.y1 - spare, panel.y1)
+    if x1 <= x0 or y1 <= y0:
+        return False
+    inner = matplotlib.transforms.Bbox([[x0, y0], [x1, y1]])
+    return any(p.intersects_bbox(inner, filled=False) for p in paths)
+
+
+def text_box(t: matplotlib.text.Text, r: Any) -> Any:
+    """The canvas box of the text itself (an annotation's leader line or arrow left out)."""
+    box = t.get_window_extent(r)  # an annotation places its text here
+    return matplotlib.text.Text.get_window_extent(t, r) if isinstance(t, matplotlib.text.Annotation) else box
+
+
+def place_clear(t: matplotlib.text.Text, spots: list[tuple[float, float]]) -> None:
+    """Moves the text ``t`` to the first of ``spots`` (positions as ``t.set_position`` takes
+    them: an annotation's offset, a text's coordinates) where it covers no other text or legend
+    of its panel and no curve runs through it (:func:`on_curves`, with 3 pixels of clearance);
+    where none is clear, to the one that covers the fewest (texts first). The figure is laid out
+    first, so that its panels and limits are final."""
+    ax = t.axes
+    assert isinstance(ax, Axes)
+    fig = ax.figure
+    assert isinstance(fig, Figure)
+    fig.draw_without_rendering()
+    r = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    others = [text_box(o, r) for o in ax.texts if o is not t and o.get_visible() and o.get_text().strip()]
+    if (lg := ax.get_legend()) is not None:
+        others.append(lg.get_window_extent(r))
+    curves, panel = curve_paths(ax), ax.get_window_extent(r)
+    best: tuple[tuple[int, int], tuple[float, float]] | None = None
+    for xy in spots:
+        t.set_position(xy)
+        box = text_box(t, r)
+        cost = (sum(box.overlaps(o) for o in others), int(on_curves(box, curves, panel, spare=-3.0)))
+        if best is None or cost < best[0]:
+            best = (cost, xy)
+        if cost == (0, 0):
+            return
+    assert best is not None
+    t.set_position(best[1])
+
+
+def _labels_on_curves(fig: Figure, r: Any) -> list[tuple[str, str]]:
+    out = []
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        curves = [
+            ln
+            for ln in ax.lines
+            if ln.get_visible() and ln.get_linestyle() not in ("", " ", "None") and np.shape(ln.get_xydata())[0] >= 3
+        ]
+        paths = curve_paths(ax)
+        panel = ax.get_window_extent(r)
+        for t in ax.texts:
+            if not t.get_visible() or not t.get_text().strip():
+                continue
+            box = text_box(t, r)
+            for ln, path in zip(curves, paths, strict=True):
+                if on_curves(box, [path], panel):
+                    out.append((t.get_text(), str(ln.get_label())))
+                    break
+    return out
+
+
+def _offsets_in_other_panels(fig: Figure, r: Any) -> list[str]:
+    """An axis' offset or power label ("1e-6" above a panel) that runs into another panel."""
+    panels = [(ax, ax.get_window_extent(r)) for ax in fig.axes if ax.get_visible() and ax.axison]
+    out = []
+    for ax, _ in panels:
+        for axis in (ax.xaxis, ax.yaxis):
+            off = axis.get_offset_text()
+            if not (axis.get_visible() and off.get_visible() and off.get_text().strip()):
+                continue
+            b = off.get_window_extent(r)
+            for other, o in panels:
+                if (
+                    other is not ax
+                    and min(b.x1, o.x1) - max(b.x0, o.x0) > 0.5
+                    and min(b.y1, o.y1) - max(b.y0, o.y0) > 0.5
+                ):
+                    out.append(f"the offset label {off.get_text()!r} of {ax.get_title()!r} runs into another panel")
+                    break
+    return out
+
+
 def figure_defects(fig: Figure) -> list[str]:
     """What is wrong with a figure as a reader sees it, in words (empty when nothing is):
 
@@ -372,12 +558,19 @@ def figure_defects(fig: Figure) -> list[str]:
       (``y [mm]``; ``[-]`` for a ratio), the figure-wide convention;
     * texts that overlap (:func:`text_overlaps`);
     * tick labels of one axis that overlap each other;
-    * a text that leaves the canvas (a figure :func:`save` crops to its drawing cannot lose one).
+    * a text that leaves the canvas (a figure :func:`save` crops to its drawing cannot lose one);
+    * a text in a panel that a curve runs through (:func:`labels_on_curves`);
+    * a legend whose entries cannot be told apart or whose words contradict a key
+      (:func:`legend_defects`);
+    * an axis' offset label ("1e-6") that runs into another panel.
 
     Laid out as :func:`save` draws it (at its resolution), without rasterizing."""
     fig.set_dpi(DPI)
     out = [f"labels overlap: {a!r} and {b!r}" for a, b in text_overlaps(fig)]
     r = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    out += [f"a curve ({c!r}) runs through the label {t!r}" for t, c in _labels_on_curves(fig, r)]
+    out += legend_defects(fig)
+    out += _offsets_in_other_panels(fig, r)
     texts = []
     ticks: set[int] = set()
     hidden = [ax for ax in fig.axes if not ax.get_visible()]

@@ -15,7 +15,7 @@ from ..analysis.timing import HeadTiming
 from ..model.mechanism import Mechanism
 from ..model.tension import GF
 from ..units import MM
-from .style import angle_ticks, place, save, subplots, title
+from .style import angle_ticks, place, place_clear, save, subplots, title
 
 # Events drawn as vertical lines, each with its short tag on the top panel.
 _EVENTS = {
@@ -27,9 +27,9 @@ _EVENTS = {
 }
 
 
-def _label(ax: Axes, text: str, x: float, *, dx: float = 0.0, dy: float = -2.0, **style: Any) -> None:
+def _label(ax: Axes, text: str, x: float, *, dx: float = 0.0, dy: float = -2.0, **style: Any) -> Any:
     """``text`` hanging from the top of ``ax`` at main-shaft angle ``x`` (offset in points)."""
-    ax.annotate(
+    return ax.annotate(
         text,
         (x, 1.0),
         xycoords=("data", "axes fraction"),
@@ -61,9 +61,18 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
     maker = mech.timing.maker(head.target) if head.target else None
     th, c = head.theta, head.curves
     panels = [k for k in ("needle point", "take-up eyelet", "hook angle", "dog height", "dog advance") if k in c]
-    fig, axes = subplots(len(panels), 1, figsize=(10.0, 1.2 + 1.9 * len(panels)), sharex=True, squeeze=False)
-    axes = axes[:, 0]
-    place(fig, axes[0].get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=0.6, hgap=0.25)
+    # A strip above the panels names the events: tags inside a panel would sit on its curves.
+    fig, axes = subplots(
+        len(panels) + 1,
+        1,
+        figsize=(10.0, 1.7 + 1.9 * len(panels)),
+        sharex=True,
+        squeeze=False,
+        height_ratios=[0.3 * len(panels), *[1.9] * len(panels)],
+    )
+    strip, axes = axes[0, 0], axes[1:, 0]
+    strip.axis("off")
+    place(fig, strip.get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=0.6, hgap=0.25)
     band = None
     if maker is not None and "hook_rise" in maker.windows:
         w = maker.windows["hook_rise"]
@@ -123,7 +132,6 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
             if x is not None and np.isfinite(x):
                 a.axvline(x, color="0.45", lw=0.8, ls="--")
         a.grid(alpha=0.3)
-    top = axes[0]
     # Events at one angle share one tag (a chain stitch's loop is released as the next is picked).
     tags: dict[float, list[str]] = {}
     for key, tag in _EVENTS.items():
@@ -131,8 +139,12 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
         if x is not None and np.isfinite(x):
             at = next((a for a in tags if abs(a - x) < 0.5), x)
             tags.setdefault(at, []).append(tag)
-    for x, names in tags.items():
-        _label(top, " / ".join(names), x, dx=2, ha="left", fontsize=8, rotation=90, color="0.3")
+    for x, names in sorted(tags.items()):
+        strip.plot([x, x], [0.0, 0.12], color="0.45", lw=0.8, ls="--", transform=strip.get_xaxis_transform())
+        t = strip.text(x, 0.1, " / ".join(names), ha="center", va="bottom", fontsize=8, color="0.3")
+        t.set_transform(strip.get_xaxis_transform())
+        # Staggered: near events' tags take the next row up.
+        place_clear(t, [(x, y) for y in (0.1, 0.4, 0.7)])
     shaded = f"; shaded: the {head.target} settings' windows" if maker is not None else ""
     fig.suptitle(title(mech, f"timing diagram over one stitch{shaded}"), fontsize=11)
     return save(fig, out_dir, "cyclogram.png")
@@ -145,8 +157,8 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
     spring's travel as a band, and the phases named."""
     assert head.balance is not None and mech.balance is not None
     b = head.balance
-    fig, (ax, bx) = subplots(2, 1, figsize=(10.0, 7.5), sharex=True, height_ratios=[1.4, 1.0])
-    place(fig, ax.get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=0.6, hgap=0.3)
+    fig, (ax, bx) = subplots(2, 1, figsize=(10.0, 8.3), sharex=True, height_ratios=[1.4, 1.0])
+    place(fig, ax.get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=1.4, hgap=0.3)
     forming = np.isfinite(b.balance)
     ax.plot(b.theta, np.where(forming, b.supply, np.nan), color="C2", label="supply: take-up and guides")
     ax.plot(b.theta, np.where(forming, b.demand, np.nan), color="C3", label="demand: needle, fabric and loop")
@@ -173,23 +185,23 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
         _label(ax, name, mid, dy=-4, ha="center", fontsize=7.5, rotation=rotation, color="0.25")
     short = next(r for r in head.rows if r.key == "thread_shortfall")
     slack = next(r for r in head.rows if r.key == "thread_slack")
-    ax.text(
-        0.42,
+    # The figures in words under the panels: inside, the curves would run through them.
+    fig.text(
         0.5,
+        0.012,
         f"largest shortfall {short.value / MM:.2f} mm ({'within' if short.ok else 'FAIL: beyond'} the thread's "
         f"stretch, {(short.window.hi or 0.0) / MM:.2f} mm)\nlargest slack {slack.value / MM:.2f} mm (check spring "
         f"travel {travel:g} mm, shaded below)\na stitch holds {b.per_stitch:.2f} mm of needle thread"
         + (
             f"; the loop takes up to {b.most_under:.1f} mm below the material,\nthe blade point "
-            f"{b.most_under_at + 0.0:+.0f} deg from six o'clock (Union Special's 301 manual: about 89 mm)"
+            + (f"{round(b.most_under_at):+d} deg from six o'clock" if round(b.most_under_at) else "at six o'clock")
+            + " (Union Special's 301 manual: about 89 mm)"
             if math.isfinite(b.most_under)
             else ""
         ),
-        transform=ax.transAxes,
         ha="center",
-        va="center",
+        va="bottom",
         fontsize=8,
-        bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "none"},
     )
     for a in (ax, bx):
         a.grid(alpha=0.3)
@@ -228,10 +240,13 @@ def tension_plot(mech: Mechanism, head: HeadTiming, t: NeedleTension, out_dir: P
     angle_ticks(bx, 0.0, 360.0)
     # Events in the angle's order, their tags at two heights so that near ones stay apart.
     shown = sorted((head.events[name], tag) for name, tag in _EVENTS.items() if name in head.events)
+    tags = []
     for i, (angle, tag) in enumerate(shown):
         for a in (ax, bx):
             a.axvline(angle, color="0.5", lw=0.8, ls="--", zorder=0)
-        _label(ax, tag, angle, dx=2, dy=-2.0 - 11.0 * (i % 2), ha="left", fontsize=7, color="0.35")
+        tags.append(_label(ax, tag, angle, dx=2, dy=-2.0 - 11.0 * (i % 2), ha="left", fontsize=7, color="0.35"))
+    for t in tags:  # beside its line, as high as the curves and the other tags leave room
+        place_clear(t, [(dx, -dy) for dy in (2.0, 13.0, 24.0, 35.0, 46.0, 57.0, 68.0) for dx in (2.0, -30.0)])
     for a in (ax, bx):
         a.grid(alpha=0.3)
     fig.suptitle(title(mech, "needle thread tension over one stitch"), fontsize=11, y=0.995)
