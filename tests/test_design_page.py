@@ -405,3 +405,30 @@ def test_a_number_check_refuses_is_infeasible_on_the_page(browser, tmp_path):
     page.wait_for_function("document.getElementById('status').className === 'ok'")
     assert "assembles over the whole cycle" in page.inner_text("#status")
     assert errors == []
+
+
+def test_a_file_with_text_beyond_the_basic_plane_is_edited_in_place(browser, tmp_path):
+    """Offsets in the file are the page's (UTF-16: a character beyond the basic plane is two
+    units): with such characters before the numbers, an edited number still lands in its place
+    and every other character of the file is kept."""
+    text = catalogue.path_of("takeup").read_text(encoding="utf-8")
+    text = "# \U0001f9f5\U0001f9f5 thread \u2028 take-up\n" + text.replace("[input]", "[input]  # \U0001f600 phi0", 1)
+    path = tmp_path / "takeup.toml"
+    path.write_text(text, encoding="utf-8")
+    page_file = tmp_path / "design.html"
+    page_file.write_text(design_page.design_html(mechanism.parse(text, path), text), encoding="utf-8")
+    page = browser.new_page()
+    page.goto(page_file.as_uri())
+    page.wait_for_selector("body[data-ready=true]", timeout=HUNG_S * 1000)
+    page.fill("input[data-param='input.phi0']", "95.5")
+    page.fill("input[data-param='construct.P3.length_b']", "19.25")
+    page.wait_for_function("document.body.dataset.updates >= 3")
+    with page.expect_download():
+        page.click("#save")
+    saved = page.input_value("#toml")
+    page.close()
+    want = text.replace("phi0 = 101.0", "phi0 = 95.5", 1).replace("length_b = 19.0", "length_b = 19.25", 1)
+    assert saved == want
+    edited = mechanism.parse(saved, path)
+    assert paths.resolve(edited, "input.phi0").nominal == 95.5
+    assert paths.resolve(edited, "construct.P3.length_b").nominal == 19.25

@@ -65,10 +65,10 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
     fig, axes = subplots(
         len(panels) + 1,
         1,
-        figsize=(10.0, 1.7 + 1.9 * len(panels)),
+        figsize=(10.0, 1.8 + 1.9 * len(panels)),
         sharex=True,
         squeeze=False,
-        height_ratios=[0.3 * len(panels), *[1.9] * len(panels)],
+        height_ratios=[0.6, *[1.9] * len(panels)],
     )
     strip, axes = axes[0, 0], axes[1:, 0]
     strip.axis("off")
@@ -140,11 +140,11 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
             at = next((a for a in tags if abs(a - x) < 0.5), x)
             tags.setdefault(at, []).append(tag)
     for x, names in sorted(tags.items()):
-        strip.plot([x, x], [0.0, 0.12], color="0.45", lw=0.8, ls="--", transform=strip.get_xaxis_transform())
-        t = strip.text(x, 0.1, " / ".join(names), ha="center", va="bottom", fontsize=8, color="0.3")
+        strip.plot([x, x], [0.0, 0.08], color="0.45", lw=0.8, ls="--", transform=strip.get_xaxis_transform())
+        t = strip.text(x, 0.06, " / ".join(names), ha="center", va="bottom", fontsize=8, color="0.3")
         t.set_transform(strip.get_xaxis_transform())
         # Staggered: near events' tags take the next row up.
-        place_clear(t, [(x, y) for y in (0.1, 0.4, 0.7)])
+        place_clear(t, [(x, y) for y in (0.06, 0.38, 0.7)])
     shaded = f"; shaded: the {head.target} settings' windows" if maker is not None else ""
     fig.suptitle(title(mech, f"timing diagram over one stitch{shaded}"), fontsize=11)
     return save(fig, out_dir, "cyclogram.png")

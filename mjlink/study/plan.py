@@ -110,7 +110,7 @@ class Plan:
         return (
             f"plan: {self.what}: {self.variants:,} variants x {self.angles} crank angles in {self.tasks:,} task(s) "
             f"{f'on {self.workers} worker(s)' if self.workers else 'in this process'}; {mj}; memory about {size_text(self.memory)} (bound {size_text(self.memory_limit)}); "
-            f"time {'at most ' if self.what.startswith('optimization') else ''}about {duration_text(self.seconds)} (calibrated here: {self.row_seconds * 1e6:.2g} us and "
+            f"time {'at most ' if self.what.startswith('optimization') else ''}about {duration_text(self.seconds)} (calibrated here: {self.row_seconds * 1e6:.2g} µs and "
             f"{self.row_bytes:.0f} bytes per variant-angle)"
         )
 
