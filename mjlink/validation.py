@@ -102,7 +102,7 @@ def block_angles(mech: Mechanism, kin: reference.Kinematics | None = None) -> tu
             worst, mg, at = float(dp.value_deg[i]), float(margin[i]), _wrap(mech, phi[i])
         else:
             worst = mg = at = math.nan
-        fails = reference.angle_ranges(phi, ~closes) if not closes.all() else ""
+        fails = reference.angle_ranges(phi, ~closes, mech.period) if not closes.all() else ""
         out.append(
             BlockAngle(
                 kind=s.kind,
@@ -395,7 +395,7 @@ def _cycle(mech: Mechanism) -> _Cycle:
     with np.errstate(all="ignore"):  # coinciding points divide by zero; reported by the checks
         kin = reference.solve(mech, phi, check=False)
         ok = kin.assembles()
-    return _Cycle(kin, bool(ok.all()), reference.angle_ranges(phi, ok))
+    return _Cycle(kin, bool(ok.all()), reference.angle_ranges(phi, ok, mech.period))
 
 
 def problems(mech: Mechanism, *, full_turn: bool = True) -> list[MjlinkError]:

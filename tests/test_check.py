@@ -293,3 +293,22 @@ def test_dyad_sign_convention_as_documented():
     from mjlink import reference as R
 
     assert (R.solve(m, validation.cycle_angles(m)).position("C")[:, 1] < 0).all()
+
+
+def test_angle_ranges_lie_within_one_period_in_order_whatever_the_start():
+    """mjlink.reference.angle_ranges with the period: the same bad angles read the same from any
+    starting angle, a range through the start is one range, one through 0 its two parts."""
+    from mjlink.reference import angle_ranges
+
+    def bad_at(start: float) -> tuple[np.ndarray, np.ndarray]:
+        deg = start + np.linspace(0.0, 360.0, 3601)
+        w = deg % 360.0
+        return np.radians(deg), (w >= 234.35) | (w <= 125.65)
+
+    for start in (0.0, 101.0, 200.0, -90.0):
+        phi, bad = bad_at(start)
+        assert angle_ranges(phi, bad, 2 * math.pi) == "0.0..125.6, 234.4..360.0", start
+    deg = 101.0 + np.linspace(0.0, 360.0, 3601)
+    bad = (deg % 360.0 >= 60.05) & (deg % 360.0 <= 329.95)
+    assert angle_ranges(np.radians(deg), bad, 2 * math.pi) == "60.1..329.9"
+    assert angle_ranges(np.radians(deg), bad) == "101.0..329.9, 420.1..461.0"  # as sampled, no period

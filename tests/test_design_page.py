@@ -432,3 +432,20 @@ def test_a_file_with_text_beyond_the_basic_plane_is_edited_in_place(browser, tmp
     edited = mechanism.parse(saved, path)
     assert paths.resolve(edited, "input.phi0").nominal == 95.5
     assert paths.resolve(edited, "construct.P3.length_b").nominal == 19.25
+
+
+@pytest.mark.parametrize(
+    ("name", "edits"), [("takeup", {"construct.P3.length_a": 5.0}), ("crank_slider", {"construct.C.length": 25.0})]
+)
+def test_the_page_names_the_angles_check_names(pristine, name, edits, tmp_path):
+    """A block that cannot close: the page's reason is check's, word for word, its input angles
+    within one period from 0 in order (the take-up starts at phi0 = 101 deg: its range runs on
+    through 101 deg as one)."""
+    page, _ = pristine(name)
+    problems, text = page.evaluate(_JUDGE, [edits])[0]
+    report = validation.check(mechanism.parse(text, tmp_path / f"{name}.toml"))
+    said = [p for p in problems if "cannot close" in p]
+    told = " ".join(str(p) for problem in report.problems for p in problem)
+    assert said and all(s in told for s in said), (said, report.problems)
+    for lo, hi in re.findall(r"([0-9.]+)\.\.([0-9.]+)", said[0]):
+        assert 0.0 <= float(lo) <= float(hi) <= 360.0

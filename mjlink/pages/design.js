@@ -124,18 +124,28 @@
   }
 
   // The input-angle ranges (deg) where `flags` holds, from the first sample to the last of each,
-  // as `check` writes them (mjlink.reference.angle_ranges), each end within one period (`span`)
-  // from 0: a range across 0 reads "350.0..10.0".
+  // as `check` writes them (mjlink.reference.angle_ranges): within one period (`span`) from 0, in
+  // order, a range running through the samples' start one range and one running through 0 its
+  // two parts ("0.0..10.0, 350.0..360.0"; `phis` cover the whole period, both ends included).
   function ranges(phis, flags, span) {
-    const out = [];
+    const spans = [];
     let start = -1;
     for (let i = 0; i < flags.length; i++) {
       if (flags[i] && start < 0) start = i;
       if ((!flags[i] || i === flags.length - 1) && start >= 0) {
-        out.push(`${within(phis[start], span).toFixed(1)}..${within(phis[flags[i] ? i : i - 1], span).toFixed(1)}`);
+        spans.push([start, flags[i] ? i : i - 1]);
         start = -1;
       }
     }
+    if (spans.length > 1 && spans[0][0] === 0 && spans[spans.length - 1][1] === flags.length - 1) spans[0][0] = spans.pop()[0];
+    const parts = [];
+    for (const [a, b] of spans) {
+      const lo = within(phis[a], span), hi = within(phis[b], span);
+      if (lo <= hi || a === b) parts.push([lo, hi]);
+      else parts.push([0, hi], [lo, span]);
+    }
+    parts.sort((u, v) => u[0] - v[0] || u[1] - v[1]);
+    const out = parts.map(([lo, hi]) => `${lo.toFixed(1)}..${hi.toFixed(1)}`);
     return out.slice(0, 6).join(", ") + (out.length > 6 ? " ..." : "");
   }
 

@@ -12,6 +12,7 @@ All quantities SI (m, rad).
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
@@ -83,17 +84,37 @@ class Kinematics:
         return total
 
 
-def angle_ranges(phi: np.ndarray, bad: np.ndarray) -> str:
-    """Human-readable input-angle ranges (deg) where ``bad`` holds."""
+def angle_ranges(phi: np.ndarray, bad: np.ndarray, period: float | None = None) -> str:
+    """Human-readable input-angle ranges (deg) where ``bad`` holds, at the angles ``phi`` (rad).
+
+    With the mechanism's ``period`` (rad) the ranges are given within one period from 0, in
+    order, whatever ``phi`` starts at: where ``phi`` covers the whole period a range that runs
+    through its start is one range, and one that runs through 0 is written as its two parts
+    ("0.0..10.0, 350.0..360.0")."""
     deg = np.degrees(phi)
-    out, start = [], None
+    spans: list[list[int]] = []
+    start = None
     for i, b in enumerate(bad):
         if b and start is None:
             start = i
         if (not b or i == len(bad) - 1) and start is not None:
-            end = i if b else i - 1
-            out.append(f"{deg[start]:.1f}..{deg[end]:.1f}")
+            spans.append([start, i if b else i - 1])
             start = None
+    if period is None:
+        parts = [(float(deg[a]), float(deg[b])) for a, b in spans]
+    else:
+        p = math.degrees(period)
+        shown = deg % p
+        shown[np.abs(shown - p) < 1e-9] = 0.0
+        whole = abs(abs(deg[-1] - deg[0]) - p) < 1e-9 * p
+        if whole and len(spans) > 1 and spans[0][0] == 0 and spans[-1][1] == len(bad) - 1:
+            spans[0][0] = spans.pop()[0]
+        parts = []
+        for a, b in spans:
+            lo, hi = float(shown[a]), float(shown[b])
+            parts += [(lo, hi)] if lo <= hi or a == b else [(0.0, hi), (lo, p)]
+        parts.sort()
+    out = [f"{lo:.1f}..{hi:.1f}" for lo, hi in parts]
     return ", ".join(out[:6]) + (" ..." if len(out) > 6 else "")
 
 
