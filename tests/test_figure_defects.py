@@ -109,3 +109,16 @@ def test_an_offset_label_in_the_panel_above_is_found_and_a_power_in_the_unit_is_
     rax.set_xlabel("x [deg]")
     assert not any("offset label" in d for d in style.figure_defects(fig))
     assert rax.get_ylabel().endswith("[×10⁻⁶ deg]")
+
+
+def test_every_link_of_a_head_has_a_colour_of_its_own_in_the_drawing_and_on_the_page():
+    """The head's eleven links (and up to twenty) in colours a reader tells apart, the same in
+    positions.png and design.html."""
+    import matplotlib.colors
+
+    from mjlink.pages import design as design_page
+    from mjlink.plotting import drawing
+
+    drawn = [matplotlib.colors.to_hex(c) for c in drawing.link_colors(20)]
+    assert len(set(drawn)) == 20
+    assert drawn == list(design_page.COLORS)

@@ -38,7 +38,12 @@ from ..model.blocks import Attached, Crank, Dyad, Slider
 from ..model.mechanism import Mechanism
 from ..units import shown
 
-COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
+# A colour per link, as positions.png gives them (mjlink.plotting.drawing.link_colors): matplotlib's
+# ten, then their light tones (a head has a dozen links).
+COLORS = (
+    *("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"),
+    *("#aec7e8", "#ffbb78", "#98df8a", "#ff9896", "#c5b0d5", "#c49c94", "#f7b6d2", "#c7c7c7", "#dbdb8d", "#9edae5"),
+)
 
 
 def model(mech: Mechanism) -> dict[str, Any]:

@@ -43,10 +43,10 @@ def _title(title: str, what: str, width: int = 90) -> str:
     return "\n".join([*textwrap.wrap(user_text(title), width), *textwrap.wrap(user_text(what), width)])
 
 
-def _phrases(phrases: list[str], width: int) -> list[str]:
-    """``phrases`` in parentheses, comma-separated, on as few lines of at most ``width``
-    characters as they fit, a line breaking only between two of them."""
-    lines: list[str] = []
+def _phrases(head: str, phrases: list[str], width: int) -> list[str]:
+    """``head`` and ``phrases`` in parentheses after it, comma-separated, on as few lines of at
+    most ``width`` characters as they fit, a line breaking only between two of them."""
+    lines: list[str] = [head]
     for k, p in enumerate(phrases):
         p = ("(" if k == 0 else "") + p + (")" if k == len(phrases) - 1 else ",")
         if lines and len(lines[-1]) + 1 + len(p) <= width:
@@ -94,7 +94,7 @@ def convergence(title: str, res: Result, out_dir: Path) -> Path:
     setting = [f"{opt.population} candidates per generation", f"random seed {opt.seed}"]
     if st.robust:
         setting.insert(1, f"robust: {st.robust.samples} tolerance samples each")
-    lines = [*textwrap.wrap(user_text(title), 90), "convergence of differential evolution", *_phrases(setting, 90)]
+    lines = [*textwrap.wrap(user_text(title), 90), *_phrases("convergence of differential evolution", setting, 90)]
     ax.set_title("\n".join(lines), fontsize=10)
     if many:
         fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", fontsize=7.5, ncol=2)

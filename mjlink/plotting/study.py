@@ -266,6 +266,9 @@ def scatter_matrix(
     return _write(fig, out_dir, name)
 
 
+_PERCENTILE_COLORS = ["tab:orange", "tab:purple", "tab:olive", "tab:cyan", "tab:pink", "tab:brown"]
+
+
 def _constant(y: np.ndarray) -> float | None:
     """The value of a metric that is the same on every variant with a value (to 1e-9 of its
     size: rounding), else None (also with fewer than two values)."""
@@ -392,10 +395,11 @@ def _histogram(ax: Axes, col: Column, v: np.ndarray, n_feas: int, pcts: list[flo
     scale = float(q[-1] - q[0]) if q[-1] > q[0] else spread
     sep = " " if unit else ""
     handles = []
+    others = iter(_PERCENTILE_COLORS * len(pcts))  # each outer percentile a hue of its own: told apart
     for p, val in zip(pcts, q):
         median = p == 50
         line: dict[str, Any] = dict(
-            color="k" if median else "tab:orange", lw=1.3 if median else 1.1, ls="-" if median else (0, (4, 2))
+            color="k" if median else next(others), lw=1.3 if median else 1.1, ls="-" if median else (0, (4, 2))
         )
         ax.axvline(float(val), **line)
         handles.append(Line2D([], [], label=f"{_ordinal(p)} {_fmt(float(val), scale)}{sep}{unit}", **line))

@@ -478,17 +478,19 @@ def text_box(t: matplotlib.text.Text, r: Any) -> Any:
     return matplotlib.text.Text.get_window_extent(t, r) if isinstance(t, matplotlib.text.Annotation) else box
 
 
-def place_clear(t: matplotlib.text.Text, spots: list[tuple[float, float]]) -> None:
+def place_clear(t: matplotlib.text.Text, spots: list[tuple[float, float]], *, laid_out: bool = False) -> None:
     """Moves the text ``t`` to the first of ``spots`` (positions as ``t.set_position`` takes
     them: an annotation's offset, a text's coordinates) where it covers no other text or legend
     of its panel and no curve runs through it (:func:`on_curves`, with 3 pixels of clearance);
     where none is clear, to the one that covers the fewest (texts first). The figure is laid out
-    first, so that its panels and limits are final."""
+    first, so that its panels and limits are final, unless the caller has (``laid_out``: it
+    places several texts on a figure whose layout is fixed, which moving a text leaves as is)."""
     ax = t.axes
     assert isinstance(ax, Axes)
     fig = ax.figure
     assert isinstance(fig, Figure)
-    fig.draw_without_rendering()
+    if not laid_out:
+        fig.draw_without_rendering()
     r = fig.canvas.get_renderer()  # type: ignore[attr-defined]
     others = [text_box(o, r) for o in ax.texts if o is not t and o.get_visible() and o.get_text().strip()]
     if (lg := ax.get_legend()) is not None:

@@ -139,12 +139,12 @@ def cyclogram_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Pa
         if x is not None and np.isfinite(x):
             at = next((a for a in tags if abs(a - x) < 0.5), x)
             tags.setdefault(at, []).append(tag)
-    for x, names in sorted(tags.items()):
+    for i, (x, names) in enumerate(sorted(tags.items())):
         strip.plot([x, x], [0.0, 0.08], color="0.45", lw=0.8, ls="--", transform=strip.get_xaxis_transform())
         t = strip.text(x, 0.06, " / ".join(names), ha="center", va="bottom", fontsize=8, color="0.3")
         t.set_transform(strip.get_xaxis_transform())
         # Staggered: near events' tags take the next row up.
-        place_clear(t, [(x, y) for y in (0.06, 0.38, 0.7)])
+        place_clear(t, [(x, y) for y in (0.06, 0.38, 0.7)], laid_out=i > 0)  # the layout is fixed: drawn once
     shaded = f"; shaded: the {head.target} settings' windows" if maker is not None else ""
     fig.suptitle(title(mech, f"timing diagram over one stitch{shaded}"), fontsize=11)
     return save(fig, out_dir, "cyclogram.png")
@@ -245,8 +245,9 @@ def tension_plot(mech: Mechanism, head: HeadTiming, t: NeedleTension, out_dir: P
         for a in (ax, bx):
             a.axvline(angle, color="0.5", lw=0.8, ls="--", zorder=0)
         tags.append(_label(ax, tag, angle, dx=2, dy=-2.0 - 11.0 * (i % 2), ha="left", fontsize=7, color="0.35"))
-    for t in tags:  # beside its line, as high as the curves and the other tags leave room
-        place_clear(t, [(dx, -dy) for dy in (2.0, 13.0, 24.0, 35.0, 46.0, 57.0, 68.0) for dx in (2.0, -30.0)])
+    for i, t in enumerate(tags):  # beside its line, as high as the curves and the other tags leave room
+        spots = [(dx, -dy) for dy in (2.0, 13.0, 24.0, 35.0, 46.0, 57.0, 68.0) for dx in (2.0, -30.0)]
+        place_clear(t, spots, laid_out=i > 0)  # the layout is fixed: drawn once
     for a in (ax, bx):
         a.grid(alpha=0.3)
     fig.suptitle(title(mech, "needle thread tension over one stitch"), fontsize=11, y=0.995)
