@@ -19,6 +19,7 @@ X = np.linspace(0.0, 10.0, 400)
 
 def _panel():
     fig, ax = plt.subplots(figsize=(6.0, 4.0))
+    fig.subplots_adjust(left=0.15, bottom=0.15)  # every label on the canvas, in every matplotlib
     ax.plot(X, np.sin(X), label="sin")
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
@@ -94,7 +95,8 @@ def test_a_legend_word_that_contradicts_its_key_is_found(handle, wrong):
 def test_an_offset_label_in_the_panel_above_is_found_and_a_power_in_the_unit_is_not(tmp_path):
     """Residuals of 1e-6 deg: matplotlib's offset label would sit in the panel above; the
     residual panel puts the power of ten in its unit instead."""
-    fig, (ax, rax) = plt.subplots(2, 1, figsize=(6.0, 4.0), sharex=True, gridspec_kw=dict(hspace=0.02))
+    fig, (ax, rax) = plt.subplots(2, 1, figsize=(6.0, 4.0), sharex=True)
+    fig.subplots_adjust(left=0.18, bottom=0.15, hspace=0.02)
     ax.plot(X, np.sin(X))
     ax.set_ylabel("y [deg]")
     rax.plot(X, 1e-6 * np.cos(X) + 1.0)
@@ -102,7 +104,8 @@ def test_an_offset_label_in_the_panel_above_is_found_and_a_power_in_the_unit_is_
     rax.set_xlabel("x [deg]")
     found = style.figure_defects(fig)
     assert any("offset label" in d for d in found), found
-    fig, (ax, rax) = plt.subplots(2, 1, figsize=(6.0, 4.0), sharex=True, gridspec_kw=dict(hspace=0.02))
+    fig, (ax, rax) = plt.subplots(2, 1, figsize=(6.0, 4.0), sharex=True)
+    fig.subplots_adjust(left=0.18, bottom=0.15, hspace=0.02)
     ax.plot(X, np.sin(X))
     ax.set_ylabel("y [deg]")
     style.residual(rax, X, 1e-6 * np.cos(X), "deg", None)

@@ -336,3 +336,19 @@ def test_the_winners_duplicate_key_is_the_first_rounding():
     lo, hi = np.array([v.low for v in st.varied]), np.array([v.high for v in st.varied])
     for x in lo + (hi - lo) * np.random.default_rng(1).uniform(-0.05, 1.05, (500, len(lo))):
         assert np.array_equal(winner._nearest(st, x), winner.rounded_candidates(st, x)[0])
+
+
+def test_an_objective_at_another_speed_than_the_files_is_named_with_the_command_that_shows_it():
+    """studies/takeup_counterweight.toml minimizes the shaking at 5,000 rpm of a file run at
+    955 rpm: the summary names that speed, and the command line's option for it (a clockwise
+    speed written with '=', which its minus sign needs); a study whose objective is at the
+    file's speed names none."""
+    from mjlink.pipeline.optimize import objective_speed_rpm, speed_option
+    from mjlink.study import spec
+
+    root = Path(__file__).resolve().parent.parent / "studies"
+    # rel 1e-4: the study writes 523.6 rad/s, which is 5,000 rpm to four digits (4999.99)
+    assert objective_speed_rpm(spec.load(root / "takeup_counterweight.toml")) == pytest.approx(5000.0, rel=1e-4)
+    assert objective_speed_rpm(spec.load(root / "known_path_crank_rocker.toml")) is None
+    assert speed_option(5000.0) == "--speed 5000rpm"
+    assert speed_option(-5000.0) == "--speed=-5000rpm"

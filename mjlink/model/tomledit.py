@@ -12,6 +12,7 @@ value to the wrong place.
 
 from __future__ import annotations
 
+import copy
 import re
 import tomllib
 from dataclasses import dataclass
@@ -256,11 +257,12 @@ def _get(data: Any, path: Path) -> Any:
     return data
 
 
-def edit(text: str, where: Layout, path: Path) -> Edit | None:
+def edit(text: str, where: Layout, path: Path, doc: dict[str, Any] | None = None) -> Edit | None:
     """How to write a number at ``path`` of ``text`` (laid out as ``where``), or None where the
     text has no place for it the scanner can find (a table missing, an array more than one
     element short). Every edit is checked: written with a probe number, tomllib must read that
-    number at ``path`` and the rest of the document unchanged."""
+    number at ``path`` and the rest of the document unchanged (``doc``: ``text`` as tomllib reads
+    it, when the caller has it)."""
     out: Edit | None = None
     if path in where.values:
         s = where.values[path]
@@ -280,7 +282,8 @@ def edit(text: str, where: Layout, path: Path) -> Edit | None:
         return None
     probe = 271828.125  # exact in binary and in decimal: read back as written
     try:
-        expected, got = tomllib.loads(text), tomllib.loads(out.apply(text, repr(probe)))
+        expected = copy.deepcopy(doc) if doc is not None else tomllib.loads(text)
+        got = tomllib.loads(out.apply(text, repr(probe)))
         parent = _get(expected, path[:-1])
         if isinstance(parent, list) and path[-1] == len(parent):
             parent.append(probe)

@@ -150,7 +150,7 @@ def save_edits(mech: Mechanism, text: str) -> dict[str, dict[str, Any]]:
     out = {}
     for path in paths:
         at = _raw_path(raw, path)
-        e = tomledit.edit(text, where, at) if at is not None else None
+        e = tomledit.edit(text, where, at, raw) if at is not None else None
         if e is not None:
             out[path] = {"start": utf16(e.start), "end": utf16(e.end), "before": e.before, "after": e.after}
     return out

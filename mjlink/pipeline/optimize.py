@@ -581,6 +581,12 @@ def page(summ: dict[str, Any], files: list[str]) -> str:
     figs = "".join(f"<figure><img src='{e(f)}' alt='{e(f)}'></figure>" for f in files if f.endswith(".png"))
     links = " ".join(f"<a href='{e(f)}'>{e(f)}</a>" for f in files if not f.endswith(".png") and f != "index.html")
     objective = "" if w["objective"] is None else f"<p>Objective as written: <b>{w['objective']:.8g}</b></p>"
+    rpm = summ.get("objective_speed_rpm")
+    if rpm is not None:
+        objective += (
+            f"<p>Optimized at {rpm:.4g} rpm; winner.toml keeps its file's speed: "
+            f"<code>python -m mjlink simulate winner.toml {e(speed_option(rpm))}</code> shows its loads there.</p>"
+        )
     return (
         "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
         f"<title>{e(summ['study'])}</title><style>body{{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}}"
