@@ -70,6 +70,16 @@ def _open(browser, name, tmp_path):
     return page, errors
 
 
+def _drag(page, pivot: str, dx: float, dy: float, steps: int) -> None:
+    """The ground pivot ``pivot`` dragged by the mouse ``dx``, ``dy`` pixels from its centre."""
+    box = page.locator(f"circle[data-pivot='{pivot}']").bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + dx, y + dy, steps=steps)
+    page.mouse.up()
+
+
 def _port_errors(page, mechs) -> list[float]:
     """For each mechanism, the largest |browser - reference| over 24 angles and every point,
     relative to its extent (the browser solves them all in one call)."""
@@ -144,12 +154,7 @@ def test_dragging_a_pivot_moves_it_and_its_numbers(browser, tmp_path):
     thread feed is the variant's own."""
     page, _ = _open(browser, "takeup", tmp_path)
     mech = mechanism.load(catalogue.path_of("takeup"))
-    box = page.locator("circle[data-pivot='N2']").bounding_box()
-    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-    page.mouse.move(x, y)
-    page.mouse.down()
-    page.mouse.move(x + 12, y - 9, steps=4)
-    page.mouse.up()
+    _drag(page, "N2", 12, -9, steps=4)
     px = float(page.input_value("input[data-param='ground.N2.x']"))
     py = float(page.input_value("input[data-param='ground.N2.y']"))
     assert px > 30.0 and py > 85.0  # right and up on the page: +x and +y of the mechanism
@@ -203,12 +208,7 @@ def test_the_saved_file_is_accepted_by_check_with_the_edits(browser, tmp_path):
     page, _ = _open(browser, "lockstitch_head", tmp_path)
     page.fill("input[data-param='construct.P5.length']", "48.5")
     page.fill("input[data-param='ground.N2.x']", "72")
-    box = page.locator("circle[data-pivot='FG']").bounding_box()
-    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-    page.mouse.move(cx, cy)
-    page.mouse.down()
-    page.mouse.move(cx + 7.3, cy - 4.1, steps=3)
-    page.mouse.up()
+    _drag(page, "FG", 7.3, -4.1, steps=3)
     with page.expect_download():
         page.click("#save")
     text = page.input_value("#toml")

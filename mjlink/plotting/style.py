@@ -449,14 +449,20 @@ def labels_on_curves(fig: Figure) -> list[tuple[str, str]]:
     return _labels_on_curves(fig, fig.canvas.get_renderer())  # type: ignore[attr-defined]
 
 
-def curve_paths(ax: Axes) -> list[Any]:
-    """``ax``'s curves as :func:`labels_on_curves` counts them (drawn lines of three points or
-    more), as paths on the canvas (pixels): valid while the panel's place and limits hold."""
+def _curves(ax: Axes) -> list[matplotlib.lines.Line2D]:
+    """``ax``'s curves: its drawn lines of three points or more (a reference line across the
+    panel has two)."""
     return [
-        ln.get_transform().transform_path(ln.get_path())
+        ln
         for ln in ax.lines
         if ln.get_visible() and ln.get_linestyle() not in ("", " ", "None") and np.shape(ln.get_xydata())[0] >= 3
     ]
+
+
+def curve_paths(ax: Axes) -> list[Any]:
+    """``ax``'s curves as :func:`labels_on_curves` counts them, as paths on the canvas
+    (pixels): valid while the panel's place and limits hold."""
+    return [ln.get_transform().transform_path(ln.get_path()) for ln in _curves(ax)]
 
 
 def on_curves(box: Any, paths: list[Any], panel: Any, spare: float = 1.0) -> bool:
@@ -514,11 +520,7 @@ def _labels_on_curves(fig: Figure, r: Any) -> list[tuple[str, str]]:
     for ax in fig.axes:
         if not ax.get_visible():
             continue
-        curves = [
-            ln
-            for ln in ax.lines
-            if ln.get_visible() and ln.get_linestyle() not in ("", " ", "None") and np.shape(ln.get_xydata())[0] >= 3
-        ]
+        curves = _curves(ax)
         paths = curve_paths(ax)
         panel = ax.get_window_extent(r)
         for t in ax.texts:
