@@ -391,8 +391,8 @@ def _command(args: list[str], out: Path) -> tuple[float, float, str]:
 
 
 def _planned_seconds(stderr: str) -> float:
-    """The seconds of a plan's 'time about 45 s' ('at most about 3 min', '2.9 h')."""
-    m = re.search(r"time (?:at most )?about ([0-9.]+) (s|min|h|days)\b", stderr)
+    """The seconds of a plan's 'time about 45 s' ('about 3 min', '2.9 h')."""
+    m = re.search(r"time about ([0-9.]+) (s|min|h|days)\b", stderr)
     if m is None:
         raise RuntimeError(f"no time in the plan: {stderr.strip()[:300]}")
     return float(m.group(1)) * {"s": 1.0, "min": 60.0, "h": 3600.0, "days": 86400.0}[m.group(2)]
@@ -405,9 +405,9 @@ def bench_plan(limit: float = PLAN_LIMIT_S, names: list[str] | None = None) -> l
     ``limit`` seconds. The study's measured time is the run's wall time less the dry run's (both
     import, read the study and calibrate; the plan estimates what follows: the work, a local
     cluster's start, the outputs). The ratio is planned / measured: within 2x either way is the
-    goal. An optimization's plan is its whole budget, so its ratio is above 1 where the search
-    settles early: the row also gives the plan's time scaled to the evaluations made (the
-    summary's), which tells the plan's rates apart from the search's length."""
+    goal. An optimization's estimate lies between its whole budget and its runs on a smooth bowl
+    (mjlink/study/settle.py): the row also gives the evaluations made (the summary's) against
+    the plan's expected ones, which tells the plan's rates apart from the search's length."""
     rows: list[Row] = []
     for f in sorted((ROOT / "studies").glob("*.toml")):
         name = f.stem
@@ -426,12 +426,12 @@ def bench_plan(limit: float = PLAN_LIMIT_S, names: list[str] | None = None) -> l
             f"planned {planned:.3g} s, measured {measured:.3g} s (run {rw:.3g} - dry run {dw:.3g}): "
             f"ratio {planned / measured:.2f}"
         )
-        budget = re.search(r"([0-9,]+) variants x [0-9]+ crank angles", err)
-        if "evaluations" in summary and budget:  # an optimization: the plan is its whole budget
-            done, most = summary["evaluations"], int(budget.group(1).replace(",", ""))
+        expected = re.search(r"for about ([0-9,]+) variants", err)
+        if "evaluations" in summary and expected:  # an optimization: an estimate within a bracket
+            done, guess = summary["evaluations"], int(expected.group(1).replace(",", ""))
             note += (
-                f"; {done:,} of the budget's {most:,} evaluations made: at the plan's rate "
-                f"{planned * done / most:.3g} s, ratio {planned * done / most / measured:.2f}"
+                f"; {done:,} evaluations made, {guess:,} expected (ratio {guess / done:.2f}): at the plan's rate "
+                f"{planned * done / guess:.3g} s, ratio {planned * done / guess / measured:.2f}"
             )
         rows.append((f"plan of {name}", f"{rw:.2f}", f"{rc:.2f}", note))
     return rows

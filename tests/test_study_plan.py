@@ -9,6 +9,7 @@ through it). The expected counts are the closed form of the kinematic run's cloc
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tracemalloc
 
@@ -162,3 +163,42 @@ def test_a_study_of_costly_variants_calibrates_on_as_few_as_fit_its_budget(tmp_p
     one = plan.calibrate(study)
     assert set(sizes) == {1}
     assert math.isfinite(one.row_seconds) and one.row_seconds > 0 and math.isfinite(full.row_seconds)
+
+
+# The goal for an optimization's plan (issue: a study's cost is known before the work): its
+# estimate within 2x of what the run takes, either way. The time's rates are compared by
+# bench/bench_study.py --plan; here the count of evaluations, which the seeds make exact.
+WITHIN = 2.0
+
+
+def plan_holds(st: spec.Study, made: int) -> None:
+    """The plan's expected evaluations within WITHIN of the ``made`` ones, never above its budget."""
+    p = plan.estimate(st, workers=0)
+    assert made <= p.variants, (made, p.variants)
+    assert 1 / WITHIN <= p.expected_variants / made <= WITHIN, (st.name, p.expected_variants, made)
+    assert p.seconds_least <= p.seconds <= p.seconds_most
+
+
+@pytest.mark.parametrize("name", ["takeup_counterweight", "crank_slider_pareto"])
+def test_an_optimizations_plan_expects_its_evaluations_within_2x(name):
+    from mjlink.study import optimize
+
+    st = spec.load(name)
+    plan_holds(st, optimize.run(st).evaluations)
+
+
+def test_a_search_too_large_to_try_on_the_bowl_is_planned_at_its_whole_budget(monkeypatch):
+    """The bowl is tried within settle.SECONDS of CPU and up to settle.POPULATION candidates a
+    generation (scipy's own work per generation grows with the population's square); beyond
+    either the plan's estimate is the whole budget, and it says so."""
+    from mjlink.study import settle
+
+    st = spec.load("takeup_counterweight")
+    assert settle.on_bowl(st).complete
+    monkeypatch.setattr(settle, "SECONDS", 0.0)
+    assert not settle.on_bowl(st).complete
+    monkeypatch.undo()
+    big = dataclasses.replace(st, optimize=dataclasses.replace(st.optimize, population=settle.POPULATION + 1))
+    p = plan.estimate(big, workers=0)
+    assert not p.bowl.complete and p.seconds == p.seconds_least == p.seconds_most
+    assert "for its whole budget (too large a search to try on a smooth bowl first)" in p.describe()

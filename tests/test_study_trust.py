@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import HUNG_S, wait_for
+from test_study_plan import plan_holds
 
 from mjlink import validation
 from mjlink.cli import main
@@ -473,6 +474,7 @@ def test_known_answers_are_found_at_the_shipped_budgets(name, answer):
     assert np.all(np.abs(res.winner - answer) <= 1e-6 * span), (res.winner - answer) / span
     assert res.converged and not res.not_converged
     assert all(r.converged for r in res.runs)
+    plan_holds(st, res.evaluations)
 
 
 def test_an_unconverged_search_says_so_everywhere(tmp_path, capsys):

@@ -40,6 +40,7 @@ from ..sim import steps as _steps  # the clock alone: no MuJoCo is imported
 from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks
 from .optimize import CHUNK_ROWS, budget, needed
 from .polish import batch_size as polish_batch
+from .settle import Settled, on_bowl
 from .spec import Study
 from .tasks import mujoco_chunk, reference_chunk
 
@@ -63,9 +64,10 @@ CALIBRATION_VARIANTS = 16
 # cost per row (most where a study has few angles).
 CALIBRATION_ROWS = 4096
 CALIBRATION_RUNS = 3
-# CPU seconds one calibration batch may take: a study whose variants each cost much (a head's
-# thread under tension, stepped to its periodic state) calibrates on as few of them as fit, at
-# least one, rather than spend on the estimate many times what the study itself costs.
+# CPU seconds the calibration's batches may take together (traced once, timed up to
+# CALIBRATION_RUNS times): a study whose variants each cost much (a head's thread under tension,
+# stepped to its periodic state) calibrates on as few of them as fit, at least one, traced once
+# and timed once, rather than spend on the estimate a good part of what the study itself costs.
 CALIBRATION_SECONDS = 2.0
 
 
@@ -77,9 +79,12 @@ class PlanError(InputError):
 class Plan:
     """The size and cost of a study (see the module docstring).
 
-    ``variants`` reference evaluations (an optimization: at most, its whole budget), each over
-    ``angles`` crank angles, in ``tasks`` tasks on ``workers`` workers; ``mujoco_models`` and
-    ``mujoco_steps``; ``memory`` bytes and its bound ``memory_limit``; ``seconds`` wall;
+    ``variants`` reference evaluations (an optimization: at most, its whole budget; about
+    ``expected_variants``), each over ``angles`` crank angles, in ``tasks`` tasks on ``workers``
+    workers; ``mujoco_models`` and ``mujoco_steps``; ``memory`` bytes (an optimization's whole
+    budget) and its bound ``memory_limit``; ``seconds`` wall, the estimate, between
+    ``seconds_least`` and ``seconds_most`` (an optimization: its runs settling as on a smooth
+    bowl, and its whole budget, :mod:`.settle`; a sampled study: all three the same);
     ``row_seconds`` and ``row_bytes`` the calibration's CPU seconds and peak bytes per
     variant-angle; ``what`` the study's shape in words.
     """
@@ -95,10 +100,14 @@ class Plan:
     memory: float
     memory_limit: float
     seconds: float
+    seconds_least: float
+    seconds_most: float
+    expected_variants: int
     row_seconds: float
     row_bytes: float
     mujoco_model_seconds: float
     calibration: Calibration | None = None
+    bowl: Settled | None = None
 
     def describe(self) -> str:
         """The plan as one line."""
@@ -110,8 +119,18 @@ class Plan:
         return (
             f"plan: {self.what}: {self.variants:,} variants x {self.angles} crank angles in {self.tasks:,} task(s) "
             f"{f'on {self.workers} worker(s)' if self.workers else 'in this process'}; {mj}; memory about {size_text(self.memory)} (bound {size_text(self.memory_limit)}); "
-            f"time {'at most ' if self.what.startswith('optimization') else ''}about {duration_text(self.seconds)} (calibrated here: {self.row_seconds * 1e6:.2g} µs and "
-            f"{self.row_bytes:.0f} bytes per variant-angle)"
+            f"time about {duration_text(self.seconds)}{self._bracket()}; calibrated here: {self.row_seconds * 1e6:.2g} µs and "
+            f"{self.row_bytes:.0f} bytes per variant-angle"
+        )
+
+    def _bracket(self) -> str:
+        if self.bowl is not None and not self.bowl.complete:
+            return " for its whole budget (too large a search to try on a smooth bowl first)"
+        if self.seconds_most <= self.seconds_least:
+            return ""
+        return (
+            f" for about {self.expected_variants:,} variants ({duration_text(self.seconds_least)} if every run "
+            f"settles as on a smooth bowl, at most {duration_text(self.seconds_most)} for the whole budget)"
         )
 
     def check(self) -> None:
@@ -178,9 +197,11 @@ class Calibration:
 def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     """Evaluate as many variants of ``study`` as one of its tasks does (at least
     :data:`CALIBRATION_VARIANTS`, at most :data:`CALIBRATION_ROWS` variant-angles, and no more
-    than fit in :data:`CALIBRATION_SECONDS` by the first variant's cost; all at the nominal
-    values, or the middle of the ranges of an optimization) here, traced and timed
-    (the fastest of :data:`CALIBRATION_RUNS`); with ``mujoco``, verify one in MuJoCo, timed."""
+    than fit, traced once and timed, in :data:`CALIBRATION_SECONDS` by the first variant's
+    cost; all at the nominal values, or the middle of the ranges of an optimization) here,
+    traced and timed (the fastest of :data:`CALIBRATION_RUNS` where they fit, else one; a
+    variant that alone costs more than the budget by its first call); with ``mujoco``, verify
+    one in MuJoCo, timed."""
     angles = len(angle_grid(study.mechanism, study.per_turn))
     per_task = budget(study).per_generation if study.optimize is not None else min(study.samples, REFERENCE_CHUNK[1])
     n = max(CALIBRATION_VARIANTS, min(per_task, CALIBRATION_ROWS // angles))
@@ -197,9 +218,14 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     t = time.process_time()
     reference_chunk(study, values[:1])  # the nominal batch and first-call costs, not timed
     first = time.process_time() - t
-    if first * n > CALIBRATION_SECONDS:  # an upper bound of a variant's cost: it holds the first call's too
-        n = max(1, int(CALIBRATION_SECONDS / first))
-        values = values[:n]
+    # The first call's cost bounds a variant's from above: it holds the first call's own too.
+    # A variant that alone costs more than the whole budget is timed by that first call.
+    runs = CALIBRATION_RUNS if first * n * (1 + CALIBRATION_RUNS) <= CALIBRATION_SECONDS else 1
+    if first > CALIBRATION_SECONDS:
+        n, runs = 1, 0
+    elif first * n * (1 + runs) > CALIBRATION_SECONDS:
+        n = max(1, int(CALIBRATION_SECONDS / (first * (1 + runs))))
+    values = values[:n]
     tracemalloc.start()
     try:
         reference_chunk(study, values)
@@ -208,7 +234,7 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
         tracemalloc.stop()
     # Timed without the tracing (which slows every allocation), the fastest of a few: a single
     # short run on a shared machine is as often slowed by a neighbour as it is representative.
-    seconds = _fastest(lambda: reference_chunk(study, values))
+    seconds = _fastest(lambda: reference_chunk(study, values), runs) if runs else first
     polish = math.nan
     m = polish_batch(len(study.varied)) * budget(study).samples if study.optimize is not None else 0
     if study.optimize is not None and budget(study).polish and m * angles <= CALIBRATION_ROWS:
@@ -229,10 +255,10 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     return Calibration(seconds / rows, peak / rows, model, model_steps, polish)
 
 
-def _fastest(f: Callable[[], object]) -> float:
-    """The least CPU seconds of :data:`CALIBRATION_RUNS` calls of ``f``."""
+def _fastest(f: Callable[[], object], runs: int = CALIBRATION_RUNS) -> float:
+    """The least CPU seconds of ``runs`` calls of ``f``."""
     best = math.inf
-    for _ in range(CALIBRATION_RUNS):
+    for _ in range(runs):
         t = time.process_time()
         f()
         best = min(best, time.process_time() - t)
@@ -295,10 +321,12 @@ def estimate(
     limit: float | None = None,
     calibration: Calibration | None = None,
     cluster: bool = False,
+    bowl: Settled | None = None,
 ) -> Plan:
     """The :class:`Plan` of ``study`` on ``workers`` worker processes (0: this process), its
     memory held to ``limit`` bytes (default :func:`memory_limit`); ``cluster``: a local
-    cluster is started for it."""
+    cluster is started for it; ``calibration`` and ``bowl`` (an optimization's runs on the
+    bowl, :mod:`.settle`) those of an earlier plan of the same study, not made again."""
     mech = study.mechanism
     angles = len(angle_grid(mech, study.per_turn))
     P, C = len(study.varied), len(study.columns)
@@ -351,19 +379,43 @@ def estimate(
         side = mj_tasks
     else:
         side = min(lanes, mj_tasks) if workers else min(os.cpu_count() or 1, models)
-    ref_rows, polish_rows = float(V * angles), 0.0
-    if study.optimize is not None:  # the polish's generations run here, one after another
-        b = budget(study)
-        polish_rows = b.runs * b.polish * b.samples * angles
-        ref_rows -= polish_rows
     polish_s = cal.row_seconds if math.isnan(cal.polish_row_seconds) else cal.polish_row_seconds
-    seconds = (
-        ref_rows * cal.row_seconds * 1.2 / min(lanes, max(1, tasks))
-        + polish_rows * polish_s * 1.2
-        + models * model_s / max(1, side)
-    )
-    if cluster:
-        seconds += CLUSTER_START_S
+
+    def seconds_of(searched: float, polished: float) -> float:
+        """Wall seconds for ``searched`` variants of the engine's batches and ``polished`` of the
+        polish's, run here one generation after another, then the MuJoCo models."""
+        s = (
+            searched * angles * cal.row_seconds * 1.2 / min(lanes, max(1, tasks))
+            + polished * angles * polish_s * 1.2
+            + models * model_s / max(1, side)
+        )
+        return s + (CLUSTER_START_S if cluster else 0.0)
+
+    if study.optimize is None:
+        seconds = seconds_of(V, 0.0)
+        least = most = seconds
+        expected = V
+    else:  # between a run that never settles and one on a smooth bowl (module docstring)
+        b = budget(study)
+        most_search, most_polish = b.runs * b.population * (b.generations + 1), b.runs * b.polish
+        bowl = bowl or on_bowl(study)
+        low_search, low_polish = (
+            (min(bowl.search, most_search), min(bowl.polish, most_polish))
+            if bowl.complete
+            else (most_search, most_polish)
+        )
+        mid_search, mid_polish = math.sqrt(low_search * most_search), math.sqrt(low_polish * most_polish)
+        R, lam = b.samples, polish_batch(P)
+
+        def run_seconds(searched: float, polished: float) -> float:
+            # The reference's rows, and the runs' own work per batch (measured on the bowl).
+            batches = searched / b.population + polished / lam
+            return seconds_of(searched * R, polished * R) + batches * bowl.batch_seconds
+
+        seconds = run_seconds(mid_search, mid_polish)
+        least = run_seconds(low_search, low_polish)
+        most = run_seconds(most_search, most_polish)
+        expected = round((mid_search + mid_polish) * R)
     return Plan(
         study=study.name,
         what=what,
@@ -376,10 +428,14 @@ def estimate(
         memory=memory,
         memory_limit=memory_limit() if limit is None else limit,
         seconds=seconds,
+        seconds_least=least,
+        seconds_most=most,
+        expected_variants=expected,
         row_seconds=cal.row_seconds,
         row_bytes=cal.row_bytes,
         mujoco_model_seconds=model_s,
         calibration=cal,
+        bowl=bowl,
     )
 
 
