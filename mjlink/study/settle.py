@@ -42,7 +42,7 @@ class Settled:
     complete: bool = True
 
 
-SECONDS = 1.0  # CPU seconds the runs on the bowl may take, at most
+SECONDS = 2.0  # CPU seconds the runs on the bowl may take, at most
 # Populations above this are not tried: scipy draws each candidate's donors from a permutation
 # of the whole population, so a generation's own work grows with its square (a population of
 # 100,000 spends minutes on one generation before the objective is called).
