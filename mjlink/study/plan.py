@@ -10,6 +10,8 @@ the study's size:
 * time: variant-angles x the measured seconds per variant-angle, shared by the workers; MuJoCo
   models x their steps at the measured rate (a calibration run of one model where the study
   verifies more than a few), or at :data:`MUJOCO_STEPS_PER_S` where it verifies a handful;
+  an optimization's between its whole budget and its runs on a smooth bowl (:mod:`.settle`),
+  the estimate their geometric mean;
 * memory: the largest of (a) the tasks running at once, each its rows x the measured peak bytes
   per variant-angle or a MuJoCo chunk's recorded sensor values (its longest model's steps) and
   one model's comparison with the reference, (b) what this process holds: the variants' values

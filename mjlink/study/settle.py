@@ -44,8 +44,8 @@ class Settled:
 
 SECONDS = 2.0  # CPU seconds the runs on the bowl may take, at most
 # Populations above this are not tried: scipy draws each candidate's donors from a permutation
-# of the whole population, so a generation's own work grows with its square (a population of
-# 100,000 spends minutes on one generation before the objective is called).
+# of the whole population, so a generation's own work grows with its square, and a huge
+# population would hold the dry run in scipy before the objective is ever called.
 POPULATION = 2000
 
 
