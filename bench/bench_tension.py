@@ -13,12 +13,18 @@ periodic state; the head's timing measured once, before), as the median of ``--r
 and the CPU of ``python -m mjlink simulate takeup --no-video --no-plots`` in a fresh process,
 interleaved with them, and their ratio.
 
-Run: ``python bench/bench_tension.py [--repeat N]`` (default 5).
+With ``--study``, only a 1,000-variant tension study (needle tension x check-spring rate x
+speed, on the 2 workers of a local cluster), its wall time against ``simulate takeup``'s CPU,
+interleaved, and the periods its heads settled in.
+
+Run: ``python bench/bench_tension.py [--repeat N] [--study]`` (default 5).
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
+import csv
 import dataclasses
 import itertools
 import os
@@ -187,11 +193,78 @@ def cost(repeat: int) -> None:
     print(f"simulate takeup {b:.2f} s CPU; tension / simulate takeup: {a / b:.3f}")
 
 
+STUDY = """[study]
+mechanism = "lockstitch_head"
+title = "1,000 heads: needle tension x check-spring rate x speed"
+angles = 720
+
+[sampling]
+method = "grid"
+
+[verify]
+mujoco = "none"
+
+[[parameter]]
+path = "tension.needle_tension"
+values = [1.0, 1.2, 1.4, 1.6, 1.8, 2.0, 2.2, 2.4, 2.6, 2.8]
+[[parameter]]
+path = "tension.spring_rate"
+values = [0.01, 0.015, 0.02, 0.025, 0.03, 0.035, 0.04, 0.045, 0.05, 0.06]
+[[parameter]]
+path = "input.speed"
+values = [157.08, 209.44, 261.8, 314.159, 366.52, 418.879, 471.24, 523.599, 575.96, 628.32]
+
+[[metric]]
+kind = "tension"
+"""
+
+
+def study(repeat: int) -> None:
+    """A 1,000-variant tension study (the grid above: 1,500 to 6,000 stitches/min) on a local
+    cluster of one worker a core, its wall time against ``simulate takeup``'s CPU, interleaved,
+    and how its heads settled (their periods, the stitches run)."""
+    walls: list[float] = []
+    takeup: list[float] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        f = Path(tmp) / "tension_1000.toml"
+        f.write_text(STUDY)
+        _simulate_takeup(Path(tmp))
+        for i in range(repeat):
+            out = Path(tmp) / f"out{i}"
+            w0 = time.perf_counter()
+            subprocess.run(
+                [sys.executable, "-m", "mjlink", "study", str(f), "--out", str(out), "--no-plots"],
+                cwd=ROOT,
+                check=True,
+                capture_output=True,
+                env={**os.environ, "PYTHONPATH": str(ROOT)},
+            )
+            walls.append(time.perf_counter() - w0)
+            print(f"1,000-variant tension study: {walls[-1]:.1f} s wall", flush=True)
+            takeup.append(_simulate_takeup(Path(tmp)))
+            print(f"simulate takeup --no-video --no-plots: {takeup[-1]:.2f} s CPU", flush=True)
+        rows = list(
+            csv.DictReader(
+                line for line in (out / "tension_1000-study" / "results.csv").open() if not line.startswith("#")
+            )
+        )
+    periods = collections.Counter(int(float(r["tension_period"])) for r in rows)
+    a, b = statistics.median(walls), statistics.median(takeup)
+    print(f"periods of the 1,000 heads (0: none in 80 stitches): {dict(sorted(periods.items()))}")
+    print(
+        f"median of {repeat}: study {a:.1f} s wall; simulate takeup {b:.2f} s CPU; study / simulate takeup: {a / b:.1f}"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5, help="runs of each for the cost (default 5)")
     ap.add_argument("--no-cost", action="store_true", help="only the comparisons")
+    ap.add_argument("--study", action="store_true", help="only the 1,000-variant tension study's time")
     a = ap.parse_args()
+    if a.study:
+        study(a.repeat)
+        return
     comparisons()
     mujoco_comparison()
     if not a.no_cost:

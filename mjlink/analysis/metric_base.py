@@ -72,6 +72,7 @@ class Metric(ABC):
     kind: ClassVar[str]
     types: ClassVar[dict[str, type[Metric]]] = {}
     needs_point: ClassVar[bool] = False
+    together: ClassVar[int] = 1  # variants a task holds at most for the metric to step them at once
     options: ClassVar[tuple[str, ...]] = ()
     doc: ClassVar[str] = ""
     # Computed from dynamics (kinetostatics, steady motion): rows that do not assemble could

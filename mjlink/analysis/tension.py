@@ -42,9 +42,10 @@ from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
 from ..model.timing import StitchType
 from ..reference.batch import Batch
+from ..units import MM
 from .metric_base import Column, Curve, Loads, MetricError
-from .stitch import _between, stitch_end
-from .timing import HeadTiming, TimingChecks, _lock_below, hook_crank
+from .stitch import _between
+from .timing import HeadTiming, TimingChecks
 
 __all__ = ["NeedleTension", "TensionError", "TensionMetric", "disc_hold", "needle_tension", "of_head"]
 
@@ -52,6 +53,7 @@ TOL = 1e-9  # a contact holds while its tension ratio is within this of its caps
 TINY = 1e-9  # N: tensions this small count as none
 TINY_M = 1e-15  # m: thread passed this short counts as none
 PERIODIC = 1e-8  # m: the periodic state: two stitches' draws through the discs this close
+MOST_PERIOD = 8  # stitches: the longest period of a state looked for
 SAMPLES = 1440  # steps per stitch: a quarter degree of the main shaft
 MOST_NEWTON = 12  # Newton steps on the check spring's hook per step, at most
 SPRING_TOL = 1e-12  # m: the hook's place found when a Newton step moves it less
@@ -72,8 +74,12 @@ class NeedleTension:
     discs per stitch, which the stitch locks; ``formula`` m the stitch formula's needle thread
     per stitch (stitch length + fabric); ``set_at`` deg where the stitch is set (its thread
     locked); ``hold`` N the discs' hold; ``stiffness`` N the thread's EA; ``breaking_load`` N;
-    ``cycles`` the stitches run and ``converged`` whether the last two drew the same thread
-    through the discs within :data:`PERIODIC`."""
+    ``cycles`` the stitches run; ``period`` the stitches after which the state repeats: 1,
+    or up to :data:`MOST_PERIOD` where the check spring, striking its stop, repeats its
+    motion only every so many stitches (the traces are then those of the period's stitch
+    with the highest peak, ``per_stitch`` the period's mean), 0 where none was found within
+    the stitches run; ``converged`` whether one was (each stitch drew the same thread through
+    the discs as the one a period before, within :data:`PERIODIC`)."""
 
     theta: np.ndarray
     zones: tuple[str, ...]
@@ -88,6 +94,7 @@ class NeedleTension:
     breaking_load: float
     cycles: int
     converged: bool
+    period: int = 1
 
     @property
     def peak(self) -> float:
@@ -99,6 +106,16 @@ class NeedleTension:
         """The zone and the angle (deg) of :attr:`peak`."""
         z, k = np.unravel_index(int(np.argmax(self.tension)), self.tension.shape)
         return self.zones[int(z)], float(self.theta[int(k)])
+
+    @property
+    def repeats(self) -> str:
+        """A clause for a summary line: empty for a stitch that repeats itself, else how the
+        state repeats (or that it did not)."""
+        if not self.converged:
+            return f"; NOT periodic after {self.cycles} stitches"
+        if self.period > 1:
+            return f"; the stitches repeat every {self.period} (shown: the hardest pulled; the draw: their mean)"
+        return ""
 
     @property
     def margin(self) -> float:
@@ -122,7 +139,10 @@ class NeedleTension:
                 f"breaking load {self.breaking_load:.3g} N"
             )
         if not self.converged:
-            out.append(f"tension: no periodic state in {self.cycles} stitches (the last two drew different thread)")
+            out.append(
+                f"tension: no periodic state in {self.cycles} stitches (the stitches repeat neither one after another "
+                "nor every other)"
+            )
         return tuple(out)
 
     def columns(self) -> tuple[list[str], list[np.ndarray]]:
@@ -145,6 +165,7 @@ class NeedleTension:
             "slack_deg": round(float(self.slack.mean()) * 360.0, 3),
             "cycles": self.cycles,
             "converged": self.converged,
+            "period": self.period,
         }
 
 
@@ -381,39 +402,79 @@ def of_head(mech: Mechanism, head: HeadTiming) -> NeedleTension | None:
     return needle_tension(mech, head)
 
 
-def needle_tension(
+@dataclass(frozen=True, kw_only=True)
+class Problem:
+    """One head's thread over its stitch, ready to step (:func:`needle_tension`'s work before
+    its loop): ``theta`` (N,) deg; ``zones`` (Z,) names; per step ``lengths`` and ``bounds``
+    (N, Z) (m; capstan bounds, ``bounds[:, j]`` between stretches j-1 and j), the check
+    spring's neighbours ``up`` and ``down``, its hook at ``rest`` and its ``pull`` direction
+    (N, 3) m; ``order`` (N,) the steps' order from the stitch's setting; ``spring_at`` the
+    spring's contact; the thread's ``friction``, ``stiffness`` (EA, N) and the discs'
+    ``hold`` (N, inf when anchored); ``formula`` m the stitch's locked thread; ``set_at`` deg;
+    the spring's ``travel`` m, ``mass`` kg, ``rate`` N/m, ``damping`` N s/m and ``force`` N at
+    rest; ``dt`` s a step; ``start`` (Z,) m the stretches at the first step; ``anchored``
+    whether the thread is held at both ends (:func:`needle_tension`'s ``anchored``);
+    ``breaking_load`` N."""
+
+    theta: np.ndarray
+    zones: tuple[str, ...]
+    lengths: np.ndarray
+    bounds: np.ndarray
+    up: np.ndarray
+    down: np.ndarray
+    rest: np.ndarray
+    pull: np.ndarray
+    order: np.ndarray
+    spring_at: int
+    friction: float
+    stiffness: float
+    hold: float
+    formula: float
+    set_at: float
+    travel: float
+    mass: float
+    rate: float
+    damping: float
+    force: float
+    dt: float
+    start: np.ndarray
+    anchored: bool
+    breaking_load: float
+
+    def result(
+        self, tension: np.ndarray, spring: np.ndarray, drawn: np.ndarray, cycles: int, period: int, per_stitch: float
+    ) -> NeedleTension:
+        """The :class:`NeedleTension` of a stitch run: ``tension`` (Z, N) N, ``spring`` and
+        ``drawn`` (N,) m, the ``cycles`` run, the state's ``period`` (0: none) and the thread
+        drawn ``per_stitch`` (m)."""
+        return NeedleTension(
+            theta=self.theta,
+            zones=self.zones,
+            tension=tension,
+            spring=spring,
+            drawn=drawn,
+            per_stitch=per_stitch,
+            formula=self.formula,
+            set_at=self.set_at,
+            hold=self.hold,
+            stiffness=self.stiffness,
+            breaking_load=self.breaking_load,
+            cycles=cycles,
+            converged=period > 0,
+            period=period,
+        )
+
+
+def prepare(
     mech: Mechanism,
     head: HeadTiming,
     *,
     settings: ThreadTension | None = None,
     spring: bool = True,
     samples: int = SAMPLES,
-    most_cycles: int = 80,
     anchored: float | None = None,
-    cycles: int | None = None,
-) -> NeedleTension:
-    """The needle thread's tension over one stitch of a lockstitch ``head``, at the file's speed,
-    in its periodic state (the module's docstring says what is modelled).
-
-    Args:
-      mech: a lockstitch head with ``[timing]``, ``[thread]`` and ``[balance]`` tables.
-      head: its timing (:func:`.timing.head_timing`), whose angles ``samples`` divides.
-      settings: the thread and its tensioning parts; ``mech.tension`` or the published
-        defaults (:data:`~mjlink.model.tension.DEFAULTS`) when None.
-      spring: False takes the check spring away (its hook a fixed guide).
-      samples: steps per stitch.
-      most_cycles: stitches run at most to reach the periodic state.
-      anchored: hold this much thread (m, unstretched) at the discs (they never let it
-        through) and at the eye, with nothing below it, the spring at rest at the needle bar's
-        top and any slack there in the first stretch: what a MuJoCo tendon through the same
-        path models (:mod:`mjlink.sim.thread`).
-      cycles: run exactly this many stitches from the start and give the last (``converged``
-        then says only that they ran).
-    Returns:
-      :class:`NeedleTension` on ``samples`` angles.
-    Raises:
-      TensionError: a chain stitch, or a head without a ``[balance]`` table.
-    """
+) -> Problem:
+    """The :class:`Problem` of :func:`needle_tension` (its arguments)."""
     tm, bal, path = mech.timing, mech.balance, mech.thread
     if tm is None or bal is None or not path or head.balance is None:
         raise TensionError(f"{mech.name}: the tension needs a head with [timing], [thread] and [balance] tables")
@@ -428,8 +489,8 @@ def needle_tension(
     n = len(theta)
     dt = math.radians(float(theta[1] - theta[0])) / abs(mech.speed)
     release = head.events["loop released"]
-    at = stitch_end(head, tm.fabric, bal.stitch_length, release)
-    below = _lock_below(mech, head, hook_crank(mech), at)[0][::every]
+    # The balance measured the thread below the eye from this head's [timing] and [balance].
+    below = head.balance.below[::every] * MM
     formula = bal.stitch_length + tm.fabric
     set_at = head.balance.phases["needle descending"][0]
     k0 = int(np.searchsorted(theta, set_at % 360.0)) % n
@@ -464,41 +525,141 @@ def needle_tension(
     at_top = wraps[:, 0].copy()
     at_top[cs] = _wrap(up[:1], stop, down[:1])[0]
     hold = math.inf if anchored is not None else disc_hold(float(np.exp(cfg.friction * at_top[1:].sum())), cfg)
-
-    thread = _Thread(
-        lengths=lengths.T.tolist(),
-        bounds=np.exp(cfg.friction * wraps).T.tolist(),
-        up=up.tolist(),
-        down=down.tolist(),
-        rest=rest.tolist(),
-        travel_dir=pull.tolist(),
+    # Every stretch at the discs' hold, or the thread held with its slack in the first.
+    if anchored is None:
+        start = np.array([_stretched(cfg.stiffness, hold, L) for L in lengths[:, order[0]]])
+    else:
+        start = np.zeros(segs)
+        start[0] = float(lengths[:, order[0]].sum()) - anchored
+    zones = (*(f"{a}-{b}" for a, b in itertools.pairwise(path)), f"below {path[-1]}")
+    if anchored is not None:
+        zones = zones[:-1]
+    return Problem(
+        theta=theta,
+        zones=zones,
+        lengths=lengths.T.copy(),
+        bounds=np.exp(cfg.friction * wraps).T.copy(),
+        up=up,
+        down=down,
+        rest=rest,
+        pull=pull,
+        order=order,
         spring_at=cs,
         friction=cfg.friction,
         stiffness=cfg.stiffness,
         hold=hold,
+        formula=formula,
+        set_at=set_at,
+        travel=travel,
+        mass=cfg.spring_mass,
+        rate=cfg.spring_rate,
+        damping=2.0 * cfg.spring_damping * math.sqrt(cfg.spring_rate * cfg.spring_mass),
+        force=cfg.spring_force,
+        dt=dt,
+        start=start,
+        anchored=anchored is not None,
+        breaking_load=cfg.breaking_load,
     )
-    m_s, k_s = cfg.spring_mass, cfg.spring_rate
-    c_s = 2.0 * cfg.spring_damping * math.sqrt(k_s * m_s)
-    inertia, damp = m_s / (dt * dt), c_s / dt
-    # Every stretch at the discs' hold, or the thread held with its slack in the first.
-    if anchored is None:
-        s = [_stretched(cfg.stiffness, hold, L) for L in lengths[:, order[0]]]
-    else:
-        s = [0.0] * segs
-        s[0] = float(lengths[:, order[0]].sum()) - anchored
+
+
+def needle_tension(
+    mech: Mechanism,
+    head: HeadTiming,
+    *,
+    settings: ThreadTension | None = None,
+    spring: bool = True,
+    samples: int = SAMPLES,
+    most_cycles: int = 80,
+    anchored: float | None = None,
+    cycles: int | None = None,
+) -> NeedleTension:
+    """The needle thread's tension over one stitch of a lockstitch ``head``, at the file's speed,
+    in its periodic state (the module's docstring says what is modelled).
+
+    Args:
+      mech: a lockstitch head with ``[timing]``, ``[thread]`` and ``[balance]`` tables.
+      head: its timing (:func:`.timing.head_timing`), whose angles ``samples`` divides.
+      settings: the thread and its tensioning parts; ``mech.tension`` or the published
+        defaults (:data:`~mjlink.model.tension.DEFAULTS`) when None.
+      spring: False takes the check spring away (its hook a fixed guide).
+      samples: steps per stitch.
+      most_cycles: stitches run at most to reach the periodic state.
+      anchored: hold this much thread (m, unstretched) at the discs (they never let it
+        through) and at the eye, with nothing below it, the spring at rest at the needle bar's
+        top and any slack there in the first stretch: what a MuJoCo tendon through the same
+        path models (:mod:`mjlink.sim.thread`).
+      cycles: run exactly this many stitches from the start and give the last (``converged``
+        then says only that they ran).
+    Returns:
+      :class:`NeedleTension` on ``samples`` angles.
+    Raises:
+      TensionError: a chain stitch, or a head without a ``[balance]`` table.
+    """
+    pb = prepare(mech, head, settings=settings, spring=spring, samples=samples, anchored=anchored)
+    return step(pb, most_cycles=most_cycles, cycles=cycles)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Carry:
+    """Where a thread's stepping stands at a stitch's end: its stretches ``s`` (m), contacts'
+    ``state``, the spring's hook ``x`` (m) and speed ``v`` (m/s), the path ``prev`` (m), the
+    thread each stitch drew through the discs ``feds`` (m, oldest first) and its peak
+    tension ``tops`` (N), the ``period`` found (0: none yet) and the stitch to ``finish`` at,
+    the stitches ``ran``."""
+
+    s: list[float]
+    state: list[int]
+    x: float
+    v: float
+    prev: list[float]
+    feds: tuple[float, ...]
+    tops: tuple[float, ...]
+    period: int
+    finish: int
+    ran: int
+
+
+def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry: Carry | None = None) -> NeedleTension:
+    """Steps one :class:`Problem` to its periodic state in plain floats (the twin of
+    :func:`.tension_many.step_many`, which steps many at once), from its start or from where
+    ``carry`` says a stepping stood."""
+    n = len(pb.theta)
+    segs = pb.lengths.shape[1]
+    cs, travel, dt = pb.spring_at, pb.travel, pb.dt
+    thread = _Thread(
+        lengths=pb.lengths.tolist(),
+        bounds=pb.bounds.tolist(),
+        up=pb.up.tolist(),
+        down=pb.down.tolist(),
+        rest=pb.rest.tolist(),
+        travel_dir=pb.pull.tolist(),
+        spring_at=cs,
+        friction=pb.friction,
+        stiffness=pb.stiffness,
+        hold=pb.hold,
+    )
+    k_s = pb.rate
+    inertia, damp = pb.mass / (dt * dt), pb.damping / dt
+    formula = pb.formula
+    s = pb.start.tolist()
     x = v = 0.0
     out_T = np.zeros((n, segs))
     out_x = np.zeros(n)
     out_d = np.zeros(n)
     state = [0] * segs
-    last, fed = math.nan, 0.0
-    prev = thread.geometry(int(order[0]), x)[0]
-    converged = False
-    ran = 0
-    for ran in range(1, (cycles or most_cycles) + 1):
+    feds: list[float] = []
+    tops: list[float] = []
+    fed = 0.0
+    prev = thread.geometry(int(pb.order[0]), x)[0]
+    period, finish = 0, 0
+    ran = done = 0
+    if carry is not None:
+        s, state, x, v, prev, done = list(carry.s), list(carry.state), carry.x, carry.v, list(carry.prev), carry.ran
+        feds, tops, period, finish = list(carry.feds), list(carry.tops), carry.period, carry.finish
+    for ran in range(done + 1, (cycles or most_cycles) + 1):
         fed = 0.0
-        for step, k in enumerate(order.tolist()):
-            if step == 0 and ran > 1 and anchored is None:
+        for step, k in enumerate(pb.order.tolist()):
+            if step == 0 and ran > 1 and not pb.anchored:
                 # The stitch is set: its thread is locked in the fabric and leaves the stretch
                 # below the eye at the tension it was set with.
                 if s[-1] > 0.0:
@@ -513,7 +674,7 @@ def needle_tension(
                 for _ in range(MOST_NEWTON):
                     T = now.T
                     f = T[cs - 1] * now.ga + T[cs] * now.gb
-                    g = inertia * (xh - x - dt * v) + damp * (xh - x) + cfg.spring_force + k_s * xh - f
+                    g = inertia * (xh - x - dt * v) + damp * (xh - x) + pb.force + k_s * xh - f
                     stiff = inertia + damp + k_s + _hook_stiffness(now.s, now.c, now.r, now.state, cs, now.ga, now.gb)
                     nxt = min(max(xh - g / stiff, 0.0), travel)
                     if abs(nxt - xh) <= SPRING_TOL:
@@ -527,27 +688,28 @@ def needle_tension(
             out_T[k] = now.T
             out_x[k] = x
             out_d[k] = fed
-        if cycles is None and ran > 1 and abs(fed - last) <= PERIODIC:
-            converged = True
+        feds.append(fed)
+        tops.append(float(out_T.max()))
+        if cycles is None and not period:
+            period = periodic(feds)
+            finish = ran + (period - 1 - int(np.argmax(tops[-period:]))) if period else 0
+        if period and ran == finish:
             break
-        last = fed
-    converged = converged or cycles is not None
-    zones = (*(f"{a}-{b}" for a, b in itertools.pairwise(path)), f"below {path[-1]}")
-    return NeedleTension(
-        theta=theta,
-        zones=zones,
-        tension=out_T.T.copy(),
-        spring=out_x,
-        drawn=out_d,
-        per_stitch=fed,
-        formula=formula,
-        set_at=set_at,
-        hold=hold,
-        stiffness=cfg.stiffness,
-        breaking_load=cfg.breaking_load,
-        cycles=ran,
-        converged=converged,
-    )
+    if cycles is not None:
+        return pb.result(out_T.T.copy(), out_x, out_d, ran, 1, feds[-1])
+    # Any `period` stitches in a row of the repeating state draw the same thread between them.
+    per_stitch = sum(feds[-period:]) / period if period else feds[-1]
+    return pb.result(out_T.T.copy(), out_x, out_d, ran, period, per_stitch)
+
+
+def periodic(feds: list[float]) -> int:
+    """The least ``p`` up to :data:`MOST_PERIOD` for which each of the last ``p`` stitches
+    drew the same thread through the discs (within :data:`PERIODIC`) as the stitch ``p``
+    before it (1: the last two alike), else 0."""
+    for p in range(1, MOST_PERIOD + 1):
+        if len(feds) >= 2 * p and all(abs(feds[-i] - feds[-i - p]) <= PERIODIC for i in range(1, p + 1)):
+            return p
+    return 0
 
 
 class TensionMetric(TimingChecks):
@@ -555,11 +717,13 @@ class TensionMetric(TimingChecks):
     the variant's speed and [tension] numbers, on the study's crank angles): ``tension_peak``
     N, ``tension_margin`` (the breaking load over the peak), ``tension_per_stitch`` mm (drawn
     through the discs), ``tension_slack`` deg (of the stitch with the thread below the eye
-    slack: a loop), ``tension_spring`` mm (the check spring's largest travel) and
-    ``tension_periodic`` (1 where the stitch reached its periodic state)."""
+    slack: a loop), ``tension_spring`` mm (the check spring's largest travel),
+    ``tension_periodic`` (1 where the stitch reached its periodic state) and ``tension_period``
+    (1, or 2 where the stitches alternate; 0 without a periodic state)."""
 
     kind = "tension"
     options = ()
+    together = 256  # stepped at once (:mod:`.tension_many`): a task of this many costs least per variant
 
     def read(self, raw: dict[str, Any]) -> None:
         tm, bal = self.mech.timing, self.mech.balance
@@ -577,17 +741,21 @@ class TensionMetric(TimingChecks):
         Column("tension_slack", "deg", "of the stitch the thread below the eye is slack (a loop)"),
         Column("tension_spring", "mm", "the check spring's largest travel"),
         Column("tension_periodic", "", "1 if the stitch reached its periodic state"),
+        Column("tension_period", "", "stitches after which the thread's state repeats (2: alternating; 0: none)"),
     )
 
     def columns(self) -> list[Column]:
         return list(self.COLUMNS)
 
     def _tensions(self, b: Batch) -> list[tuple[HeadTiming, NeedleTension]]:
-        out = []
+        from .tension_many import step_many  # it steps this module's problems
+
+        heads, problems = [], []
         for head, bal, _, own in self.variants(b):
             whole = dataclasses.replace(head, balance=bal)
-            out.append((whole, needle_tension(own, whole, samples=len(head.theta))))
-        return out
+            heads.append(whole)
+            problems.append(prepare(own, whole, samples=len(head.theta)))
+        return list(zip(heads, step_many(problems), strict=True))
 
     def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
         rows = []
@@ -600,9 +768,10 @@ class TensionMetric(TimingChecks):
                     float(t.slack.mean()) * 360.0,
                     float(t.spring.max()) * 1e3,
                     float(t.converged),
+                    float(t.period),
                 ]
             )
-        out = np.array(rows, dtype=float).reshape(b.variants, 6)
+        out = np.array(rows, dtype=float).reshape(b.variants, 7)
         return {c.name: out[:, j] for j, c in enumerate(self.columns())}
 
     def curve(self, b: Batch, loads: Loads) -> Curve | None:

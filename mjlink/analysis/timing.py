@@ -10,6 +10,7 @@ default 7,200 samples a 0.05 deg grid, far finer than any window.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import itertools
 import math
 from dataclasses import dataclass
@@ -438,6 +439,9 @@ class TimingChecks(Metric):
         names = set(tm.roles.values()) | ({hook.pivot} if hook else set()) | set(self.mech.thread or ())
         pts = {p: b.per_variant(np.broadcast_to(b.kin.points[p].v, (b.variants * b.angles, 3))) for p in names}
         out = []
+        # Variants that differ only in speed or in the [tension] table share their timing and
+        # balance (neither depends on either; the speed's sign turns the hook's sense).
+        seen: dict[bytes, tuple[HeadTiming, ThreadBalance | None]] = {}
         for i in range(b.variants):
             # A study may vary the fabric, the stitch or the thread's numbers: this variant's.
             own_tm = dataclasses.replace(tm, fabric=_of(mech.timing.fabric if mech.timing else tm.fabric, i, b))
@@ -467,8 +471,17 @@ class TimingChecks(Metric):
                         vt, **{f.name: _of(getattr(vt, f.name), i, b) for f in dataclasses.fields(vt)}
                     ),
                 )
-            head = measure(own_tm, hook, u, {p: v[i] for p, v in pts.items()})
-            bal = thread_balance(own, head) if own.balance is not None and own.thread else None
+            where = {p: v[i] for p, v in pts.items()}
+            key = hashlib.blake2b(repr((own_tm, own.balance, own.speed >= 0)).encode(), digest_size=20)
+            for p in sorted(where):
+                key.update(np.ascontiguousarray(where[p]).tobytes())
+            if key.digest() not in seen:
+                head = measure(own_tm, hook, u, where)
+                seen[key.digest()] = (
+                    head,
+                    thread_balance(own, head) if own.balance is not None and own.thread else None,
+                )
+            head, bal = seen[key.digest()]
             rows = {r.key: r for r in (*head.rows, *(bal.rows if bal else ())) if r.maker in (None, self.maker)}
             out.append((head, bal, rows, own))
         return out
@@ -506,7 +519,9 @@ class ThreadBalance:
     the last stitch's end behind the needle's line (:class:`StitchEnd`); ``under`` (N,) mm the
     needle thread below the material while the hook carries a lockstitch's loop (NaN
     elsewhere), ``most_under`` its largest and ``most_under_at`` where the blade point then is,
-    deg of the hook's turn past its lowest point (six o'clock), NaN for a chain stitch."""
+    deg of the hook's turn past its lowest point (six o'clock), NaN for a chain stitch;
+    ``below`` (N,) mm the needle thread's taut length below the eye (what the demand counts
+    from the take-up's top)."""
 
     theta: np.ndarray
     path: np.ndarray
@@ -521,6 +536,7 @@ class ThreadBalance:
     under: np.ndarray
     most_under: float
     most_under_at: float
+    below: np.ndarray
 
 
 def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
@@ -653,6 +669,7 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         under=under / MM,
         most_under=most_under / MM,
         most_under_at=most_under_at,
+        below=below / MM,
     )
 
 

@@ -547,6 +547,5 @@ def tension_line(t: NeedleTension) -> str:
         f"{at:.1f} deg, breaking load {t.breaking_load:.3g} N (margin {t.margin:.2f}); discs' hold {t.hold:.3g} N\n"
         f"  a stitch draws {t.per_stitch / MM:.3f} mm through the discs (stitch formula {t.formula / MM:.2f} mm); "
         f"check spring travel up to {float(t.spring.max()) / MM:.2f} mm; below the eye slack for "
-        f"{float(t.slack.mean()) * 360.0:.0f} deg of the stitch"
-        + ("" if t.converged else f"; NOT periodic after {t.cycles} stitches")
+        f"{float(t.slack.mean()) * 360.0:.0f} deg of the stitch" + t.repeats
     )

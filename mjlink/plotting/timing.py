@@ -227,7 +227,7 @@ def tension_plot(mech: Mechanism, head: HeadTiming, t: NeedleTension, out_dir: P
         f"peak {t.peak:.3g} N ({t.peak / GF:.0f} gf) in {zone} at {at:.1f} deg: breaking load "
         f"{t.breaking_load:.3g} N, margin {t.margin:.2f}; discs' hold {t.hold:.3g} N\n"
         f"a stitch draws {t.per_stitch / MM:.3f} mm through the discs (stitch formula {t.formula / MM:.2f} mm)"
-        + ("" if t.converged else f"; NOT periodic after {t.cycles} stitches"),
+        + t.repeats,
         fontsize=8.5,
         pad=16,
     )

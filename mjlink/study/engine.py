@@ -1,7 +1,7 @@
 """The study engine: variants in chunks, on Dask or in this process, resumable.
 
 A study's variants are cut into chunks of a size that depends only on the number of variants
-(not on the workers), so a chunk's result is the same whatever runs it, and an interrupted
+and the study's metrics (not on the workers), so a chunk's result is the same whatever runs it, and an interrupted
 study, run again, finds its finished chunks in the cache and skips them. Chunks run:
 
 * on a Dask cluster, through the client the caller gives: an existing cluster, whose workers
@@ -40,6 +40,7 @@ from .tasks import Evaluated, StudyWorker, Verified, mujoco_chunk, reference_chu
 
 REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
 MUJOCO_CHUNK = (4, 128)  # variants per MuJoCo task (one rollout of that many models)
+TOGETHER_PARTS = 4  # reference tasks at least of a study whose metric steps its variants together
 PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx", "inproc")  # Dask's address schemes
 
 
@@ -52,9 +53,10 @@ class SchedulerError(EngineError, InputError):
     refused before any work (exit status 2)."""
 
 
-def chunking() -> dict[str, list[int]]:
+def chunking(study: Study) -> dict[str, list[int]]:
     """How variants are cut (the cache records it: another cut makes other chunks)."""
-    return {"reference": list(REFERENCE_CHUNK), "mujoco": list(MUJOCO_CHUNK)}
+    together = max((m.together for m in study.metrics), default=1)
+    return {"reference": [*REFERENCE_CHUNK, together], "mujoco": list(MUJOCO_CHUNK)}
 
 
 ADDRESS = re.compile(
@@ -83,6 +85,15 @@ def chunks(n: int, bounds: tuple[int, int], parts: int = 16) -> list[tuple[int, 
     lo, hi = bounds
     size = int(min(hi, max(lo, -(-n // parts))))
     return [(i, min(i + size, n)) for i in range(0, n, size)]
+
+
+def reference_chunks(study: Study, n: int) -> list[tuple[int, int]]:
+    """The reference's tasks over ``n`` variants of ``study``: about 16, unless a metric steps
+    its variants together (``Metric.together``), whose tasks then hold up to that many, still
+    four at least (two a core on a 2-core machine) where the variants allow."""
+    lo, hi = REFERENCE_CHUNK
+    together = max((m.together for m in study.metrics), default=1)
+    return chunks(n, (int(min(hi, max(lo, min(together, -(-n // TOGETHER_PARTS))))), hi))
 
 
 @dataclass
@@ -194,7 +205,7 @@ def run(
     timing = Timing()
     with timing.stage("sampling"):
         values = study.values()
-    cache = Cache(cache_dir, study, len(values), chunking())
+    cache = Cache(cache_dir, study, len(values), chunking(study))
     if what is None:
         what = "in process" if client is None else "the given Dask client"
     return _run(study, values, client, what, cache, progress, timing)
@@ -210,7 +221,7 @@ def _run(
     timing: Timing,
 ) -> Outcome:
     V = len(values)
-    ref_chunks = chunks(V, REFERENCE_CHUNK)
+    ref_chunks = reference_chunks(study, V)
     resumed = 0
     results: dict[tuple[int, int], Evaluated] = {}
     todo = []

@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import InputError
 from ..reference.batch import angle_grid
 from ..sim import steps as _steps  # the clock alone: no MuJoCo is imported
-from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks
+from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks, reference_chunks
 from .optimize import CHUNK_ROWS, budget, needed
 from .polish import batch_size as polish_batch
 from .settle import Settled, on_bowl
@@ -336,7 +336,7 @@ def estimate(
     client = 0.0
     if study.optimize is None:
         V = study.samples
-        tasks = len(chunks(V, REFERENCE_CHUNK))
+        tasks = len(reference_chunks(study, V))
         task_rows = min(REFERENCE_CHUNK[1], max(1, V)) * angles
         models = {"none": 0, "all": V, "best": min(study.count, V), "worst": min(study.count, V)}[study.verify]
         mj_chunks = chunks(models, MUJOCO_CHUNK, parts=8)

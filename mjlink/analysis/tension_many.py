@@ -1,0 +1,388 @@
+"""Many heads' needle threads stepped at once: :func:`.tension.step` over a batch of problems.
+
+A study's variants share a path's shape (the same points, stretches and contacts), so one step
+of all of them is a handful of array operations on (V, Z) arrays where :func:`.tension.step`
+spends a few dozen scalar operations on each. Every decision of the scalar twin is made here
+in the same order per variant (the contact most out of its state changes first, the spring's
+Newton stops at the same test, a variant stops at its own periodic state), so the two agree to
+rounding; tests/test_tension_many.py holds them together.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .tension import MOST_NEWTON, SPRING_TOL, TINY, TINY_M, TOL, Carry, NeedleTension, Problem, periodic, step
+
+__all__ = ["step_many"]
+
+_NEWTON = 60  # a run's tension scale: Newton steps at most (the scalar's bound)
+ALONE = 6  # threads still stepping at a stitch's end at most for the plain twin to take them over
+TOGETHER = 48  # threads at least for an array step to cost less than the twin's (bench/bench_tension.py)
+
+
+def _runs(state: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each stretch's run (the stretches a sliding contact links): ``same`` (V, Z, Z) 1.0 where
+    two stretches share a run, ``first`` (V, Z) the index of its run's first stretch and ``w``
+    (V, Z) its tension relative to that first stretch's (the sliding contacts' bounds
+    multiplied, as logarithms summed along the run)."""
+    Z = state.shape[1]
+    linked = state != 0
+    linked[:, 0] = False
+    first = np.maximum.accumulate(np.where(linked, 0, np.arange(Z)), axis=1)
+    steps = np.where(linked, np.where(state > 0, 1.0, -1.0) * np.log(r), 0.0)
+    c = np.cumsum(steps, axis=1)
+    w = np.exp(c - c.ravel()[first + Z * np.arange(len(c))[:, None]])
+    same = (first[:, :, None] == first[:, None, :]).astype(float)
+    return same, first, w
+
+
+def _in_run(same: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(V, Z): the sum of ``x`` (V, Z) over each stretch's run."""
+    out: np.ndarray = np.einsum("vij,vj->vi", same, x)
+    return out
+
+
+def _pull(ea: np.ndarray, s: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """:func:`.tension._pull` elementwise; ``ea`` (V, 1)."""
+    out: np.ndarray = np.where(s > 0.0, ea * s / np.where(s > 0.0, L - s, 1.0), 0.0)
+    return out
+
+
+def _solve(
+    s: np.ndarray, L: np.ndarray, ea: np.ndarray, r: np.ndarray, hold: np.ndarray, state: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The stretches and the discs' feed for the contacts' ``state`` held (one pass of
+    :func:`.tension._settle`'s loop): ``ea`` and ``hold`` (V, 1)."""
+    same, first, w = _runs(state, r)
+    total = _in_run(same, s)
+    discs = (first == 0) & (state[:, :1] != 0)
+    taut = ~discs & (total > 0.0)
+    wL = w * L
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        # A run paying out of the discs is at their hold.
+        held = hold * w
+        new_discs = held * L / (ea + held)
+        # A taut run shares one tension scale over its thread: Newton from below the root.
+        t = np.where(taut, ea * total / np.where(taut, _in_run(same, wL), 1.0), 1.0)
+        for _ in range(_NEWTON):
+            a = ea + t * w
+            f = _in_run(same, t * wL / a) - total
+            df = _in_run(same, ea * wL / (a * a))
+            dt = np.where(taut, f / np.where(taut, df, 1.0), 0.0)
+            t = t - dt
+            if np.all(np.abs(dt) <= 1e-14 * np.abs(t)):
+                break
+        new_taut = t * w * L / (ea + t * w)
+        # A slack run: the taut stretches have drawn the slack of the others.
+        loose = _in_run(same, np.minimum(s, 0.0))
+        new_slack = np.where(s < 0.0, s * total / np.where(loose < 0.0, loose, -1.0), 0.0)
+    new = np.where(discs, new_discs, np.where(taut, new_taut, new_slack))
+    fed = np.where(discs[:, 0], total[:, 0] - _in_run(same, new)[:, 0], 0.0)
+    return new, fed
+
+
+def _settle(
+    s: np.ndarray, L: np.ndarray, ea: np.ndarray, r: np.ndarray, hold: np.ndarray, state: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`.tension._settle` for V threads at once: ``s``, ``L``, ``r``, ``state`` (V, Z)
+    (``state`` updated in place), ``ea`` and ``hold`` (V, 1). Each thread changes its contact
+    most out of its state, one a pass, until none is; the ones done leave the passes."""
+    V, Z = s.shape
+    new_all = np.empty_like(s)
+    fed_all = np.zeros(V)
+    todo = np.arange(V)
+    for _ in range(16 * Z):
+        sv, Lv, eav, rv, hv, st = s[todo], L[todo], ea[todo], r[todo], hold[todo], state[todo]
+        new, fed = _solve(sv, Lv, eav, rv, hv, st)
+        T = _pull(eav, new, Lv)
+        e = eav[:, 0]
+        score = np.zeros((len(todo), Z + 1))
+        to = np.zeros((len(todo), Z + 1), dtype=state.dtype)
+        # The discs stop paying out when they would have to take thread back.
+        score[:, 0] = np.where((st[:, 0] != 0) & (fed < -TINY_M), -fed * e / Lv[:, 0], 0.0)
+        # What each contact passed towards the eye, from the discs' feed down.
+        passed = fed[:, None] + np.cumsum(new[:, :-1] - sv[:, :-1], axis=1)
+        ta, tb, rj, sj = T[:, :-1], T[:, 1:], rv[:, 1:], st[:, 1:]
+        holding = sj == 0
+        down = holding & (tb > rj * ta * (1.0 + TOL) + TINY)
+        up = holding & ~down & (ta > rj * tb * (1.0 + TOL) + TINY)
+        back = ~holding & (sj * passed < -TINY_M)
+        score[:, 1:Z] = np.where(
+            down, tb - rj * ta, np.where(up, ta - rj * tb, np.where(back, np.abs(passed) * e[:, None] / Lv[:, 1:], 0.0))
+        )
+        to[:, 1:Z] = np.where(down, 1, np.where(up, -1, 0))
+        # The discs start to pay out at their hold (checked last, as the twin does).
+        score[:, Z] = np.where((st[:, 0] == 0) & (T[:, 0] > hv[:, 0] * (1.0 + TOL)), T[:, 0] - hv[:, 0], 0.0)
+        to[:, Z] = 1
+        worst = np.argmax(score, axis=1)
+        rows = np.arange(len(todo))
+        moves = score[rows, worst] > 0.0
+        done = ~moves
+        new_all[todo[done]] = new[done]
+        fed_all[todo[done]] = fed[done]
+        which = todo[moves]
+        state[which, np.where(worst[moves] == Z, 0, worst[moves])] = to[rows[moves], worst[moves]]
+        todo = which
+        if not len(todo):
+            return new_all, fed_all
+    raise RuntimeError("the thread's contacts found no consistent state")
+
+
+@dataclass(kw_only=True)
+class _Now:
+    """V threads' equilibrium in one step (:class:`.tension._Step` as (V, Z) arrays; ``fed``,
+    ``ga`` and ``gb`` (V,))."""
+
+    L: np.ndarray
+    r: np.ndarray
+    c: np.ndarray
+    T: np.ndarray
+    s: np.ndarray
+    state: np.ndarray
+    fed: np.ndarray
+    ga: np.ndarray
+    gb: np.ndarray
+
+    def put(self, at: np.ndarray, other: _Now) -> None:
+        """Replaces the threads ``at`` by ``other``'s."""
+        for name in ("L", "r", "c", "T", "s", "state", "fed", "ga", "gb"):
+            getattr(self, name)[at] = getattr(other, name)
+
+
+@dataclass(kw_only=True)
+class _Batch:
+    """The problems' per-step geometry stacked: (V, N, Z) lengths and bounds, (V, N, 3) the
+    spring's neighbours, rest and direction, (V, 1) the thread's numbers, ``cs`` the spring's
+    contact."""
+
+    lengths: np.ndarray
+    bounds: np.ndarray
+    up: np.ndarray
+    down: np.ndarray
+    rest: np.ndarray
+    pull: np.ndarray
+    friction: np.ndarray
+    ea: np.ndarray
+    hold: np.ndarray
+    cs: int
+
+    def settle(
+        self, at: np.ndarray, k: np.ndarray, xh: np.ndarray, s: np.ndarray, prev: np.ndarray, state: np.ndarray
+    ) -> _Now:
+        """:meth:`.tension._Thread.settle` for the threads ``at`` (V,) of the batch, each at its
+        step ``k`` (V,), its spring's hook at ``xh`` (V,) m, from its stretches ``s`` over its
+        path ``prev`` and its contacts' ``state`` (V, Z; copied)."""
+        L, r = self.lengths[at, k], self.bounds[at, k]
+        d = self.pull[at, k]
+        rest = self.rest[at, k]
+        ua = self.up[at, k] - rest - xh[:, None] * d
+        ub = self.down[at, k] - rest - xh[:, None] * d
+        la = np.sqrt(np.einsum("ij,ij->i", ua, ua))
+        lb = np.sqrt(np.einsum("ij,ij->i", ub, ub))
+        j = self.cs
+        L[:, j - 1], L[:, j] = la, lb
+        turn = -np.einsum("ij,ij->i", ua, ub) / (la * lb)
+        r[:, j] = np.exp(self.friction[at, 0] * np.arccos(np.clip(turn, -1.0, 1.0)))
+        ga = np.einsum("ij,ij->i", ua, d) / la
+        gb = np.einsum("ij,ij->i", ub, d) / lb
+        st = state.copy()
+        ea = self.ea[at]
+        moved, fed = _settle(s + (L - prev), L, ea, r, self.hold[at], st)
+        taut = moved > 0.0
+        c = np.where(taut, ea * L / np.where(taut, L - moved, 1.0) ** 2, ea / L)
+        return _Now(L=L, r=r, c=c, T=_pull(ea, moved, L), s=moved, state=st, fed=fed, ga=ga, gb=gb)
+
+    def lengths_at(self, at: np.ndarray, k: np.ndarray, xh: np.ndarray) -> np.ndarray:
+        """(V, Z) m: the threads' ``at`` path lengths at step ``k`` with the hook at ``xh``."""
+        L: np.ndarray = self.lengths[at, k]
+        d = self.pull[at, k]
+        ua = self.up[at, k] - self.rest[at, k] - xh[:, None] * d
+        ub = self.down[at, k] - self.rest[at, k] - xh[:, None] * d
+        L[:, self.cs - 1] = np.sqrt(np.einsum("ij,ij->i", ua, ua))
+        L[:, self.cs] = np.sqrt(np.einsum("ij,ij->i", ub, ub))
+        return L
+
+
+def _hook_stiffness(now: _Now, cs: int, pays: np.ndarray) -> np.ndarray:
+    """:func:`.tension._hook_stiffness` for V threads (N/m, (V,)): each run of stretches next to
+    the hook, between holding contacts, adds its share unless the discs pay it out or it is
+    slack; ``pays`` (V,) whether the discs pay out."""
+    same, first, w = _runs(now.state, now.r)
+    compliance = _in_run(same, w / now.c)
+    slack = _in_run(same, now.s)
+    live = (slack > 0.0) & ~((first == 0) & pays[:, None])
+    a, b = cs - 1, cs
+    ga, gb = w[:, a] * now.ga, w[:, b] * now.gb
+    joined = now.state[:, b] != 0
+    both = np.where(live[:, a], (ga + gb) ** 2 / compliance[:, a], 0.0)
+    apart = np.where(live[:, a], ga * ga / compliance[:, a], 0.0) + np.where(
+        live[:, b], gb * gb / compliance[:, b], 0.0
+    )
+    out: np.ndarray = np.where(joined, both, apart)
+    return out
+
+
+def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | None = None) -> list[NeedleTension]:
+    """:func:`.tension.step` of every problem, stepped together.
+
+    Args:
+      problems: V problems of one path's shape (the same steps N, stretches Z and spring
+        contact), from :func:`.tension.prepare`.
+      most_cycles: stitches run at most to reach the periodic state.
+      cycles: run exactly this many stitches (the twin's ``cycles``).
+    Returns:
+      V :class:`NeedleTension`, each what :func:`.tension.step` gives its problem.
+    Raises:
+      ValueError: problems of different shapes.
+    """
+    if len(problems) < TOGETHER:
+        return [step(p, most_cycles=most_cycles, cycles=cycles) for p in problems]
+    shapes = {(p.lengths.shape, p.spring_at, p.anchored) for p in problems}
+    if len(shapes) > 1:
+        raise ValueError(f"step_many: problems of different shapes {sorted(shapes)}")
+    V = len(problems)
+    n, Z = problems[0].lengths.shape
+    cs = problems[0].spring_at
+
+    def col(name: str) -> np.ndarray:
+        return np.array([float(getattr(p, name)) for p in problems])
+
+    g = _Batch(
+        lengths=np.stack([p.lengths for p in problems]),
+        bounds=np.stack([p.bounds for p in problems]),
+        up=np.stack([p.up for p in problems]),
+        down=np.stack([p.down for p in problems]),
+        rest=np.stack([p.rest for p in problems]),
+        pull=np.stack([p.pull for p in problems]),
+        friction=col("friction")[:, None],
+        ea=col("stiffness")[:, None],
+        hold=col("hold")[:, None],
+        cs=cs,
+    )
+    order = np.stack([p.order for p in problems])
+    travel, dt, k_s, force, formula = col("travel"), col("dt"), col("rate"), col("force"), col("formula")
+    inertia, damp = col("mass") / (dt * dt), col("damping") / dt
+    anchored = problems[0].anchored
+
+    out_T = np.zeros((V, n, Z))
+    out_x = np.zeros((V, n))
+    out_d = np.zeros((V, n))
+    feds = np.full((V, (cycles or most_cycles)), np.nan)
+    tops = np.full((V, (cycles or most_cycles)), np.nan)
+    period = np.zeros(V, dtype=np.int64)
+    finish = np.zeros(V, dtype=np.int64)
+    results: list[NeedleTension | None] = [None] * V
+
+    live = np.arange(V)  # the problems still stepping
+    s = np.stack([p.start for p in problems])
+    x = np.zeros(V)
+    v = np.zeros(V)
+    state = np.zeros((V, Z), dtype=np.int64)
+    prev = g.lengths_at(live, order[:, 0], x)
+    for ran in range(1, (cycles or most_cycles) + 1):
+        if len(live) <= ALONE and ran > 1:
+            # A few left (slow to settle): the plain twin steps each from here, cheaper than
+            # an array step over a handful of threads.
+            for i, at in enumerate(live):
+                carry = Carry(
+                    s=s[i].tolist(),
+                    state=[int(c) for c in state[i]],
+                    x=float(x[i]),
+                    v=float(v[i]),
+                    prev=prev[i].tolist(),
+                    feds=tuple(float(f) for f in feds[at, : ran - 1]),
+                    tops=tuple(float(f) for f in tops[at, : ran - 1]),
+                    period=int(period[at]),
+                    finish=int(finish[at]),
+                    ran=ran - 1,
+                )
+                results[at] = step(problems[at], most_cycles=most_cycles, cycles=cycles, carry=carry)
+            break
+        fed = np.zeros(len(live))
+        ordr = order[live]
+        tr, dtv, ks, fs = travel[live], dt[live], k_s[live], force[live]
+        inr, dmp = inertia[live], damp[live]
+        sprung = tr > 0.0
+        for stepno in range(n):
+            k = ordr[:, stepno]
+            if stepno == 0 and ran > 1 and not anchored:
+                # The stitch is set: its thread leaves the stretch below the eye.
+                f = formula[live]
+                taut = s[:, -1] > 0.0
+                s[taut, -1] *= (prev[taut, -1] - f[taut]) / prev[taut, -1]
+                prev[:, -1] -= f
+            xh = x.copy()
+            now = g.settle(live, k, xh, s, prev, state)
+            newton = sprung.copy()
+            for _ in range(MOST_NEWTON):
+                at = np.flatnonzero(newton)
+                if not len(at):
+                    break
+                sub = _Now(**{name: getattr(now, name)[at] for name in _Now.__dataclass_fields__})
+                f_hook = sub.T[:, cs - 1] * sub.ga + sub.T[:, cs] * sub.gb
+                xa, va = x[at], v[at]
+                resid = (
+                    inr[at] * (xh[at] - xa - dtv[at] * va) + dmp[at] * (xh[at] - xa) + fs[at] + ks[at] * xh[at] - f_hook
+                )
+                stiff = inr[at] + dmp[at] + ks[at] + _hook_stiffness(sub, cs, sub.state[:, 0] != 0)
+                nxt = np.minimum(np.maximum(xh[at] - resid / stiff, 0.0), tr[at])
+                still = np.abs(nxt - xh[at]) > SPRING_TOL
+                newton[at[~still]] = False
+                moving = at[still]
+                if not len(moving):
+                    break
+                xh[moving] = nxt[still]
+                now.put(moving, g.settle(live[moving], k[moving], xh[moving], s[moving], prev[moving], state[moving]))
+            stops = (xh == 0.0) | (xh == tr)
+            v = np.where(sprung, np.where(stops, 0.0, (xh - x) / dtv), v)
+            x = np.where(sprung, xh, x)
+            s, state, prev = now.s, now.state, now.L
+            fed = fed + now.fed
+            out_T[live, k] = now.T
+            out_x[live, k] = x
+            out_d[live, k] = fed
+        feds[live, ran - 1] = fed
+        tops[live, ran - 1] = out_T[live].max(axis=(1, 2))
+        if cycles is None:
+            # A state found: on to its stitch with the highest peak (the twin's rule).
+            for i in np.flatnonzero(period[live] == 0):
+                at = int(live[i])
+                p = periodic(feds[at, :ran].tolist())
+                if p:
+                    period[at] = p
+                    finish[at] = ran + (p - 1 - int(np.argmax(tops[at, ran - p : ran])))
+        ends = ((period[live] > 0) & (finish[live] == ran)) | (ran == (cycles or most_cycles))
+        for i in np.flatnonzero(ends):
+            at = int(live[i])
+            results[at] = _result(
+                problems[at], out_T[at], out_x[at], out_d[at], feds[at, :ran], ran, cycles, int(period[at])
+            )
+        keep = ~ends
+        live = live[keep]
+        s, state, prev, x, v = s[keep], state[keep], prev[keep], x[keep], v[keep]
+        if not len(live):
+            break
+    done = [r for r in results if r is not None]
+    assert len(done) == V
+    return done
+
+
+def _result(
+    pb: Problem,
+    T: np.ndarray,
+    x: np.ndarray,
+    d: np.ndarray,
+    feds: np.ndarray,
+    ran: int,
+    cycles: int | None,
+    period: int,
+) -> NeedleTension:
+    """The twin's result from one problem's last stitch's traces ``T`` (N, Z), ``x`` and ``d``
+    (N,), every stitch's draw ``feds`` (ran,) and the state's ``period`` (0: none)."""
+    if cycles is not None:
+        return pb.result(T.T.copy(), x.copy(), d.copy(), ran, 1, float(feds[-1]))
+    per_stitch = float(sum(feds[-period:].tolist()) / period) if period else float(feds[-1])
+    return pb.result(T.T.copy(), x.copy(), d.copy(), ran, period, per_stitch)

@@ -1,0 +1,145 @@
+"""Many heads' needle threads stepped at once (mjlink.analysis.tension_many) against the plain
+twin that steps one (mjlink.analysis.tension.step), and the states that repeat only every few
+stitches: the check spring striking its stop."""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+
+import numpy as np
+import pytest
+
+from mjlink.analysis.tension import periodic, prepare, step
+from mjlink.analysis.tension_many import TOGETHER, step_many
+from mjlink.analysis.timing import head_timing
+from mjlink.model import mechanism
+from mjlink.model.catalogue import shipped
+from mjlink.model.tension import DEFAULTS
+from mjlink.study.engine import REFERENCE_CHUNK, reference_chunks
+from mjlink.study.spec import load
+
+HEAD = shipped("mechanisms") / "lockstitch_head.toml"
+# The stitch that alternates: found on the shipped head at 720 steps a stitch by a random
+# search of needle tension (N) and check-spring rate (N/m); the tests below check it from
+# outside the detection.
+ALTERNATING = {"needle_tension": 2.2415538907306627, "spring_rate": 30.459956818458064}
+
+
+@pytest.fixture(scope="module")
+def head():
+    mech = mechanism.load(HEAD)
+    return mech, head_timing(mech, samples=720)
+
+
+def _problem(mech, timing, *, speed=None, spring=True, **tension):
+    cfg = dataclasses.replace(mech.tension or DEFAULTS, **tension)
+    own = dataclasses.replace(mech, speed=speed) if speed is not None else mech
+    return prepare(own, timing, settings=cfg, samples=360, spring=spring)
+
+
+def test_the_array_step_gives_what_the_twin_gives_each_head(head):
+    """Needle tensions, spring rates and speeds over the range a study varies, a head without
+    its check spring and stitches that alternate: each one's periodic state, its period, the
+    stitches run, every zone's tension, the spring's travel and the thread drawn agree with the
+    twin's to rounding (the same arithmetic in another order)."""
+    mech, timing = head
+    problems = [
+        _problem(mech, timing, speed=w, needle_tension=nt, spring_rate=k)
+        for nt, k, w in itertools.product((1.0, 1.9, 2.8), (10.0, 30.0, 60.0), (157.08, 366.52, 628.32))
+    ]
+    # Two that alternate at 360 steps a stitch (found as ALTERNATING was).
+    problems += [
+        _problem(mech, timing, speed=418.879, needle_tension=2.4, spring_rate=20.0),
+        _problem(mech, timing, speed=523.599, needle_tension=2.8, spring_rate=20.0),
+        _problem(mech, timing, spring=False),
+    ]
+    problems += [_problem(mech, timing, needle_tension=1.0 + 0.1 * i, spring_rate=20.0 + 2.0 * i) for i in range(20)]
+    assert len(problems) >= TOGETHER  # stepped as arrays, the last few handed to the twin
+    many = step_many(problems)
+    for p, b in zip(problems, many, strict=True):
+        a = step(p)
+        assert (b.cycles, b.period, b.converged) == (a.cycles, a.period, a.converged)
+        np.testing.assert_allclose(b.tension, a.tension, rtol=0, atol=1e-9 * a.peak)
+        np.testing.assert_allclose(b.spring, a.spring, rtol=0, atol=1e-12)  # m
+        np.testing.assert_allclose(b.drawn, a.drawn, rtol=0, atol=1e-12)  # m
+        assert b.per_stitch == pytest.approx(a.per_stitch, rel=1e-12, abs=1e-15)
+    assert {t.period for t in many} >= {1, 2}
+
+
+def test_a_fixed_number_of_stitches_is_the_twins(head):
+    mech, timing = head
+    problems = [_problem(mech, timing, needle_tension=1.0 + 0.03 * i) for i in range(TOGETHER)]
+    for p, b in zip(problems, step_many(problems, cycles=2), strict=True):
+        a = step(p, cycles=2)
+        assert b.cycles == a.cycles == 2
+        np.testing.assert_allclose(b.tension, a.tension, rtol=0, atol=1e-9 * a.peak)
+
+
+def test_problems_of_different_paths_are_refused(head):
+    mech, timing = head
+    problems = [_problem(mech, timing) for _ in range(TOGETHER)]
+    odd = prepare(mech, timing, samples=720)
+    with pytest.raises(ValueError, match="different shapes"):
+        step_many([*problems, odd])
+
+
+@pytest.mark.parametrize(
+    ("feds", "period"),
+    [
+        ([4.0, 4.5, 4.49, 4.49], 1),
+        ([4.49, 4.5, 4.49, 4.5], 2),
+        ([4.0, 4.49, 4.5, 4.49, 4.5], 2),
+        ([4.1, 4.2, 4.3, 4.1, 4.2, 4.3], 3),
+        ([4.1, 4.2, 4.3, 4.1, 4.2], 0),  # not yet twice over
+        ([4.0, 4.1, 4.2, 4.3], 0),
+        ([4.0], 0),
+    ],
+)
+def test_a_state_repeats_after_the_least_period_seen_twice_over(feds, period):
+    assert periodic([f * 1e-3 for f in feds]) == period
+
+
+def test_the_shipped_head_can_alternate_its_stitches(head):
+    """Checked by stepping a fixed number of stitches from the start, outside the detection:
+    the stitch a period on is the reported one again, the one in between is not."""
+    mech, timing = head
+    settings = dataclasses.replace(mech.tension or DEFAULTS, **ALTERNATING)
+    pb = prepare(mech, timing, settings=settings, samples=720)
+    t = step(pb)
+    assert t.period == 2 and t.converged
+    again = step(pb, cycles=t.cycles + 2)
+    between = step(pb, cycles=t.cycles + 1)
+    np.testing.assert_allclose(again.tension, t.tension, rtol=0, atol=1e-6 * t.peak)
+    assert again.drawn[pb.order[-1]] == pytest.approx(t.drawn[pb.order[-1]], abs=1e-8)  # m: the periodic test's
+    assert abs(between.drawn[pb.order[-1]] - t.drawn[pb.order[-1]]) > 1e-6  # m: the two stitches differ
+    # Reported: the harder pulled of the two, and the mean draw of the pair.
+    assert t.peak >= between.peak
+    pair = (t.drawn[pb.order[-1]] + between.drawn[pb.order[-1]]) / 2
+    assert t.per_stitch == pytest.approx(pair, abs=1e-8)  # m: the periodic test's
+
+
+def test_a_tension_study_steps_its_variants_in_large_tasks(tmp_path):
+    """A study whose metric steps its variants at once cuts them into tasks of up to that
+    many, four at least where there are enough; others keep about sixteen."""
+    body = """[study]
+mechanism = "lockstitch_head"
+title = "t"
+angles = 720
+[sampling]
+method = "grid"
+[verify]
+mujoco = "none"
+[[parameter]]
+path = "tension.needle_tension"
+values = [{values}]
+[[metric]]
+kind = "{kind}"
+"""
+    for n, kind, tasks in ((1000, "tension", 4), (27, "tension", 4), (8, "tension", 1), (1000, "timing", 16)):
+        f = tmp_path / f"{kind}{n}.toml"
+        f.write_text(body.format(values=", ".join(str(1.0 + i * 1e-3) for i in range(n)), kind=kind))
+        study = load(f)
+        cut = reference_chunks(study, n)
+        assert len(cut) == tasks, (n, kind, cut)
+        assert cut[0][0] == 0 and cut[-1][1] == n and all(b - a <= REFERENCE_CHUNK[1] for a, b in cut)
