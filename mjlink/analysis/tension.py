@@ -665,7 +665,8 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
                 if s[-1] > 0.0:
                     s[-1] *= (prev[-1] - formula) / prev[-1]
                 prev[-1] -= formula
-            xh = x
+            # The hook's first place: where its speed would carry it (Newton's start).
+            xh = min(max(x + dt * v, 0.0), travel)
             now = thread.settle(k, xh, s, prev, state)
             if travel > 0.0:
                 # Backward Euler on the spring, its hook where its inertia, damping and force

@@ -19,7 +19,7 @@ from .tension import MOST_NEWTON, SPRING_TOL, TINY, TINY_M, TOL, Carry, NeedleTe
 __all__ = ["step_many"]
 
 _NEWTON = 60  # a run's tension scale: Newton steps at most (the scalar's bound)
-ALONE = 6  # threads still stepping at a stitch's end at most for the plain twin to take them over
+ALONE = 24  # threads still stepping at a stitch's end at most for the plain twin to take them over
 TOGETHER = 48  # threads at least for an array step to cost less than the twin's (bench/bench_tension.py)
 
 
@@ -314,7 +314,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
                 taut = s[:, -1] > 0.0
                 s[taut, -1] *= (prev[taut, -1] - f[taut]) / prev[taut, -1]
                 prev[:, -1] -= f
-            xh = x.copy()
+            xh = np.minimum(np.maximum(x + dtv * v, 0.0), tr)
             now = g.settle(live, k, xh, s, prev, state)
             newton = sprung.copy()
             for _ in range(MOST_NEWTON):
