@@ -475,13 +475,10 @@ class TimingChecks(Metric):
             key = hashlib.blake2b(repr((own_tm, own.balance, own.speed >= 0)).encode(), digest_size=20)
             for p in sorted(where):
                 key.update(np.ascontiguousarray(where[p]).tobytes())
-            if key.digest() not in seen:
+            if (digest := key.digest()) not in seen:
                 head = measure(own_tm, hook, u, where)
-                seen[key.digest()] = (
-                    head,
-                    thread_balance(own, head) if own.balance is not None and own.thread else None,
-                )
-            head, bal = seen[key.digest()]
+                seen[digest] = (head, thread_balance(own, head) if own.balance is not None and own.thread else None)
+            head, bal = seen[digest]
             rows = {r.key: r for r in (*head.rows, *(bal.rows if bal else ())) if r.maker in (None, self.maker)}
             out.append((head, bal, rows, own))
         return out
@@ -520,8 +517,7 @@ class ThreadBalance:
     needle thread below the material while the hook carries a lockstitch's loop (NaN
     elsewhere), ``most_under`` its largest and ``most_under_at`` where the blade point then is,
     deg of the hook's turn past its lowest point (six o'clock), NaN for a chain stitch;
-    ``below`` (N,) mm the needle thread's taut length below the eye (what the demand counts
-    from the take-up's top)."""
+    ``below`` (N,) mm the needle thread's taut length below the eye."""
 
     theta: np.ndarray
     path: np.ndarray
