@@ -15,6 +15,7 @@ Run: ``python bench/bench_feed.py [--repeat N]`` (default 5).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import statistics
 import tempfile
 from pathlib import Path
@@ -25,6 +26,7 @@ from bench_tension import _cpu, _simulate_takeup
 from mjlink import reference
 from mjlink.model import mechanism
 from mjlink.model.catalogue import shipped
+from mjlink.model.presser import FABRIC_DEFAULTS
 from mjlink.sim import feed
 
 SPEEDS = (300, 500, 1000, 2000, 3000, 4000, 5000, 6000)
@@ -41,13 +43,17 @@ def geometric(mech: mechanism.Mechanism) -> float:
 
 def sweep(mech: mechanism.Mechanism) -> None:
     print(f"geometric advance (the dog's travel while its teeth are up): {geometric(mech) * 1e3:.4f} mm")
-    for mass in (feed.Fabric().mass, 0.02, 0.1):
+    for mass in (FABRIC_DEFAULTS.mass, 0.02, 0.1):
         print(f"fabric {mass * 1e3:g} g:")
         for rpm in SPEEDS:
-            f = feed.Fabric(mass=mass)
+            f = dataclasses.replace(FABRIC_DEFAULTS, mass=mass)
             a = feed.run_feed(mech, speed_rpm=rpm, stitches=8, fabric=f)
-            line = f"  {rpm:5d} rpm: advance {a.advance[-1] * 1e3:.4f} mm"
-            if mass == feed.Fabric().mass:
+            deg, _ = a.separation
+            line = (
+                f"  {rpm:5d} rpm: advance {a.advance[-1] * 1e3:.4f} mm ({a.error:+.2%} of the dog's), foot off "
+                f"{deg:.0f} deg, spring load {a.load_factor:.3f}x, slip {a.slip * 1e6:.1f} um"
+            )
+            if mass == FABRIC_DEFAULTS.mass:
                 b = feed.run_feed(mech, speed_rpm=rpm, stitches=8, fabric=f, timestep=a.timestep / 2)
                 line += (
                     f", half the timestep {b.advance[-1] * 1e3:.4f} mm "

@@ -11,7 +11,7 @@ The public API (documented in docs/api.md; each name is a function of :mod:`mjli
     res = mjlink.simulate(mech, "renders")    # `python -m mjlink simulate`: files and report
     st = mjlink.run_study("crank_slider_grid", "renders", workers=0)
     tab = mjlink.read_study(st.out_dir)       # the study's table and summary
-    rep = mjlink.check(mech)                  # and check, export, design, loads, steady, synth
+    rep = mjlink.check(mech)                  # and check, export, design, loads, steady, synth, feed
 
 The names load on first use: ``import mjlink`` alone imports neither numpy nor MuJoCo.
 """
@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from .api import (
         CheckReport,
         ExportResult,
+        FeedResult,
         LoadsResult,
         OptimizeResult,
         SimulateResult,
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
         check,
         design,
         export,
+        feed,
         load,
         loads,
         mjcf,
@@ -54,6 +56,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CheckReport",
     "ExportResult",
+    "FeedResult",
     "LoadsResult",
     "Mechanism",
     "MjlinkError",
@@ -68,6 +71,7 @@ __all__ = [
     "check",
     "design",
     "export",
+    "feed",
     "load",
     "loads",
     "mjcf",

@@ -39,6 +39,7 @@ from .model.mechanism import Mechanism
 from .model.reader import shown
 from .pipeline import (
     BuildResult,
+    FeedResult,
     LoadsResult,
     Options,
     SimulateResult,
@@ -49,6 +50,7 @@ from .pipeline import (
     synthesize,
     write_design,
 )
+from .pipeline import feed as _pipeline_feed
 from .pipeline import loads as _pipeline_loads
 from .pipeline import run as _simulate_run
 from .pipeline import steady as _pipeline_steady
@@ -68,6 +70,7 @@ from .validation import CheckReport
 __all__ = [
     "CheckReport",
     "ExportResult",
+    "FeedResult",
     "LoadsResult",
     "OptimizeResult",
     "SimulateResult",
@@ -79,6 +82,7 @@ __all__ = [
     "check",
     "design",
     "export",
+    "feed",
     "load",
     "loads",
     "mjcf",
@@ -619,3 +623,32 @@ def synth(
     if target is not None:
         write_design(res, target, force=again)
     return res
+
+
+def feed(
+    mechanism: Mechanism | PathLike, *, speed_rpm: float | None = None, sweep: bool = False, stitches: int = 6
+) -> FeedResult:
+    """What ``python -m mjlink feed`` computes (nothing is written): the fabric fed by the head's
+    dog under its sprung presser foot through MuJoCo's contacts, at ``speed_rpm`` (default the
+    file's; its sign is ignored, the file's sense kept) or with ``sweep`` every 500 rpm from 500
+    to 6,000, ``stitches`` (2 to 50) from rest at each speed.
+
+    Returns:
+      :class:`~mjlink.pipeline.FeedResult`: per speed a :class:`mjlink.sim.feed.FeedRun`
+      (``stitch``, ``error``, ``spread``, ``separation``, ``load_factor``, ``slip``, the traces
+      of the last stitch), and over a sweep ``first_over`` the slowest beyond 2 %.
+    """
+    fn = "feed"
+    mech = _mechanism(fn, mechanism)
+    rpm = _number(fn, "speed_rpm", speed_rpm, "rpm")
+    every = _flag(fn, "sweep", sweep)
+    if isinstance(stitches, bool | np.bool_) or not isinstance(stitches, numbers.Integral):
+        raise _refuse(fn, "stitches", stitches, "a whole number")
+    names = {"--speed": "speed_rpm", "--sweep": "sweep", "--stitches": "stitches"}
+    try:
+        return _pipeline_feed(mech, speed_rpm=rpm, sweep=every, stitches=int(stitches))
+    except InputError as e:  # the command's check, in the arguments' names
+        text = str(e)
+        for option, name in names.items():
+            text = text.replace(option, name)
+        raise ArgumentError(f"{fn}(): {text}") from None

@@ -232,6 +232,7 @@ VALID = {
     "design": {"mechanism": "MECH", "output": None, "out": "TMP", "force": False},
     "loads": {"mechanism": "MECH", "out": "TMP", "speed_rpm": 955.0, "plots": False, "force": False},
     "steady": {"mechanism": "MECH", "out": "TMP", "plots": False, "force": False},
+    "feed": {"mechanism": "HEAD", "speed_rpm": 3000.0, "sweep": False, "stitches": 2},
     "synth": {
         "stroke_mm": 45.0,
         "offset_mm": 15.0,
@@ -271,6 +272,8 @@ BAD = {
     "offset_mm": ["100", [1.0], True, float("nan"), float("inf"), -1.0, 1e300, 10**400],
     "ratio": [*BAD_NUMBER, 1.5],
     "max_pressure_deg": [*BAD_NUMBER, 90.0],
+    "sweep": BAD_FLAG,
+    "stitches": ["3", 2.0, True, 0, 1, 51, [2], None],
 }
 CASES = [(fn, arg, bad) for fn, args in VALID.items() for arg in args for bad in BAD[arg]]
 
@@ -290,6 +293,7 @@ def test_every_public_function_refuses_a_wrong_argument_in_one_line_naming_it(tm
         "TMP": str(tmp_path / "out"),
         "CSV": str(tmp_path / "t.csv"),
         "TMPDXF": str(tmp_path / "out" / "t.dxf"),
+        "HEAD": "lockstitch_head",
     }
     kwargs = {k: fill.get(v, v) if isinstance(v, str) else v for k, v in VALID[fn].items()}
     kwargs[arg] = bad
@@ -415,3 +419,10 @@ def test_every_command_has_its_function_and_they_agree(tmp_path):
     with pytest.raises(mjlink.MjlinkError, match="exists: give --force"):
         mjlink.synth(stroke_mm=40.0, write=tmp_path / "cs.toml")
     assert (tmp_path / "cs.toml").read_text() == before
+
+    from mjlink.cli import text
+
+    fed = mjlink.feed("lockstitch_head", speed_rpm=2000.0, stitches=2)
+    assert isinstance(fed, mjlink.FeedResult) and len(fed.sweep.runs) == 1
+    cli = in_process("feed", "lockstitch_head", "--speed", "2000rpm", "--stitches", "2")
+    assert cli.returncode == 0 and cli.stdout.rstrip("\n") == text.feed(fed)

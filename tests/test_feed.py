@@ -9,6 +9,7 @@ the issue's: 1 % for the advance and for halving the timestep, 2 % for the frequ
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -17,6 +18,7 @@ import pytest
 from mjlink import reference
 from mjlink.model import mechanism
 from mjlink.model.catalogue import shipped
+from mjlink.model.presser import FABRIC_DEFAULTS, PRESSER_DEFAULTS
 from mjlink.sim import feed
 
 LOW_RPM = 300.0  # slow enough that the fabric follows the dog
@@ -60,7 +62,7 @@ def test_halving_the_timestep_moves_the_advance_by_less_than_1_percent(head, slo
 
 
 def test_the_foots_free_vibration_is_its_spring_and_masss():
-    presser = feed.Presser(rate=2500.0, mass=0.06, damping=0.05, preload=30.0)
+    presser = dataclasses.replace(PRESSER_DEFAULTS, rate=2500.0, mass=0.06, damping=0.05, preload=30.0)
     t, z = feed.foot_vibration(presser, seconds=0.4)
     zc = z - z[-len(z) // 2 :].mean()
     up = np.flatnonzero((zc[:-1] < 0.0) & (zc[1:] >= 0.0))
@@ -71,3 +73,156 @@ def test_the_foots_free_vibration_is_its_spring_and_masss():
     # It vibrates about where its spring holds its weight: the preload offset less m g / k.
     # (the mean of a decaying vibration's second half lies within 5 % of its centre)
     assert z[-len(z) // 2 :].mean() == pytest.approx(-30.0 / 2500.0 - 0.06 * 9.81 / 2500.0, rel=0.05)  # decay
+
+
+# ---------------------------------------------------------------- the head file's tables
+HEAD_TEXT = (shipped("mechanisms") / "lockstitch_head.toml").read_text()
+
+
+def _with(tables: str):
+    return mechanism.parse(HEAD_TEXT + "\n" + tables, "head.toml")
+
+
+def test_the_presser_and_fabric_tables_are_read_in_si_and_default_what_is_missing():
+    mech = _with(
+        "[presser]\npreload = 30.0\nrate = '1.5 N/mm'\nlift = 6.0\n[fabric]\nmass = 20.0\nfriction_dog = 0.8\n"
+    )
+    p, f = mech.presser, mech.fabric
+    assert (p.preload, p.rate, p.lift) == pytest.approx((30.0, 1500.0, 6e-3))  # N, N/m, m
+    assert (p.mass, p.damping) == (PRESSER_DEFAULTS.mass, PRESSER_DEFAULTS.damping)
+    assert (f.mass, f.dog, f.foot, f.plate) == pytest.approx((0.02, 0.8, FABRIC_DEFAULTS.foot, FABRIC_DEFAULTS.plate))
+    assert mechanism.load(shipped("mechanisms") / "lockstitch_head.toml").presser is None  # the defaults, unnamed
+
+
+@pytest.mark.parametrize(
+    ("tables", "says"),
+    [
+        ("[presser]\npreload = 0.0\n", "[presser] preload: must be above 0 and at most 500 N"),
+        ("[presser]\npreload = 1e6\n", "[presser] preload: must be above 0 and at most 500 N"),
+        ("[presser]\nrate = -2.0\n", "[presser] rate: must be above 0"),
+        ("[presser]\ndamping = 1.0\n", "[presser] damping: must be at least 0 and below 1"),
+        ("[presser]\nlift = 1.0\n", "must clear the fabric ([timing] fabric = 1.5 mm)"),
+        ("[presser]\nspring = 3.0\n", "spring"),
+        ("[fabric]\nmass = 0.0\n", "[fabric] mass: must be above 0"),
+        ("[fabric]\nfriction_foot = 3.0\n", "[fabric] friction_foot: must be at least 0 and at most 2"),
+        ("[fabric]\nmass = nan\n", "mass"),
+        ("[fabric]\nmass = '2 kg/m'\n", "mass"),
+    ],
+)
+def test_every_presser_and_fabric_key_is_bounded_and_the_error_says_which(tables, says):
+    with pytest.raises(mechanism.MechanismFileError) as e:
+        _with(tables)
+    msg = str(e.value)
+    assert says in msg and "\n" not in msg, msg
+
+
+def test_the_tables_need_a_head_whose_timing_names_the_feed_dog():
+    text = (shipped("mechanisms") / "takeup.toml").read_text() + "\n[presser]\npreload = 30.0\n"
+    with pytest.raises(
+        mechanism.MechanismFileError, match=r"\[presser\]: needs a \[timing\] table that names the feed_dog"
+    ):
+        mechanism.parse(text, "takeup.toml")
+
+
+def test_the_run_takes_the_files_tables(head):
+    mech = _with("[presser]\npreload = 25.0\n[fabric]\nfriction_dog = 0.9\n")
+    run = feed.run_feed(mech, speed_rpm=LOW_RPM, stitches=2)
+    assert run.presser == mech.presser and run.fabric_table == mech.fabric
+
+
+# ---------------------------------------------------------------- what a run reports
+def dog_top(mech) -> float:
+    """m: the dog's teeth at their highest above the plate, from the reference."""
+    phi = mech.phi0 + np.linspace(0.0, mech.period, 72_001)
+    p = reference.solve(mech, phi).position(mech.timing.roles["feed_dog"])
+    return float(p[:, 1].max() - mech.timing.plate)
+
+
+def test_at_low_speed_the_spring_load_is_its_preload_and_the_dogs_lift_and_nothing_separates(head, slow):
+    """The foot rides on the fabric on the dog's teeth: the spring's largest push is its preload
+    and its rate times the teeth's height above the plate (closed form), within the contacts'
+    give; the foot never leaves the fabric and the fabric barely slides on the teeth."""
+    p = slow.presser
+    expected = 1.0 + p.rate * dog_top(head) / p.preload
+    assert slow.load_factor == pytest.approx(expected, abs=p.rate * 2e-5 / p.preload)  # the contacts' 0.02 mm give
+    assert slow.separation == (0.0, None)
+    assert slow.slip < ADVANCE * abs(slow.stitch)
+    assert slow.geometric == pytest.approx(geometric_advance(head), rel=1e-4)  # counted steps against crossings found
+    assert slow.error == pytest.approx(slow.stitch / geometric_advance(head) - 1.0, abs=1e-4)  # as the line above
+
+
+HEAVY = dataclasses.replace(FABRIC_DEFAULTS, mass=0.1)  # kg: a piece the foot bounces on at 6,000 rpm
+
+
+@pytest.fixture(scope="module")
+def heavy(head):
+    return feed.run_feed(head, speed_rpm=6000.0, stitches=3, fabric=HEAVY)
+
+
+def test_a_heavy_piece_at_speed_lifts_the_foot_off_the_fabric(head, heavy):
+    """At 6,000 rpm a 100 g piece throws the foot off it (bench/bench_feed.py: the foot bounces
+    up to 1.2 mm): the run reports a separation, measured as the gap it is, and a spring load
+    above the low-speed one (the foot thrown above the teeth's top)."""
+    deg, start = heavy.separation
+    assert deg > 0.0 and start is not None
+    assert heavy.lift.max() > feed.SEPARATED
+    assert heavy.separated.mean() * 360.0 == pytest.approx(deg)
+    p = heavy.presser
+    assert heavy.load_factor > 1.0 + p.rate * dog_top(head) / p.preload
+
+
+def test_the_bars_stop_holds_the_bouncing_foot_at_its_lift(head, heavy):
+    """The same bounce with the bar's stop set below the height the foot reached: the foot stops
+    there, within the stop's give: a soft constraint as stiff as the contacts, its impedance full
+    within its solimp width (0.1 mm) of the stop."""
+    free = float(heavy.foot.max())
+    lift = head.timing.fabric + 0.5 * (free - head.timing.fabric)
+    assert lift < free - 1e-4  # m: the stop is well within the free bounce
+    mech = _with(f"[presser]\nlift = {lift * 1e3!r}\n")
+    stopped = feed.run_feed(mech, speed_rpm=6000.0, stitches=3, fabric=HEAVY)
+    assert stopped.foot.max() <= lift + feed.IMPEDANCE[2]  # m: the stop's give
+
+
+def test_the_longest_separation_is_found_across_the_needle_bars_top():
+    n = 360
+    theta = np.arange(n, dtype=float)
+    gap = np.zeros(n)
+    gap[350:] = gap[:20] = 1e-3  # 30 deg across the top
+    gap[100:110] = 1e-3  # 10 deg
+    z = np.zeros(n)
+    run = feed.FeedRun(
+        speed_rpm=1.0,
+        timestep=1.0,
+        stitches=2,
+        presser=PRESSER_DEFAULTS,
+        fabric_table=FABRIC_DEFAULTS,
+        advance=np.array([1.0, 1.0]),
+        geometric=1.0,
+        theta=theta,
+        dog=z,
+        dog_x=z,
+        foot=gap,
+        fabric=z,
+        dog_force=z,
+        foot_force=z,
+        thickness=0.0,
+    )
+    assert run.separation == (40.0, 350.0)
+
+
+# ---------------------------------------------------------------- the command
+def test_the_feed_command_prints_a_row_per_speed_and_refuses_bad_input_in_one_line():
+    from conftest import in_process
+
+    ok = in_process("feed", "lockstitch_head", "--speed", "1500rpm", "--stitches", "2")
+    assert ok.returncode == 0 and "1500 rpm" in ok.stdout and "error" in ok.stdout
+    for args, says in (
+        (("takeup",), "the feed needs a head whose [timing] table names the feed_dog"),
+        (("lockstitch_head", "--speed", "10rpm"), "the feed runs at 60 to 10000 rpm"),
+        (("lockstitch_head", "--stitches", "1"), "--stitches must be 2 to 50"),
+        (("lockstitch_head", "--speed", "1000rpm", "--sweep"), "not allowed with argument --speed"),
+        (("lockstitch_head", "--speed", "1000"), "a bare number is ambiguous"),
+    ):
+        bad = in_process("feed", *args)
+        assert bad.returncode == 2 and bad.stdout == "", args
+        assert bad.stderr.count("\n") == 1 and says in bad.stderr, bad.stderr

@@ -13,6 +13,7 @@ memory sizes) is :mod:`.values`.
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -505,6 +506,29 @@ def _steady(args: argparse.Namespace) -> int:
     return _verdict(res.failures, args.strict)
 
 
+# ----------------------------------------------------------------------------- feed
+def _feed_arguments(q: argparse.ArgumentParser) -> None:
+    _mechanism(q)
+    what = q.add_mutually_exclusive_group()
+    what.add_argument("--speed", type=speed_arg, metavar="SPEED", help=f"main-shaft speed, {_SPEED_HELP}")
+    what.add_argument("--sweep", action="store_true", help="every 500 rpm from 500 to 6,000 rpm")
+    q.add_argument(
+        "--stitches", type=whole_arg, default=6, help="stitches run from rest at each speed (2 to 50, default 6)"
+    )
+
+
+def _feed(args: argparse.Namespace) -> int:
+    from .. import pipeline  # here: it loads MuJoCo, which list, check and --help do without
+
+    mech = validation.get(args.mechanism)
+    rad = _rad_s(args.speed)
+    res = pipeline.feed(
+        mech, speed_rpm=None if rad is None else rad * 30.0 / math.pi, sweep=args.sweep, stitches=args.stitches
+    )
+    print(text.feed(res))
+    return 0
+
+
 # ----------------------------------------------------------------------------- synth
 def _synth_arguments(y: argparse.ArgumentParser) -> None:
     y.add_argument("problem", help="what to synthesize: crank_slider")
@@ -667,6 +691,15 @@ COMMANDS: tuple[Command, ...] = (
         f"\n\n{SPEEDS}",
         _steady_arguments,
         _steady,
+    ),
+    Command(
+        "feed",
+        "the fabric fed under the sprung presser foot through MuJoCo's contacts: stitch length against speed",
+        "examples:\n  python -m mjlink feed lockstitch_head                 # at the file's speed\n"
+        "  python -m mjlink feed lockstitch_head --speed 3000rpm\n"
+        "  python -m mjlink feed lockstitch_head --sweep         # 500 to 6,000 rpm: the first speed beyond 2 %",
+        _feed_arguments,
+        _feed,
     ),
     Command(
         "study",

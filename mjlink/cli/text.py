@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from ..analysis.summary import Change, Summary
     from ..model.mechanism import Mechanism
     from ..pipeline import LoadsResult, SimulateResult, SteadyResult, SteadySummary, SynthResult
+    from ..pipeline.feed import FeedResult
     from ..pipeline.optimize import OptimizeResult
     from ..pipeline.study import StudyResult
 
@@ -232,6 +233,45 @@ def steady_line(s: SteadySummary) -> str:
 def steady(res: SteadyResult) -> str:
     """What ``steady`` prints."""
     return f"{steady_line(res.steady)}\noutputs in {res.out_dir}/"
+
+
+def feed(res: FeedResult) -> str:
+    """What ``feed`` prints: a row per speed, then the geometric stitch and, over a sweep, the
+    first speed beyond the error limit."""
+    head = (
+        f"{'speed':>11}  {'stitch':>9}  {'error':>7}  {'spread':>8}  {'foot off the fabric':>24}  "
+        f"{'largest gap':>11}  {'spring load':>11}  {'slip on dog':>11}"
+    )
+    rows = [
+        f"the feed of {res.mechanism} under its presser foot (MuJoCo contacts, {res.stitches} stitches a speed)",
+        head,
+    ]
+    for r in res.sweep.runs:
+        deg, start = r.separation
+        off = "never" if start is None else f"{deg:.0f} deg from {start:.0f} deg"
+        rows.append(
+            f"{r.speed_rpm:>7.0f} rpm  {to_mm(r.stitch):>6.3f} mm  {r.error * 100:>+6.2f}%  "
+            f"{r.spread * 1e6:>5.1f} µm  {off:>24}  {to_mm(r.lift.max()):>8.3f} mm  "
+            f"{r.load_factor:>10.3f}x  {r.slip * 1e6:>8.1f} µm"
+        )
+    first = res.sweep.runs[0]
+    rows.append(
+        f"stitch: the fabric's advance in the last stitch; error: against the dog's own advance with its teeth "
+        f"above the plate, {to_mm(first.geometric):.4f} mm; spring load: the presser spring's largest push over "
+        f"its {first.presser.preload:g} N at rest (the dynamic load factor)"
+    )
+    if len(res.sweep.runs) > 1:
+        over = res.first_over
+        rows.append(
+            f"no speed of the sweep errs by more than {res.limit:.0%}"
+            if over is None
+            else f"the stitch first errs by more than {res.limit:.0%} at {over.speed_rpm:.0f} rpm ({over.error:+.2%})"
+        )
+    rows.append(
+        "not modelled: the fabric's compliance across its thickness, plies, the needle in the fabric "
+        "(docs/head.md, The fabric under the presser foot)"
+    )
+    return "\n".join(rows)
 
 
 def synthesis(res: SynthResult) -> str:

@@ -56,6 +56,7 @@ from .limits import (
     below,
 )
 from .names import RESERVED_LINK_NAMES
+from .presser import Fabric, Presser, read_fabric, read_presser
 from .reader import Reader, shown
 from .tension import ThreadTension, read_tension
 from .timing import Balance, Timing
@@ -242,6 +243,8 @@ class Mechanism:
     timing: Timing | None = None  # a sewing head's [timing] table (mjlink.model.timing)
     balance: Balance | None = None  # its needle thread's [balance] (mjlink.model.timing)
     tension: ThreadTension | None = None  # its [tension] table (mjlink.model.tension); None: the defaults
+    presser: Presser | None = None  # its [presser] table (mjlink.model.presser); None: the defaults
+    fabric: Fabric | None = None  # its [fabric] table (mjlink.model.presser); None: the defaults
     # The text this mechanism was parsed from, read once: every output of a run (design.html's
     # "Save as TOML") comes from it, never from the file read again, which may have changed.
     text: str | None = field(default=None, repr=False, compare=False)
@@ -436,7 +439,18 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         data,
         "",
         ["mechanism", "ground", "construct", "links", "input"],
-        ["dynamics", "thread", "synthesis", "steady", "counterweight", "timing", "balance", "tension"],
+        [
+            "dynamics",
+            "thread",
+            "synthesis",
+            "steady",
+            "counterweight",
+            "timing",
+            "balance",
+            "tension",
+            "presser",
+            "fabric",
+        ],
     )
 
     meta = r.table(data["mechanism"], "[mechanism]")
@@ -664,6 +678,12 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing, steps))
     if "tension" in data:
         mech = dataclasses.replace(mech, tension=read_tension(r, data["tension"], mech.balance is not None))
+    fed = mech.timing is not None and mech.timing.has("feed_dog")
+    if "presser" in data:
+        thick = mech.timing.fabric if mech.timing is not None else 0.0
+        mech = dataclasses.replace(mech, presser=read_presser(r, data["presser"], fed, thick))
+    if "fabric" in data:
+        mech = dataclasses.replace(mech, fabric=read_fabric(r, data["fabric"], fed))
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))
     if mech.timing is not None and turns != 1:

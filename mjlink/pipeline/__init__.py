@@ -18,6 +18,7 @@ function               command              result, output
 :func:`build`          ``build``            :class:`BuildResult`, the MJCF (and a file)
 :func:`synthesize`     ``synth``            :class:`SynthResult`; :func:`write_design` its file
 :func:`.study.run`     ``study``            :class:`.study.StudyResult`, ``OUT/NAME-study/``
+:func:`feed`           ``feed``             :class:`FeedResult`, nothing written
 =====================  ===================  ==========================================
 
 The modules, one concept each: :mod:`.options` (what a run is asked to do, the drive
@@ -36,6 +37,7 @@ from __future__ import annotations
 
 from .cost import Estimate, RunCost, estimate, values_per_sample
 from .design import build, synthesize, write_design
+from .feed import FeedResult, feed
 from .loads import loads, steady
 from .options import Drive, Options, check_speed, has_masses, speed_text, with_drive
 from .results import (
@@ -61,6 +63,7 @@ __all__ = [
     "Drive",
     "DynamicsSummary",
     "Estimate",
+    "FeedResult",
     "KinematicsSummary",
     "LoadsResult",
     "LoadsSummary",
@@ -77,6 +80,7 @@ __all__ = [
     "build",
     "check_speed",
     "estimate",
+    "feed",
     "has_masses",
     "loads",
     "provenance",

@@ -37,11 +37,20 @@ import numpy as np
 
 from .. import reference
 from ..model.mechanism import Mechanism
+from ..model.presser import FABRIC_DEFAULTS, GRAVITY, PRESSER_DEFAULTS, Fabric, Presser
 from ._mujoco import mujoco
 
-__all__ = ["Fabric", "FeedRun", "Presser", "dog_path", "foot_vibration", "run_feed"]
-
-GRAVITY = 9.81  # m/s^2
+__all__ = [
+    "Fabric",
+    "FeedRun",
+    "FeedSweep",
+    "Presser",
+    "dog_advance",
+    "dog_path",
+    "foot_vibration",
+    "run_feed",
+    "sweep",
+]
 DOG_MASS = 1e3  # kg-equivalent (armature) of the driven dog's slides
 # The teeth's box (half-sizes, m) and the foot's, in the feed's plane and across it; the
 # fabric's length and width. Their sizes do not enter the answer while the fabric covers both.
@@ -49,56 +58,36 @@ DOG_HALF = (0.004, 0.003, 0.001)
 FOOT_HALF = (0.006, 0.004, 0.001)
 FABRIC_HALF = (0.03, 0.01)
 IMPEDANCE = (0.99, 0.999, 1e-4, 0.5, 2.0)  # solimp: dmin, dmax, width (m), midpoint, power
-
-
-@dataclass(frozen=True, kw_only=True)
-class Presser:
-    """The presser bar and foot: ``preload`` N the spring's push with the foot on the fabric at
-    rest (the foot's weight adds to it), ``rate`` N/m, ``mass`` kg moving with the foot (bar,
-    foot and a third of the spring), ``damping`` as a ratio of critical. Defaults: [choice],
-    a DDL-class head's order of magnitude (about 4 kgf on the foot), no maker's figure found."""
-
-    preload: float = 40.0
-    rate: float = 2000.0
-    mass: float = 0.05
-    damping: float = 0.05
-
-    @property
-    def frequency(self) -> float:
-        """Hz: the foot's free vibration on its spring, damped (closed form)."""
-        wn = math.sqrt(self.rate / self.mass)
-        return wn * math.sqrt(1.0 - self.damping**2) / (2.0 * math.pi)
-
-
-@dataclass(frozen=True, kw_only=True)
-class Fabric:
-    """The fabric: ``mass`` kg of the piece the dog carries and its friction coefficients
-    against the dog's teeth (``dog``), the foot and the plate; its thickness is the head's
-    ``[timing] fabric``. Defaults: [choice]."""
-
-    mass: float = 0.002
-    dog: float = 1.0
-    foot: float = 0.2
-    plate: float = 0.2
+# m: the foot counts as off the fabric when its gap exceeds this, a gap no feeler gauge finds
+# ([choice]). The stiff contacts give by a few um and their force flickers to zero within
+# that give (the 2 g fabric between the heavy dog and the foot), which is not a separation.
+SEPARATED = 1e-5
 
 
 @dataclass(frozen=True, kw_only=True)
 class FeedRun:
-    """The feed over ``stitches`` stitches at ``speed_rpm``, stepped at ``timestep`` s:
-    ``advance`` (stitches,) m the fabric's advance in each stitch, from the needle bar's top;
-    over the last stitch, at every step: ``theta`` (N,) deg from the needle bar's top,
-    ``dog`` (N,) m the dog's teeth above the plate, ``foot`` (N,) m the foot's sole above the
-    plate, ``fabric`` (N,) m the fabric's travel since the stitch began, ``dog_force`` and
-    ``foot_force`` (N,) N the normal forces of the dog's and the foot's contacts on the
-    fabric (a rigid contact's: spikes where the dog meets the fabric, which the fabric's own
-    compliance, not modelled yet, would spread); ``thickness`` m the fabric's."""
+    """The feed over ``stitches`` stitches at ``speed_rpm``, stepped at ``timestep`` s, with its
+    ``presser`` and ``fabric``: ``advance`` (stitches,) m the fabric's advance in each stitch,
+    from the needle bar's top; ``geometric`` m the dog's own advance with its teeth above the
+    plate (:func:`dog_advance`, the stitch a fabric held to the dog makes); over the last
+    stitch, at every step: ``theta`` (N,) deg from the needle bar's top, ``dog`` (N,) m the
+    dog's teeth above the plate and ``dog_x`` (N,) m along the feed from where the stitch
+    began, ``foot`` (N,) m the foot's sole above the plate, ``fabric`` (N,) m the fabric's
+    travel since the stitch began, ``dog_force`` and ``foot_force`` (N,) N the normal forces of
+    the dog's and the foot's contacts on the fabric (a rigid contact's: spikes where the dog
+    meets the fabric, which the fabric's own compliance, not modelled yet, would spread);
+    ``thickness`` m the fabric's."""
 
     speed_rpm: float
     timestep: float
     stitches: int
+    presser: Presser
+    fabric_table: Fabric
     advance: np.ndarray
+    geometric: float
     theta: np.ndarray
     dog: np.ndarray
+    dog_x: np.ndarray
     foot: np.ndarray
     fabric: np.ndarray
     dog_force: np.ndarray
@@ -110,6 +99,92 @@ class FeedRun:
         """(N,) m: the foot's gap above the fabric's top (0 while it presses)."""
         out: np.ndarray = np.maximum(self.foot - np.maximum(self.dog, 0.0) - self.thickness, 0.0)
         return out
+
+    @property
+    def stitch(self) -> float:
+        """m: the last stitch's advance, the stitch length at this speed."""
+        return float(self.advance[-1])
+
+    @property
+    def error(self) -> float:
+        """The stitch length's error against the dog's geometric advance, a fraction (signed:
+        negative, a shorter stitch)."""
+        return self.stitch / self.geometric - 1.0
+
+    @property
+    def spread(self) -> float:
+        """m: the largest minus the least advance of the stitches after the first (which starts
+        from rest): how much the stitch varies from one to the next."""
+        later = self.advance[1:] if len(self.advance) > 1 else self.advance
+        return float(later.max() - later.min())
+
+    @property
+    def separated(self) -> np.ndarray:
+        """(N,) bool: the foot off the fabric, by more than :data:`SEPARATED`."""
+        out: np.ndarray = self.lift > SEPARATED
+        return out
+
+    @property
+    def separation(self) -> tuple[float, float | None]:
+        """(deg of the last stitch with the foot off the fabric, the angle from the needle
+        bar's top where its longest separation begins, None if it never separates)."""
+        off = self.separated
+        if not off.any():
+            return 0.0, None
+        step = 360.0 / len(off)
+        # Runs of separation on the stitch's circle: a run may wrap past the needle bar's top.
+        edges = np.flatnonzero(off & ~np.roll(off, 1))
+        if len(edges) == 0:  # off over the whole stitch
+            return 360.0, 0.0
+        best, start = 0, int(edges[0])
+        for e in edges:
+            n = 0
+            while off[(e + n) % len(off)] and n < len(off):
+                n += 1
+            if n > best:
+                best, start = n, int(e)
+        return float(off.sum()) * step, float(self.theta[start])
+
+    @property
+    def spring(self) -> np.ndarray:
+        """(N,) N: the presser spring's push on the foot (its preload at rest, the foot on the
+        fabric on the plate, plus its rate times the foot's rise from there)."""
+        out: np.ndarray = self.presser.preload + self.presser.rate * (self.foot - self.thickness)
+        return out
+
+    @property
+    def load_factor(self) -> float:
+        """The presser spring's dynamic load factor: its largest push over the stitch over its
+        push at rest."""
+        return float(self.spring.max()) / self.presser.preload
+
+    @property
+    def slip(self) -> float:
+        """m: how far the fabric slid on the dog's teeth over the last stitch, while they
+        touched it (the summed difference of their steps along the feed)."""
+        touch = self.dog_force[1:] > 0.0
+        rel = np.diff(self.fabric) - np.diff(self.dog_x)
+        return float(np.abs(rel[touch]).sum())
+
+
+@dataclass(frozen=True, kw_only=True)
+class FeedSweep:
+    """The feed of one head at several speeds (:func:`sweep`): ``runs`` in the order of
+    ``speeds_rpm``."""
+
+    runs: tuple[FeedRun, ...]
+
+    @property
+    def speeds_rpm(self) -> np.ndarray:
+        return np.array([r.speed_rpm for r in self.runs])
+
+    def first_over(self, limit: float) -> FeedRun | None:
+        """The slowest run whose stitch-length error exceeds ``limit`` (a fraction) in size,
+        None if none does."""
+        for r in sorted(self.runs, key=lambda r: r.speed_rpm):
+            if abs(r.error) > limit:
+                return r
+        return None
 
 
 def dog_path(mech: Mechanism, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -128,7 +203,27 @@ def dog_path(mech: Mechanism, samples: int) -> tuple[np.ndarray, np.ndarray, np.
     return u, pos, rate
 
 
-def _foot(spec: mujoco.MjSpec, presser: Presser, x: float, z: float) -> None:
+def _advance(pos: np.ndarray) -> float:
+    """m: the dog's travel along the feed over one turn sampled at ``pos`` (samples, 2) while its
+    teeth are above the plate: the path taken as straight between samples, its crossings of
+    the plate interpolated (exact to the square of the step)."""
+    nxt = np.roll(pos, -1, axis=0)
+    h0, h1 = pos[:, 1], nxt[:, 1]
+    dx = nxt[:, 0] - pos[:, 0]
+    up0, up1 = h0 > 0.0, h1 > 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f = np.where(up0 != up1, h0 / (h0 - h1), 0.0)  # where along the step the plate is crossed
+    part = np.where(up0 & up1, 1.0, np.where(up0 & ~up1, f, np.where(~up0 & up1, 1.0 - f, 0.0)))
+    return float((dx * part).sum())
+
+
+def dog_advance(mech: Mechanism, samples: int = 3600) -> float:
+    """m: the stitch a fabric held to the dog makes: the dog's travel along the feed while its
+    teeth are above the plate, over one turn at ``samples`` even steps."""
+    return _advance(dog_path(mech, samples)[1])
+
+
+def _foot(spec: mujoco.MjSpec, presser: Presser, x: float, z: float, timestep: float) -> None:
     body = spec.worldbody.add_body(name="foot", pos=[x, 0.0, z])
     body.add_joint(
         name="foot",
@@ -137,6 +232,11 @@ def _foot(spec: mujoco.MjSpec, presser: Presser, x: float, z: float) -> None:
         stiffness=presser.rate,
         springref=-presser.preload / presser.rate,
         damping=2.0 * presser.damping * math.sqrt(presser.rate * presser.mass),
+        # The bar's stop: the sole at most `lift` above the plate, as stiff as the contacts.
+        limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        range=[-1.0, presser.lift - z],
+        solref_limit=[2.0 * timestep, 1.0],
+        solimp_limit=list(IMPEDANCE),
     )
     body.add_geom(
         name="foot",
@@ -191,7 +291,7 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
         contype=0,
         conaffinity=0,
     )
-    _foot(spec, presser, x0, thick)
+    _foot(spec, presser, x0, thick, timestep)
     stiff = [2.0 * timestep, 1.0]
     for other, mu in (("dog", fabric.dog), ("foot", fabric.foot), ("plate", fabric.plate)):
         spec.add_pair(
@@ -220,14 +320,17 @@ def run_feed(
     Args:
       mech: a head whose ``[timing]`` names the ``feed_dog`` and gives the plate and fabric.
       speed_rpm: the main shaft's speed, rpm (its sign ignored: the file's sense is kept).
-      presser, fabric: the presser and the fabric (defaults: :class:`Presser`, :class:`Fabric`).
+      presser, fabric: the presser and the fabric (defaults: the file's ``[presser]`` and
+        ``[fabric]`` tables, else :data:`~mjlink.model.presser.PRESSER_DEFAULTS` and
+        :data:`~mjlink.model.presser.FABRIC_DEFAULTS`).
       stitches: stitches run from rest, the foot on the fabric and the dog at the needle bar's
         top.
       timestep: s, at most: the step is the nearest that divides a stitch evenly.
     Returns:
       :class:`FeedRun`.
     """
-    presser, fabric = presser or Presser(), fabric or Fabric()
+    presser = presser or mech.presser or PRESSER_DEFAULTS
+    fabric = fabric or mech.fabric or FABRIC_DEFAULTS
     tm = mech.timing
     if tm is None:
         raise ValueError(f"{mech.name}: the feed needs a [timing] table")
@@ -251,7 +354,7 @@ def run_feed(
     mujoco.mj_forward(m, d)
     starts = np.zeros(stitches + 1)
     N = steps
-    out = {k: np.zeros(N) for k in ("dog", "foot", "fabric", "dog_force", "foot_force")}
+    out = {k: np.zeros(N) for k in ("dog", "dog_x", "foot", "fabric", "dog_force", "foot_force")}
     force = np.zeros(6)
     for s in range(stitches):
         starts[s] = d.qpos[fx]
@@ -261,6 +364,8 @@ def run_feed(
             d.qvel[jx.dofadr[0]], d.qvel[jz.dofadr[0]] = rate[k, 0] * w, rate[k, 1] * w
             mujoco.mj_step(m, d)
             if last:
+                # Where the step left the dog, as the fabric's: their differences are the slip.
+                out["dog_x"][k] = d.qpos[jx.qposadr[0]] - pos[0, 0]
                 out["dog"][k] = pos[k, 1]
                 out["foot"][k] = tm.fabric + d.qpos[foot_q]
                 out["fabric"][k] = d.qpos[fx] - starts[s]
@@ -275,10 +380,31 @@ def run_feed(
         speed_rpm=w * 30.0 / math.pi,
         timestep=dt,
         stitches=stitches,
+        presser=presser,
+        fabric_table=fabric,
         advance=np.diff(starts),
+        geometric=dog_advance(mech),
         theta=np.degrees(u),
         thickness=tm.fabric,
         **out,
+    )
+
+
+def sweep(
+    mech: Mechanism,
+    speeds_rpm: list[float],
+    *,
+    presser: Presser | None = None,
+    fabric: Fabric | None = None,
+    stitches: int = 6,
+    timestep: float = 1e-5,
+) -> FeedSweep:
+    """:func:`run_feed` at each of ``speeds_rpm`` (the other arguments as its)."""
+    return FeedSweep(
+        runs=tuple(
+            run_feed(mech, speed_rpm=w, presser=presser, fabric=fabric, stitches=stitches, timestep=timestep)
+            for w in speeds_rpm
+        )
     )
 
 
@@ -289,7 +415,7 @@ def foot_vibration(presser: Presser, *, seconds: float = 0.5, timestep: float = 
     spec.option.timestep = timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.gravity = [0.0, 0.0, -GRAVITY]
-    _foot(spec, presser, 0.0, 0.0)
+    _foot(spec, presser, 0.0, 0.0, timestep)
     m = spec.compile()
     d = mujoco.MjData(m)
     n = math.ceil(seconds / timestep)
