@@ -173,8 +173,16 @@ def _head_report_and_page(run_figures) -> None:
     # folded by member.
     metrics = [r["metric"] for r in report["design"]["summary"]]
     assert metrics[:5] == ["stroke_NB_y", "stroke_F_x", "tension_peak", "tension_margin", "tension_per_stitch"]
+    # The fabric fed under the presser foot at the run's speed: its stitch and error in the
+    # summary, as report.json's feed gives them, its figure and its table.
+    fed = report["feed"]
+    assert fed["speed_rpm"] == pytest.approx(5000.0) and fed["stitches"] == 6
+    assert metrics[5:8] == ["feed_stitch", "feed_error", "feed_foot_off"]
+    assert rows["feed_stitch"] == pytest.approx(fed["stitch_mm"], abs=1e-9)
+    assert rows["feed_error"] == pytest.approx(100.0 * (fed["stitch_mm"] / fed["dog_advance_mm"] - 1.0), abs=1e-9)
+    assert "feed.png" in figs and (out / "feed.csv").read_text().splitlines()[0].startswith("theta_deg,dog_mm,")
     assert rows["stroke_NB_y"] == pytest.approx(2 * 15.35, abs=1e-9)
-    at = [page.index(f"data-metric='{m}'") for m in ("stroke_NB_y", "tension_per_stitch", "timing_ok", metrics[5])]
+    at = [page.index(f"data-metric='{m}'") for m in ("stroke_NB_y", "feed_foot_off", "timing_ok", metrics[8])]
     assert at == sorted(at)
     assert "<details><summary>needle_bar (" in page and "<details><summary>frame (" in page
     assert all(f"data-param='{d['param']}'" in page for d in report["design"]["dimensions"])

@@ -140,6 +140,8 @@ def _expected(m) -> set[str]:
     names |= {f"link_{l}.png" for l in analysis.motion_links(m)}
     if m.timing is not None:
         names.add("cyclogram.png")  # a sewing head's timing diagram
+        if m.timing.has("feed_dog"):
+            names.add("feed.png")  # and its fabric fed under the presser foot
     if m.balance is not None:
         names.add("thread_balance.png")  # and its needle thread's balance
         if m.timing is not None and m.timing.stitch is StitchType.LOCKSTITCH:

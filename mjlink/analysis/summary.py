@@ -14,7 +14,7 @@ import dataclasses
 import math
 import re
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -175,10 +175,39 @@ def tension_rows(thread: NeedleTension) -> tuple[Row, ...]:
     return tuple(Row(c.name, c.label, values[c.name], c.unit) for c in TensionMetric.COLUMNS if c.name in values)
 
 
-def summarize(mech: Mechanism, thread: NeedleTension | None = None) -> Summary:
+class Fed(Protocol):
+    """What the summary reads of a head's feed under its presser foot
+    (:class:`mjlink.sim.feed.FeedRun`): the stitch (m), its error against the dog's advance (a
+    fraction) and the foot's separation (deg, where it begins)."""
+
+    @property
+    def stitch(self) -> float: ...
+    @property
+    def error(self) -> float: ...
+    @property
+    def separation(self) -> tuple[float, float | None]: ...
+
+
+def feed_rows(fed: Fed) -> tuple[Row, ...]:
+    """A head's feed in the summary, from the run's feed with contact at the file's speed: the
+    stitch length (mm), its error against the dog's own advance (%) and the degrees of the
+    stitch the presser foot is off the fabric."""
+    return (
+        Row("feed_stitch", "stitch length with contact, at this speed", fed.stitch * 1e3, "mm"),
+        Row("feed_error", "stitch length against the dog's advance", fed.error * 100.0, "%"),
+        Row("feed_foot_off", "presser foot off the fabric", fed.separation[0], "deg"),
+    )
+
+
+def summarize(mech: Mechanism, thread: NeedleTension | None = None, fed: Fed | None = None) -> Summary:
     """:class:`Summary` of ``mech``; a head's headline ends with its needle thread's tension
-    (:func:`tension_rows`) when the run's ``thread`` is given."""
-    lead = head_rows(mech) + (tension_rows(thread) if thread is not None else ())
+    (:func:`tension_rows`) when the run's ``thread`` is given, and its feed with contact
+    (:func:`feed_rows`) when the run's ``fed`` is."""
+    lead = (
+        head_rows(mech)
+        + (tension_rows(thread) if thread is not None else ())
+        + (feed_rows(fed) if fed is not None else ())
+    )
     headline = lead + design_summary(mech)
     dims = dimensions(mech)
     return Summary(

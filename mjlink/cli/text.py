@@ -258,7 +258,7 @@ def feed(res: FeedResult) -> str:
     rows.append(
         f"stitch: the fabric's advance in the last stitch; error: against the dog's own advance with its teeth "
         f"above the plate, {to_mm(first.geometric):.4f} mm; spring load: the presser spring's largest push over "
-        f"its {first.presser.preload:g} N at rest (the dynamic load factor)"
+        f"its {first.presser.preload:g} N preload (the dynamic load factor)"
     )
     if len(res.sweep.runs) > 1:
         over = res.first_over
@@ -268,7 +268,7 @@ def feed(res: FeedResult) -> str:
             else f"the stitch first errs by more than {res.limit:.0%} at {over.speed_rpm:.0f} rpm ({over.error:+.2%})"
         )
     rows.append(
-        "not modelled: the fabric's compliance across its thickness, plies, the needle in the fabric "
+        "not modelled: plies, the dog's teeth as teeth, the needle in the fabric, the operator's hold "
         "(docs/head.md, The fabric under the presser foot)"
     )
     return "\n".join(rows)

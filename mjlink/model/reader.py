@@ -92,6 +92,17 @@ class Reader:
             raise self.fail(where, f"must be a table, got {type(data).__name__}")
         return data
 
+    def defaulted(self, raw: Any, where: str, table: dict[str, tuple[float, float, Bound, str]]) -> dict[str, float]:
+        """A table of optional numbers: ``table`` maps each key to (its default in the file's
+        unit, the factor to SI, its bound, its source); unknown keys are refused. Returns SI."""
+        t = self.table(raw, where)
+        self.keys(t, where, [], list(table))
+        out = {}
+        for key, (default, scale, bound, _) in table.items():
+            unit = f" {bound.unit}" if bound.unit else ""
+            out[key] = self.number(t, key, where, default=default, unit=unit, bound=bound) * scale
+        return out
+
     def keys(self, data: dict, where: str, required: Iterable[str], optional: Iterable[str] = ()):
         required, optional = list(required), list(optional)
         valid = required + optional

@@ -137,14 +137,10 @@ DEFAULTS = ThreadTension(**{k: v[0] * v[1] for k, v in _TABLE.items()})
 def read_tension(r: Reader, raw: Any, has_balance: bool) -> ThreadTension:
     """The ``[tension]`` table: needs a ``[balance]`` table (the thread's path to the eye, the
     check spring's point and travel)."""
-    t = r.table(raw, "[tension]")
+    r.table(raw, "[tension]")
     if not has_balance:
         raise r.fail("[tension]", "needs a [balance] table (the check spring's point and travel)")
-    r.keys(t, "[tension]", [], list(_TABLE))
-    values = {}
-    for key, (default, scale, bound, _) in _TABLE.items():
-        unit = f" {bound.unit}" if bound.unit else ""
-        values[key] = r.number(t, key, "[tension]", default=default, unit=unit, bound=bound) * scale
+    values = r.defaulted(raw, "[tension]", _TABLE)
     out = ThreadTension(**values)
     if not math.isfinite(out.stiffness):
         raise r.fail("[tension]", "the thread's stiffness breaking_load / elongation_at_break is not finite")

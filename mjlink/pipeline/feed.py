@@ -16,7 +16,7 @@ from ..errors import InputError
 from ..model.mechanism import Mechanism
 from ..sim import feed as _feed
 
-__all__ = ["ERROR_LIMIT", "MAX_RPM", "MAX_STITCHES", "MIN_RPM", "SWEEP_RPM", "FeedResult", "feed"]
+__all__ = ["ERROR_LIMIT", "FEED_STITCHES", "MAX_RPM", "MAX_STITCHES", "MIN_RPM", "SWEEP_RPM", "FeedResult", "feed"]
 
 ERROR_LIMIT = 0.02  # the stitch-length error a sweep reports the first speed beyond (the 2 %)
 SWEEP_RPM = tuple(range(500, 6001, 500))  # a sewing head's speeds, stitches/min
@@ -24,6 +24,7 @@ SWEEP_RPM = tuple(range(500, 6001, 500))  # a sewing head's speeds, stitches/min
 # 10,000 no sewing head sews.
 MIN_RPM, MAX_RPM = 60.0, 10_000.0
 MIN_STITCHES, MAX_STITCHES = 2, 50  # the first starts from rest; 50 stitches take some 10 s at 6,000 rpm
+FEED_STITCHES = 6  # stitches a head's simulate feeds from rest: the advance settles within 2 to 3
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -25,6 +25,7 @@ from ..analysis.timing import HeadTiming
 from ..model import synthesis
 from ..runs import Settings
 from ..sim import builder
+from ..sim.feed import FeedRun
 from ..units import to_rpm
 from ..version import __version__
 
@@ -279,6 +280,7 @@ class Timings:
     reference_dynamics: float | None = None
     loads: float | None = None
     steady: float | None = None
+    feed: float | None = None
     plots: float | None = None
     video: float | None = None
     video_and_plots: float | None = None
@@ -330,7 +332,8 @@ class SimulateResult:
     (:func:`compare.thresholds`); ``failures`` every limit missed (agreement, loads, steady);
     ``timings``; ``files`` the names in ``out_dir``; ``timing`` a head's timing checks (their
     misses are among ``failures``); ``tension`` a lockstitch head's needle thread over a stitch
-    (:func:`mjlink.analysis.tension.needle_tension`); ``design`` the design at a glance (headline numbers, strokes,
+    (:func:`mjlink.analysis.tension.needle_tension`); ``feed`` a head's fabric fed under its
+    presser foot (:func:`mjlink.sim.feed.run_feed`); ``design`` the design at a glance (headline numbers, strokes,
     dimensions: :class:`mjlink.analysis.summary.Summary`). :meth:`as_dict` is ``report.json``.
     """
 
@@ -353,6 +356,7 @@ class SimulateResult:
     timing: HeadTiming | None = None  # a sewing head's timing checks ([timing] table)
     design: Summary | None = None  # the design at a glance: the page's first screen
     tension: NeedleTension | None = None  # a lockstitch head's needle thread under tension
+    feed: FeedRun | None = None  # a head's fabric under its presser foot at this speed (MuJoCo contacts)
 
     def as_dict(self) -> dict[str, Any]:
         """The contents of ``report.json``."""
@@ -375,6 +379,8 @@ class SimulateResult:
             d["timing"] = self.timing.as_dict()
         if self.tension is not None:
             d["tension"] = self.tension.as_dict()
+        if self.feed is not None:
+            d["feed"] = self.feed.as_dict()
         d["agreement"] = {a.kind: a.as_dict() for a in self.agreements}
         d["thresholds"] = dict(self.thresholds)
         d["failures"] = list(self.failures)

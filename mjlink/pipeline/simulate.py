@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -15,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import compare, reference
+from .. import compare, notes, reference
 from ..analysis import summary, tension
 from ..analysis.timing import head_timing
 from ..errors import SimulationError
@@ -28,8 +29,10 @@ from ..runtime.markers import MARKER
 from ..runtime.signals import uninterrupted
 from ..runtime.workers import PlotJob, run_jobs
 from ..sim import builder, simulate
+from ..sim.feed import FeedRun, run_feed
 from ..units import RunKind
 from .cost import enough_samples, estimate
+from .feed import FEED_STITCHES, MAX_RPM, MIN_RPM
 from .loads import loads_stage, steady_stage
 from .options import Options, has_mass, has_masses
 from .results import (
@@ -166,6 +169,9 @@ def run(
         if thread is not None:
             names, cols = thread.columns()
             write_table(stage / "tension.csv", names, cols)
+        fed = _feed(mech, opts.speed, stage)
+        if fed is not None:
+            clock.lap("feed")
         if head is not None and opts.plots:
             from ..plotting import timing as timing_plot  # here: matplotlib, not for --no-plots
 
@@ -174,6 +180,10 @@ def run(
                 jobs.append(functools.partial(timing_plot.balance_plot, mech, head, stage))
             if thread is not None:
                 jobs.append(functools.partial(timing_plot.tension_plot, mech, head, thread, stage))
+            if fed is not None:
+                from ..plotting import feed as feed_plot
+
+                jobs.append(functools.partial(feed_plot.feed_plot, mech, fed, stage))
             draw(jobs)
         failures = tuple(f for a in agreements for f in a.failures())
         failures += head.failures() if head else ()
@@ -210,8 +220,9 @@ def run(
             video=video,
             provenance=provenance(command, dataclasses.asdict(opts)),
             timing=head,
-            design=summary.summarize(mech, thread),
+            design=summary.summarize(mech, thread, fed),
             tension=thread,
+            feed=fed,
         )
         write_json(stage / "report.json", result.as_dict())
         # The dynamic run's own model where it ran (its settings are DYNAMIC): not built again.
@@ -223,6 +234,23 @@ def run(
         write_text(stage / "index.html", index.index_html(result, written), in_stage=True)
         files = tuple(sorted(p.name for p in stage.iterdir() if p.name != MARKER))
     return dataclasses.replace(result, files=files)
+
+
+def _feed(mech: Mechanism, speed: float | None, stage: Path) -> FeedRun | None:
+    """A head's fabric fed under its presser foot at the run's ``speed`` (rad/s; None: the
+    file's), :data:`FEED_STITCHES` stitches from rest, its last into ``feed.csv``; None for a
+    mechanism without a feed dog, or at a speed the feed is not run at (a note says so)."""
+    tm = mech.timing
+    if tm is None or not tm.has("feed_dog"):
+        return None
+    rpm = abs(mech.speed if speed is None else speed) * 30.0 / math.pi
+    if not MIN_RPM <= rpm <= MAX_RPM:
+        notes.note(f"the feed with contact runs at {MIN_RPM:g} to {MAX_RPM:g} rpm: not run at {rpm:.6g} rpm")
+        return None
+    run = run_feed(mech, speed_rpm=rpm, stitches=FEED_STITCHES)
+    names, cols = run.columns()
+    write_table(stage / "feed.csv", names, cols)
+    return run
 
 
 def _tell(progress: Callable[[str, float], None] | None, what: str) -> Callable[[float], None] | None:

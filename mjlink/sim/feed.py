@@ -1,4 +1,4 @@
-"""The fabric under the presser foot, fed by the dog through MuJoCo's contacts (a first part).
+"""The fabric under the presser foot, fed by the dog through MuJoCo's contacts.
 
 A head's feed dog is a point of the linkage; the fabric is what it moves, pressed onto the dog
 and the throat plate by the sprung presser foot. This model takes the dog's teeth along the
@@ -11,27 +11,30 @@ what the fabric and the foot do:
   step's contact impulses barely move it before it is set again);
 * the fabric: a box of the file's ``[timing] fabric`` thickness and a mass (the piece the dog
   carries) on two slides, resting on the plate;
-* the presser foot: a box on a vertical slide over the fabric, its spring (a rate, and a
-  preload with the foot on the fabric at rest) and damping;
+* the presser foot: a sphere's bottom on a vertical slide over the fabric, its spring (a rate,
+  and a preload with the sole at the fabric's free top), damping and the bar's stop;
 * gravity on all of them.
 
 Each pair that touches has a contact of its own (``<pair>``, with its friction: the dog's
-teeth grip, the foot and the plate slide), elliptic friction cones, and the stiffest contact
-MuJoCo keeps stable: a time constant of twice the timestep, critically damped, the impedance
-0.99 to 0.999 over 0.1 mm. A softer contact lets the fabric's small mass sink into the plate
-under the presser's tens of newtons (MuJoCo's contact stiffness is per unit of effective mass),
-which no fabric does. The foot does not collide with the dog or the plate: the fabric is always
-between them here.
+teeth grip, the foot and the plate slide) and elliptic friction cones. The fabric's
+compliance across its thickness is all in its contact with the foot: a spring and damper of
+the ``[fabric]`` table's stiffness and damping (a soft constraint of tiny constant impedance,
+its solref from the compiled model's own inverse weights, :func:`_model`). The teeth and the
+plate are rigid: the stiffest contact MuJoCo keeps stable, a time constant of twice the
+timestep, critically damped, the impedance 0.99 to 0.999 over 0.1 mm, so that the plate bears
+nothing of the foot's push while the teeth are above it. The foot does not collide with the
+dog or the plate: the fabric is always between them here.
 
-Not modelled yet (docs/head.md, The fabric under the presser foot): the fabric's own
-compliance and damping across its thickness, plies, the dog's teeth as teeth (one box here),
-the presser bar's lift limits, the operator's hold on the fabric, the needle in the fabric.
+Not modelled (docs/head.md, The fabric under the presser foot): plies, the dog's teeth as
+teeth (one box here), the fabric's bending round the teeth, the operator's hold on the fabric,
+the needle in the fabric.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -55,8 +58,14 @@ DOG_MASS = 1e3  # kg-equivalent (armature) of the driven dog's slides
 # The teeth's box (half-sizes, m) and the foot's, in the feed's plane and across it; the
 # fabric's length and width. Their sizes do not enter the answer while the fabric covers both.
 DOG_HALF = (0.004, 0.003, 0.001)
-FOOT_HALF = (0.006, 0.004, 0.001)
 FABRIC_HALF = (0.03, 0.01)
+# The foot's sole is the bottom of a sphere: one contact point with the fabric, whose stiffness
+# is then the fabric's (a box's face would touch at up to four points, each that stiff).
+FOOT_RADIUS = 0.005
+# The fabric's compliance under the foot: a soft constraint of constant impedance this small
+# is a spring and damper (MuJoCo's a1 + d (b v + k r) = (1 - d) a0 with d -> 0 and d k, d b
+# given as the stiffness and damping per unit of the contact's effective mass).
+COMPLIANT = 1e-3
 IMPEDANCE = (0.99, 0.999, 1e-4, 0.5, 2.0)  # solimp: dmin, dmax, width (m), midpoint, power
 # m: the foot counts as off the fabric when its gap exceeds this, a gap no feeler gauge finds
 # ([choice]). The stiff contacts give by a few um and their force flickers to zero within
@@ -73,7 +82,7 @@ class FeedRun:
     stitch, at every step: ``theta`` (N,) deg from the needle bar's top, ``dog`` (N,) m the
     dog's teeth above the plate and ``dog_x`` (N,) m along the feed from where the stitch
     began, ``foot`` (N,) m the foot's sole above the plate, ``fabric`` (N,) m the fabric's
-    travel since the stitch began, ``dog_force`` and ``foot_force`` (N,) N the normal forces of
+    travel since the stitch began and ``fabric_z`` (N,) m its underside above the plate, ``dog_force`` and ``foot_force`` (N,) N the normal forces of
     the dog's and the foot's contacts on the fabric (a rigid contact's: spikes where the dog
     meets the fabric, which the fabric's own compliance, not modelled yet, would spread);
     ``thickness`` m the fabric's."""
@@ -90,6 +99,7 @@ class FeedRun:
     dog_x: np.ndarray
     foot: np.ndarray
     fabric: np.ndarray
+    fabric_z: np.ndarray
     dog_force: np.ndarray
     foot_force: np.ndarray
     thickness: float
@@ -97,7 +107,7 @@ class FeedRun:
     @property
     def lift(self) -> np.ndarray:
         """(N,) m: the foot's gap above the fabric's top (0 while it presses)."""
-        out: np.ndarray = np.maximum(self.foot - np.maximum(self.dog, 0.0) - self.thickness, 0.0)
+        out: np.ndarray = np.maximum(self.foot - self.fabric_z - self.thickness, 0.0)
         return out
 
     @property
@@ -147,15 +157,15 @@ class FeedRun:
 
     @property
     def spring(self) -> np.ndarray:
-        """(N,) N: the presser spring's push on the foot (its preload at rest, the foot on the
-        fabric on the plate, plus its rate times the foot's rise from there)."""
+        """(N,) N: the presser spring's push on the foot: its preload with the sole at the
+        fabric's free top on the plate, plus its rate times the sole's rise from there."""
         out: np.ndarray = self.presser.preload + self.presser.rate * (self.foot - self.thickness)
         return out
 
     @property
     def load_factor(self) -> float:
         """The presser spring's dynamic load factor: its largest push over the stitch over its
-        push at rest."""
+        preload."""
         return float(self.spring.max()) / self.presser.preload
 
     @property
@@ -165,6 +175,64 @@ class FeedRun:
         touch = self.dog_force[1:] > 0.0
         rel = np.diff(self.fabric) - np.diff(self.dog_x)
         return float(np.abs(rel[touch]).sum())
+
+    def as_dict(self) -> dict[str, Any]:
+        """The run's numbers for ``report.json`` (mm, deg, N; ``error`` a fraction)."""
+        deg, start = self.separation
+        return {
+            "speed_rpm": self.speed_rpm,
+            "stitches": self.stitches,
+            "timestep_s": self.timestep,
+            "stitch_mm": self.stitch * 1e3,
+            "dog_advance_mm": self.geometric * 1e3,
+            "error": self.error,
+            "spread_mm": self.spread * 1e3,
+            "foot_off_deg": deg,
+            "foot_off_from_deg": start,
+            "largest_gap_mm": float(self.lift.max()) * 1e3,
+            "load_factor": self.load_factor,
+            "slip_mm": self.slip * 1e3,
+            "presser": {
+                "preload_N": self.presser.preload,
+                "rate_N_per_mm": self.presser.rate * 1e-3,
+                "mass_g": self.presser.mass * 1e3,
+                "damping": self.presser.damping,
+                "lift_mm": self.presser.lift * 1e3,
+            },
+            "fabric": {
+                "mass_g": self.fabric_table.mass * 1e3,
+                "friction_dog": self.fabric_table.dog,
+                "friction_foot": self.fabric_table.foot,
+                "friction_plate": self.fabric_table.plate,
+                "thickness_mm": self.thickness * 1e3,
+            },
+        }
+
+    def columns(self) -> tuple[list[str], list[np.ndarray]]:
+        """``feed.csv``: the last stitch at every step (names with their units, columns)."""
+        names = [
+            "theta_deg",
+            "dog_mm",
+            "dog_x_mm",
+            "fabric_x_mm",
+            "fabric_z_mm",
+            "foot_mm",
+            "gap_mm",
+            "dog_force_N",
+            "foot_force_N",
+        ]
+        cols = [
+            self.theta,
+            self.dog * 1e3,
+            self.dog_x * 1e3,
+            self.fabric * 1e3,
+            self.fabric_z * 1e3,
+            self.foot * 1e3,
+            self.lift * 1e3,
+            self.dog_force,
+            self.foot_force,
+        ]
+        return names, cols
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -240,9 +308,9 @@ def _foot(spec: mujoco.MjSpec, presser: Presser, x: float, z: float, timestep: f
     )
     body.add_geom(
         name="foot",
-        type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=list(FOOT_HALF),
-        pos=[0.0, 0.0, FOOT_HALF[2]],
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=[FOOT_RADIUS, 0.0, 0.0],
+        pos=[0.0, 0.0, FOOT_RADIUS],
         mass=presser.mass,
         contype=0,
         conaffinity=0,
@@ -293,7 +361,7 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
     )
     _foot(spec, presser, x0, thick, timestep)
     stiff = [2.0 * timestep, 1.0]
-    for other, mu in (("dog", fabric.dog), ("foot", fabric.foot), ("plate", fabric.plate)):
+    for other, mu in (("dog", fabric.dog), ("plate", fabric.plate)):
         spec.add_pair(
             name=f"{other}_fabric",
             geomname1=other,
@@ -303,7 +371,29 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
             solref=stiff,
             solimp=list(IMPEDANCE),
         )
-    return spec.compile()
+    # The fabric's compliance across its thickness, all of it under the foot: the dog's teeth
+    # and the plate stay rigid, so that the plate bears nothing while the teeth are up. Its
+    # solref is set once compiled, from the compiled model's own inverse weights.
+    spec.add_pair(
+        name="foot_fabric",
+        geomname1="foot",
+        geomname2="fabric",
+        condim=3,
+        friction=[fabric.foot, fabric.foot, 0.0, 0.0, 0.0],
+        solimp=[COMPLIANT, COMPLIANT, 1e-3, 0.5, 2.0],
+    )
+    m = spec.compile()
+    # MuJoCo regularizes a row by (1 - d) / d times its diagonal approximation, the bodies'
+    # translational inverse weights (body_invweight0) summed: a contact force k r / R with
+    # k = stiffness / d is then stiffness * r / ((1 - d) A), and the fabric's spring K asks for
+    # stiffness = (1 - d) K A (its damping C likewise).
+    a_hat = float(m.body_invweight0[m.body("fabric").id, 0] + m.body_invweight0[m.body("foot").id, 0])
+    c = 2.0 * fabric.damping * math.sqrt(fabric.stiffness * presser.mass)
+    m.pair_solref[m.pair("foot_fabric").id] = [
+        -(1.0 - COMPLIANT) * fabric.stiffness * a_hat,
+        -(1.0 - COMPLIANT) * c * a_hat,
+    ]
+    return m
 
 
 def run_feed(
@@ -354,7 +444,8 @@ def run_feed(
     mujoco.mj_forward(m, d)
     starts = np.zeros(stitches + 1)
     N = steps
-    out = {k: np.zeros(N) for k in ("dog", "dog_x", "foot", "fabric", "dog_force", "foot_force")}
+    out = {k: np.zeros(N) for k in ("dog", "dog_x", "foot", "fabric", "fabric_z", "dog_force", "foot_force")}
+    fz = m.joint("fabric_z").qposadr[0]
     force = np.zeros(6)
     for s in range(stitches):
         starts[s] = d.qpos[fx]
@@ -369,6 +460,7 @@ def run_feed(
                 out["dog"][k] = pos[k, 1]
                 out["foot"][k] = tm.fabric + d.qpos[foot_q]
                 out["fabric"][k] = d.qpos[fx] - starts[s]
+                out["fabric_z"][k] = d.qpos[fz]
                 for i in range(d.ncon):
                     g1, g2 = int(d.contact.geom1[i]), int(d.contact.geom2[i])
                     which = touching.get(g1 if g2 == cloth else g2 if g1 == cloth else -1)
