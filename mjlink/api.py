@@ -626,12 +626,20 @@ def synth(
 
 
 def feed(
-    mechanism: Mechanism | PathLike, *, speed_rpm: float | None = None, sweep: bool = False, stitches: int = 6
+    mechanism: Mechanism | PathLike,
+    out: PathLike = "renders",
+    *,
+    speed_rpm: float | None = None,
+    sweep: bool = False,
+    stitches: int = 6,
+    plots: bool = True,
+    force: bool = False,
 ) -> FeedResult:
-    """What ``python -m mjlink feed`` computes (nothing is written): the fabric fed by the head's
-    dog under its sprung presser foot through MuJoCo's contacts, at ``speed_rpm`` (default the
-    file's; its sign is ignored, the file's sense kept) or with ``sweep`` every 500 rpm from 500
-    to 6,000, ``stitches`` (2 to 50) from rest at each speed.
+    """What ``python -m mjlink feed`` computes: the fabric fed by the head's dog under its sprung
+    presser foot through MuJoCo's contacts, at ``speed_rpm`` (default the file's; its sign is
+    ignored, the file's sense kept) or with ``sweep`` every 500 rpm from 500 to 6,000,
+    ``stitches`` (2 to 50) from rest at each speed, into ``out/NAME_feed/`` as the command
+    writes it.
 
     Returns:
       :class:`~mjlink.pipeline.FeedResult`: per speed a :class:`mjlink.sim.feed.FeedRun`
@@ -640,13 +648,22 @@ def feed(
     """
     fn = "feed"
     mech = _mechanism(fn, mechanism)
+    root = Path(_path(fn, "out", out))
     rpm = _number(fn, "speed_rpm", speed_rpm, "rpm")
-    every = _flag(fn, "sweep", sweep)
+    flags = {k: _flag(fn, k, v) for k, v in (("sweep", sweep), ("plots", plots), ("force", force))}
     if isinstance(stitches, bool | np.bool_) or not isinstance(stitches, numbers.Integral):
         raise _refuse(fn, "stitches", stitches, "a whole number")
     names = {"--speed": "speed_rpm", "--sweep": "sweep", "--stitches": "stitches"}
     try:
-        return _pipeline_feed(mech, speed_rpm=rpm, sweep=every, stitches=int(stitches))
+        return _pipeline_feed(
+            mech,
+            root,
+            speed_rpm=rpm,
+            sweep=flags["sweep"],
+            stitches=int(stitches),
+            plots=flags["plots"],
+            force=flags["force"],
+        )
     except InputError as e:  # the command's check, in the arguments' names
         text = str(e)
         for option, name in names.items():

@@ -232,7 +232,15 @@ VALID = {
     "design": {"mechanism": "MECH", "output": None, "out": "TMP", "force": False},
     "loads": {"mechanism": "MECH", "out": "TMP", "speed_rpm": 955.0, "plots": False, "force": False},
     "steady": {"mechanism": "MECH", "out": "TMP", "plots": False, "force": False},
-    "feed": {"mechanism": "HEAD", "speed_rpm": 3000.0, "sweep": False, "stitches": 2},
+    "feed": {
+        "mechanism": "HEAD",
+        "out": "TMP",
+        "speed_rpm": 3000.0,
+        "sweep": False,
+        "stitches": 2,
+        "plots": False,
+        "force": False,
+    },
     "synth": {
         "stroke_mm": 45.0,
         "offset_mm": 15.0,
@@ -422,7 +430,15 @@ def test_every_command_has_its_function_and_they_agree(tmp_path):
 
     from mjlink.cli import text
 
-    fed = mjlink.feed("lockstitch_head", speed_rpm=2000.0, stitches=2)
+    fed = mjlink.feed("lockstitch_head", tmp_path / "g", speed_rpm=2000.0, stitches=2, plots=False)
     assert isinstance(fed, mjlink.FeedResult) and len(fed.sweep.runs) == 1
-    cli = in_process("feed", "lockstitch_head", "--speed", "2000rpm", "--stitches", "2")
-    assert cli.returncode == 0 and cli.stdout.rstrip("\n") == text.feed(fed)
+    assert fed.files == ("feed.csv", "feed_speeds.csv", "report.json")
+    cli = in_process(
+        "feed", "lockstitch_head", "--speed", "2000rpm", "--stitches", "2", "--no-plots", "--out", str(tmp_path / "f")
+    )
+    assert cli.returncode == 0
+    assert cli.stdout == text.feed(fed).replace(str(tmp_path / "g"), str(tmp_path / "f")) + "\n"
+    a, b = (
+        json.loads((d / "lockstitch_head_feed" / "report.json").read_text()) for d in (tmp_path / "f", tmp_path / "g")
+    )
+    assert a["runs"] == b["runs"]

@@ -79,6 +79,23 @@ def test_the_foots_free_vibration_is_its_spring_and_masss():
     assert z[-len(z) // 2 :].mean() == pytest.approx(-30.0 / 2500.0 - 0.06 * 9.81 / 2500.0, rel=0.05)  # decay
 
 
+def test_the_foots_bounce_on_the_fabric_is_its_mass_on_the_spring_and_the_fabric(head):
+    """Let go with its sole at the fabric's free top, the foot vibrates on the presser spring
+    and the fabric's stiffness side by side, damped by both (closed form within the issue's
+    2 %), and settles where the fabric holds its push: (preload + m g) / (K + rate) below."""
+    p, f = PRESSER_DEFAULTS, FABRIC_DEFAULTS
+    t, z = feed.foot_on_fabric(head, seconds=0.02)
+    rest = head.timing.fabric - (p.preload + p.mass * feed.GRAVITY) / (f.stiffness + p.rate)
+    assert z[-1] == pytest.approx(rest, abs=1e-7)  # m: settled, within the rigid plate's give
+    up = np.flatnonzero((z[:-1] < rest) & (z[1:] >= rest))
+    measured = 3 / (t[up[3]] - t[up[0]])  # the first three periods, before the damping ends it
+    k, m = p.rate + f.stiffness, p.mass
+    zeta = (2 * p.damping * math.sqrt(p.rate * m) + 2 * f.damping * math.sqrt(f.stiffness * m)) / (2 * math.sqrt(k * m))
+    closed = math.sqrt(k / m) * math.sqrt(1 - zeta**2) / (2 * math.pi)
+    assert measured == pytest.approx(closed, rel=FREQUENCY)
+    assert feed.bounce(p, f) == pytest.approx(closed, rel=1e-12)
+
+
 # ---------------------------------------------------------------- the head file's tables
 HEAD_TEXT = (shipped("mechanisms") / "lockstitch_head.toml").read_text()
 
@@ -257,3 +274,32 @@ def test_the_feed_command_prints_a_row_per_speed_and_refuses_bad_input_in_one_li
         bad = in_process("feed", *args)
         assert bad.returncode == 2 and bad.stdout == "", args
         assert bad.stderr.count("\n") == 1 and says in bad.stderr, bad.stderr
+
+
+def test_a_sweep_writes_its_table_report_and_figures_without_defects(tmp_path):
+    """feed --sweep into OUT/NAME_feed/: a row per speed in feed_speeds.csv as report.json has
+    it, the last speed's stitch in feed.csv, and the two figures, each read as it is written
+    (no axis without its unit, no text over another or off the canvas)."""
+    import json
+
+    from mjlink.cli import main
+    from mjlink.plotting import style
+
+    with style.examine(lambda name, fig: style.figure_defects(fig)) as figs:
+        assert main(["feed", "lockstitch_head", "--sweep", "--stitches", "2", "--out", str(tmp_path)]) == 0
+    out = tmp_path / "lockstitch_head_feed"
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "feed.csv",
+        "feed.png",
+        "feed_speed.png",
+        "feed_speeds.csv",
+        "report.json",
+    ]
+    assert {name: defects for name, defects in figs} == {"feed.png": [], "feed_speed.png": []}
+    report = json.loads((out / "report.json").read_text())
+    rows = (out / "feed_speeds.csv").read_text().splitlines()
+    table = [r for r in rows if not r.startswith("#")]
+    assert table[0].startswith("speed_rpm,stitch_mm,error_percent,")
+    assert len(table) - 1 == len(report["runs"]) == 12
+    over = [r["speed_rpm"] for r in report["runs"] if abs(r["error"]) > report["error_limit"]]
+    assert report["first_over_rpm"] == (min(over) if over else None)

@@ -515,6 +515,13 @@ def _feed_arguments(q: argparse.ArgumentParser) -> None:
     q.add_argument(
         "--stitches", type=whole_arg, default=6, help="stitches run from rest at each speed (2 to 50, default 6)"
     )
+    q.add_argument("--out", type=path_arg, default=Path("renders"), help="output root; results go to OUT/NAME_feed/")
+    q.add_argument(
+        "--force",
+        action="store_true",
+        help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
+    )
+    q.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
 
 
 def _feed(args: argparse.Namespace) -> int:
@@ -523,7 +530,14 @@ def _feed(args: argparse.Namespace) -> int:
     mech = validation.get(args.mechanism)
     rad = _rad_s(args.speed)
     res = pipeline.feed(
-        mech, speed_rpm=None if rad is None else rad * 30.0 / math.pi, sweep=args.sweep, stitches=args.stitches
+        mech,
+        args.out,
+        speed_rpm=None if rad is None else rad * 30.0 / math.pi,
+        sweep=args.sweep,
+        stitches=args.stitches,
+        plots=not args.no_plots,
+        force=args.force,
+        command=args.command_line,
     )
     print(text.feed(res))
     return 0

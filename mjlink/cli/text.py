@@ -240,7 +240,7 @@ def feed(res: FeedResult) -> str:
     first speed beyond the error limit."""
     head = (
         f"{'speed':>11}  {'stitch':>9}  {'error':>7}  {'spread':>8}  {'foot off the fabric':>24}  "
-        f"{'largest gap':>11}  {'spring load':>11}  {'slip on dog':>11}"
+        f"{'largest gap':>11}  {'spring load':>11}  {'slip on dog':>11}  {'foot force':>9}"
     )
     rows = [
         f"the feed of {res.mechanism} under its presser foot (MuJoCo contacts, {res.stitches} stitches a speed)",
@@ -252,13 +252,15 @@ def feed(res: FeedResult) -> str:
         rows.append(
             f"{r.speed_rpm:>7.0f} rpm  {to_mm(r.stitch):>6.3f} mm  {r.error * 100:>+6.2f}%  "
             f"{r.spread * 1e6:>5.1f} µm  {off:>24}  {to_mm(r.lift.max()):>8.3f} mm  "
-            f"{r.load_factor:>10.3f}x  {r.slip * 1e6:>8.1f} µm"
+            f"{r.load_factor:>10.3f}x  {r.slip * 1e6:>8.1f} µm  {r.foot_force.max():>7.1f} N"
         )
     first = res.sweep.runs[0]
     rows.append(
         f"stitch: the fabric's advance in the last stitch; error: against the dog's own advance with its teeth "
         f"above the plate, {to_mm(first.geometric):.4f} mm; spring load: the presser spring's largest push over "
-        f"its {first.presser.preload:g} N preload (the dynamic load factor)"
+        f"its {first.presser.preload:g} N preload (the dynamic load factor); foot force: the foot's largest push "
+        f"on the fabric; the foot bounces on the fabric at {first.bounce_hz:.0f} Hz (closed form), what a "
+        f"once-a-stitch push meets at {first.bounce_hz * 60:,.0f} rpm"
     )
     if len(res.sweep.runs) > 1:
         over = res.first_over
@@ -271,6 +273,8 @@ def feed(res: FeedResult) -> str:
         "not modelled: plies, the dog's teeth as teeth, the needle in the fabric, the operator's hold "
         "(docs/head.md, The fabric under the presser foot)"
     )
+    if res.out_dir is not None:
+        rows.append(f"outputs in {res.out_dir}/: {', '.join(res.files)}")
     return "\n".join(rows)
 
 

@@ -1,5 +1,5 @@
 """``feed``: the fabric under the presser foot, fed by the head's dog through MuJoCo's contacts
-(:mod:`mjlink.sim.feed`), at one speed or over a sweep of speeds; nothing is written.
+(:mod:`mjlink.sim.feed`), at one speed or over a sweep of speeds, into ``OUT/NAME_feed/``.
 
 What it reports per speed: the stitch length against the dog's geometric advance (its error),
 its spread from stitch to stitch, the foot's separation from the fabric (how long, from where),
@@ -9,12 +9,21 @@ the slowest speed whose stitch-length error exceeds :data:`ERROR_LIMIT`.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 from ..errors import InputError
+from ..files import write_json, write_table
 from ..model.mechanism import Mechanism
+from ..runtime import staging
+from ..runtime.workers import PlotJob, run_jobs
 from ..sim import feed as _feed
+from .results import Provenance, provenance
 
 __all__ = ["ERROR_LIMIT", "FEED_STITCHES", "MAX_RPM", "MAX_STITCHES", "MIN_RPM", "SWEEP_RPM", "FeedResult", "feed"]
 
@@ -31,18 +40,63 @@ FEED_STITCHES = 6  # stitches a head's simulate feeds from rest: the advance set
 class FeedResult:
     """The feed of ``mechanism`` (its name) over ``stitches`` stitches at each speed:
     ``sweep`` (:class:`mjlink.sim.feed.FeedSweep`, its runs in the order of the speeds), and
-    ``first_over`` the slowest run whose stitch-length error exceeds ``limit`` (None: none)."""
+    ``first_over`` the slowest run whose stitch-length error exceeds ``limit`` (None: none);
+    ``out_dir`` where it was written (None: nothing was), ``files`` the names there.
+    :meth:`as_dict` is its ``report.json``."""
 
     mechanism: str
     stitches: int
     sweep: _feed.FeedSweep
     limit: float
     first_over: _feed.FeedRun | None
+    out_dir: Path | None = None
+    files: tuple[str, ...] = field(default=())
+    provenance: Provenance | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "mechanism": self.mechanism,
+            "stitches": self.stitches,
+            "error_limit": self.limit,
+            "first_over_rpm": None if self.first_over is None else self.first_over.speed_rpm,
+            "runs": [r.as_dict() for r in self.sweep.runs],
+        }
+        if self.provenance is not None:
+            d["provenance"] = self.provenance.as_dict()
+        return d
 
 
-def feed(mech: Mechanism, *, speed_rpm: float | None = None, sweep: bool = False, stitches: int = 6) -> FeedResult:
+_ROWS = (  # feed_speeds.csv: a row per speed
+    ("speed_rpm", lambda r: r.speed_rpm),
+    ("stitch_mm", lambda r: r.stitch * 1e3),
+    ("error_percent", lambda r: r.error * 100.0),
+    ("spread_mm", lambda r: r.spread * 1e3),
+    ("foot_off_deg", lambda r: r.separation[0]),
+    ("largest_gap_mm", lambda r: float(r.lift.max()) * 1e3),
+    ("load_factor", lambda r: r.load_factor),
+    ("slip_mm", lambda r: r.slip * 1e3),
+    ("foot_force_peak_N", lambda r: float(r.foot_force.max())),
+)
+
+
+def feed(
+    mech: Mechanism,
+    out_root: Path | str | None = None,
+    *,
+    speed_rpm: float | None = None,
+    sweep: bool = False,
+    stitches: int = 6,
+    plots: bool = True,
+    force: bool = False,
+    command: Sequence[str] = (),
+) -> FeedResult:
     """The feed at ``speed_rpm`` (default the file's speed; its sign is the file's sense and is
-    ignored), or with ``sweep`` at every speed of :data:`SWEEP_RPM`.
+    ignored), or with ``sweep`` at every speed of :data:`SWEEP_RPM`; into
+    ``<out_root>/<name>_feed/`` unless ``out_root`` is None: ``report.json``
+    (:meth:`FeedResult.as_dict`), ``feed_speeds.csv`` (a row per speed), ``feed.csv`` (the last
+    stitch at the last speed) and, with ``plots``, ``feed.png`` (that stitch) and over a sweep
+    ``feed_speed.png``; its marker (kind ``feed``; a folder mjlink did not write for it is
+    refused unless ``force``, :func:`mjlink.runtime.staging.staged_dir`).
 
     Raises:
       InputError: a head without a ``[timing]`` table naming its feed dog, a speed outside
@@ -66,7 +120,30 @@ def feed(mech: Mechanism, *, speed_rpm: float | None = None, sweep: bool = False
                 f"{given}: the feed runs at {MIN_RPM:g} to {MAX_RPM:g} rpm (a stitch in 10 us steps), got {rpm:.6g} rpm"
             )
         speeds = [rpm]
-    runs = _feed.sweep(mech, speeds, stitches=stitches)
+    if out_root is None:
+        return _result(mech, stitches, _feed.sweep(mech, speeds, stitches=stitches), sweep)
+    out_dir = Path(out_root) / f"{mech.name}_feed"
+    options = {"speed_rpm": speed_rpm, "sweep": sweep, "stitches": stitches, "plots": plots}
+    with staging.staged_dir(out_dir, kind="feed", force=force, mechanism=mech.name, command=command) as stage:
+        res = _result(mech, stitches, _feed.sweep(mech, speeds, stitches=stitches), sweep)
+        res = dataclasses.replace(res, out_dir=out_dir, provenance=provenance(command, options))
+        runs = res.sweep.runs
+        write_table(stage / "feed_speeds.csv", [n for n, _ in _ROWS], [[f(r) for r in runs] for _, f in _ROWS])
+        names, cols = runs[-1].columns()
+        write_table(stage / "feed.csv", names, cols)
+        if plots:
+            from ..plotting import feed as feed_plot  # here: matplotlib, not for --no-plots
+
+            jobs: list[PlotJob] = [functools.partial(feed_plot.feed_plot, mech, runs[-1], stage)]
+            if sweep:
+                jobs.append(functools.partial(feed_plot.feed_speed_plot, mech, runs, res.limit, stage))
+            run_jobs(jobs)
+        write_json(stage / "report.json", res.as_dict())
+        files = tuple(sorted(p.name for p in stage.iterdir() if not p.name.startswith(".")))
+    return dataclasses.replace(res, files=files)
+
+
+def _result(mech: Mechanism, stitches: int, runs: _feed.FeedSweep, sweep: bool) -> FeedResult:
     return FeedResult(
         mechanism=mech.name,
         stitches=stitches,

@@ -1,5 +1,5 @@
 """The fabric under the presser foot (:mod:`mjlink.sim.feed`): a stitch against the main-shaft
-angle (``feed.png``)."""
+angle (``feed.png``) and the stitch length against speed (``feed_speed.png``)."""
 
 from __future__ import annotations
 
@@ -62,3 +62,30 @@ def feed_plot(mech: Mechanism, run: FeedRun, out_dir: Path | str) -> Path:
         a.grid(alpha=0.3)
     fig.suptitle(title(mech, "the fabric fed under the presser foot (MuJoCo contacts)"), fontsize=11, y=0.995)
     return save(fig, out_dir, "feed.png")
+
+
+def feed_speed_plot(mech: Mechanism, runs: tuple[FeedRun, ...], limit: float, out_dir: Path | str) -> Path:
+    """``feed_speed.png``: over a sweep of speeds, the stitch length's error against the dog's
+    advance with the limit either side; below, the degrees of the stitch the foot is off the
+    fabric."""
+    rpm = np.array([r.speed_rpm for r in runs])
+    fig, (ax, bx) = subplots(2, 1, figsize=(9.0, 6.5), sharex=True, height_ratios=[1.3, 1.0])
+    place(fig, ax.get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=0.6, hgap=0.3)
+    ax.plot(rpm, [r.error * 100.0 for r in runs], "o-", color="C0", label="stitch length against the dog's advance")
+    for sign in (1.0, -1.0):
+        ax.axhline(sign * limit * 100.0, color="C3", lw=0.9, ls="--", label=f"±{limit:.0%}" if sign > 0 else None)
+    ax.axhline(0.0, color="0.4", lw=0.8)
+    ax.set_ylabel("error [%]")
+    ax.legend(loc="upper left", fontsize=7.5, framealpha=0.9)
+    ax.set_title(
+        f"the dog's advance with its teeth up: {runs[0].geometric / MM:.3f} mm; {runs[0].stitches} stitches a speed",
+        fontsize=8.5,
+    )
+    bx.plot(rpm, [r.separation[0] for r in runs], "s-", color="C3", label="the foot off the fabric")
+    bx.set_ylabel("of the stitch [deg]")
+    bx.set_xlabel("main-shaft speed [rpm]")
+    bx.legend(loc="upper left", fontsize=7.5, framealpha=0.9)
+    for a in (ax, bx):
+        a.grid(alpha=0.3)
+    fig.suptitle(title(mech, "stitch length against speed (MuJoCo contacts)"), fontsize=11, y=0.995)
+    return save(fig, out_dir, "feed_speed.png")

@@ -27,7 +27,7 @@ files and only those. A staging folder carries one from its creation, with ``sta
 name, ``pid`` and ``host``: what lets a later run recognise it as mjlink's."""
 
 # The command that writes each kind of output folder, for markers and messages.
-COMMANDS = {"simulate": "simulate", "loads": "torque/reactions", "steady": "steady", "study": "study"}
+COMMANDS = {"simulate": "simulate", "loads": "torque/reactions", "steady": "steady", "study": "study", "feed": "feed"}
 
 
 def now() -> str:

@@ -176,6 +176,11 @@ class FeedRun:
         rel = np.diff(self.fabric) - np.diff(self.dog_x)
         return float(np.abs(rel[touch]).sum())
 
+    @property
+    def bounce_hz(self) -> float:
+        """Hz: the foot's free vibration on the fabric (:func:`bounce`, closed form)."""
+        return bounce(self.presser, self.fabric_table)
+
     def as_dict(self) -> dict[str, Any]:
         """The run's numbers for ``report.json`` (mm, deg, N; ``error`` a fraction)."""
         deg, start = self.separation
@@ -192,6 +197,8 @@ class FeedRun:
             "largest_gap_mm": float(self.lift.max()) * 1e3,
             "load_factor": self.load_factor,
             "slip_mm": self.slip * 1e3,
+            "foot_force_peak_N": float(self.foot_force.max()),
+            "bounce_hz": self.bounce_hz,
             "presser": {
                 "preload_N": self.presser.preload,
                 "rate_N_per_mm": self.presser.rate * 1e-3,
@@ -204,6 +211,8 @@ class FeedRun:
                 "friction_dog": self.fabric_table.dog,
                 "friction_foot": self.fabric_table.foot,
                 "friction_plate": self.fabric_table.plate,
+                "stiffness_N_per_mm": self.fabric_table.stiffness * 1e-3,
+                "damping": self.fabric_table.damping,
                 "thickness_mm": self.thickness * 1e3,
             },
         }
@@ -515,4 +524,43 @@ def foot_vibration(presser: Presser, *, seconds: float = 0.5, timestep: float = 
     for k in range(n):
         mujoco.mj_step(m, d)
         t[k], z[k] = d.time, d.qpos[0]
+    return t, z
+
+
+def bounce(presser: Presser, fabric: Fabric) -> float:
+    """Hz: the foot's free vibration on the fabric on the plate (closed form): its mass on the
+    presser spring and the fabric's stiffness side by side, damped by both."""
+    k = presser.rate + fabric.stiffness
+    c = 2.0 * presser.damping * math.sqrt(presser.rate * presser.mass) + 2.0 * fabric.damping * math.sqrt(
+        fabric.stiffness * presser.mass
+    )
+    zeta = c / (2.0 * math.sqrt(k * presser.mass))
+    return math.sqrt(k / presser.mass) * math.sqrt(max(0.0, 1.0 - zeta**2)) / (2.0 * math.pi)
+
+
+def foot_on_fabric(
+    mech: Mechanism,
+    *,
+    presser: Presser | None = None,
+    fabric: Fabric | None = None,
+    seconds: float = 0.02,
+    timestep: float = 1e-5,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The foot let go with its sole at the fabric's free top on the plate, the dog's teeth
+    held well below the plate: its time (s) and sole's height above the plate (m) at every
+    step (it bounces on the fabric and settles where the fabric holds its push)."""
+    presser = presser or mech.presser or PRESSER_DEFAULTS
+    fabric = fabric or mech.fabric or FABRIC_DEFAULTS
+    tm = mech.timing
+    if tm is None:
+        raise ValueError(f"{mech.name}: the feed needs a [timing] table")
+    m = _model(mech, presser, fabric, timestep, 0.0)
+    d = mujoco.MjData(m)
+    d.qpos[m.joint("dog_z").qposadr[0]] = -0.005  # m: out of the way
+    foot_q = m.joint("foot").qposadr[0]
+    n = math.ceil(seconds / timestep)
+    t, z = np.zeros(n), np.zeros(n)
+    for k in range(n):
+        mujoco.mj_step(m, d)
+        t[k], z[k] = d.time, tm.fabric + d.qpos[foot_q]
     return t, z
