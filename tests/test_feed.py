@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -303,3 +304,90 @@ def test_a_sweep_writes_its_table_report_and_figures_without_defects(tmp_path):
     assert len(table) - 1 == len(report["runs"]) == 12
     over = [r["speed_rpm"] for r in report["runs"] if abs(r["error"]) > report["error_limit"]]
     assert report["first_over_rpm"] == (min(over) if over else None)
+
+
+# ---------------------------------------------------------------- the study metric
+STUDY = """[study]
+mechanism = "lockstitch_head"
+title = "presser"
+angles = 90
+
+[sampling]
+method = "grid"
+
+[verify]
+mujoco = "none"
+
+[[parameter]]
+path = "presser.preload"
+values = [30.0, 60.0]
+[[parameter]]
+path = "fabric.stiffness"
+values = [80.0, 200.0]
+
+[[metric]]
+kind = "feed"
+speeds = [2000, 5500]
+stitches = 3
+"""
+
+
+def test_the_feed_metric_is_each_variants_own_feed(head, tmp_path):
+    """Each variant's columns are the feed of the file with that variant's [presser] and
+    [fabric] numbers, run here directly at the metric's speeds (expected values from outside the
+    study: paths.apply and run_feed)."""
+    import mjlink
+    from mjlink.model import paths
+
+    f = tmp_path / "presser.toml"
+    f.write_text(STUDY)
+    res = mjlink.run_study(f, tmp_path / "out", workers=0, plots=False)
+    table = mjlink.read_study(res.out_dir)
+    cat = paths.catalogue(head)
+    for i in range(len(table["variant"])):
+        pre, k = float(table["presser.preload_N"][i]), float(table["fabric.stiffness_N_mm"][i])
+        own = paths.apply(head, {cat["presser.preload"]: pre, cat["fabric.stiffness"]: k})
+        runs = [feed.run_feed(own, speed_rpm=w, stitches=3) for w in (2000.0, 5500.0)]
+        worst = max(runs, key=lambda r: abs(r.error))
+        assert float(table["feed_error_max_%"][i]) == pytest.approx(worst.error * 100.0, abs=1e-9)
+        assert float(table["feed_stitch_mm"][i]) == pytest.approx(runs[-1].stitch * 1e3, abs=1e-12)
+        assert float(table["feed_foot_off_max_deg"][i]) == pytest.approx(max(r.separation[0] for r in runs))
+        assert float(table["feed_load_factor_max"][i]) == pytest.approx(max(r.load_factor for r in runs), abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        ("speeds = [20, 5500]", "speeds must be a list of 1 to 12 speeds in rpm, each 60 to 10000"),
+        ('speeds = "fast"', "speeds must be a list"),
+        ("speeds = [2000, 5500]\nstitches = 1", "stitches must be a whole number 2 to 20"),
+    ],
+)
+def test_the_feed_metrics_options_are_bounded(tmp_path, change, says):
+    import mjlink
+
+    f = tmp_path / "s.toml"
+    f.write_text(STUDY.replace("speeds = [2000, 5500]\nstitches = 3", change))
+    with pytest.raises(mjlink.MjlinkError, match=re.escape(says)):
+        mjlink.run_study(f, tmp_path / "out", workers=0, plots=False)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_study_that_moves_the_feed_dog_is_refused_by_the_feed_metric(tmp_path):
+    """The feed runs the file's linkage: varying what moves the dog is a one-line error, not a
+    feed of the wrong path."""
+    import mjlink
+
+    mech = mechanism.load(shipped("mechanisms") / "lockstitch_head.toml")
+    crank = next(s for s in mech.steps if s.point == mech.timing.roles["feed_dog"])
+    key = next(iter(crank.numbers))
+    nominal = getattr(crank, key)
+    f = tmp_path / "s.toml"
+    f.write_text(
+        STUDY.replace(
+            'path = "fabric.stiffness"\nvalues = [80.0, 200.0]',
+            f'path = "construct.{crank.point}.{key}"\nvalues = [{nominal * 1e3 * 0.98!r}, {nominal * 1e3 * 1.02!r}]',
+        )
+    )
+    with pytest.raises(mjlink.MjlinkError, match="the feed runs the file's linkage"):
+        mjlink.run_study(f, tmp_path / "out", workers=0, plots=False)

@@ -15,6 +15,11 @@ A path names one value of the file, in the file's own units (mm, deg, g, ...)::
     dynamics.motor.stall_torque  the motor characteristic (N*m, no_load_speed rad/s)
     steady.stall_torque          the steady-motion motor (N*m, no_load_speed rad/s, target_delta -)
     thread.elongation            the thread elongation dP, mm
+    tension.needle_tension       a lockstitch head's [tension] numbers (N, N/mm, g, deg, -)
+    presser.preload              a head's presser foot: preload N, rate N/mm, mass g, damping -,
+                                 lift mm (the file's [presser] or its defaults)
+    fabric.stiffness             the fabric under it: mass g, stiffness N/mm, damping -,
+                                 friction_dog / friction_foot / friction_plate -
     counterweight.mass           a point mass on the input crank (g; radius mm from its pivot,
                                  angle deg from the crank's direction; a study may add one to
                                  a file without it: nominal 0 g at 0 mm, 180 deg)
@@ -47,6 +52,15 @@ from ..units import DEG, MM, G
 from . import synthesis as synth
 from . import tomlio
 from .mechanism import Counterweight, Force, Mechanism, parse
+from .presser import (
+    FABRIC_BOUNDS,
+    FABRIC_DEFAULTS,
+    FABRIC_FIELDS,
+    FABRIC_SCALES,
+    PRESSER_BOUNDS,
+    PRESSER_DEFAULTS,
+    PRESSER_SCALES,
+)
 from .tension import BOUNDS as TENSION_BOUNDS
 from .tension import DEFAULTS as TENSION_DEFAULTS
 from .tension import SCALES as TENSION_SCALES
@@ -170,6 +184,15 @@ def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None
         given = mech.tension or TENSION_DEFAULTS
         for key, scale in TENSION_SCALES.items():
             add(f"tension.{key}", scale, TENSION_BOUNDS[key].unit, False, getattr(given, key))
+    if mech.timing is not None and mech.timing.has("feed_dog"):
+        # The feed under the presser foot: the file's [presser] and [fabric] numbers or the
+        # defaults it would take.
+        presser, fabric = mech.presser or PRESSER_DEFAULTS, mech.fabric or FABRIC_DEFAULTS
+        for key, scale in PRESSER_SCALES.items():
+            add(f"presser.{key}", scale, PRESSER_BOUNDS[key].unit, key != "damping", getattr(presser, key))
+        for key, scale in FABRIC_SCALES.items():
+            positive = key in ("mass", "stiffness")
+            add(f"fabric.{key}", scale, FABRIC_BOUNDS[key].unit, positive, getattr(fabric, FABRIC_FIELDS[key]))
     if mech.synthesis is not None:
         sy = mech.synthesis
         add("synthesis.stroke", MM, "mm", True, sy.stroke)
@@ -263,6 +286,12 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
         elif sec == "tension":
             given = top.get("tension", mech.tension or TENSION_DEFAULTS)
             top["tension"] = dataclasses.replace(given, **{parts[1]: v})
+        elif sec == "presser":
+            given = top.get("presser", mech.presser or PRESSER_DEFAULTS)
+            top["presser"] = dataclasses.replace(given, **{parts[1]: v})
+        elif sec == "fabric":
+            given = top.get("fabric", mech.fabric or FABRIC_DEFAULTS)
+            top["fabric"] = dataclasses.replace(given, **{FABRIC_FIELDS[parts[1]]: v})
         else:  # catalogue() lists no other section
             raise PathError(f"{mech.name}: parameter path '{p.path}' cannot be varied")
     d = mech.dynamics
@@ -455,7 +484,18 @@ def _set(raw: dict, path: str, v: float) -> None:
         step[parts[2]] = v
     elif sec == "links":
         raw["links"][parts[1]][parts[2]] = v
-    elif sec in ("input", "steady", "thread", "synthesis", "counterweight", "timing", "balance", "tension"):
+    elif sec in (
+        "input",
+        "steady",
+        "thread",
+        "synthesis",
+        "counterweight",
+        "timing",
+        "balance",
+        "tension",
+        "presser",
+        "fabric",
+    ):
         raw.setdefault(sec, {})[parts[1]] = v
     elif sec == "dynamics" and parts[1] == "motor":
         raw["dynamics"]["motor"][parts[2]] = v

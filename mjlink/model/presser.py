@@ -38,9 +38,12 @@ from .reader import Reader
 __all__ = [
     "FABRIC_BOUNDS",
     "FABRIC_DEFAULTS",
+    "FABRIC_FIELDS",
+    "FABRIC_SCALES",
     "FABRIC_SOURCES",
     "PRESSER_BOUNDS",
     "PRESSER_DEFAULTS",
+    "PRESSER_SCALES",
     "PRESSER_SOURCES",
     "Fabric",
     "Presser",
@@ -181,16 +184,22 @@ FABRIC_BOUNDS: dict[str, Bound] = {k: v[2] for k, v in _FABRIC.items()}
 """Each ``[fabric]`` key's range in the file's unit, with its reason."""
 FABRIC_SOURCES: dict[str, str] = {k: v[3] for k, v in _FABRIC.items()}
 """Each ``[fabric]`` default's source (or ``[choice]`` and why)."""
+PRESSER_SCALES: dict[str, float] = {k: v[1] for k, v in _PRESSER.items()}
+"""Each ``[presser]`` key's factor from the file's unit to SI."""
+FABRIC_SCALES: dict[str, float] = {k: v[1] for k, v in _FABRIC.items()}
+"""Each ``[fabric]`` key's factor from the file's unit to SI."""
+FABRIC_FIELDS = {
+    "mass": "mass",
+    "stiffness": "stiffness",
+    "damping": "damping",
+    "friction_dog": "dog",
+    "friction_foot": "foot",
+    "friction_plate": "plate",
+}
+"""Each ``[fabric]`` key's field of :class:`Fabric` (a ``[presser]`` key is its field's name)."""
 PRESSER_DEFAULTS = Presser(**{k: v[0] * v[1] for k, v in _PRESSER.items()})
 """The ``[presser]`` defaults (:data:`PRESSER_SOURCES`), SI."""
-FABRIC_DEFAULTS = Fabric(
-    mass=_FABRIC["mass"][0] * G,
-    stiffness=_FABRIC["stiffness"][0] / MM,
-    damping=_FABRIC["damping"][0],
-    dog=_FABRIC["friction_dog"][0],
-    foot=_FABRIC["friction_foot"][0],
-    plate=_FABRIC["friction_plate"][0],
-)
+FABRIC_DEFAULTS = Fabric(**{FABRIC_FIELDS[k]: v[0] * v[1] for k, v in _FABRIC.items()})
 """The ``[fabric]`` defaults (:data:`FABRIC_SOURCES`), SI."""
 
 
@@ -217,11 +226,4 @@ def read_fabric(r: Reader, raw: Any, has_feed_dog: bool) -> Fabric:
     """The ``[fabric]`` table (see the module's docstring)."""
     _needs_feed_dog(r, "[fabric]", has_feed_dog)
     v = r.defaulted(raw, "[fabric]", _FABRIC)
-    return Fabric(
-        mass=v["mass"],
-        stiffness=v["stiffness"],
-        damping=v["damping"],
-        dog=v["friction_dog"],
-        foot=v["friction_foot"],
-        plate=v["friction_plate"],
-    )
+    return Fabric(**{FABRIC_FIELDS[k]: x for k, x in v.items()})

@@ -718,7 +718,9 @@ def _limit(
     for bound in (lo, hi):
         if bound is not None and zmin < bound < zmax:
             cl = ax.contour(xs, ys, z, levels=[bound], zorder=2, **LIMIT_STYLE)
-            ax.clabel(cl, fmt=f"{bound:g} {unit}".strip(), fontsize=8, inline=True, inline_spacing=3)
+            # A callable, not a format string: a unit such as '%' would be read as a format.
+            label = f"{bound:g} {unit}".strip()
+            ax.clabel(cl, fmt=lambda _level, label=label: label, fontsize=8, inline=True, inline_spacing=3)
 
 
 def _write(fig: Figure, out_dir: Path | str, name: str) -> Path:

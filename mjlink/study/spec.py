@@ -34,6 +34,7 @@ from ..model.reader import digits, shown
 from ..notes import note
 from ..quantity import QuantityError
 from ..quantity import parse as parse_quantity
+from . import feed_metric as _feed_metric  # noqa: F401 (registers the 'feed' metric)
 from . import sampling, values
 from .errors import StudyFileError, StudyLimitError
 from .varied import Varied
