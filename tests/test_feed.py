@@ -353,6 +353,9 @@ def test_the_feed_metric_is_each_variants_own_feed(head, tmp_path):
         assert float(table["feed_stitch_mm"][i]) == pytest.approx(runs[-1].stitch * 1e3, abs=1e-12)
         assert float(table["feed_foot_off_max_deg"][i]) == pytest.approx(max(r.separation[0] for r in runs))
         assert float(table["feed_load_factor_max"][i]) == pytest.approx(max(r.load_factor for r in runs), abs=1e-12)
+        assert float(table["feed_error_size_%"][i]) == pytest.approx(abs(worst.error) * 100.0, abs=1e-9)
+        force = max(float(r.foot_force.max()) for r in runs)
+        assert float(table["feed_foot_force_max_N"][i]) == pytest.approx(force, abs=1e-9)
 
 
 @pytest.mark.parametrize(

@@ -37,19 +37,22 @@ def _of(x: Any, i: int, b: Batch) -> float:
 class FeedMetric(Metric):
     """The fabric fed under the presser foot (MuJoCo contacts), at each of ``speeds`` (rpm;
     default the variant's own speed), ``stitches`` (default 4) from rest: ``feed_error_max`` %
-    the stitch's largest error in size against the dog's advance with its teeth up (signed),
-    ``feed_stitch`` mm the stitch at the fastest speed, ``feed_foot_off_max`` deg the most of a
-    stitch the foot is off the fabric, ``feed_load_factor_max`` the presser spring's largest
-    dynamic load factor."""
+    the stitch's largest error in size against the dog's advance with its teeth up (signed) and
+    ``feed_error_size`` % its size (what an optimization minimizes), ``feed_stitch`` mm the
+    stitch at the fastest speed, ``feed_foot_off_max`` deg the most of a stitch the foot is off
+    the fabric, ``feed_load_factor_max`` the presser spring's largest dynamic load factor,
+    ``feed_foot_force_max`` N the foot's largest push on the fabric."""
 
     kind = "feed"
     options = ("speeds", "stitches")
 
     COLUMNS: ClassVar[tuple[Column, ...]] = (
         Column("feed_error_max", "%", "the stitch's largest error against the dog's advance"),
+        Column("feed_error_size", "%", "the size of the stitch's largest error against the dog's advance"),
         Column("feed_stitch", "mm", "stitch length with contact at the fastest speed"),
         Column("feed_foot_off_max", "deg", "most of a stitch the presser foot is off the fabric"),
         Column("feed_load_factor_max", "", "the presser spring's largest dynamic load factor"),
+        Column("feed_foot_force_max", "N", "the presser foot's largest push on the fabric"),
     )
 
     def read(self, raw: dict[str, Any]) -> None:
@@ -122,8 +125,10 @@ class FeedMetric(Metric):
             worst = max(runs, key=lambda r: abs(r.error))
             out[i] = [
                 worst.error * 100.0,
+                abs(worst.error) * 100.0,
                 runs[-1].stitch * 1e3,
                 max(r.separation[0] for r in runs),
                 max(r.load_factor for r in runs),
+                max(float(r.foot_force.max()) for r in runs),
             ]
         return {c.name: out[:, j] for j, c in enumerate(self.COLUMNS)}
