@@ -633,6 +633,7 @@ def feed(
     sweep: bool = False,
     stitches: int = 6,
     plots: bool = True,
+    video: bool = False,
     force: bool = False,
 ) -> FeedResult:
     """What ``python -m mjlink feed`` computes: the fabric fed by the head's dog under its sprung
@@ -650,7 +651,7 @@ def feed(
     mech = _mechanism(fn, mechanism)
     root = Path(_path(fn, "out", out))
     rpm = _number(fn, "speed_rpm", speed_rpm, "rpm")
-    flags = {k: _flag(fn, k, v) for k, v in (("sweep", sweep), ("plots", plots), ("force", force))}
+    flags = {k: _flag(fn, k, v) for k, v in (("sweep", sweep), ("plots", plots), ("video", video), ("force", force))}
     if isinstance(stitches, bool | np.bool_) or not isinstance(stitches, numbers.Integral):
         raise _refuse(fn, "stitches", stitches, "a whole number")
     names = {"--speed": "speed_rpm", "--sweep": "sweep", "--stitches": "stitches"}
@@ -662,6 +663,7 @@ def feed(
             sweep=flags["sweep"],
             stitches=int(stitches),
             plots=flags["plots"],
+            video=flags["video"],
             force=flags["force"],
         )
     except InputError as e:  # the command's check, in the arguments' names

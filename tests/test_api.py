@@ -239,6 +239,7 @@ VALID = {
         "sweep": False,
         "stitches": 2,
         "plots": False,
+        "video": False,
         "force": False,
     },
     "synth": {

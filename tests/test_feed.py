@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -394,3 +395,36 @@ def test_a_study_that_moves_the_feed_dog_is_refused_by_the_feed_metric(tmp_path)
     )
     with pytest.raises(mjlink.MjlinkError, match="the feed runs the file's linkage"):
         mjlink.run_study(f, tmp_path / "out", workers=0, plots=False)
+
+
+def test_the_feed_video_is_a_close_up_of_the_last_stitch(tmp_path):
+    """feed --video in a real process (MuJoCo chooses its OpenGL when first imported): an MP4 of
+    the last stitch, 4 s at 30 frames/s, 640 x 480, every frame written, beside the report."""
+    import os
+    import subprocess
+    import sys
+
+    import imageio.v2 as iio
+
+    root = Path(__file__).resolve().parents[1]
+    done = subprocess.run(
+        [
+            *(sys.executable, "-m", "mjlink", "feed", "lockstitch_head", "--speed", "6000rpm", "--stitches", "2"),
+            *("--video", "--no-plots", "--out", str(tmp_path)),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(root)},
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    video = tmp_path / "lockstitch_head_feed" / "feed.mp4"
+    kept, count = {}, 0
+    for i, frame in enumerate(iio.get_reader(video)):  # one frame at a time: the process's memory is held
+        count += 1
+        if i in (0, 30):
+            kept[i] = frame.astype(int)
+    assert count == 120 and kept[0].shape == (480, 640, 3)
+    # The frames move: the dog and the fabric are not drawn still.
+    assert np.abs(kept[0] - kept[30]).max() > 50

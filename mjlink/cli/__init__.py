@@ -105,8 +105,8 @@ def main(argv: list[str] | None = None) -> int:
     folder, no worker process left)."""
 
     args = _parser().parse_args(argv)
-    if not (args.command == "simulate" and not args.no_video):
-        # Only simulate's video renders: every other command (and its Dask workers, which
+    if not (args.command == "simulate" and not args.no_video) and not (args.command == "feed" and args.video):
+        # Only simulate's and feed's videos render: every other command (and its Dask workers, which
         # inherit the environment) imports mujoco without probing OpenGL first.
         os.environ.setdefault("MJLINK_NO_GL", "1")
     # The command line as typed, for the reports: "python -m mjlink" and the arguments.

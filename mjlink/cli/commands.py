@@ -522,6 +522,9 @@ def _feed_arguments(q: argparse.ArgumentParser) -> None:
         help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
     )
     q.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    q.add_argument(
+        "--video", action="store_true", help="feed.mp4: a close-up of the last stitch at the last speed, slowed down"
+    )
 
 
 def _feed(args: argparse.Namespace) -> int:
@@ -536,6 +539,7 @@ def _feed(args: argparse.Namespace) -> int:
         sweep=args.sweep,
         stitches=args.stitches,
         plots=not args.no_plots,
+        video=args.video,
         force=args.force,
         command=args.command_line,
     )

@@ -21,6 +21,7 @@ from ..errors import InputError
 from ..files import write_json, write_table
 from ..model.mechanism import Mechanism
 from ..runtime import staging
+from ..runtime.signals import uninterrupted
 from ..runtime.workers import PlotJob, run_jobs
 from ..sim import feed as _feed
 from .results import Provenance, provenance
@@ -87,6 +88,7 @@ def feed(
     sweep: bool = False,
     stitches: int = 6,
     plots: bool = True,
+    video: bool = False,
     force: bool = False,
     command: Sequence[str] = (),
 ) -> FeedResult:
@@ -95,7 +97,8 @@ def feed(
     ``<out_root>/<name>_feed/`` unless ``out_root`` is None: ``report.json``
     (:meth:`FeedResult.as_dict`), ``feed_speeds.csv`` (a row per speed), ``feed.csv`` (the last
     stitch at the last speed) and, with ``plots``, ``feed.png`` (that stitch) and over a sweep
-    ``feed_speed.png``; its marker (kind ``feed``; a folder mjlink did not write for it is
+    ``feed_speed.png``, with ``video`` ``feed.mp4`` (that stitch close up,
+    :func:`mjlink.sim.feed.feed_video`); its marker (kind ``feed``; a folder mjlink did not write for it is
     refused unless ``force``, :func:`mjlink.runtime.staging.staged_dir`).
 
     Raises:
@@ -123,7 +126,11 @@ def feed(
     if out_root is None:
         return _result(mech, stitches, _feed.sweep(mech, speeds, stitches=stitches), sweep)
     out_dir = Path(out_root) / f"{mech.name}_feed"
-    options = {"speed_rpm": speed_rpm, "sweep": sweep, "stitches": stitches, "plots": plots}
+    options = {"speed_rpm": speed_rpm, "sweep": sweep, "stitches": stitches, "plots": plots, "video": video}
+    if video:
+        from ..sim import render  # here: OpenGL, for a video only
+
+        render.check_backend(held=uninterrupted)  # a missing OpenGL is refused before any work
     with staging.staged_dir(out_dir, kind="feed", force=force, mechanism=mech.name, command=command) as stage:
         res = _result(mech, stitches, _feed.sweep(mech, speeds, stitches=stitches), sweep)
         res = dataclasses.replace(res, out_dir=out_dir, provenance=provenance(command, options))
@@ -138,6 +145,10 @@ def feed(
             if sweep:
                 jobs.append(functools.partial(feed_plot.feed_speed_plot, mech, runs, res.limit, stage))
             run_jobs(jobs)
+        if video:
+            _feed.feed_video(
+                mech, stage / "feed.mp4", speed_rpm=runs[-1].speed_rpm, stitches=stitches, held=uninterrupted
+            )
         write_json(stage / "report.json", res.as_dict())
         files = tuple(sorted(p.name for p in stage.iterdir() if not p.name.startswith(".")))
     return dataclasses.replace(res, files=files)

@@ -103,6 +103,7 @@ class FeedRun:
     dog_force: np.ndarray
     foot_force: np.ndarray
     thickness: float
+    frames: np.ndarray | None = None  # (F, nq) the model's joints at F even steps of the last stitch
 
     @property
     def lift(self) -> np.ndarray:
@@ -323,6 +324,18 @@ def _foot(spec: mujoco.MjSpec, presser: Presser, x: float, z: float, timestep: f
         mass=presser.mass,
         contype=0,
         conaffinity=0,
+        group=3,  # not drawn: a video shows the sole below
+    )
+    # What a video shows of the foot: a flat sole (no mass, no contact).
+    body.add_geom(
+        name="sole",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[0.006, 0.004, 0.0015],
+        pos=[0.0, 0.0, 0.0015],
+        mass=0.0,
+        contype=0,
+        conaffinity=0,
+        rgba=[0.35, 0.36, 0.42, 1.0],
     )
 
 
@@ -347,7 +360,22 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
         pos=[x0, 0.0, -0.005],
         contype=0,
         conaffinity=0,
+        rgba=[0.62, 0.63, 0.66, 1.0],
     )
+    # For a video only: a light wall behind the plate, and a camera on its side looking along
+    # +y at the dog's teeth, the feed to the right, up up (nothing collides with either).
+    spec.worldbody.add_geom(
+        name="backdrop",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[0.2, 0.001, 0.2],
+        pos=[x0, 0.03, 0.0],
+        contype=0,
+        conaffinity=0,
+        rgba=[0.86, 0.87, 0.9, 1.0],
+    )
+    spec.visual.headlight.ambient = [0.45, 0.45, 0.45]
+    spec.visual.headlight.diffuse = [0.55, 0.55, 0.55]
+    spec.worldbody.add_camera(name="side", pos=[x0, -0.07, 0.0015], xyaxes=[1.0, 0.0, 0.0, 0.0, 0.0, 1.0], fovy=11.0)
     dog = spec.worldbody.add_body(name="dog")
     _slides(dog, "dog", DOG_MASS)
     dog.add_geom(
@@ -357,6 +385,7 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
         pos=[0.0, 0.0, -DOG_HALF[2]],
         contype=0,
         conaffinity=0,
+        rgba=[0.85, 0.5, 0.12, 1.0],
     )
     cloth = spec.worldbody.add_body(name="fabric", pos=[x0, 0.0, thick / 2.0])
     _slides(cloth, "fabric")
@@ -367,6 +396,7 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
         mass=fabric.mass,
         contype=0,
         conaffinity=0,
+        rgba=[0.2, 0.45, 0.85, 0.75],
     )
     _foot(spec, presser, x0, thick, timestep)
     stiff = [2.0 * timestep, 1.0]
@@ -413,6 +443,7 @@ def run_feed(
     fabric: Fabric | None = None,
     stitches: int = 6,
     timestep: float = 1e-5,
+    frames: int = 0,
 ) -> FeedRun:
     """Feed the fabric ``stitches`` stitches at ``speed_rpm`` (default the file's speed).
 
@@ -425,6 +456,8 @@ def run_feed(
       stitches: stitches run from rest, the foot on the fabric and the dog at the needle bar's
         top.
       timestep: s, at most: the step is the nearest that divides a stitch evenly.
+      frames: keep the model's joint positions at this many even steps of the last stitch (for
+        :func:`feed_video`).
     Returns:
       :class:`FeedRun`.
     """
@@ -456,6 +489,8 @@ def run_feed(
     out = {k: np.zeros(N) for k in ("dog", "dog_x", "foot", "fabric", "fabric_z", "dog_force", "foot_force")}
     fz = m.joint("fabric_z").qposadr[0]
     force = np.zeros(6)
+    kept = np.zeros((frames, m.nq))
+    at = {round(j * N / frames): j for j in range(frames)} if frames else {}
     for s in range(stitches):
         starts[s] = d.qpos[fx]
         last = s == stitches - 1
@@ -470,6 +505,8 @@ def run_feed(
                 out["foot"][k] = tm.fabric + d.qpos[foot_q]
                 out["fabric"][k] = d.qpos[fx] - starts[s]
                 out["fabric_z"][k] = d.qpos[fz]
+                if k in at:
+                    kept[at[k]] = d.qpos
                 for i in range(d.ncon):
                     g1, g2 = int(d.contact.geom1[i]), int(d.contact.geom2[i])
                     which = touching.get(g1 if g2 == cloth else g2 if g1 == cloth else -1)
@@ -487,6 +524,7 @@ def run_feed(
         geometric=dog_advance(mech),
         theta=np.degrees(u),
         thickness=tm.fabric,
+        frames=kept if frames else None,
         **out,
     )
 
@@ -564,3 +602,44 @@ def foot_on_fabric(
         mujoco.mj_step(m, d)
         t[k], z[k] = d.time, tm.fabric + d.qpos[foot_q]
     return t, z
+
+
+def feed_video(
+    mech: Mechanism,
+    path: Any,
+    *,
+    speed_rpm: float | None = None,
+    presser: Presser | None = None,
+    fabric: Fabric | None = None,
+    stitches: int = 6,
+    seconds: float = 4.0,
+    fps: float = 30.0,
+    width: int = 640,
+    height: int = 480,
+    held: Any = None,
+) -> FeedRun:
+    """A close-up MP4 at ``path`` of the last of ``stitches`` stitches fed at ``speed_rpm``, seen
+    from the side: the dog's teeth rising through the plate, the fabric (blue, translucent) and
+    the presser foot's sole, ``seconds`` long at ``fps`` (the stitch slowed down), with the
+    speed, the main-shaft angle and the stitch so far written on every frame. Returns the run
+    the frames come from (:func:`run_feed`'s, with its ``frames``)."""
+    from . import render  # here: OpenGL, for a video only
+
+    presser = presser or mech.presser or PRESSER_DEFAULTS
+    fabric = fabric or mech.fabric or FABRIC_DEFAULTS
+    n = max(1, round(seconds * fps))
+    run = run_feed(mech, speed_rpm=speed_rpm, presser=presser, fabric=fabric, stitches=stitches, frames=n)
+    assert run.frames is not None
+    x0 = float(dog_path(mech, len(run.theta))[1][:, 0].mean())
+    model = _model(mech, presser, fabric, run.timestep, x0)
+    k = np.round(np.arange(n) * len(run.theta) / n).astype(int)
+    lines = [
+        [
+            f"{run.speed_rpm:.0f} rpm, slowed {seconds / (60.0 / run.speed_rpm):.0f}x: {run.theta[i]:.0f} deg "
+            f"from the needle bar's top",
+            f"the fabric {run.fabric[i] * 1e3:.2f} mm along, the foot {run.lift[i] * 1e3:.3f} mm off it",
+        ]
+        for i in k
+    ]
+    render.render_frames(model, run.frames, "side", path, fps=fps, width=width, height=height, lines=lines, held=held)
+    return run

@@ -273,6 +273,54 @@ def render_video(
     return VideoInfo(path=path, frames=n, fps=fps, width=width, height=height, time_scale=time_scale, backend=backend)
 
 
+def render_frames(
+    model: mujoco.MjModel,
+    qpos: np.ndarray,
+    camera: str,
+    path: str | os.PathLike,
+    *,
+    fps: float,
+    width: int,
+    height: int,
+    lines: list[list[str]],
+    held: Held | None = None,
+) -> VideoInfo:
+    """Render ``model`` at each of its joint positions ``qpos`` (F, nq), seen from its camera
+    ``camera``, to an MP4 at ``path`` (complete or untouched, as :func:`render_video`), with
+    ``lines`` written on each frame."""
+    path = Path(path)
+    n = len(qpos)
+    if n < 1 or width <= 0 or height <= 0 or width % 2 or height % 2:
+        raise RenderError(f"a video needs frames and an even size: {n} frames, {width}x{height} pixels")
+    if not path.parent.is_dir():
+        raise OutputError(f"{path}: folder {path.parent} does not exist")
+    backend = ensure_gl_backend()
+    model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
+    model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
+    zero = np.zeros(3)
+    # Nothing beyond the model: no trail, a backdrop far below the view.
+    extras = Extras(
+        key="", trail=np.zeros((n, 2, 3)), size=1.0, lo=zero - 10.0, hi=zero - 10.0, spatial=False, lines=lines
+    )
+    with atomic_path(path, suffix=".mp4") as tmp:
+        _frames(
+            model,
+            mujoco.MjData(model),
+            qpos,
+            model.camera(camera).id,
+            extras,
+            mujoco.MjvOption(),
+            tmp,
+            fps,
+            width,
+            height,
+            backend,
+            False,
+            held or contextlib.nullcontext,
+        )
+    return VideoInfo(path=path, frames=n, fps=fps, width=width, height=height, time_scale=1.0, backend=backend)
+
+
 @dataclass(frozen=True, kw_only=True)
 class Extras:
     """What a frame shows beyond the model: the key point's trail (frames, samples, 3) m, the
