@@ -157,6 +157,19 @@ def _drive(args: argparse.Namespace) -> Drive:
     )
 
 
+def _outputs(q: argparse.ArgumentParser, folder: str, plots: str = "skip the PNG plots") -> None:
+    """A command's output folder ``OUT/NAME_<folder>/``: --out, --force, --no-plots."""
+    q.add_argument(
+        "--out", type=path_arg, default=Path("renders"), help=f"output root; results go to OUT/NAME_{folder}/"
+    )
+    q.add_argument(
+        "--force",
+        action="store_true",
+        help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
+    )
+    q.add_argument("--no-plots", action="store_true", help=plots)
+
+
 def _positive(option: str, v: float | None, unit: str = "", allow_none: bool = True) -> None:
     if v is None and allow_none:
         return
@@ -433,13 +446,7 @@ def _loads_arguments(q: argparse.ArgumentParser) -> None:
         metavar="SPEED",
         help=f"crank speed, {_SPEED_HELP} as the file's [input] speed (default: the file's)",
     )
-    q.add_argument("--out", type=path_arg, default=Path("renders"), help="output root; results go to OUT/NAME_loads/")
-    q.add_argument(
-        "--force",
-        action="store_true",
-        help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
-    )
-    q.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    _outputs(q, "loads")
     q.add_argument("--strict", action="store_true", help="exit 3 if an agreement threshold is missed")
 
 
@@ -478,13 +485,7 @@ def _steady_arguments(q: argparse.ArgumentParser) -> None:
         type=number_arg,
         help="wanted coefficient of speed fluctuation (default: the file's [steady] target_delta, else 0.02)",
     )
-    q.add_argument("--out", type=path_arg, default=Path("renders"), help="output root; results go to OUT/NAME_steady/")
-    q.add_argument(
-        "--force",
-        action="store_true",
-        help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
-    )
-    q.add_argument("--no-plots", action="store_true", help="skip the PNG plot")
+    _outputs(q, "steady", "skip the PNG plot")
     q.add_argument("--strict", action="store_true", help="exit 3 if MuJoCo and the reference disagree")
 
 
@@ -515,13 +516,7 @@ def _feed_arguments(q: argparse.ArgumentParser) -> None:
     q.add_argument(
         "--stitches", type=whole_arg, default=6, help="stitches run from rest at each speed (2 to 50, default 6)"
     )
-    q.add_argument("--out", type=path_arg, default=Path("renders"), help="output root; results go to OUT/NAME_feed/")
-    q.add_argument(
-        "--force",
-        action="store_true",
-        help="publish into an existing output folder that mjlink did not write for this command (files of yours in it are still kept)",
-    )
-    q.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    _outputs(q, "feed")
     q.add_argument(
         "--video", action="store_true", help="feed.mp4: a close-up of the last stitch at the last speed, slowed down"
     )
