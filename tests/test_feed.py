@@ -132,6 +132,8 @@ def test_the_presser_and_fabric_tables_are_read_in_si_and_default_what_is_missin
         ("[fabric]\nmass = nan\n", "mass"),
         ("[fabric]\nmass = '2 kg/m'\n", "mass"),
         ("[fabric]\nstiffness = 0.0\n", "[fabric] stiffness: must be above 0"),
+        # (80 N + 0.05 kg g) / (50 + 2) N/mm = 1.55 mm, more than the 1.5 mm fabric
+        ("[presser]\npreload = 80.0\n[fabric]\nstiffness = 50.0\n", "presses the 1.5 mm fabric by 1.55 mm"),
         ("[fabric]\ndamping = -0.1\n", "[fabric] damping: must be at least 0"),
     ],
 )

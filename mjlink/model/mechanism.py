@@ -56,7 +56,7 @@ from .limits import (
     below,
 )
 from .names import RESERVED_LINK_NAMES
-from .presser import Fabric, Presser, read_fabric, read_presser
+from .presser import FABRIC_DEFAULTS, GRAVITY, PRESSER_DEFAULTS, Fabric, Presser, read_fabric, read_presser
 from .reader import Reader, shown
 from .tension import ThreadTension, read_tension
 from .timing import Balance, Timing
@@ -684,6 +684,8 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         mech = dataclasses.replace(mech, presser=read_presser(r, data["presser"], fed, thick))
     if "fabric" in data:
         mech = dataclasses.replace(mech, fabric=read_fabric(r, data["fabric"], fed))
+    if mech.timing is not None and (mech.presser is not None or mech.fabric is not None):
+        _pressed_through(r, mech)
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))
     if mech.timing is not None and turns != 1:
@@ -700,6 +702,20 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
             "(use fewer points, or gear ratios with a smaller denominator; see mechanisms/README.md, Limits)",
         )
     return mech
+
+
+def _pressed_through(r: Reader, mech: Mechanism) -> None:
+    """Refuse a presser that presses its fabric through its thickness at rest: the fabric is a
+    linear spring (mjlink.sim.feed), which no fabric is that far."""
+    assert mech.timing is not None
+    p, f = mech.presser or PRESSER_DEFAULTS, mech.fabric or FABRIC_DEFAULTS
+    pressed = (p.preload + p.mass * GRAVITY) / (f.stiffness + p.rate)
+    if pressed >= mech.timing.fabric:
+        raise r.fail(
+            "[presser] preload",
+            f"the foot at rest ({p.preload:g} N and its weight) presses the {mech.timing.fabric / MM:g} mm fabric "
+            f"by {pressed / MM:.3g} mm, through its thickness: a lighter preload or a stiffer [fabric] stiffness",
+        )
 
 
 def load(path: str | Path) -> Mechanism:
