@@ -43,17 +43,19 @@ def geometric(mech: mechanism.Mechanism) -> float:
 
 def sweep(mech: mechanism.Mechanism) -> None:
     print(f"geometric advance (the dog's travel while its teeth are up): {geometric(mech) * 1e3:.4f} mm")
-    for mass in (FABRIC_DEFAULTS.mass, 0.02, 0.1):
-        print(f"fabric {mass * 1e3:g} g:")
+    assert mech.timing is not None
+    default = FABRIC_DEFAULTS.piece(mech.timing.fabric)
+    for piece in (default, 0.02, 0.1):  # kg: the piece the dog carries
+        print(f"fabric {piece * 1e3:g} g:")
         for rpm in SPEEDS:
-            f = dataclasses.replace(FABRIC_DEFAULTS, mass=mass)
+            f = dataclasses.replace(FABRIC_DEFAULTS, mass=piece / FABRIC_DEFAULTS.area)
             a = feed.run_feed(mech, speed_rpm=rpm, stitches=8, fabric=f)
             deg, _ = a.separation
             line = (
                 f"  {rpm:5d} rpm: advance {a.advance[-1] * 1e3:.4f} mm ({a.error:+.2%} of the dog's), foot off "
                 f"{deg:.0f} deg, spring load {a.load_factor:.3f}x, slip {a.slip * 1e6:.1f} um"
             )
-            if mass == FABRIC_DEFAULTS.mass:
+            if piece == default:
                 b = feed.run_feed(mech, speed_rpm=rpm, stitches=8, fabric=f, timestep=a.timestep / 2)
                 line += (
                     f", half the timestep {b.advance[-1] * 1e3:.4f} mm "

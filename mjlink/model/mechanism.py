@@ -30,6 +30,7 @@ from . import names as _names
 from . import timing as _timing
 from .blocks import Attached, Block, Crank, Dyad, Slider
 from .limits import (
+    HEAD,
     MAX_ANGLE_DEG,
     MAX_CHECK_POINT_SAMPLES,
     MAX_CYCLES,
@@ -674,16 +675,18 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         timing=_timing.read(r, data["timing"], set(ground), steps, links) if "timing" in data else None,
         text=text,
     )
+    fed = mech.timing is not None and mech.timing.has("feed_dog")
+    if "fabric" in data:
+        mech = dataclasses.replace(mech, fabric=read_fabric(r, data["fabric"], fed))
+        if mech.fabric is not None and mech.fabric.plies:
+            mech = _plied(r, mech, data["timing"])
     if "balance" in data:
         mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing, steps))
     if "tension" in data:
         mech = dataclasses.replace(mech, tension=read_tension(r, data["tension"], mech.balance is not None))
-    fed = mech.timing is not None and mech.timing.has("feed_dog")
     if "presser" in data:
         thick = mech.timing.fabric if mech.timing is not None else 0.0
         mech = dataclasses.replace(mech, presser=read_presser(r, data["presser"], fed, thick))
-    if "fabric" in data:
-        mech = dataclasses.replace(mech, fabric=read_fabric(r, data["fabric"], fed))
     if mech.timing is not None and (mech.presser is not None or mech.fabric is not None):
         _pressed_through(r, mech)
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
@@ -704,18 +707,53 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     return mech
 
 
-def _pressed_through(r: Reader, mech: Mechanism) -> None:
-    """Refuse a presser that presses its fabric through its thickness at rest: the fabric is a
-    linear spring (mjlink.sim.feed), which no fabric is that far."""
-    assert mech.timing is not None
-    p, f = mech.presser or PRESSER_DEFAULTS, mech.fabric or FABRIC_DEFAULTS
-    pressed = (p.preload + p.mass * GRAVITY) / (f.stiffness + p.rate)
-    if pressed >= mech.timing.fabric:
+PLIES_AGREE = 1e-9  # m: a [timing] fabric this close to the plies' thickness together is theirs
+
+
+def _plied(r: Reader, mech: Mechanism, timing: Any) -> Mechanism:
+    """The head with its ``[timing] fabric`` the plies' thickness together: left out, it is
+    theirs; given, it must be."""
+    assert mech.timing is not None and mech.fabric is not None
+    total = sum(p.thickness for p in mech.fabric.plies)
+    bound = HEAD["timing.fabric"]
+    if bound.refuses(total / MM) is not None:
+        raise r.fail("[[fabric.ply]]", f"the plies together {bound.refuses(total / MM)}")
+    if isinstance(timing, dict) and "fabric" in timing and abs(mech.timing.fabric - total) > PLIES_AGREE:
         raise r.fail(
-            "[presser] preload",
-            f"the foot at rest ({p.preload:g} N and its weight) presses the {mech.timing.fabric / MM:g} mm fabric "
-            f"by {pressed / MM:.3g} mm, through its thickness: a lighter preload or a stiffer [fabric] stiffness",
+            "[timing] fabric",
+            f"is {mech.timing.fabric / MM:g} mm but the [[fabric.ply]] plies together are {total / MM:g} mm: "
+            "leave it out (the plies' is taken) or make them agree",
         )
+    return dataclasses.replace(mech, timing=dataclasses.replace(mech.timing, fabric=total))
+
+
+def _pressed_through(r: Reader, mech: Mechanism) -> None:
+    why = pressed_through(mech)
+    if why:
+        raise r.fail("[presser] preload", why)
+
+
+def pressed_through(mech: Mechanism) -> str:
+    """Why the head's presser presses a ply of its fabric through its thickness at rest ('' if
+    it does not): each ply is a linear spring (mjlink.sim.feed), which no fabric is that far."""
+    if mech.timing is None:
+        return ""
+    p, f = mech.presser or PRESSER_DEFAULTS, mech.fabric or FABRIC_DEFAULTS
+    thick = float(mech.timing.fabric)
+    # The foot sinks into the plies one on the next; each gives the load over its stiffness.
+    load = f.stiffness_of(thick) * (p.preload + p.mass * GRAVITY) / (f.stiffness_of(thick) + p.rate)
+    layers = f.layers(thick)
+    for i, ply in enumerate(layers, 1):
+        pressed = load / ply.stiffness
+        if pressed >= ply.thickness:
+            what = (
+                f"the {ply.thickness / MM:g} mm fabric" if len(layers) == 1 else f"ply {i} ({ply.thickness / MM:g} mm)"
+            )
+            return (
+                f"the foot at rest ({p.preload:g} N and its weight) presses {what} by {pressed / MM:.3g} mm, "
+                "through its thickness: a lighter preload or a stiffer [fabric] stiffness"
+            )
+    return ""
 
 
 def load(path: str | Path) -> Mechanism:

@@ -18,8 +18,10 @@ A path names one value of the file, in the file's own units (mm, deg, g, ...)::
     tension.needle_tension       a lockstitch head's [tension] numbers (N, N/mm, g, deg, -)
     presser.preload              a head's presser foot: preload N, rate N/mm, mass g, damping -,
                                  lift mm (the file's [presser] or its defaults)
-    fabric.stiffness             the fabric under it: mass g, stiffness N/mm, damping -,
-                                 friction_dog / friction_foot / friction_plate -
+    fabric.stiffness             the fabric under it: area cm^2, mass g/m^2, stiffness N/mm,
+                                 damping -, friction_dog / friction_foot / friction_plate -;
+                                 with [[fabric.ply]], each ply's fabric.ply2.thickness mm,
+                                 mass, stiffness, damping (and no timing.fabric: theirs)
     counterweight.mass           a point mass on the input crank (g; radius mm from its pivot,
                                  angle deg from the crank's direction; a study may add one to
                                  a file without it: nominal 0 g at 0 mm, 180 deg)
@@ -51,12 +53,13 @@ from ..errors import MjlinkError
 from ..units import DEG, MM, G
 from . import synthesis as synth
 from . import tomlio
-from .mechanism import Counterweight, Force, Mechanism, parse
+from .mechanism import Counterweight, Force, Mechanism, parse, pressed_through
 from .presser import (
     FABRIC_BOUNDS,
     FABRIC_DEFAULTS,
     FABRIC_FIELDS,
     FABRIC_SCALES,
+    PER_PLY,
     PRESSER_BOUNDS,
     PRESSER_DEFAULTS,
     PRESSER_SCALES,
@@ -170,7 +173,8 @@ def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None
     add("counterweight.mass", G, "g", False, cw.mass)
     add("counterweight.radius", MM, "mm", False, cw.radius)
     add("counterweight.angle", DEG, "deg", False, cw.angle)
-    if mech.timing is not None:
+    if mech.timing is not None and not (mech.fabric is not None and mech.fabric.plies):
+        # (with plies, the fabric's thickness is theirs: fabric.ply1.thickness, ...)
         add("timing.fabric", MM, "mm", False, mech.timing.fabric)
     if mech.balance is not None:
         add("balance.stitch_length", MM, "mm", True, mech.balance.stitch_length)
@@ -191,8 +195,20 @@ def _entries(mech: Mechanism, add: Callable[[str, float, str, bool, float | None
         for key, scale in PRESSER_SCALES.items():
             add(f"presser.{key}", scale, PRESSER_BOUNDS[key].unit, key != "damping", getattr(presser, key))
         for key, scale in FABRIC_SCALES.items():
-            positive = key in ("mass", "stiffness")
+            if fabric.plies and key in PER_PLY:
+                continue  # each ply's own, below
+            positive = key in ("area", "mass", "stiffness")
             add(f"fabric.{key}", scale, FABRIC_BOUNDS[key].unit, positive, getattr(fabric, FABRIC_FIELDS[key]))
+        for k, ply in enumerate(fabric.plies, 1):
+            add(f"fabric.ply{k}.thickness", MM, "mm", True, ply.thickness)
+            for key in PER_PLY:
+                add(
+                    f"fabric.ply{k}.{key}",
+                    FABRIC_SCALES[key],
+                    FABRIC_BOUNDS[key].unit,
+                    key != "damping",
+                    getattr(ply, key),
+                )
     if mech.synthesis is not None:
         sy = mech.synthesis
         add("synthesis.stroke", MM, "mm", True, sy.stroke)
@@ -289,6 +305,16 @@ def apply(mech: Mechanism, values: Mapping[Param, Any]) -> Mechanism:
         elif sec == "presser":
             given = top.get("presser", mech.presser or PRESSER_DEFAULTS)
             top["presser"] = dataclasses.replace(given, **{parts[1]: v})
+        elif sec == "fabric" and len(parts) == 3:  # fabric.plyK.key
+            given = top.get("fabric", mech.fabric)
+            assert given is not None
+            k = int(parts[1][3:]) - 1
+            ply = dataclasses.replace(given.plies[k], **{parts[2]: v})
+            top["fabric"] = dataclasses.replace(given, plies=(*given.plies[:k], ply, *given.plies[k + 1 :]))
+            if parts[2] == "thickness":
+                assert mech.timing is not None
+                thick = sum(q.thickness for q in top["fabric"].plies)
+                top["timing"] = dataclasses.replace(top.get("timing", mech.timing), fabric=thick)
         elif sec == "fabric":
             given = top.get("fabric", mech.fabric or FABRIC_DEFAULTS)
             top["fabric"] = dataclasses.replace(given, **{FABRIC_FIELDS[parts[1]]: v})
@@ -356,12 +382,14 @@ def _synthesized(mech: Mechanism, changed: Mapping[str, Any]) -> Mechanism:
         raise PathError(str(e)) from None
 
 
-def invalid(params: list[Param], values: np.ndarray) -> list[str]:
+def invalid(params: list[Param], values: np.ndarray, mech: Mechanism | None = None) -> list[str]:
     """Why each variant's values make no mechanism ('' where they do).
 
     Args:
       params: the varied parameters (P of them).
       values: (V, P) in the file's units.
+      mech: the nominal mechanism: given, a head's variants whose presser presses their fabric
+        through its thickness at rest are named too (values each fine alone may do it together).
     Returns:
       V strings.
     """
@@ -374,6 +402,11 @@ def invalid(params: list[Param], values: np.ndarray) -> list[str]:
                 out[i] = f"{p.path} = {col[i]:g} {p.unit}".rstrip() + (
                     " is not finite" if not math.isfinite(col[i]) else " must be positive"
                 )
+    pressing = [j for j, p in enumerate(params) if p.section in ("presser", "fabric", "timing")]
+    if mech is not None and pressing and mech.timing is not None and mech.timing.has("feed_dog"):
+        for i, row in enumerate(values):
+            if not out[i]:
+                out[i] = pressed_through(apply(mech, {params[j]: float(row[j]) for j in pressing}))
     return out
 
 

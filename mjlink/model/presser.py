@@ -14,21 +14,34 @@ here SI::
     lift = 7.0         # mm: the foot's sole at its highest above the throat plate (the bar's stop)
 
     [fabric]
-    mass = 2.0             # g: the piece the dog carries
+    area = 160.0           # cm^2: the piece the dog carries
+    mass = 125.0           # g/m^2
     stiffness = 130.0      # N/mm: across its thickness, under the foot
     damping = 0.3          # of critical, the foot on the fabric
     friction_dog = 1.0     # against the dog's teeth
     friction_foot = 0.2    # against the foot's sole
     friction_plate = 0.2   # against the throat plate
 
-The fabric's thickness is ``[timing] fabric``. Both tables need a ``[timing]`` table that names
-the feed dog.
+The fabric's thickness is ``[timing] fabric``: one ply. Two or more plies are a list, the
+bottom one (on the dog) first, each with its own thickness and, optionally, its own mass per
+area, stiffness and damping (the table's defaults otherwise); the table then gives neither
+``mass``, ``stiffness`` nor ``damping``, and ``[timing] fabric`` is the plies' thickness
+together (left out, or equal)::
+
+    [[fabric.ply]]
+    thickness = 0.8        # mm
+    stiffness = 250.0      # N/mm
+    [[fabric.ply]]
+    thickness = 0.7
+    mass = 110.0
+
+Both tables need a ``[timing]`` table that names the feed dog.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ..units import MM, G
@@ -41,11 +54,15 @@ __all__ = [
     "FABRIC_FIELDS",
     "FABRIC_SCALES",
     "FABRIC_SOURCES",
+    "MAX_PLIES",
+    "PER_PLY",
+    "PLY_THICKNESS",
     "PRESSER_BOUNDS",
     "PRESSER_DEFAULTS",
     "PRESSER_SCALES",
     "PRESSER_SOURCES",
     "Fabric",
+    "Ply",
     "Presser",
     "read_fabric",
     "read_presser",
@@ -80,18 +97,54 @@ class Presser:
 
 
 @dataclass(frozen=True, kw_only=True)
-class Fabric:
-    """The fabric, SI: ``mass`` kg of the piece the dog carries, its ``stiffness`` N/m across its
-    thickness under the foot and ``damping`` (a ratio of critical for the foot's mass on that
-    stiffness), its friction coefficients against the dog's teeth (``dog``), the foot and the
-    throat plate."""
+class Ply:
+    """One ply of the fabric, SI: its ``thickness`` m, ``mass`` kg/m^2 (per area), its
+    ``stiffness`` N/m across its thickness under the foot and ``damping`` (a ratio of critical
+    for the foot's mass on that stiffness)."""
 
+    thickness: float
+    mass: float
+    stiffness: float
+    damping: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class Fabric:
+    """The fabric, SI: the ``area`` m^2 of the piece the dog carries; one ply's ``mass`` kg/m^2,
+    ``stiffness`` N/m across its thickness under the foot and ``damping`` (a ratio of critical
+    for the foot's mass on that stiffness), or ``plies`` (the bottom one first) that replace
+    them (the plies move together: :mod:`mjlink.sim.feed`); friction coefficients against the
+    dog's teeth (``dog``, the bottom ply's), the foot (the top ply's) and the throat plate."""
+
+    area: float
     mass: float
     stiffness: float
     damping: float
     dog: float
     foot: float
     plate: float
+    plies: tuple[Ply, ...] = ()
+
+    def layers(self, thickness: float) -> tuple[Ply, ...]:
+        """The plies, the bottom one first: the table's own, or one ply of ``thickness`` m (the
+        ``[timing]`` fabric's) with the table's mass, stiffness and damping."""
+        if self.plies:
+            return self.plies
+        return (Ply(thickness=thickness, mass=self.mass, stiffness=self.stiffness, damping=self.damping),)
+
+    def piece(self, thickness: float) -> float:
+        """kg: the piece the dog carries, every ply of it."""
+        return self.area * sum(p.mass for p in self.layers(thickness))
+
+    def stiffness_of(self, thickness: float) -> float:
+        """N/m: the plies' stiffness under the foot, one on the next (in series)."""
+        return 1.0 / sum(1.0 / p.stiffness for p in self.layers(thickness))
+
+    def damper_of(self, thickness: float, foot: float) -> float:
+        """N s/m: the plies' damping under a foot of mass ``foot`` kg, each ply's its ratio of
+        critical for that mass on its stiffness, one on the next as their springs (exact when
+        the plies' dampers and springs keep one ratio)."""
+        return 1.0 / sum(1.0 / (2.0 * p.damping * math.sqrt(p.stiffness * foot)) for p in self.layers(thickness))
 
 
 GRAVITY = 9.81  # m/s^2
@@ -137,11 +190,17 @@ _PRESSER: dict[str, tuple[float, float, Bound, str]] = {
     ),
 }
 _FABRIC: dict[str, tuple[float, float, Bound, str]] = {
+    "area": (
+        160.0,
+        1e-4,
+        Bound(0.0, 1e4, "cm^2", "the piece of fabric the dog carries", lo_open=True),
+        "[choice] a piece some 10 x 16 cm between the operator's hands and the foot",
+    ),
     "mass": (
-        2.0,
+        125.0,
         G,
-        Bound(0.0, 10_000.0, "g", "the piece of fabric the dog carries", lo_open=True),
-        "[choice] a piece of shirting some 10 x 20 cm",
+        Bound(0.0, 5000.0, "g/m^2", "a ply's mass per area: sheer fabrics weigh tens, canvas hundreds", lo_open=True),
+        "[choice] a shirting-weight woven fabric",
     ),
     "stiffness": (
         130.0,
@@ -175,6 +234,13 @@ _FABRIC: dict[str, tuple[float, float, Bound, str]] = {
         "[choice] fabric on polished steel",
     ),
 }
+MAX_PLIES = 8  # a sewing head's foot clears some 20 mm of fabric: a few plies of a garment
+PLY_THICKNESS = Bound(
+    0.0, 20.0, "mm", "a ply under the raised presser foot, which heads lift some 20 mm at most", lo_open=True
+)
+"""A ply's ``thickness`` range, mm."""
+PER_PLY = ("mass", "stiffness", "damping")
+"""The ``[fabric]`` keys a ``[[fabric.ply]]`` gives for itself."""
 
 PRESSER_BOUNDS: dict[str, Bound] = {k: v[2] for k, v in _PRESSER.items()}
 """Each ``[presser]`` key's range in the file's unit, with its reason."""
@@ -189,6 +255,7 @@ PRESSER_SCALES: dict[str, float] = {k: v[1] for k, v in _PRESSER.items()}
 FABRIC_SCALES: dict[str, float] = {k: v[1] for k, v in _FABRIC.items()}
 """Each ``[fabric]`` key's factor from the file's unit to SI."""
 FABRIC_FIELDS = {
+    "area": "area",
     "mass": "mass",
     "stiffness": "stiffness",
     "damping": "damping",
@@ -197,9 +264,14 @@ FABRIC_FIELDS = {
     "friction_plate": "plate",
 }
 """Each ``[fabric]`` key's field of :class:`Fabric` (a ``[presser]`` key is its field's name)."""
+def _fields(numbers: dict[str, float]) -> dict[str, Any]:
+    """A :class:`Fabric`'s numbers as its keyword arguments (its plies apart)."""
+    return dict(numbers)
+
+
 PRESSER_DEFAULTS = Presser(**{k: v[0] * v[1] for k, v in _PRESSER.items()})
 """The ``[presser]`` defaults (:data:`PRESSER_SOURCES`), SI."""
-FABRIC_DEFAULTS = Fabric(**{FABRIC_FIELDS[k]: v[0] * v[1] for k, v in _FABRIC.items()})
+FABRIC_DEFAULTS = Fabric(**_fields({FABRIC_FIELDS[k]: v[0] * v[1] for k, v in _FABRIC.items()}))
 """The ``[fabric]`` defaults (:data:`FABRIC_SOURCES`), SI."""
 
 
@@ -223,7 +295,37 @@ def read_presser(r: Reader, raw: Any, has_feed_dog: bool, fabric: float) -> Pres
 
 
 def read_fabric(r: Reader, raw: Any, has_feed_dog: bool) -> Fabric:
-    """The ``[fabric]`` table (see the module's docstring)."""
+    """The ``[fabric]`` table with its ``[[fabric.ply]]`` list if any (see the module's
+    docstring)."""
     _needs_feed_dog(r, "[fabric]", has_feed_dog)
-    v = r.defaulted(raw, "[fabric]", _FABRIC)
-    return Fabric(**{FABRIC_FIELDS[k]: x for k, x in v.items()})
+    table = dict(r.table(raw, "[fabric]"))
+    listed = table.pop("ply", None)
+    v = r.defaulted(table, "[fabric]", _FABRIC)
+    fabric = Fabric(**_fields({FABRIC_FIELDS[k]: x for k, x in v.items()}))
+    if listed is None:
+        return fabric
+    if not isinstance(listed, list) or not 1 <= len(listed) <= MAX_PLIES:
+        raise r.fail("[[fabric.ply]]", f"must be a list of 1 to {MAX_PLIES} tables, one per ply, the bottom one first")
+    given = [k for k in PER_PLY if k in table]
+    if given:
+        raise r.fail(
+            f"[fabric] {given[0]}",
+            "with [[fabric.ply]] give the mass, stiffness and damping per ply, not for the table",
+        )
+    plies = []
+    for i, entry in enumerate(listed, 1):
+        where = f"[[fabric.ply]] {i}"
+        t = r.table(entry, where)
+        r.keys(t, where, ["thickness"], PER_PLY)
+        own = {
+            k: r.number(t, k, where, default=_FABRIC[k][0], unit=_unit(_FABRIC[k][2]), bound=_FABRIC[k][2])
+            * _FABRIC[k][1]
+            for k in PER_PLY
+        }
+        thick = r.number(t, "thickness", where, unit=" mm", bound=PLY_THICKNESS) * MM
+        plies.append(Ply(thickness=thick, **own))
+    return replace(fabric, plies=tuple(plies))
+
+
+def _unit(b: Bound) -> str:
+    return f" {b.unit}" if b.unit else ""

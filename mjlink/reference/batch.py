@@ -108,7 +108,7 @@ def _expanded(
     crank-slider) replaced by the plain numbers they set in each variant (:func:`_resynthesized`,
     else variant by variant); the rest are kept. Returns the plain parameters, their (V, P')
     values and each variant's invalidity."""
-    invalid = paths.invalid(params, values)
+    invalid = paths.invalid(params, values, mech)
     whole = [j for j, p in enumerate(params) if p.section == "synthesis"]
     if not whole:
         return params, values, invalid

@@ -9,8 +9,9 @@ what the fabric and the foot do:
 * the dog's teeth: a box whose top is the dog point, on two slides (along the feed and up),
   driven: its position and velocity are the reference's at every step (heavy, so that a
   step's contact impulses barely move it before it is set again);
-* the fabric: a box of the file's ``[timing] fabric`` thickness and a mass (the piece the dog
-  carries) on two slides, resting on the plate;
+* the fabric: one body on two slides, resting on the plate: its plies one on the next, each a
+  box of its thickness and its mass (the piece's area times the ply's mass per area; one ply
+  of ``[timing] fabric`` thickness by default);
 * the presser foot: a sphere's bottom on a vertical slide over the fabric, its spring (a rate,
   and a preload with the sole at the fabric's free top), damping and the bar's stop;
 * gravity on all of them.
@@ -18,16 +19,17 @@ what the fabric and the foot do:
 Each pair that touches has a contact of its own (``<pair>``, with its friction: the dog's
 teeth grip, the foot and the plate slide) and elliptic friction cones. The fabric's
 compliance across its thickness is all in its contact with the foot: a spring and damper of
-the ``[fabric]`` table's stiffness and damping (a soft constraint of tiny constant impedance,
-its solref from the compiled model's own inverse weights, :func:`_model`). The teeth and the
+the plies' stiffness and damping one on the next (a soft constraint of tiny constant
+impedance, its solref from the compiled model's own inverse weights, :func:`_model`), its
+friction Coulomb's (:data:`HARD_FRICTION`). The teeth and the
 plate are rigid: the stiffest contact MuJoCo keeps stable, a time constant of twice the
 timestep, critically damped, the impedance 0.99 to 0.999 over 0.1 mm, so that the plate bears
 nothing of the foot's push while the teeth are above it. The foot does not collide with the
 dog or the plate: the fabric is always between them here.
 
-Not modelled (docs/head.md, The fabric under the presser foot): plies, the dog's teeth as
-teeth (one box here), the fabric's bending round the teeth, the operator's hold on the fabric,
-the needle in the fabric.
+Not modelled (docs/head.md, The fabric under the presser foot): plies sliding on each other
+(they move together), the dog's teeth as teeth (one box here), the fabric's bending round the
+teeth, the operator's hold on the fabric, the needle in the fabric, a walking foot.
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ __all__ = [
     "dog_advance",
     "dog_path",
     "foot_vibration",
+    "ply_name",
     "run_feed",
     "sweep",
 ]
@@ -71,6 +74,16 @@ IMPEDANCE = (0.99, 0.999, 1e-4, 0.5, 2.0)  # solimp: dmin, dmax, width (m), midp
 # ([choice]). The stiff contacts give by a few um and their force flickers to zero within
 # that give (the 2 g fabric between the heavy dog and the foot), which is not a separation.
 SEPARATED = 1e-5
+# The friction rows of a contact this many times harder than its normal (MuJoCo's impratio;
+# the foot's soft contact needs it, the rigid ones barely change): the step halved then moves
+# the stitch by 0.2 % or less; 1e5 is ill conditioned (3 % at 5,000 rpm).
+HARD_FRICTION = 1e3
+PLY_COLOURS = ([0.2, 0.45, 0.85, 0.75], [0.85, 0.3, 0.45, 0.75], [0.3, 0.7, 0.45, 0.75])
+
+
+def ply_name(k: int) -> str:
+    """The model's geom of ply ``k`` (1 the bottom one, on the dog): ``fabric``, ``ply2``..."""
+    return "fabric" if k == 1 else f"ply{k}"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -82,10 +95,10 @@ class FeedRun:
     stitch, at every step: ``theta`` (N,) deg from the needle bar's top, ``dog`` (N,) m the
     dog's teeth above the plate and ``dog_x`` (N,) m along the feed from where the stitch
     began, ``foot`` (N,) m the foot's sole above the plate, ``fabric`` (N,) m the fabric's
-    travel since the stitch began and ``fabric_z`` (N,) m its underside above the plate, ``dog_force`` and ``foot_force`` (N,) N the normal forces of
-    the dog's and the foot's contacts on the fabric (a rigid contact's: spikes where the dog
-    meets the fabric, which the fabric's own compliance, not modelled yet, would spread);
-    ``thickness`` m the fabric's."""
+    travel since the stitch began and ``fabric_z`` (N,) m its underside above the plate,
+    ``dog_force`` and ``foot_force`` (N,) N the normal forces of the dog's teeth on the bottom
+    ply and of the foot on the top one, ``foot_drag`` (N,) N the foot's friction on the fabric;
+    ``thickness`` m the fabric's, every ply's."""
 
     speed_rpm: float
     timestep: float
@@ -102,6 +115,7 @@ class FeedRun:
     fabric_z: np.ndarray
     dog_force: np.ndarray
     foot_force: np.ndarray
+    foot_drag: np.ndarray
     thickness: float
     frames: np.ndarray | None = None  # (F, nq) the model's joints at F even steps of the last stitch
 
@@ -180,7 +194,7 @@ class FeedRun:
     @property
     def bounce_hz(self) -> float:
         """Hz: the foot's free vibration on the fabric (:func:`bounce`, closed form)."""
-        return bounce(self.presser, self.fabric_table)
+        return bounce(self.presser, self.fabric_table, self.thickness)
 
     def as_dict(self) -> dict[str, Any]:
         """The run's numbers for ``report.json`` (mm, deg, N; ``error`` a fraction)."""
@@ -208,13 +222,22 @@ class FeedRun:
                 "lift_mm": self.presser.lift * 1e3,
             },
             "fabric": {
-                "mass_g": self.fabric_table.mass * 1e3,
+                "area_cm2": self.fabric_table.area * 1e4,
+                "piece_g": self.fabric_table.piece(self.thickness) * 1e3,
+                "thickness_mm": self.thickness * 1e3,
+                "stiffness_N_per_mm": self.fabric_table.stiffness_of(self.thickness) * 1e-3,
                 "friction_dog": self.fabric_table.dog,
                 "friction_foot": self.fabric_table.foot,
                 "friction_plate": self.fabric_table.plate,
-                "stiffness_N_per_mm": self.fabric_table.stiffness * 1e-3,
-                "damping": self.fabric_table.damping,
-                "thickness_mm": self.thickness * 1e3,
+                "plies": [
+                    {
+                        "thickness_mm": p.thickness * 1e3,
+                        "mass_g_per_m2": p.mass * 1e3,
+                        "stiffness_N_per_mm": p.stiffness * 1e-3,
+                        "damping": p.damping,
+                    }
+                    for p in self.fabric_table.layers(self.thickness)
+                ],
             },
         }
 
@@ -230,6 +253,7 @@ class FeedRun:
             "gap_mm",
             "dog_force_N",
             "foot_force_N",
+            "foot_drag_N",
         ]
         cols = [
             self.theta,
@@ -241,6 +265,7 @@ class FeedRun:
             self.lift * 1e3,
             self.dog_force,
             self.foot_force,
+            self.foot_drag,
         ]
         return names, cols
 
@@ -387,17 +412,24 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
         conaffinity=0,
         rgba=[0.85, 0.5, 0.12, 1.0],
     )
-    cloth = spec.worldbody.add_body(name="fabric", pos=[x0, 0.0, thick / 2.0])
+    # The fabric moves as one body: its plies one on the next (the bottom one, "fabric", on the
+    # dog and the plate; the foot on the top one), each its own box of its own mass.
+    cloth = spec.worldbody.add_body(name="fabric", pos=[x0, 0.0, 0.0])
     _slides(cloth, "fabric")
-    cloth.add_geom(
-        name="fabric",
-        type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=[*FABRIC_HALF, thick / 2.0],
-        mass=fabric.mass,
-        contype=0,
-        conaffinity=0,
-        rgba=[0.2, 0.45, 0.85, 0.75],
-    )
+    below = 0.0
+    plies = fabric.layers(thick)
+    for k, ply in enumerate(plies, 1):
+        cloth.add_geom(
+            name=ply_name(k),
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[*FABRIC_HALF, ply.thickness / 2.0],
+            pos=[0.0, 0.0, below + ply.thickness / 2.0],
+            mass=fabric.area * ply.mass,
+            contype=0,
+            conaffinity=0,
+            rgba=PLY_COLOURS[(k - 1) % len(PLY_COLOURS)],
+        )
+        below += ply.thickness
     _foot(spec, presser, x0, thick, timestep)
     stiff = [2.0 * timestep, 1.0]
     for other, mu in (("dog", fabric.dog), ("plate", fabric.plate)):
@@ -416,21 +448,24 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
     spec.add_pair(
         name="foot_fabric",
         geomname1="foot",
-        geomname2="fabric",
+        geomname2=ply_name(len(plies)),
         condim=3,
         friction=[fabric.foot, fabric.foot, 0.0, 0.0, 0.0],
         solimp=[COMPLIANT, COMPLIANT, 1e-3, 0.5, 2.0],
     )
+    # A soft contact's friction is as soft as its normal (one impedance for all of a contact's
+    # rows): at the foot's it is a viscous drag, a quarter of mu N at 300 rpm. Friction rows
+    # this much harder than the normal are Coulomb's (mu N while sliding) at every speed.
+    spec.option.impratio = HARD_FRICTION
     m = spec.compile()
     # MuJoCo regularizes a row by (1 - d) / d times its diagonal approximation, the bodies'
     # translational inverse weights (body_invweight0) summed: a contact force k r / R with
     # k = stiffness / d is then stiffness * r / ((1 - d) A), and the fabric's spring K asks for
     # stiffness = (1 - d) K A (its damping C likewise).
     a_hat = float(m.body_invweight0[m.body("fabric").id, 0] + m.body_invweight0[m.body("foot").id, 0])
-    c = 2.0 * fabric.damping * math.sqrt(fabric.stiffness * presser.mass)
     m.pair_solref[m.pair("foot_fabric").id] = [
-        -(1.0 - COMPLIANT) * fabric.stiffness * a_hat,
-        -(1.0 - COMPLIANT) * c * a_hat,
+        -(1.0 - COMPLIANT) * fabric.stiffness_of(thick) * a_hat,
+        -(1.0 - COMPLIANT) * fabric.damper_of(thick, presser.mass) * a_hat,
     ]
     return m
 
@@ -476,8 +511,12 @@ def run_feed(
     jx, jz = (m.joint(f"dog_{t}") for t in "xz")
     fx = m.joint("fabric_x").qposadr[0]
     foot_q = m.joint("foot").qposadr[0]
-    cloth = m.geom("fabric").id
-    touching = {m.geom(g).id: g for g in ("dog", "foot")}
+    # The dog's teeth touch the bottom ply, the foot the top one.
+    top = ply_name(len(fabric.layers(tm.fabric)))
+    touching = {
+        frozenset((m.geom("dog").id, m.geom("fabric").id)): "dog_force",
+        frozenset((m.geom("foot").id, m.geom(top).id)): "foot_force",
+    }
     # At rest: the fabric on the plate or on the dog's teeth if they are up, the foot on it.
     up = max(float(pos[0, 1]), 0.0)
     d.qpos[m.joint("fabric_z").qposadr[0]] = up
@@ -486,7 +525,9 @@ def run_feed(
     mujoco.mj_forward(m, d)
     starts = np.zeros(stitches + 1)
     N = steps
-    out = {k: np.zeros(N) for k in ("dog", "dog_x", "foot", "fabric", "fabric_z", "dog_force", "foot_force")}
+    out = {
+        k: np.zeros(N) for k in ("dog", "dog_x", "foot", "fabric", "fabric_z", "dog_force", "foot_force", "foot_drag")
+    }
     fz = m.joint("fabric_z").qposadr[0]
     force = np.zeros(6)
     kept = np.zeros((frames, m.nq))
@@ -508,11 +549,12 @@ def run_feed(
                 if k in at:
                     kept[at[k]] = d.qpos
                 for i in range(d.ncon):
-                    g1, g2 = int(d.contact.geom1[i]), int(d.contact.geom2[i])
-                    which = touching.get(g1 if g2 == cloth else g2 if g1 == cloth else -1)
+                    which = touching.get(frozenset((int(d.contact.geom1[i]), int(d.contact.geom2[i]))))
                     if which:
                         mujoco.mj_contactForce(m, d, i, force)
-                        out[f"{which}_force"][k] += force[0]
+                        out[which][k] += force[0]
+                        if which == "foot_force":
+                            out["foot_drag"][k] += math.hypot(force[1], force[2])
     starts[stitches] = d.qpos[fx]
     return FeedRun(
         speed_rpm=w * 30.0 / math.pi,
@@ -565,13 +607,12 @@ def foot_vibration(presser: Presser, *, seconds: float = 0.5, timestep: float = 
     return t, z
 
 
-def bounce(presser: Presser, fabric: Fabric) -> float:
-    """Hz: the foot's free vibration on the fabric on the plate (closed form): its mass on the
-    presser spring and the fabric's stiffness side by side, damped by both."""
-    k = presser.rate + fabric.stiffness
-    c = 2.0 * presser.damping * math.sqrt(presser.rate * presser.mass) + 2.0 * fabric.damping * math.sqrt(
-        fabric.stiffness * presser.mass
-    )
+def bounce(presser: Presser, fabric: Fabric, thickness: float) -> float:
+    """Hz: the foot's free vibration on the fabric (of ``thickness`` m, the ``[timing]``
+    fabric's) on the plate (closed form): its mass on the presser spring and the plies' springs
+    (one on the next) side by side, damped by both."""
+    k = presser.rate + fabric.stiffness_of(thickness)
+    c = 2.0 * presser.damping * math.sqrt(presser.rate * presser.mass) + fabric.damper_of(thickness, presser.mass)
     zeta = c / (2.0 * math.sqrt(k * presser.mass))
     return math.sqrt(k / presser.mass) * math.sqrt(max(0.0, 1.0 - zeta**2)) / (2.0 * math.pi)
 

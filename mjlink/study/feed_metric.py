@@ -95,7 +95,12 @@ class FeedMetric(Metric):
                 presser, **{f.name: _of(getattr(presser, f.name), i, b) for f in dataclasses.fields(presser)}
             ),
             fabric=dataclasses.replace(
-                fabric, **{f.name: _of(getattr(fabric, f.name), i, b) for f in dataclasses.fields(fabric)}
+                fabric,
+                **{f.name: _of(getattr(fabric, f.name), i, b) for f in dataclasses.fields(fabric) if f.name != "plies"},
+                plies=tuple(
+                    dataclasses.replace(q, **{f.name: _of(getattr(q, f.name), i, b) for f in dataclasses.fields(q)})
+                    for q in fabric.plies
+                ),
             ),
         )
 
