@@ -264,6 +264,8 @@ FABRIC_FIELDS = {
     "friction_plate": "plate",
 }
 """Each ``[fabric]`` key's field of :class:`Fabric` (a ``[presser]`` key is its field's name)."""
+
+
 def _fields(numbers: dict[str, float]) -> dict[str, Any]:
     """A :class:`Fabric`'s numbers as its keyword arguments (its plies apart)."""
     return dict(numbers)
