@@ -152,6 +152,37 @@ def test_plies_press_one_on_the_next_and_the_foot_bounces_on_them_all(head):
     assert [q["thickness_mm"] for q in run.as_dict()["fabric"]["plies"]] == pytest.approx([0.9, 0.6])
 
 
+TWO = "[[fabric.ply]]\nthickness = 0.75\nstiffness = 260.0\n[[fabric.ply]]\nthickness = 0.75\nstiffness = 260.0\n"
+
+
+def test_plies_that_grip_each_other_harder_than_the_foot_grips_the_top_one_move_together(head):
+    """Coulomb's friction: the top ply needs friction_foot times the foot's push (and its own
+    inertia) from the ply below, which can give friction_ply times it: at 0.5 against 0.2 the
+    plies stick, their shift 0 within the rigid contacts' give, at low speed and at speed."""
+    mech = _with("[fabric]\nfriction_ply = 0.5\n" + TWO)
+    for rpm in (LOW_RPM, FAST):
+        run = feed.run_feed(mech, speed_rpm=rpm, stitches=4)
+        assert abs(run.shift) < 1e-6  # m: the rigid contacts' give
+        assert run.ply_advance[-1] == pytest.approx([run.stitch, run.stitch], abs=1e-6)
+    assert run.as_dict()["ply_shift_mm"] == pytest.approx(run.shift * 1e3)
+    names, cols = run.columns()
+    assert names[-1] == "ply2_x_mm" and len(cols[-1]) == len(run.theta)
+
+
+def test_a_top_ply_the_foot_grips_harder_stays_under_it_as_the_step_shrinks(head):
+    """At friction_ply 0.1 against the foot's 0.2 the foot holds the top ply while the dog
+    feeds the bottom one (Coulomb: the top ply stays, its shift minus the bottom one's
+    advance). The foot's contact is soft (the fabric's spring) and its friction creeps where
+    it should stick, by an amount proportional to the step (docs/head.md): within 5 % of the
+    stitch at 3,000 rpm, and halved (to within a tenth) with the step."""
+    mech = _with("[fabric]\nfriction_ply = 0.1\n" + TWO)
+    coarse = feed.run_feed(mech, speed_rpm=3000.0, stitches=4)
+    fine = feed.run_feed(mech, speed_rpm=3000.0, stitches=4, timestep=coarse.timestep / 2)
+    creep = [r.shift + r.stitch for r in (coarse, fine)]  # m: the top ply's advance
+    assert 0.0 < creep[0] < 0.05 * coarse.stitch  # the creep at the 10 us step, a first-order error
+    assert creep[1] / creep[0] == pytest.approx(0.5, abs=0.1)  # first order in the step
+
+
 @pytest.mark.parametrize(
     ("tables", "says"),
     [
@@ -351,6 +382,9 @@ def test_the_longest_separation_is_found_across_the_needle_bars_top():
         dog_force=z,
         foot_force=z,
         foot_drag=z,
+        top=z,
+        ply_advance=np.ones((2, 1)),
+        ply_x=z[:, None],
         thickness=0.0,
     )
     assert run.separation == (40.0, 350.0)

@@ -238,10 +238,11 @@ def steady(res: SteadyResult) -> str:
 def feed(res: FeedResult) -> str:
     """What ``feed`` prints: a row per speed, then the geometric stitch and, over a sweep, the
     first speed beyond the error limit."""
+    plied = res.sweep.runs[0].ply_x.shape[1] > 1
     head = (
         f"{'speed':>11}  {'stitch':>9}  {'error':>7}  {'spread':>8}  {'foot off the fabric':>24}  "
         f"{'largest gap':>11}  {'spring load':>11}  {'slip on dog':>11}  {'foot force':>9}"
-    )
+    ) + (f"  {'ply shift':>9}" if plied else "")
     rows = [
         f"the feed of {res.mechanism} under its presser foot (MuJoCo contacts, {res.stitches} stitches a speed)",
         head,
@@ -253,6 +254,7 @@ def feed(res: FeedResult) -> str:
             f"{r.speed_rpm:>7.0f} rpm  {to_mm(r.stitch):>6.3f} mm  {r.error * 100:>+6.2f}%  "
             f"{r.spread * 1e6:>5.1f} µm  {off:>24}  {to_mm(r.lift.max()):>8.3f} mm  "
             f"{r.load_factor:>10.3f}x  {r.slip * 1e6:>8.1f} µm  {r.foot_force.max():>7.1f} N"
+            + (f"  {to_mm(r.shift):>+6.3f} mm" if plied else "")
         )
     first = res.sweep.runs[0]
     rows.append(
@@ -261,6 +263,7 @@ def feed(res: FeedResult) -> str:
         f"its {first.presser.preload:g} N preload (the dynamic load factor); foot force: the foot's largest push "
         f"on the fabric; the foot bounces on the fabric at {first.bounce_hz:.0f} Hz (closed form), what a "
         f"once-a-stitch push meets at {first.bounce_hz * 60:,.0f} rpm"
+        + ("; ply shift: the top ply's advance less the bottom one's (negative: it lags)" if plied else "")
     )
     if len(res.sweep.runs) > 1:
         over = res.first_over
@@ -270,7 +273,7 @@ def feed(res: FeedResult) -> str:
             else f"the stitch first errs by more than {res.limit:.0%} at {over.speed_rpm:.0f} rpm ({over.error:+.2%})"
         )
     rows.append(
-        "not modelled: plies, the dog's teeth as teeth, the needle in the fabric, the operator's hold "
+        "not modelled: each ply's own compression, the dog's teeth as teeth, the needle in the fabric, the operator's hold "
         "(docs/head.md, The fabric under the presser foot)"
     )
     if res.out_dir is not None:

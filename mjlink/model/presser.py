@@ -21,6 +21,7 @@ here SI::
     friction_dog = 1.0     # against the dog's teeth
     friction_foot = 0.2    # against the foot's sole
     friction_plate = 0.2   # against the throat plate
+    friction_ply = 0.5     # one ply on the next
 
 The fabric's thickness is ``[timing] fabric``: one ply. Two or more plies are a list, the
 bottom one (on the dog) first, each with its own thickness and, optionally, its own mass per
@@ -113,8 +114,8 @@ class Fabric:
     """The fabric, SI: the ``area`` m^2 of the piece the dog carries; one ply's ``mass`` kg/m^2,
     ``stiffness`` N/m across its thickness under the foot and ``damping`` (a ratio of critical
     for the foot's mass on that stiffness), or ``plies`` (the bottom one first) that replace
-    them (the plies move together: :mod:`mjlink.sim.feed`); friction coefficients against the
-    dog's teeth (``dog``, the bottom ply's), the foot (the top ply's) and the throat plate."""
+    them; friction coefficients against the dog's teeth (``dog``, the bottom ply's), the foot
+    (the top ply's), the throat plate and of one ply on the next (``ply``)."""
 
     area: float
     mass: float
@@ -123,6 +124,7 @@ class Fabric:
     dog: float
     foot: float
     plate: float
+    ply: float
     plies: tuple[Ply, ...] = ()
 
     def layers(self, thickness: float) -> tuple[Ply, ...]:
@@ -233,6 +235,12 @@ _FABRIC: dict[str, tuple[float, float, Bound, str]] = {
         Bound(0.0, 2.0, "", "a coefficient of friction of fabric on polished steel"),
         "[choice] fabric on polished steel",
     ),
+    "friction_ply": (
+        0.5,
+        1.0,
+        Bound(0.0, 2.0, "", "a coefficient of friction of fabric on fabric"),
+        "[choice] fabric on fabric grips more than on polished steel",
+    ),
 }
 MAX_PLIES = 8  # a sewing head's foot clears some 20 mm of fabric: a few plies of a garment
 PLY_THICKNESS = Bound(
@@ -262,6 +270,7 @@ FABRIC_FIELDS = {
     "friction_dog": "dog",
     "friction_foot": "foot",
     "friction_plate": "plate",
+    "friction_ply": "ply",
 }
 """Each ``[fabric]`` key's field of :class:`Fabric` (a ``[presser]`` key is its field's name)."""
 

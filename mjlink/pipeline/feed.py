@@ -77,6 +77,7 @@ _ROWS = (  # feed_speeds.csv: a row per speed
     ("load_factor", lambda r: r.load_factor),
     ("slip_mm", lambda r: r.slip * 1e3),
     ("foot_force_peak_N", lambda r: float(r.foot_force.max())),
+    ("ply_shift_mm", lambda r: r.shift * 1e3),
 )
 
 

@@ -35,7 +35,7 @@ def feed_plot(mech: Mechanism, run: FeedRun, out_dir: Path | str) -> Path:
     place(fig, ax.get_gridspec(), left=1.0, right=0.3, top=1.1, bottom=0.6, hgap=0.3)
     th = run.theta
     ax.plot(th, run.dog / MM, color="C0", label="the dog's teeth")
-    ax.plot(th, (run.fabric_z + run.thickness) / MM, color="C2", label="the fabric's top")
+    ax.plot(th, run.top / MM, color="C2", label="the fabric's top")
     ax.plot(th, run.foot / MM, color="C3", lw=1.0, ls="--", label="the presser foot's sole")
     ax.axhline(0.0, color="0.4", lw=0.8)
     _shade(ax, th, run.separated, color="C3", alpha=0.15)
@@ -50,7 +50,16 @@ def feed_plot(mech: Mechanism, run: FeedRun, out_dir: Path | str) -> Path:
         fontsize=8.5,
     )
     bx.plot(th, run.dog_x / MM, color="C0", label="the dog's teeth")
-    bx.plot(th, run.fabric / MM, color="C2", label="the fabric")
+    plies = run.ply_x.shape[1]
+    bx.plot(th, run.fabric / MM, color="C2", label="the fabric" if plies == 1 else "the bottom ply")
+    if plies > 1:
+        bx.plot(
+            th,
+            run.ply_x[:, -1] / MM,
+            color="C4",
+            ls="--",
+            label=f"the top ply (shifts {run.shift / MM:+.3f} mm a stitch)",
+        )
     _shade(bx, th, run.dog_force > 0.0, color="C0", alpha=0.12)
     bx.set_ylabel("along the feed, since the stitch began [mm]")
     bx.legend(

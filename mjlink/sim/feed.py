@@ -9,27 +9,31 @@ what the fabric and the foot do:
 * the dog's teeth: a box whose top is the dog point, on two slides (along the feed and up),
   driven: its position and velocity are the reference's at every step (heavy, so that a
   step's contact impulses barely move it before it is set again);
-* the fabric: one body on two slides, resting on the plate: its plies one on the next, each a
-  box of its thickness and its mass (the piece's area times the ply's mass per area; one ply
-  of ``[timing] fabric`` thickness by default);
+* the fabric: its plies one on the next (one ply of ``[timing] fabric`` thickness by
+  default), each a box of its thickness and its mass (the piece's area times the ply's mass
+  per area) on two slides, the bottom one on the plate, each upper one seated on the one
+  below by a sphere's bottom;
 * the presser foot: a sphere's bottom on a vertical slide over the fabric, its spring (a rate,
   and a preload with the sole at the fabric's free top), damping and the bar's stop;
 * gravity on all of them.
 
 Each pair that touches has a contact of its own (``<pair>``, with its friction: the dog's
-teeth grip, the foot and the plate slide) and elliptic friction cones. The fabric's
+teeth grip, the foot and the plate slide, the plies grip each other) and elliptic friction
+cones. The fabric's
 compliance across its thickness is all in its contact with the foot: a spring and damper of
 the plies' stiffness and damping one on the next (a soft constraint of tiny constant
 impedance, its solref from the compiled model's own inverse weights, :func:`_model`), its
 friction Coulomb's (:data:`HARD_FRICTION`). The teeth and the
 plate are rigid: the stiffest contact MuJoCo keeps stable, a time constant of twice the
 timestep, critically damped, the impedance 0.99 to 0.999 over 0.1 mm, so that the plate bears
-nothing of the foot's push while the teeth are above it. The foot does not collide with the
+nothing of the foot's push while the teeth are above it; the plies on each other are rigid
+too, so that they stick or slide as Coulomb has it (a soft contact's friction creeps where it
+should stick, the foot's too). The foot does not collide with the
 dog or the plate: the fabric is always between them here.
 
-Not modelled (docs/head.md, The fabric under the presser foot): plies sliding on each other
-(they move together), the dog's teeth as teeth (one box here), the fabric's bending round the
-teeth, the operator's hold on the fabric, the needle in the fabric, a walking foot.
+Not modelled (docs/head.md, The fabric under the presser foot): each ply's own compression,
+the dog's teeth as teeth (one box here), the fabric's bending round the teeth, the operator's
+hold on the fabric, the needle in the fabric, a walking foot.
 """
 
 from __future__ import annotations
@@ -89,16 +93,18 @@ def ply_name(k: int) -> str:
 @dataclass(frozen=True, kw_only=True)
 class FeedRun:
     """The feed over ``stitches`` stitches at ``speed_rpm``, stepped at ``timestep`` s, with its
-    ``presser`` and ``fabric``: ``advance`` (stitches,) m the fabric's advance in each stitch,
-    from the needle bar's top; ``geometric`` m the dog's own advance with its teeth above the
-    plate (:func:`dog_advance`, the stitch a fabric held to the dog makes); over the last
-    stitch, at every step: ``theta`` (N,) deg from the needle bar's top, ``dog`` (N,) m the
-    dog's teeth above the plate and ``dog_x`` (N,) m along the feed from where the stitch
-    began, ``foot`` (N,) m the foot's sole above the plate, ``fabric`` (N,) m the fabric's
-    travel since the stitch began and ``fabric_z`` (N,) m its underside above the plate,
-    ``dog_force`` and ``foot_force`` (N,) N the normal forces of the dog's teeth on the bottom
-    ply and of the foot on the top one, ``foot_drag`` (N,) N the foot's friction on the fabric;
-    ``thickness`` m the fabric's, every ply's."""
+    ``presser`` and ``fabric``: ``advance`` (stitches,) m the fabric's (its bottom ply's, the
+    one the dog feeds) advance in each stitch from the needle bar's top, ``ply_advance``
+    (stitches, plies) every ply's, the bottom one first; ``geometric`` m the dog's own advance
+    with its teeth above the plate (:func:`dog_advance`, the stitch a fabric held to the dog
+    makes); over the last stitch, at every step: ``theta`` (N,) deg from the needle bar's top,
+    ``dog`` (N,) m the dog's teeth above the plate and ``dog_x`` (N,) m along the feed from
+    where the stitch began, ``foot`` (N,) m the foot's sole above the plate, ``fabric`` (N,) m
+    the bottom ply's travel since the stitch began (``ply_x`` (N, plies) every ply's),
+    ``fabric_z`` (N,) m its underside above the plate, ``top`` (N,) m the top ply's upper face
+    above the plate (unpressed), ``dog_force`` and ``foot_force`` (N,) N the normal forces of
+    the dog's teeth on the bottom ply and of the foot on the top one, ``foot_drag`` (N,) N the
+    foot's friction on the fabric; ``thickness`` m the fabric's, every ply's."""
 
     speed_rpm: float
     timestep: float
@@ -116,13 +122,16 @@ class FeedRun:
     dog_force: np.ndarray
     foot_force: np.ndarray
     foot_drag: np.ndarray
+    top: np.ndarray
+    ply_advance: np.ndarray
+    ply_x: np.ndarray
     thickness: float
     frames: np.ndarray | None = None  # (F, nq) the model's joints at F even steps of the last stitch
 
     @property
     def lift(self) -> np.ndarray:
         """(N,) m: the foot's gap above the fabric's top (0 while it presses)."""
-        out: np.ndarray = np.maximum(self.foot - self.fabric_z - self.thickness, 0.0)
+        out: np.ndarray = np.maximum(self.foot - self.top, 0.0)
         return out
 
     @property
@@ -135,6 +144,12 @@ class FeedRun:
         """The stitch length's error against the dog's geometric advance, a fraction (signed:
         negative, a shorter stitch)."""
         return self.stitch / self.geometric - 1.0
+
+    @property
+    def shift(self) -> float:
+        """m: the top ply's advance in the last stitch less the bottom one's (negative: the top
+        ply lags; 0 with one ply), the ply shift of a drop feed."""
+        return float(self.ply_advance[-1, -1] - self.ply_advance[-1, 0])
 
     @property
     def spread(self) -> float:
@@ -213,6 +228,8 @@ class FeedRun:
             "load_factor": self.load_factor,
             "slip_mm": self.slip * 1e3,
             "foot_force_peak_N": float(self.foot_force.max()),
+            "ply_shift_mm": self.shift * 1e3,
+            "ply_advance_mm": [float(x) * 1e3 for x in self.ply_advance[-1]],
             "bounce_hz": self.bounce_hz,
             "presser": {
                 "preload_N": self.presser.preload,
@@ -229,6 +246,7 @@ class FeedRun:
                 "friction_dog": self.fabric_table.dog,
                 "friction_foot": self.fabric_table.foot,
                 "friction_plate": self.fabric_table.plate,
+                "friction_ply": self.fabric_table.ply,
                 "plies": [
                     {
                         "thickness_mm": p.thickness * 1e3,
@@ -267,6 +285,9 @@ class FeedRun:
             self.foot_force,
             self.foot_drag,
         ]
+        for k in range(2, self.ply_x.shape[1] + 1):
+            names.append(f"ply{k}_x_mm")
+            cols.append(self.ply_x[:, k - 1] * 1e3)
         return names, cols
 
 
@@ -412,14 +433,15 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
         conaffinity=0,
         rgba=[0.85, 0.5, 0.12, 1.0],
     )
-    # The fabric moves as one body: its plies one on the next (the bottom one, "fabric", on the
-    # dog and the plate; the foot on the top one), each its own box of its own mass.
-    cloth = spec.worldbody.add_body(name="fabric", pos=[x0, 0.0, 0.0])
-    _slides(cloth, "fabric")
+    # The plies one on the next, each a body of its own on two slides: the bottom one, "fabric",
+    # on the dog and the plate; each upper one seated on the one below by the bottom of a
+    # sphere (one contact point); the foot on the top one.
     below = 0.0
     plies = fabric.layers(thick)
     for k, ply in enumerate(plies, 1):
-        cloth.add_geom(
+        body = spec.worldbody.add_body(name=ply_name(k), pos=[x0, 0.0, 0.0])
+        _slides(body, ply_name(k))
+        body.add_geom(
             name=ply_name(k),
             type=mujoco.mjtGeom.mjGEOM_BOX,
             size=[*FABRIC_HALF, ply.thickness / 2.0],
@@ -429,6 +451,17 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
             conaffinity=0,
             rgba=PLY_COLOURS[(k - 1) % len(PLY_COLOURS)],
         )
+        if k > 1:
+            body.add_geom(
+                name=f"{ply_name(k)}_seat",
+                type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                size=[FOOT_RADIUS, 0.0, 0.0],
+                pos=[0.0, 0.0, below + FOOT_RADIUS],
+                mass=0.0,
+                contype=0,
+                conaffinity=0,
+                group=3,
+            )
         below += ply.thickness
     _foot(spec, presser, x0, thick, timestep)
     stiff = [2.0 * timestep, 1.0]
@@ -442,9 +475,22 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
             solref=stiff,
             solimp=list(IMPEDANCE),
         )
-    # The fabric's compliance across its thickness, all of it under the foot: the dog's teeth
-    # and the plate stay rigid, so that the plate bears nothing while the teeth are up. Its
-    # solref is set once compiled, from the compiled model's own inverse weights.
+    # One ply on the next: rigid, so that their friction is Coulomb's (a soft contact's
+    # creeps where it should stick).
+    for k in range(2, len(plies) + 1):
+        spec.add_pair(
+            name=f"{ply_name(k)}_seat",
+            geomname1=ply_name(k - 1),
+            geomname2=f"{ply_name(k)}_seat",
+            condim=3,
+            friction=[fabric.ply, fabric.ply, 0.0, 0.0, 0.0],
+            solref=stiff,
+            solimp=list(IMPEDANCE),
+        )
+    # The fabric's compliance across its thickness, all of it under the foot: the dog's teeth,
+    # the plate and the plies on each other stay rigid, so that the plate bears nothing while
+    # the teeth are up. Its solref is set once compiled, from the compiled model's own inverse
+    # weights.
     spec.add_pair(
         name="foot_fabric",
         geomname1="foot",
@@ -462,7 +508,8 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
     # translational inverse weights (body_invweight0) summed: a contact force k r / R with
     # k = stiffness / d is then stiffness * r / ((1 - d) A), and the fabric's spring K asks for
     # stiffness = (1 - d) K A (its damping C likewise).
-    a_hat = float(m.body_invweight0[m.body("fabric").id, 0] + m.body_invweight0[m.body("foot").id, 0])
+    top = m.body(ply_name(len(plies))).id
+    a_hat = float(m.body_invweight0[top, 0] + m.body_invweight0[m.body("foot").id, 0])
     m.pair_solref[m.pair("foot_fabric").id] = [
         -(1.0 - COMPLIANT) * fabric.stiffness_of(thick) * a_hat,
         -(1.0 - COMPLIANT) * fabric.damper_of(thick, presser.mass) * a_hat,
@@ -509,31 +556,30 @@ def run_feed(
     m = _model(mech, presser, fabric, dt, x0)
     d = mujoco.MjData(m)
     jx, jz = (m.joint(f"dog_{t}") for t in "xz")
-    fx = m.joint("fabric_x").qposadr[0]
+    n = len(fabric.layers(tm.fabric))
+    px = np.array([m.joint(f"{ply_name(k)}_x").qposadr[0] for k in range(1, n + 1)])
+    pz = np.array([m.joint(f"{ply_name(k)}_z").qposadr[0] for k in range(1, n + 1)])
     foot_q = m.joint("foot").qposadr[0]
     # The dog's teeth touch the bottom ply, the foot the top one.
-    top = ply_name(len(fabric.layers(tm.fabric)))
     touching = {
         frozenset((m.geom("dog").id, m.geom("fabric").id)): "dog_force",
-        frozenset((m.geom("foot").id, m.geom(top).id)): "foot_force",
+        frozenset((m.geom("foot").id, m.geom(ply_name(n)).id)): "foot_force",
     }
     # At rest: the fabric on the plate or on the dog's teeth if they are up, the foot on it.
     up = max(float(pos[0, 1]), 0.0)
-    d.qpos[m.joint("fabric_z").qposadr[0]] = up
+    d.qpos[pz] = up
     d.qpos[foot_q] = up
     d.qpos[jx.qposadr[0]], d.qpos[jz.qposadr[0]] = pos[0, 0], pos[0, 1]
     mujoco.mj_forward(m, d)
-    starts = np.zeros(stitches + 1)
+    starts = np.zeros((stitches + 1, n))
     N = steps
-    out = {
-        k: np.zeros(N) for k in ("dog", "dog_x", "foot", "fabric", "fabric_z", "dog_force", "foot_force", "foot_drag")
-    }
-    fz = m.joint("fabric_z").qposadr[0]
+    out = {k: np.zeros(N) for k in ("dog", "dog_x", "foot", "fabric_z", "top", "dog_force", "foot_force", "foot_drag")}
+    ply_x = np.zeros((N, n))
     force = np.zeros(6)
     kept = np.zeros((frames, m.nq))
     at = {round(j * N / frames): j for j in range(frames)} if frames else {}
     for s in range(stitches):
-        starts[s] = d.qpos[fx]
+        starts[s] = d.qpos[px]
         last = s == stitches - 1
         for k in range(N):
             d.qpos[jx.qposadr[0]], d.qpos[jz.qposadr[0]] = pos[k, 0], pos[k, 1]
@@ -544,8 +590,9 @@ def run_feed(
                 out["dog_x"][k] = d.qpos[jx.qposadr[0]] - pos[0, 0]
                 out["dog"][k] = pos[k, 1]
                 out["foot"][k] = tm.fabric + d.qpos[foot_q]
-                out["fabric"][k] = d.qpos[fx] - starts[s]
-                out["fabric_z"][k] = d.qpos[fz]
+                ply_x[k] = d.qpos[px] - starts[s]
+                out["fabric_z"][k] = d.qpos[pz[0]]
+                out["top"][k] = tm.fabric + d.qpos[pz[-1]]
                 if k in at:
                     kept[at[k]] = d.qpos
                 for i in range(d.ncon):
@@ -555,14 +602,17 @@ def run_feed(
                         out[which][k] += force[0]
                         if which == "foot_force":
                             out["foot_drag"][k] += math.hypot(force[1], force[2])
-    starts[stitches] = d.qpos[fx]
+    starts[stitches] = d.qpos[px]
     return FeedRun(
         speed_rpm=w * 30.0 / math.pi,
         timestep=dt,
         stitches=stitches,
         presser=presser,
         fabric_table=fabric,
-        advance=np.diff(starts),
+        advance=np.diff(starts[:, 0]),
+        ply_advance=np.diff(starts, axis=0),
+        fabric=ply_x[:, 0].copy(),
+        ply_x=ply_x,
         geometric=dog_advance(mech),
         theta=np.degrees(u),
         thickness=tm.fabric,

@@ -41,7 +41,8 @@ class FeedMetric(Metric):
     ``feed_error_size`` % its size (what an optimization minimizes), ``feed_stitch`` mm the
     stitch at the fastest speed, ``feed_foot_off_max`` deg the most of a stitch the foot is off
     the fabric, ``feed_load_factor_max`` the presser spring's largest dynamic load factor,
-    ``feed_foot_force_max`` N the foot's largest push on the fabric."""
+    ``feed_foot_force_max`` N the foot's largest push on the fabric, ``feed_ply_shift_max`` mm
+    the top ply's largest shift on the bottom one in a stitch (signed; 0 with one ply)."""
 
     kind = "feed"
     options = ("speeds", "stitches")
@@ -53,6 +54,7 @@ class FeedMetric(Metric):
         Column("feed_foot_off_max", "deg", "most of a stitch the presser foot is off the fabric"),
         Column("feed_load_factor_max", "", "the presser spring's largest dynamic load factor"),
         Column("feed_foot_force_max", "N", "the presser foot's largest push on the fabric"),
+        Column("feed_ply_shift_max", "mm", "the top ply's largest shift on the bottom one in a stitch"),
     )
 
     def read(self, raw: dict[str, Any]) -> None:
@@ -135,5 +137,6 @@ class FeedMetric(Metric):
                 max(r.separation[0] for r in runs),
                 max(r.load_factor for r in runs),
                 max(float(r.foot_force.max()) for r in runs),
+                max((r.shift for r in runs), key=abs) * 1e3,
             ]
         return {c.name: out[:, j] for j, c in enumerate(self.COLUMNS)}
