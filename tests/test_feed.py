@@ -167,6 +167,11 @@ def test_plies_that_grip_each_other_harder_than_the_foot_grips_the_top_one_move_
     assert run.as_dict()["ply_shift_mm"] == pytest.approx(run.shift * 1e3)
     names, cols = run.columns()
     assert names[-1] == "ply2_x_mm" and len(cols[-1]) == len(run.theta)
+    from mjlink.analysis.summary import feed_rows
+
+    rows = {r.metric: r.value for r in feed_rows(run)}
+    assert rows["feed_ply_shift"] == pytest.approx(run.shift * 1e3)
+    assert "feed_ply_shift" not in {r.metric for r in feed_rows(feed.run_feed(head, speed_rpm=LOW_RPM, stitches=2))}
 
 
 def test_a_top_ply_the_foot_grips_harder_stays_under_it_as_the_step_shrinks(head):

@@ -186,17 +186,24 @@ class Fed(Protocol):
     def error(self) -> float: ...
     @property
     def separation(self) -> tuple[float, float | None]: ...
+    @property
+    def shift(self) -> float: ...
+    @property
+    def ply_advance(self) -> np.ndarray: ...
 
 
 def feed_rows(fed: Fed) -> tuple[Row, ...]:
     """A head's feed in the summary, from the run's feed with contact at the file's speed: the
-    stitch length (mm), its error against the dog's own advance (%) and the degrees of the
-    stitch the presser foot is off the fabric."""
-    return (
+    stitch length (mm), its error against the dog's own advance (%), the degrees of the stitch
+    the presser foot is off the fabric and, with plies, the top ply's shift (mm a stitch)."""
+    rows = (
         Row("feed_stitch", "stitch length with contact, at this speed", fed.stitch * 1e3, "mm"),
         Row("feed_error", "stitch length against the dog's advance", fed.error * 100.0, "%"),
         Row("feed_foot_off", "presser foot off the fabric", fed.separation[0], "deg"),
     )
+    if fed.ply_advance.shape[1] > 1:
+        rows += (Row("feed_ply_shift", "top ply's shift on the bottom one, a stitch", fed.shift * 1e3, "mm"),)
+    return rows
 
 
 def summarize(mech: Mechanism, thread: NeedleTension | None = None, fed: Fed | None = None) -> Summary:
