@@ -582,3 +582,32 @@ def test_a_study_variant_that_presses_its_fabric_through_is_infeasible_with_the_
     assert why[1:] == ["", ""]
     assert "presses the 1.5 mm fabric by 1.55 mm, through its thickness" in why[0]
     assert paths.invalid(params, values) == ["", "", ""]  # without the mechanism: each value alone
+
+
+def test_a_study_varies_the_plies_of_a_file_and_holds_them_to_its_checks(tmp_path):
+    """A study of a file with plies: a ply's stiffness and thickness vary like any number (the
+    fabric's thickness follows), each value held to the file's own checks, and a variant that
+    presses a ply through at rest is infeasible."""
+    import mjlink
+
+    head = tmp_path / "plied.toml"
+    head.write_text(HEAD_TEXT.replace('name = "lockstitch_head"', 'name = "plied"') + "\n" + TWO)
+    study = tmp_path / "s.toml"
+    study.write_text(
+        f'[study]\nmechanism = "{head}"\nangles = 90\n[sampling]\nmethod = "grid"\n[verify]\nmujoco = "none"\n'
+        '[[parameter]]\npath = "fabric.ply2.stiffness"\nvalues = [60.0, 260.0]\n'
+        '[[parameter]]\npath = "fabric.ply1.thickness"\nvalues = [0.75, 1.2]\n'
+        '[[metric]]\nkind = "feed"\nspeeds = [2000]\nstitches = 2\n'
+    )
+    res = mjlink.run_study(study, tmp_path / "out", workers=0, plots=False)
+    table = mjlink.read_study(res.out_dir)
+    k = [float(x) for x in table["fabric.ply2.stiffness_N_mm"]]
+    feasible = [float(x) for x in table["feasible"]]
+    # At 60 N/mm the 0.75 mm top ply is pressed 0.65 mm at rest (40.5 N over 2 + 48.75 N/mm,
+    # the plies in series, gives 38.9 N; over 60 N/mm): within its thickness, all four run.
+    assert sorted(k) == [60.0, 60.0, 260.0, 260.0] and feasible == [1.0] * 4
+    stitches = [float(x) for x in table["feed_stitch_mm"]]
+    assert all(3.0 < x < 3.2 for x in stitches)  # mm: the 3.07 mm stitch at 2,000 rpm
+    study.write_text(study.read_text().replace("[60.0, 260.0]", "[-5.0, 260.0]"))
+    with pytest.raises(mjlink.MjlinkError, match=re.escape("fabric.ply2.stiffness")):
+        mjlink.run_study(study, tmp_path / "out2", workers=0, plots=False)

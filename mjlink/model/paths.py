@@ -517,6 +517,11 @@ def _set(raw: dict, path: str, v: float) -> None:
         step[parts[2]] = v
     elif sec == "links":
         raw["links"][parts[1]][parts[2]] = v
+    elif sec == "fabric" and len(parts) == 3:  # fabric.plyK.key: the K-th [[fabric.ply]]
+        plies = raw["fabric"]["ply"]
+        plies[int(parts[1][3:]) - 1][parts[2]] = v
+        if parts[2] == "thickness" and "fabric" in raw.get("timing", {}):
+            raw["timing"]["fabric"] = sum(float(q["thickness"]) for q in plies)  # theirs together
     elif sec in (
         "input",
         "steady",
