@@ -611,3 +611,17 @@ def test_a_study_varies_the_plies_of_a_file_and_holds_them_to_its_checks(tmp_pat
     study.write_text(study.read_text().replace("[60.0, 260.0]", "[-5.0, 260.0]"))
     with pytest.raises(mjlink.MjlinkError, match=re.escape("fabric.ply2.stiffness")):
         mjlink.run_study(study, tmp_path / "out2", workers=0, plots=False)
+
+
+def test_check_shows_the_presser_and_the_fabric_and_warns_of_plies_the_foot_holds_apart():
+    from mjlink.validation import check
+
+    shown = check(_with("[fabric]\nfriction_ply = 0.1\n" + TWO))
+    assert shown.feed[1].startswith("fabric: 2 plies (0.75 + 0.75 mm), a 4 g piece of 160 cm^2, 130 N/mm")
+    # (40 N + 0.05 kg g) over 130 + 2 N/mm, at 130 N/mm: the load and the compression
+    load = 130.0 * (40.0 + 0.05 * feed.GRAVITY) / 132.0
+    assert shown.feed[2] == f"at rest the foot presses the fabric {load / 130.0:.3f} mm thinner with {load:.3g} N"
+    warned = [n for n in shown.notes if "friction_ply 0.1 is below friction_foot 0.2" in n]
+    assert len(warned) == 1
+    assert not [n for n in check(_with("[fabric]\nfriction_ply = 0.5\n" + TWO)).notes if "friction_ply" in n]
+    assert check(mechanism.load(shipped("mechanisms") / "takeup.toml")).feed == ()

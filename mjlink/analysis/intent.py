@@ -13,6 +13,9 @@ found, so that a designer who does mean it can see how far the design is from th
   height to speak of (it cannot rise through the plate and drop back), or encloses almost no
   area (its lift and advance in phase or in opposition: the teeth go back along the line they
   fed on).
+* **Plies the foot holds apart.** Plies that grip each other less than the presser foot grips
+  the top one (``friction_ply`` below ``friction_foot``): the foot holds the top ply while the
+  dog feeds the bottom one, a ply shift of about a whole stitch.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import numpy as np
 
 from ..model.blocks import Crank
 from ..model.mechanism import Mechanism
+from ..model.presser import FABRIC_DEFAULTS
 
 IN_PHASE_DEG = 0.5
 """Two eccentrics closer than this about their shaft (deg) are called in phase."""
@@ -40,7 +44,7 @@ encloses pi/4 = 0.785 of its box)."""
 def warnings(mech: Mechanism, positions: Mapping[str, np.ndarray]) -> list[str]:
     """Every warning for ``mech`` from its reference ``positions`` over one period (name ->
     (N, 3), m, the first sample at the input crank's setting)."""
-    return eccentrics_in_phase(mech, positions) + feed_dog_path(mech, positions)
+    return eccentrics_in_phase(mech, positions) + feed_dog_path(mech, positions) + plies_held_apart(mech)
 
 
 def eccentrics_in_phase(mech: Mechanism, positions: Mapping[str, np.ndarray]) -> list[str]:
@@ -70,6 +74,18 @@ def eccentrics_in_phase(mech: Mechanism, positions: Mapping[str, np.ndarray]) ->
                         "meant (the shipped head sets its lift and advance eccentrics 150 deg apart)?"
                     )
     return out
+
+
+def plies_held_apart(mech: Mechanism) -> list[str]:
+    """Plies whose grip on each other is below the foot's on the top one."""
+    f = mech.fabric or FABRIC_DEFAULTS
+    if mech.timing is None or len(f.plies) < 2 or f.ply >= f.foot:
+        return []
+    return [
+        f"warning: [fabric] friction_ply {f.ply:g} is below friction_foot {f.foot:g}: the foot holds the top ply "
+        "while the dog feeds the bottom one, which slides under it (a ply shift of about a whole stitch; "
+        "python -m mjlink feed says how much)"
+    ]
 
 
 def feed_dog_path(mech: Mechanism, positions: Mapping[str, np.ndarray]) -> list[str]:

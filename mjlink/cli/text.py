@@ -420,6 +420,9 @@ def format_report(r: validation.CheckReport, *, speed: float | None = None) -> s
             )
     if r.timing is not None:
         out.append(timing_table(r.timing))
+    if r.feed:
+        out.append("\nThe feed under the presser foot ('python -m mjlink feed' runs it):")
+        out += [f"  {line}" for line in r.feed]
     if r.notes:
         out.append("")
         out += [f"note: {n}" for n in r.notes]
