@@ -728,7 +728,9 @@ def feed_video(
         [
             f"{run.speed_rpm:.0f} rpm, slowed {seconds / (60.0 / run.speed_rpm):.0f}x: {run.theta[i]:.0f} deg "
             f"from the needle bar's top",
-            f"the fabric {run.fabric[i] * 1e3:.2f} mm along, the foot {run.lift[i] * 1e3:.3f} mm off it",
+            f"the fabric {run.fabric[i] * 1e3:.2f} mm along"
+            + (f" (the top ply {run.ply_x[i, -1] * 1e3:.2f})" if run.ply_x.shape[1] > 1 else "")
+            + f", the foot {run.lift[i] * 1e3:.3f} mm off it",
         ]
         for i in k
     ]
