@@ -238,6 +238,8 @@ def test_the_presser_and_fabric_tables_are_read_in_si_and_default_what_is_missin
         # (80 N + 0.05 kg g) / (50 + 2) N/mm = 1.55 mm, more than the 1.5 mm fabric
         ("[presser]\npreload = 80.0\n[fabric]\nstiffness = 50.0\n", "presses the 1.5 mm fabric by 1.55 mm"),
         ("[fabric]\ndamping = -0.1\n", "[fabric] damping: must be at least 0"),
+        # 0.1 mg on 130 N/mm under a 50 g foot: its damper alone would need steps of 1 ns
+        ("[fabric]\narea = 1.0\nmass = 1.0\n", "moves too fast to step (it needs steps of 0.001 us"),
         (PLIES.replace("area = 200.0", "stiffness = 90.0"), "[fabric] stiffness: with [[fabric.ply]] give"),
         ("[fabric]\nply = 3\n", "[[fabric.ply]]: must be a list of 1 to 8 tables"),
         ("[[fabric.ply]]\nmass = 100.0\n", "[[fabric.ply]] 1: missing key 'thickness'"),
@@ -625,3 +627,21 @@ def test_check_shows_the_presser_and_the_fabric_and_warns_of_plies_the_foot_hold
     assert len(warned) == 1
     assert not [n for n in check(_with("[fabric]\nfriction_ply = 0.5\n" + TWO)).notes if "friction_ply" in n]
     assert check(mechanism.load(shipped("mechanisms") / "takeup.toml")).feed == ()
+
+
+def test_a_light_piece_is_fed_on_a_shorter_step_and_one_too_light_is_refused(head):
+    """The fabric's spring and damper under the foot are stepped explicitly: a light piece
+    (40 cm^2 of 125 g/m^2, 0.5 g) gets a step short enough for them, and still advances as the
+    dog does at low speed; a piece of 0.1 mg through the API is refused in one line."""
+    light = dataclasses.replace(FABRIC_DEFAULTS, area=40e-4)
+    run = feed.run_feed(head, speed_rpm=LOW_RPM, stitches=3, fabric=light)
+    # the damper's rate: 2 zeta sqrt(K m_foot) (1/m_piece + 1/m_foot), half a step's worth
+    c = 2 * light.damping * math.sqrt(light.stiffness * PRESSER_DEFAULTS.mass)
+    inv = 1 / (40e-4 * light.mass) + 1 / PRESSER_DEFAULTS.mass
+    assert run.timestep <= 0.5 / (c * inv) < 1e-5
+    assert run.advance[-1] == pytest.approx(geometric_advance(head), rel=ADVANCE)
+    with pytest.raises(ValueError, match=r"moves too fast to step") as e:
+        feed.run_feed(
+            head, speed_rpm=LOW_RPM, stitches=2, fabric=dataclasses.replace(FABRIC_DEFAULTS, area=1e-4, mass=1e-3)
+        )
+    assert "\n" not in str(e.value)

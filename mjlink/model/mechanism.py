@@ -57,7 +57,16 @@ from .limits import (
     below,
 )
 from .names import RESERVED_LINK_NAMES
-from .presser import FABRIC_DEFAULTS, GRAVITY, PRESSER_DEFAULTS, Fabric, Presser, read_fabric, read_presser
+from .presser import (
+    FABRIC_DEFAULTS,
+    GRAVITY,
+    PRESSER_DEFAULTS,
+    Fabric,
+    Presser,
+    read_fabric,
+    read_presser,
+    too_fast,
+)
 from .reader import Reader, shown
 from .tension import ThreadTension, read_tension
 from .timing import Balance, Timing
@@ -729,17 +738,24 @@ def _plied(r: Reader, mech: Mechanism, timing: Any) -> Mechanism:
 
 def _pressed_through(r: Reader, mech: Mechanism) -> None:
     why = pressed_through(mech)
+    if why.startswith("[fabric]"):
+        raise r.fail("", why)
     if why:
         raise r.fail("[presser] preload", why)
 
 
 def pressed_through(mech: Mechanism) -> str:
-    """Why the head's presser presses a ply of its fabric through its thickness at rest ('' if
-    it does not): each ply is a linear spring (mjlink.sim.feed), which no fabric is that far."""
+    """Why the head's presser and fabric cannot be fed ('' if they can): the presser presses a
+    ply through its thickness at rest (each ply is a linear spring, mjlink.sim.feed, which no
+    fabric is that far), or the fabric under the foot moves too fast to step
+    (:func:`~.presser.too_fast`)."""
     if mech.timing is None:
         return ""
     p, f = mech.presser or PRESSER_DEFAULTS, mech.fabric or FABRIC_DEFAULTS
     thick = float(mech.timing.fabric)
+    fast = too_fast(p, f, thick)
+    if fast:
+        return fast
     # The foot sinks into the plies one on the next; each gives the load over its stiffness.
     load = f.stiffness_of(thick) * (p.preload + p.mass * GRAVITY) / (f.stiffness_of(thick) + p.rate)
     layers = f.layers(thick)

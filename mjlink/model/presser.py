@@ -65,8 +65,10 @@ __all__ = [
     "Fabric",
     "Ply",
     "Presser",
+    "feed_step",
     "read_fabric",
     "read_presser",
+    "too_fast",
 ]
 
 
@@ -150,6 +152,13 @@ class Fabric:
 
 
 GRAVITY = 9.81  # m/s^2
+# The feed (mjlink.sim.feed) steps the fabric's spring under the foot explicitly (MuJoCo's soft
+# contact): its step turns the spring's vibration by at most SPRING_STEP rad and lets the
+# damper take at most DAMPER_STEP of the motion per step. A fabric that asks for steps below
+# MIN_FEED_STEP s (a piece of milligrams on a stiff fabric) is refused rather than stepped for
+# minutes.
+SPRING_STEP, DAMPER_STEP = 0.2, 0.5
+MIN_FEED_STEP = 1e-6
 
 # Key -> (default in the file's unit, the factor to SI, bound, source).
 _PRESSER: dict[str, tuple[float, float, Bound, str]] = {
@@ -286,6 +295,29 @@ PRESSER_DEFAULTS = Presser(**{k: v[0] * v[1] for k, v in _PRESSER.items()})
 """The ``[presser]`` defaults (:data:`PRESSER_SOURCES`), SI."""
 FABRIC_DEFAULTS = Fabric(**_fields({FABRIC_FIELDS[k]: v[0] * v[1] for k, v in _FABRIC.items()}))
 """The ``[fabric]`` defaults (:data:`FABRIC_SOURCES`), SI."""
+
+
+def feed_step(presser: Presser, fabric: Fabric, thickness: float) -> float:
+    """s: the longest step that steps the fabric's spring and damper under the foot stably (the
+    top ply and the foot on them, :data:`SPRING_STEP`, :data:`DAMPER_STEP`)."""
+    top = fabric.area * fabric.layers(thickness)[-1].mass
+    inv = 1.0 / top + 1.0 / presser.mass
+    k, c = fabric.stiffness_of(thickness), fabric.damper_of(thickness, presser.mass)
+    return min(SPRING_STEP / math.sqrt(k * inv), DAMPER_STEP / (c * inv) if c > 0.0 else math.inf)
+
+
+def too_fast(presser: Presser, fabric: Fabric, thickness: float) -> str:
+    """Why the fabric cannot be stepped under the foot ('' if it can): it asks for steps below
+    :data:`MIN_FEED_STEP`."""
+    step = feed_step(presser, fabric, thickness)
+    if step >= MIN_FEED_STEP:
+        return ""
+    top = fabric.area * fabric.layers(thickness)[-1].mass
+    return (
+        f"[fabric]: its top ply ({top * 1e3:.3g} g: area times mass per area) on {fabric.stiffness_of(thickness) * 1e-3:.4g} "
+        f"N/mm under the foot moves too fast to step (it needs steps of {step * 1e6:.2g} us, at least "
+        f"{MIN_FEED_STEP * 1e6:g} us): a larger area or mass per area, or a softer fabric"
+    )
 
 
 def _needs_feed_dog(r: Reader, where: str, has_feed_dog: bool) -> None:

@@ -46,7 +46,7 @@ import numpy as np
 
 from .. import reference
 from ..model.mechanism import Mechanism
-from ..model.presser import FABRIC_DEFAULTS, GRAVITY, PRESSER_DEFAULTS, Fabric, Presser
+from ..model.presser import FABRIC_DEFAULTS, GRAVITY, PRESSER_DEFAULTS, Fabric, Presser, feed_step, too_fast
 from ._mujoco import mujoco
 
 __all__ = [
@@ -537,19 +537,27 @@ def run_feed(
         :data:`~mjlink.model.presser.FABRIC_DEFAULTS`).
       stitches: stitches run from rest, the foot on the fabric and the dog at the needle bar's
         top.
-      timestep: s, at most: the step is the nearest that divides a stitch evenly.
+      timestep: s, at most (and at most what the fabric's spring under the foot allows,
+        :func:`~mjlink.model.presser.feed_step`): the step is the nearest that divides a
+        stitch evenly.
       frames: keep the model's joint positions at this many even steps of the last stitch (for
         :func:`feed_video`).
     Returns:
       :class:`FeedRun`.
+    Raises:
+      ValueError: a fabric too light for its stiffness to step (:func:`~mjlink.model.presser.too_fast`).
     """
     presser = presser or mech.presser or PRESSER_DEFAULTS
     fabric = fabric or mech.fabric or FABRIC_DEFAULTS
     tm = mech.timing
     if tm is None:
         raise ValueError(f"{mech.name}: the feed needs a [timing] table")
+    fast = too_fast(presser, fabric, tm.fabric)
+    if fast:
+        raise ValueError(f"{mech.name}: {fast}")
     w = abs(speed_rpm) * math.pi / 30.0 if speed_rpm is not None else abs(mech.speed)
-    steps = max(1, math.ceil(mech.period / w / timestep))
+    # At most the given step, and short enough for the fabric's spring and damper.
+    steps = max(1, math.ceil(mech.period / w / min(timestep, feed_step(presser, fabric, tm.fabric))))
     dt = mech.period / w / steps
     u, pos, rate = dog_path(mech, steps)
     x0 = float(pos[:, 0].mean())
@@ -683,6 +691,7 @@ def foot_on_fabric(
     tm = mech.timing
     if tm is None:
         raise ValueError(f"{mech.name}: the feed needs a [timing] table")
+    timestep = min(timestep, feed_step(presser, fabric, tm.fabric))
     m = _model(mech, presser, fabric, timestep, 0.0)
     d = mujoco.MjData(m)
     d.qpos[m.joint("dog_z").qposadr[0]] = -0.005  # m: out of the way
