@@ -221,6 +221,24 @@ def test_the_presser_and_fabric_tables_are_read_in_si_and_default_what_is_missin
     assert mechanism.load(shipped("mechanisms") / "lockstitch_head.toml").presser is None  # the defaults, unnamed
 
 
+def test_a_fabric_without_damping_is_fed():
+    """damping = 0 is in its range: the plies' dampers in series are then none (no division by
+    it), and the foot bounces on the fabric undamped but for its bar's own."""
+    for tables in (
+        "[fabric]\ndamping = 0.0\n",
+        "[fabric]\n" + TWO.replace("stiffness = 260.0\n", "stiffness = 260.0\ndamping = 0.0\n", 1),
+    ):
+        mech = _with(tables)
+        f = mech.fabric
+        assert f.damper_of(mech.timing.fabric, PRESSER_DEFAULTS.mass) == 0.0
+        run = feed.run_feed(mech, speed_rpm=LOW_RPM, stitches=2)
+        assert np.isfinite(run.advance).all()
+        k = PRESSER_DEFAULTS.rate + f.stiffness_of(mech.timing.fabric)
+        zeta = PRESSER_DEFAULTS.damping * math.sqrt(PRESSER_DEFAULTS.rate / k)
+        closed = math.sqrt(k / PRESSER_DEFAULTS.mass) * math.sqrt(1 - zeta**2) / (2 * math.pi)
+        assert run.bounce_hz == pytest.approx(closed, rel=1e-12)
+
+
 @pytest.mark.parametrize(
     ("tables", "says"),
     [

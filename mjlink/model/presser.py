@@ -147,8 +147,9 @@ class Fabric:
     def damper_of(self, thickness: float, foot: float) -> float:
         """N s/m: the plies' damping under a foot of mass ``foot`` kg, each ply's its ratio of
         critical for that mass on its stiffness, one on the next as their springs (exact when
-        the plies' dampers and springs keep one ratio)."""
-        return 1.0 / sum(1.0 / (2.0 * p.damping * math.sqrt(p.stiffness * foot)) for p in self.layers(thickness))
+        the plies' dampers and springs keep one ratio; 0 where a ply has none)."""
+        dampers = [2.0 * p.damping * math.sqrt(p.stiffness * foot) for p in self.layers(thickness)]
+        return 0.0 if min(dampers) <= 0.0 else 1.0 / sum(1.0 / c for c in dampers)
 
 
 GRAVITY = 9.81  # m/s^2
