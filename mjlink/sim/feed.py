@@ -80,13 +80,14 @@ IMPEDANCE = (0.99, 0.999, 1e-4, 0.5, 2.0)  # solimp: dmin, dmax, width (m), midp
 SEPARATED = 1e-5
 # The friction rows of a contact this many times harder than its normal (MuJoCo's impratio;
 # the foot's soft contact needs it, the rigid ones barely change): the step halved then moves
-# the stitch by 0.2 % or less; 1e5 is ill conditioned (3 % at 5,000 rpm).
+# the stitch by 0.3 % or less; 1e5 is ill conditioned (3 % at 5,000 rpm).
 HARD_FRICTION = 1e3
 PLY_COLOURS = ([0.2, 0.45, 0.85, 0.75], [0.85, 0.3, 0.45, 0.75], [0.3, 0.7, 0.45, 0.75])
 
 
 def ply_name(k: int) -> str:
-    """The model's geom of ply ``k`` (1 the bottom one, on the dog): ``fabric``, ``ply2``..."""
+    """The model's body and geom of ply ``k`` (1 the bottom one, on the dog): ``fabric``,
+    ``ply2``... (its slides ``fabric_x``, ``fabric_z``, ...)."""
     return "fabric" if k == 1 else f"ply{k}"
 
 
