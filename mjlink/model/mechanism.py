@@ -697,7 +697,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         thick = mech.timing.fabric if mech.timing is not None else 0.0
         mech = dataclasses.replace(mech, presser=read_presser(r, data["presser"], fed, thick))
     if mech.timing is not None and (mech.presser is not None or mech.fabric is not None):
-        _pressed_through(r, mech)
+        where, why = unfed(mech)
+        if why:
+            raise r.fail(where, why)
     # The cost of every check over a cycle (see limits.MAX_CHECK_POINT_SAMPLES), before any.
     turns = round(mech.period / (2 * math.pi))
     if mech.timing is not None and turns != 1:
@@ -736,26 +738,18 @@ def _plied(r: Reader, mech: Mechanism, timing: Any) -> Mechanism:
     return dataclasses.replace(mech, timing=dataclasses.replace(mech.timing, fabric=total))
 
 
-def _pressed_through(r: Reader, mech: Mechanism) -> None:
-    why = pressed_through(mech)
-    if why.startswith("[fabric]"):
-        raise r.fail("", why)
-    if why:
-        raise r.fail("[presser] preload", why)
-
-
-def pressed_through(mech: Mechanism) -> str:
-    """Why the head's presser and fabric cannot be fed ('' if they can): the presser presses a
-    ply through its thickness at rest (each ply is a linear spring, mjlink.sim.feed, which no
-    fabric is that far), or the fabric under the foot moves too fast to step
-    (:func:`~.presser.too_fast`)."""
+def unfed(mech: Mechanism) -> tuple[str, str]:
+    """Why the head's presser and fabric cannot be fed, as (the table or key at fault, why), or
+    ('', '') if they can: the fabric under the foot moves too fast to step
+    (:func:`~.presser.too_fast`), or the presser presses a ply through its thickness at rest
+    (each ply is a linear spring, mjlink.sim.feed, which no fabric is that far)."""
     if mech.timing is None:
-        return ""
+        return "", ""
     p, f = mech.presser or PRESSER_DEFAULTS, mech.fabric or FABRIC_DEFAULTS
     thick = float(mech.timing.fabric)
     fast = too_fast(p, f, thick)
     if fast:
-        return fast
+        return "[fabric]", fast
     # The foot sinks into the plies one on the next; each gives the load over its stiffness.
     load = f.stiffness_of(thick) * (p.preload + p.mass * GRAVITY) / (f.stiffness_of(thick) + p.rate)
     layers = f.layers(thick)
@@ -765,11 +759,11 @@ def pressed_through(mech: Mechanism) -> str:
             what = (
                 f"the {ply.thickness / MM:g} mm fabric" if len(layers) == 1 else f"ply {i} ({ply.thickness / MM:g} mm)"
             )
-            return (
+            return "[presser] preload", (
                 f"the foot at rest ({p.preload:g} N and its weight) presses {what} by {pressed / MM:.3g} mm, "
                 "through its thickness: a lighter preload or a stiffer [fabric] stiffness"
             )
-    return ""
+    return "", ""
 
 
 def load(path: str | Path) -> Mechanism:

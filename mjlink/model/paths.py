@@ -53,7 +53,7 @@ from ..errors import MjlinkError
 from ..units import DEG, MM, G
 from . import synthesis as synth
 from . import tomlio
-from .mechanism import Counterweight, Force, Mechanism, parse, pressed_through
+from .mechanism import Counterweight, Force, Mechanism, parse, unfed
 from .presser import (
     FABRIC_BOUNDS,
     FABRIC_DEFAULTS,
@@ -406,7 +406,8 @@ def invalid(params: list[Param], values: np.ndarray, mech: Mechanism | None = No
     if mech is not None and pressing and mech.timing is not None and mech.timing.has("feed_dog"):
         for i, row in enumerate(values):
             if not out[i]:
-                out[i] = pressed_through(apply(mech, {params[j]: float(row[j]) for j in pressing}))
+                where, why = unfed(apply(mech, {params[j]: float(row[j]) for j in pressing}))
+                out[i] = f"{where}: {why}" if why else ""
     return out
 
 

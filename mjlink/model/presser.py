@@ -309,13 +309,13 @@ def feed_step(presser: Presser, fabric: Fabric, thickness: float) -> float:
 
 def too_fast(presser: Presser, fabric: Fabric, thickness: float) -> str:
     """Why the fabric cannot be stepped under the foot ('' if it can): it asks for steps below
-    :data:`MIN_FEED_STEP`."""
+    :data:`MIN_FEED_STEP` (a fault of the ``[fabric]`` table)."""
     step = feed_step(presser, fabric, thickness)
     if step >= MIN_FEED_STEP:
         return ""
     top = fabric.area * fabric.layers(thickness)[-1].mass
     return (
-        f"[fabric]: its top ply ({top * 1e3:.3g} g: area times mass per area) on {fabric.stiffness_of(thickness) * 1e-3:.4g} "
+        f"its top ply ({top * 1e3:.3g} g: area times mass per area) on {fabric.stiffness_of(thickness) * 1e-3:.4g} "
         f"N/mm under the foot moves too fast to step (it needs steps of {step * 1e6:.2g} us, at least "
         f"{MIN_FEED_STEP * 1e6:g} us): a larger area or mass per area, or a softer fabric"
     )

@@ -555,7 +555,7 @@ def run_feed(
         raise ValueError(f"{mech.name}: the feed needs a [timing] table")
     fast = too_fast(presser, fabric, tm.fabric)
     if fast:
-        raise ValueError(f"{mech.name}: {fast}")
+        raise ValueError(f"{mech.name}: [fabric]: {fast}")
     w = abs(speed_rpm) * math.pi / 30.0 if speed_rpm is not None else abs(mech.speed)
     # At most the given step, and short enough for the fabric's spring and damper.
     steps = max(1, math.ceil(mech.period / w / min(timestep, feed_step(presser, fabric, tm.fabric))))
