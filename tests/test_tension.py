@@ -319,6 +319,52 @@ def test_mujoco_carries_the_thread_and_its_spring_as_the_reference_does(head):
     assert np.abs(x - mj.spring).max() <= 2e-4  # m; the docstring says why
 
 
+def test_mujoco_wraps_the_loop_round_the_bobbin_case_as_the_planar_reference_does(head):
+    """MuJoCo's loop (mjlink/sim/thread.py, run_loop): tendons from the needle's eye round the
+    bobbin case, a cylinder, to the hook's blade point and back round it to the underside of
+    the needle's hole, while the hook carries the loop. A cylinder wraps in the hook's plane,
+    so MuJoCo's loop is the planar one: each tendon equals the reference's legs round the rim
+    (loop.case_leg, faces=False) from MuJoCo's own sites to double rounding (1e-12 m), and from
+    the reference's points at MuJoCo's crank angles to the loops' closure (1e-8 m: the head's
+    soft loops hold its points to a few nm). Where the case is in the way the legs wrap it
+    (longer than straight by over a mm); the reference's own loop, over the case's faces, is
+    shorter by over a mm there, which MuJoCo cannot carry."""
+    from mjlink import reference
+    from mjlink.analysis import loop
+    from mjlink.analysis.stitch import _between
+    from mjlink.sim.thread import run_loop
+
+    mech, timing = head
+    tm, bal = mech.timing, mech.balance
+    r = run_loop(mech)
+    carry = _between(r.theta, timing.events["hook picks the loop"], timing.events["loop released"])
+    windows = {"under": carry & (r.eye[:, 1] <= tm.plate), "above": carry & (r.eye[:, 1] >= r.top)}
+    assert min(w.sum() for w in windows.values()) > 20
+
+    def planar(eye, blade, faces=False):
+        hole = np.tile(r.hole, (len(eye), 1))
+        top = np.tile([r.hole[0], r.top], (len(eye), 1))
+        w = bal.bobbin_case_width / 2.0
+        fabric = loop.case_leg(hole, blade[:, :2], r.centre, r.radius, w, faces=faces)
+        to_eye = loop.case_leg(eye[:, :2], blade[:, :2], r.centre, r.radius, w, faces=faces)
+        return {"under": to_eye + fabric, "above": np.hypot(*(eye[:, :2] - top).T) + tm.fabric + 2.0 * fabric}
+
+    mj = {"under": r.under, "above": r.above}
+    own = planar(r.eye, r.blade)
+    sense = math.copysign(1.0, mech.speed)
+    kin = reference.solve(mech, mech.phi0 + sense * np.radians(r.theta))
+    eye, blade = kin.position(tm.roles["needle_eye"]), kin.position(tm.roles["hook_point"])
+    ref, faces = planar(eye, blade), planar(eye, blade, faces=True)
+    hole = np.tile(r.hole, (len(eye), 1))
+    straight = np.hypot(*(blade[:, :2] - hole).T)
+    for k, w in windows.items():
+        assert np.abs(own[k] - mj[k])[w].max() <= 1e-12, k
+        assert np.abs(ref[k] - mj[k])[w].max() <= 1e-8, k
+    lf = loop.case_leg(hole, blade[:, :2], r.centre, r.radius, bal.bobbin_case_width / 2.0, faces=False)
+    assert (lf - straight)[windows["above"]].max() > 1e-3  # the case is in the way: the legs wrap it
+    assert (ref["above"] - faces["above"])[windows["above"]].max() > 1e-3  # over the faces is shorter
+
+
 def test_a_study_varies_the_tension_table_and_measures_each_head_as_simulate_would(tmp_path):
     """The study metric 'tension' (studies/lockstitch_head_tension.toml ships one) gives each
     variant what needle_tension gives the head with that variant's numbers, on the study's

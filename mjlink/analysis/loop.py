@@ -170,16 +170,24 @@ def over_face(
     return length, beta
 
 
-def case_leg(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float) -> np.ndarray:
+def case_leg(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float, *, faces: bool = True
+) -> np.ndarray:
     """(N,) m: one leg of the loop, from ``a`` to the blade point ``b`` ((N, 2) each, in the
     case's middle plane), the shortest thread outside the bobbin case on the leg's side:
     straight while the case is not in its way; then the shorter of the thread round the case's
     rim in the middle plane (:func:`around_rim`) and the thread over the case's face
-    (:func:`over_face`, which climbs the case's side where that is shorter)."""
+    (:func:`over_face`, which climbs the case's side where that is shorter).
+
+    ``faces=False`` is the planar loop: the thread round the rim in the hook's plane only, as a
+    tendon wrapping a cylinder makes it (MuJoCo's, :func:`mjlink.sim.thread.run_loop`)."""
     hits, _ = crossing(a, b, centre, radius)
     out: np.ndarray = np.hypot(*(b - a).T)
     if hits.any():
         rim = around_rim(a[hits], b[hits], centre, radius)
+        if not faces:
+            out[hits] = rim
+            return out
         # Over the face the thread climbs the half-width and comes back down: never shorter than
         # that climb unrolled beside the straight segment. Where the rim's path is no longer,
         # the face's need not be sought.

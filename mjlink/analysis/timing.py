@@ -21,7 +21,7 @@ import numpy as np
 from .. import reference
 from ..model.blocks import Crank
 from ..model.mechanism import Mechanism
-from ..model.timing import SETTINGS, Balance, StitchType, Timing, Window
+from ..model.timing import SETTINGS, Balance, StitchType, Timing, Window, hook_crank
 from ..reference.batch import Batch
 from ..units import DEG, MM
 from .loop import case_leg, wrapped
@@ -215,12 +215,6 @@ def head_timing(mech: Mechanism, samples: int = 7200) -> HeadTiming:
         return head
     bal = thread_balance(mech, head)
     return dataclasses.replace(head, rows=head.rows + bal.rows, balance=bal)
-
-
-def hook_crank(mech: Mechanism) -> Crank:
-    """The geared crank whose point is the ``[timing]`` table's hook point."""
-    assert mech.timing is not None
-    return next(s for s in mech.steps if isinstance(s, Crank) and s.point == mech.timing.roles["hook_point"])
 
 
 def measure(tm: Timing, hook: Crank | None, u: np.ndarray, pos: dict[str, np.ndarray]) -> HeadTiming:

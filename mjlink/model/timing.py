@@ -47,7 +47,7 @@ from .limits import HEAD, MAX_TITLE_CHARS
 from .reader import Reader
 
 if TYPE_CHECKING:
-    from .mechanism import Link
+    from .mechanism import Link, Mechanism
 
 ROLES = {
     "needle_bar": "the needle bar's rise from its bottom dead centre is measured",
@@ -370,3 +370,10 @@ def read_balance(
             else 0.0
         ),
     )
+
+
+def hook_crank(mech: Mechanism) -> Crank:
+    """The geared crank whose point is the ``[timing]`` table's hook point: its pivot is the
+    hook shaft, the bobbin case's centre."""
+    assert mech.timing is not None
+    return next(s for s in mech.steps if isinstance(s, Crank) and s.point == mech.timing.roles["hook_point"])

@@ -20,16 +20,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import reference
 from ..model import names
 from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
+from ..model.timing import hook_crank
 from . import builder
 from ._mujoco import mujoco, rollout
 from .simulate import kinematic_case
 
-__all__ = ["SPRING", "ThreadRun", "run_thread"]
+__all__ = ["CASE", "LOOP_ABOVE", "LOOP_UNDER", "SPRING", "LoopRun", "ThreadRun", "run_loop", "run_thread"]
 
 SPRING = "check_spring"  # the spring's body and slide joint
+CASE = "bobbin_case"  # the cylinder the loop's legs wrap
+LOOP_UNDER = "loop_eye_under_plate"  # the loop's tendon while the eye is under the plate
+LOOP_ABOVE = "loop_eye_above_fabric"  # and while the eye is above the fabric
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -148,3 +153,127 @@ def _first(current: object, value: float) -> object:
     out = list(np.asarray(current, dtype=float))
     out[0] = value
     return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class LoopRun:
+    """MuJoCo's loop round the bobbin case over the last stitch run (:func:`run_loop`): ``theta``
+    (N,) deg from the needle bar's top; ``eye`` and ``blade`` (N, 3) m MuJoCo's sites of the
+    needle's eye and the hook's blade point; ``under`` (N,) m the tendon from the eye round the
+    case to the blade point and back round it to the underside of the needle's hole, the
+    loop's length while the eye is under the plate; ``above`` (N,) m the tendon from the eye
+    to the top of the needle's hole, through the fabric, and both legs from the hole's
+    underside, the length while the eye is above the fabric; ``centre`` (2,) m, ``radius`` m
+    the case's; ``hole`` (2,) m the hole's underside, ``top`` m the fabric's top."""
+
+    theta: np.ndarray
+    eye: np.ndarray
+    blade: np.ndarray
+    under: np.ndarray
+    above: np.ndarray
+    centre: np.ndarray
+    radius: float
+    hole: np.ndarray
+    top: float
+
+
+def run_loop(mech: Mechanism, *, cycles: int = 1) -> LoopRun:
+    """Turn the head ``cycles`` stitches at its speed with the needle thread's loop as tendons
+    wrapping the bobbin case, a cylinder on the hook shaft normal to the head's plane, and
+    sample them over the last stitch.
+
+    MuJoCo wraps a tendon round a cylinder in the plane normal to its axis (and along it on a
+    helix); it has no finite cylinder whose faces a thread can cross. Its loop is therefore the
+    planar one, round the rim in the hook's plane, the reference's
+    :func:`mjlink.analysis.loop.case_leg` with ``faces=False``; the loop over the faces, the
+    reference's own, is up to a few mm shorter (docs/head.md, The thread under tension). Each
+    tendon's path holds for a part of the hook's carry only (the eye under the plate, or above
+    the fabric): a tendon's path is fixed, the thread's is not. The needle's hole is on the
+    needle's line while the hook carries the loop (the feed carries it only once the feed dog
+    rises, after the loop's release).
+
+    Args:
+      mech: a lockstitch head with ``[timing]`` (its needle's eye and hook point named) and
+        ``[balance]`` (the bobbin case's diameter).
+      cycles: stitches to run.
+    Returns:
+      :class:`LoopRun`.
+    """
+    tm, bal = mech.timing, mech.balance
+    assert tm is not None and bal is not None
+    hook = hook_crank(mech)
+    eye, blade, needle = tm.roles["needle_eye"], tm.roles["hook_point"], tm.roles["needle_point"]
+    case = kinematic_case(mech, cycles=cycles)
+    spec = builder.build_spec(mech, case.settings)
+    centre = np.asarray(mech.ground[hook.pivot], dtype=float)[:2]
+    x_needle = float(_needle_x(mech, needle))
+    top = tm.plate + tm.fabric
+    radius = bal.bobbin_case / 2.0
+    cyl = spec.worldbody.add_geom(
+        name=CASE,
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[radius, bal.bobbin_case_width / 2.0, 0.0],
+        pos=[*centre.tolist(), 0.0],
+        contype=0,
+        conaffinity=0,
+        rgba=[0.6, 0.6, 0.65, 0.5],
+    )
+    for name, y in (("hole_top", top), ("hole_under_a", tm.plate), ("hole_under_b", tm.plate)):
+        spec.worldbody.add_site(name=name, pos=[x_needle, y, 0.0])
+    for tendon, first in ((LOOP_UNDER, [eye]), (LOOP_ABOVE, [eye, "hole_top", "hole_under_a"])):
+        t = spec.add_tendon(name=tendon)
+        for site in first:
+            t.wrap_site(site)
+        t.wrap_geom(cyl.name, "")
+        t.wrap_site(blade)
+        t.wrap_geom(cyl.name, "")
+        t.wrap_site("hole_under_b")
+        spec.add_sensor(
+            name=names.sensor(tendon, "length"),
+            type=mujoco.mjtSensor.mjSENS_TENDONPOS,
+            objtype=mujoco.mjtObj.mjOBJ_TENDON,
+            objname=tendon,
+        )
+    for site in (eye, blade):
+        spec.add_sensor(
+            name=names.sensor(site, "loop_pos"),
+            type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
+            objtype=mujoco.mjtObj.mjOBJ_SITE,
+            objname=site,
+        )
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    input_joint = next(j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE)
+    dof = int(model.jnt_dofadr[input_joint])
+    data.qvel[:] = builder.consistent_velocity(model, data, dof, case.settings.imposed_speed or mech.speed)
+    state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    _, sd = rollout.rollout(model, data, state, nstep=case.steps + 1)
+    sd = sd[0]
+
+    def column(sensor: str) -> np.ndarray:
+        i = model.sensor(sensor).id
+        a, n = int(model.sensor_adr[i]), int(model.sensor_dim[i])
+        out: np.ndarray = sd[:, a : a + n].squeeze(axis=1) if n == 1 else sd[:, a : a + n]
+        return out
+
+    angle_name = next(model.sensor(i).name for i in range(model.nsensor) if model.sensor(i).name.endswith("_angle"))
+    turn = np.degrees(np.sign(mech.speed) * column(angle_name))
+    last = (turn >= 360.0 * (cycles - 1)) & (turn < 360.0 * cycles)
+    return LoopRun(
+        theta=turn[last] - 360.0 * (cycles - 1),
+        eye=column(names.sensor(eye, "loop_pos"))[last],
+        blade=column(names.sensor(blade, "loop_pos"))[last],
+        under=column(names.sensor(LOOP_UNDER, "length"))[last],
+        above=column(names.sensor(LOOP_ABOVE, "length"))[last],
+        centre=centre,
+        radius=radius,
+        hole=np.array([x_needle, tm.plate]),
+        top=top,
+    )
+
+
+def _needle_x(mech: Mechanism, point: str) -> float:
+    """The needle's line: the x its point keeps (a needle bar slides on a vertical line)."""
+    kin = reference.solve(mech, mech.phi0 + np.array([0.0, math.pi / 2.0]))
+    return float(kin.position(point)[0, 0])
