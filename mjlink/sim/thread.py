@@ -16,6 +16,7 @@ the eye) and slides over every site without friction: the reference's ``anchored
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +26,7 @@ from ..model import names
 from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
 from ..model.timing import hook_crank
+from ..runs import Case
 from . import builder
 from ._mujoco import mujoco, rollout
 from .simulate import kinematic_case
@@ -112,6 +114,26 @@ def run_thread(
     tendon.stiffness = _first(tendon.stiffness, stiffness)
     tendon.springlength = [0.0, material]
 
+    theta, column = _turned(spec, mech, case, cycles)
+    length = column(names.sensor(names.THREAD, "length"))
+    return ThreadRun(
+        theta=theta,
+        length=length,
+        spring=column(pos_sensor.name),
+        tension=stiffness * np.maximum(length - material, 0.0),
+        material=material,
+        stiffness=stiffness,
+        timestep=case.settings.timestep,
+        cycles=cycles,
+    )
+
+
+def _turned(
+    spec: mujoco.MjSpec, mech: Mechanism, case: Case, cycles: int
+) -> tuple[np.ndarray, Callable[[str], np.ndarray]]:
+    """Compile ``spec``, turn it ``case.steps`` steps at the case's speed and return the last of
+    ``cycles`` stitches: its angles (deg from the needle bar's top) and a sensor's readings over
+    them by the sensor's name ((N,) or (N, dim))."""
     model = spec.compile()
     data = mujoco.MjData(model)
     input_joint = next(j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE)
@@ -121,29 +143,21 @@ def run_thread(
     mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     _, sd = rollout.rollout(model, data, state, nstep=case.steps + 1)
     sd = sd[0]
-    adr = {
-        s: int(model.sensor_adr[model.sensor(s).id]) for s in (names.sensor(names.THREAD, "length"), pos_sensor.name)
-    }
-    angle_name = next(model.sensor(i).name for i in range(model.nsensor) if model.sensor(i).name.endswith("_angle"))
-    angle = sd[:, int(model.sensor_adr[model.sensor(angle_name).id])]
-    length = sd[:, adr[names.sensor(names.THREAD, "length")]]
-    spring = sd[:, adr[pos_sensor.name]]
-    # The last stitch: its angles from the needle bar's top.
-    turn = np.degrees(np.sign(mech.speed) * angle)
-    last = turn >= 360.0 * (cycles - 1)
-    theta = turn[last] - 360.0 * (cycles - 1)
-    keep = theta < 360.0
-    length, spring, theta = length[last][keep], spring[last][keep], theta[keep]
-    return ThreadRun(
-        theta=theta,
-        length=length,
-        spring=spring,
-        tension=stiffness * np.maximum(length - material, 0.0),
-        material=material,
-        stiffness=stiffness,
-        timestep=case.settings.timestep,
-        cycles=cycles,
-    )
+
+    def readings(sensor: str) -> np.ndarray:
+        i = model.sensor(sensor).id
+        a, n = int(model.sensor_adr[i]), int(model.sensor_dim[i])
+        return sd[:, a] if n == 1 else sd[:, a : a + n]
+
+    angle = next(model.sensor(i).name for i in range(model.nsensor) if model.sensor(i).name.endswith("_angle"))
+    turn = np.degrees(np.sign(mech.speed) * readings(angle))
+    last = (turn >= 360.0 * (cycles - 1)) & (turn < 360.0 * cycles)
+
+    def column(sensor: str) -> np.ndarray:
+        out: np.ndarray = readings(sensor)[last]
+        return out
+
+    return turn[last] - 360.0 * (cycles - 1), column
 
 
 def _first(current: object, value: float) -> object:
@@ -241,31 +255,13 @@ def run_loop(mech: Mechanism, *, cycles: int = 1) -> LoopRun:
             objtype=mujoco.mjtObj.mjOBJ_SITE,
             objname=site,
         )
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    input_joint = next(j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE)
-    dof = int(model.jnt_dofadr[input_joint])
-    data.qvel[:] = builder.consistent_velocity(model, data, dof, case.settings.imposed_speed or mech.speed)
-    state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
-    mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    _, sd = rollout.rollout(model, data, state, nstep=case.steps + 1)
-    sd = sd[0]
-
-    def column(sensor: str) -> np.ndarray:
-        i = model.sensor(sensor).id
-        a, n = int(model.sensor_adr[i]), int(model.sensor_dim[i])
-        out: np.ndarray = sd[:, a : a + n].squeeze(axis=1) if n == 1 else sd[:, a : a + n]
-        return out
-
-    angle_name = next(model.sensor(i).name for i in range(model.nsensor) if model.sensor(i).name.endswith("_angle"))
-    turn = np.degrees(np.sign(mech.speed) * column(angle_name))
-    last = (turn >= 360.0 * (cycles - 1)) & (turn < 360.0 * cycles)
+    theta, column = _turned(spec, mech, case, cycles)
     return LoopRun(
-        theta=turn[last] - 360.0 * (cycles - 1),
-        eye=column(names.sensor(eye, "loop_pos"))[last],
-        blade=column(names.sensor(blade, "loop_pos"))[last],
-        under=column(names.sensor(LOOP_UNDER, "length"))[last],
-        above=column(names.sensor(LOOP_ABOVE, "length"))[last],
+        theta=theta,
+        eye=column(names.sensor(eye, "loop_pos")),
+        blade=column(names.sensor(blade, "loop_pos")),
+        under=column(names.sensor(LOOP_UNDER, "length")),
+        above=column(names.sensor(LOOP_ABOVE, "length")),
         centre=centre,
         radius=radius,
         hole=np.array([x_needle, tm.plate]),
