@@ -365,6 +365,40 @@ def test_mujoco_wraps_the_loop_round_the_bobbin_case_as_the_planar_reference_doe
     assert (ref["above"] - faces["above"])[windows["above"]].max() > 1e-3  # over the faces is shorter
 
 
+def test_mujoco_carries_the_thread_with_its_loop_held_round_the_bobbin_case_as_the_reference_does(head):
+    """The thread of the test above going on below the eye, down the needle's line to the
+    underside of its hole, round the bobbin case (the planar loop) to the hook's blade point
+    and back to the hole, where it is held: the loop held all stitch long (not a stitch, the
+    same physics in both: run_thread(loop=True), needle_tension(below=held_loop)). Its length
+    set 5 mm short of the longest, where the loop's legs wrap the case (by over a mm) while
+    the thread is taut; the same tolerances as above (measured: 0.06 % of the peak, the spring
+    within 0.012 mm off its rest stop and 0.044 mm in all)."""
+    from mjlink.analysis.loop import held_loop
+    from mjlink.sim.thread import run_thread
+
+    mech, timing = head
+    tm, bal = mech.timing, mech.balance
+    cfg = dataclasses.replace(DEFAULTS, friction=0.0)
+    P = timing.positions
+    L = sum(np.linalg.norm(P[b] - P[a], axis=1) for a, b in itertools.pairwise(mech.thread))
+    below = held_loop(mech, P)
+    held = float((L + below).max()) - 5e-3
+    # The legs wrap the case wherever the thread is taut: twice the leg's straight line is shorter.
+    blade, needle = P[tm.roles["hook_point"]][:, :2], P[tm.roles["needle_point"]][:, 0]
+    straight = np.abs(P[tm.roles["needle_eye"]][:, 1] - tm.plate) + 2.0 * np.hypot(
+        blade[:, 0] - needle, blade[:, 1] - tm.plate
+    )
+    taut = L + below > held
+    assert (below - straight)[taut].min() > 1e-3
+    mj = run_thread(mech, held, settings=cfg, cycles=3, loop=True)
+    ref = needle_tension(mech, timing, settings=cfg, anchored=held, cycles=3, samples=7200, below=below)
+    T = np.interp(mj.theta, ref.theta, ref.tension[0])
+    x = np.interp(mj.theta, ref.theta, ref.spring)
+    assert mj.tension.max() > 0.1 and 1e-4 < mj.spring.max() < bal.check_spring_travel
+    assert np.abs(T - mj.tension).max() <= 5e-3 * mj.tension.max()  # the test above says why
+    assert np.abs(x - mj.spring).max() <= 2e-4  # m; the test above says why
+
+
 def test_a_study_varies_the_tension_table_and_measures_each_head_as_simulate_would(tmp_path):
     """The study metric 'tension' (studies/lockstitch_head_tension.toml ships one) gives each
     variant what needle_tension gives the head with that variant's numbers, on the study's

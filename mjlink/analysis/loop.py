@@ -15,6 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.mechanism import Mechanism
+from ..model.timing import hook_crank
+
 NEWTON_STEPS = 40
 """Most Newton steps of the path over a face; from the segment's crossings of the case's rim the
 shipped head's samples meet their tolerance in about ten."""
@@ -199,4 +202,22 @@ def case_leg(
     return out
 
 
-__all__ = ["NEWTON_STEPS", "around_rim", "case_leg", "crossing", "over_face", "wrapped"]
+def held_loop(mech: Mechanism, positions: dict[str, np.ndarray]) -> np.ndarray:
+    """(N,) m: the thread below the eye of MuJoCo's thread with its loop held
+    (:func:`mjlink.sim.thread.run_thread` with ``loop=True``): straight down the needle's line
+    from the eye to the underside of the needle's hole, round the bobbin case's rim (the
+    planar loop) to the hook's blade point and back to the hole's underside, where it is held.
+    Not a stitch (the hook holds the loop all stitch long) but the same physics in both models,
+    which checks MuJoCo's tension through a tendon that wraps the case. ``positions`` the
+    head's points over the stitch ((N, 3) m each, :class:`.timing.HeadTiming`'s)."""
+    tm, bal = mech.timing, mech.balance
+    assert tm is not None and bal is not None
+    eye, blade = positions[tm.roles["needle_eye"]], positions[tm.roles["hook_point"]][:, :2]
+    hole = np.column_stack([positions[tm.roles["needle_point"]][:, 0], np.full(len(eye), tm.plate)])
+    centre = positions[hook_crank(mech).pivot][0, :2]
+    leg = case_leg(hole, blade, centre, bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0, faces=False)
+    out: np.ndarray = np.abs(eye[:, 1] - tm.plate) + 2.0 * leg
+    return out
+
+
+__all__ = ["NEWTON_STEPS", "around_rim", "case_leg", "crossing", "held_loop", "over_face", "wrapped"]

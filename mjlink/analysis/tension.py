@@ -473,6 +473,7 @@ def prepare(
     spring: bool = True,
     samples: int = SAMPLES,
     anchored: float | None = None,
+    below: np.ndarray | None = None,
 ) -> Problem:
     """The :class:`Problem` of :func:`needle_tension` (its arguments)."""
     tm, bal, path = mech.timing, mech.balance, mech.thread
@@ -490,18 +491,19 @@ def prepare(
     dt = math.radians(float(theta[1] - theta[0])) / abs(mech.speed)
     release = head.events["loop released"]
     # The balance measured the thread below the eye from this head's [timing] and [balance].
-    below = head.balance.below[::every] * MM
+    stitching = head.balance.below[::every] * MM
     formula = bal.stitch_length + tm.fabric
     set_at = head.balance.phases["needle descending"][0]
     k0 = int(np.searchsorted(theta, set_at % 360.0)) % n
     # From the release until the setting the stitch being set lies below the eye too.
     setting = _between(theta, release, set_at) & (np.arange(n) != k0)
-    below = below + np.where(setting, formula, 0.0)
+    stitching = stitching + np.where(setting, formula, 0.0)
     order = np.roll(np.arange(n), -k0)
 
     if anchored is not None:
         order = np.arange(n)
-    segs = len(path) - (1 if anchored is not None else 0)  # the path's stretches and the one below the eye
+    held = anchored is not None and below is None  # held at the eye, nothing below it
+    segs = len(path) - (1 if held else 0)  # the path's stretches and the one below the eye
     lengths = np.zeros((segs, n))
     for i in range(len(path) - 1):
         lengths[i] = np.linalg.norm(P[path[i + 1]] - P[path[i]], axis=1)
@@ -509,8 +511,8 @@ def prepare(
     wraps = np.zeros((segs, n))
     for j in range(1, len(path) - 1):
         wraps[j] = _wrap(P[path[j - 1]], P[path[j]], P[path[j + 1]])
-    if anchored is None:
-        lengths[-1] = below
+    if not held:
+        lengths[-1] = stitching if below is None else np.asarray(below)[::every]
         wraps[-1] = cfg.eye_wrap
 
     cs = path.index(bal.check_spring)
@@ -532,7 +534,7 @@ def prepare(
         start = np.zeros(segs)
         start[0] = float(lengths[:, order[0]].sum()) - anchored
     zones = (*(f"{a}-{b}" for a, b in itertools.pairwise(path)), f"below {path[-1]}")
-    if anchored is not None:
+    if held:
         zones = zones[:-1]
     return Problem(
         theta=theta,
@@ -572,6 +574,7 @@ def needle_tension(
     most_cycles: int = 80,
     anchored: float | None = None,
     cycles: int | None = None,
+    below: np.ndarray | None = None,
 ) -> NeedleTension:
     """The needle thread's tension over one stitch of a lockstitch ``head``, at the file's speed,
     in its periodic state (the module's docstring says what is modelled).
@@ -588,6 +591,8 @@ def needle_tension(
         through) and at the eye, with nothing below it, the spring at rest at the needle bar's
         top and any slack there in the first stretch: what a MuJoCo tendon through the same
         path models (:mod:`mjlink.sim.thread`).
+      below: with ``anchored``, the thread below the eye instead of none ((N,) m on the head's
+        angles, e.g. :func:`.loop.held_loop`), held at its end.
       cycles: run exactly this many stitches from the start and give the last (``converged``
         then says only that they ran).
     Returns:
@@ -595,7 +600,7 @@ def needle_tension(
     Raises:
       TensionError: a chain stitch, or a head without a ``[balance]`` table.
     """
-    pb = prepare(mech, head, settings=settings, spring=spring, samples=samples, anchored=anchored)
+    pb = prepare(mech, head, settings=settings, spring=spring, samples=samples, anchored=anchored, below=below)
     return step(pb, most_cycles=most_cycles, cycles=cycles)
 
 

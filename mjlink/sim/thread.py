@@ -63,7 +63,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def run_thread(
-    mech: Mechanism, material: float, *, settings: ThreadTension | None = None, cycles: int = 3
+    mech: Mechanism, material: float, *, settings: ThreadTension | None = None, cycles: int = 3, loop: bool = False
 ) -> ThreadRun:
     """Turn the head ``cycles`` stitches at its speed from the needle bar's top, the tendon
     holding ``material`` m of thread, and sample it and the check spring over the last.
@@ -74,6 +74,10 @@ def run_thread(
       material: the thread the tendon holds, m (unstretched).
       settings: the thread and the spring; ``mech.tension`` or the defaults when None.
       cycles: stitches to run.
+      loop: the thread goes on below the eye, straight down the needle's line to the underside
+        of the needle's hole, round the bobbin case to the hook's blade point and back to the
+        hole's underside, where it is held: the loop held all stitch long, not a stitch, the
+        reference's ``needle_tension(..., below=loop.held_loop(...))``.
     Returns:
       :class:`ThreadRun`.
     """
@@ -110,6 +114,11 @@ def run_thread(
         objname=SPRING,
     )
     tendon = spec.tendon(names.THREAD)
+    if loop:
+        assert mech.timing is not None
+        _bobbin_case(spec, mech)
+        tendon.wrap_site("hole_under_a")
+        _round_case(tendon, mech.timing.roles["hook_point"])
     stiffness = cfg.stiffness / material
     tendon.stiffness = _first(tendon.stiffness, stiffness)
     tendon.springlength = [0.0, material]
@@ -215,33 +224,15 @@ def run_loop(mech: Mechanism, *, cycles: int = 1) -> LoopRun:
     """
     tm, bal = mech.timing, mech.balance
     assert tm is not None and bal is not None
-    hook = hook_crank(mech)
-    eye, blade, needle = tm.roles["needle_eye"], tm.roles["hook_point"], tm.roles["needle_point"]
+    eye, blade = tm.roles["needle_eye"], tm.roles["hook_point"]
     case = kinematic_case(mech, cycles=cycles)
     spec = builder.build_spec(mech, case.settings)
-    centre = np.asarray(mech.ground[hook.pivot], dtype=float)[:2]
-    x_needle = float(_needle_x(mech, needle))
-    top = tm.plate + tm.fabric
-    radius = bal.bobbin_case / 2.0
-    cyl = spec.worldbody.add_geom(
-        name=CASE,
-        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-        size=[radius, bal.bobbin_case_width / 2.0, 0.0],
-        pos=[*centre.tolist(), 0.0],
-        contype=0,
-        conaffinity=0,
-        rgba=[0.6, 0.6, 0.65, 0.5],
-    )
-    for name, y in (("hole_top", top), ("hole_under_a", tm.plate), ("hole_under_b", tm.plate)):
-        spec.worldbody.add_site(name=name, pos=[x_needle, y, 0.0])
+    bc = _bobbin_case(spec, mech)
     for tendon, first in ((LOOP_UNDER, [eye]), (LOOP_ABOVE, [eye, "hole_top", "hole_under_a"])):
         t = spec.add_tendon(name=tendon)
         for site in first:
             t.wrap_site(site)
-        t.wrap_geom(cyl.name, "")
-        t.wrap_site(blade)
-        t.wrap_geom(cyl.name, "")
-        t.wrap_site("hole_under_b")
+        _round_case(t, blade)
         spec.add_sensor(
             name=names.sensor(tendon, "length"),
             type=mujoco.mjtSensor.mjSENS_TENDONPOS,
@@ -262,11 +253,53 @@ def run_loop(mech: Mechanism, *, cycles: int = 1) -> LoopRun:
         blade=column(names.sensor(blade, "loop_pos")),
         under=column(names.sensor(LOOP_UNDER, "length")),
         above=column(names.sensor(LOOP_ABOVE, "length")),
-        centre=centre,
-        radius=radius,
-        hole=np.array([x_needle, tm.plate]),
-        top=top,
+        centre=bc.centre,
+        radius=bc.radius,
+        hole=bc.hole,
+        top=bc.top,
     )
+
+
+@dataclass(frozen=True)
+class _Case:
+    centre: np.ndarray  # (2,) m
+    radius: float
+    hole: np.ndarray  # (2,) m: the needle's hole's underside
+    top: float  # m: the fabric's top
+
+
+def _bobbin_case(spec: mujoco.MjSpec, mech: Mechanism) -> _Case:
+    """Add the bobbin case (a cylinder on the hook shaft, normal to the head's plane, that
+    nothing collides with) and the needle's hole (sites at its top and, twice, its underside:
+    a tendon passes each site once) to ``spec``. The hole is on the needle's line: the feed
+    carries it only once the feed dog rises, after the loop's release."""
+    tm, bal = mech.timing, mech.balance
+    assert tm is not None and bal is not None
+    centre = np.asarray(mech.ground[hook_crank(mech).pivot], dtype=float)[:2]
+    x = _needle_x(mech, tm.roles["needle_point"])
+    top = tm.plate + tm.fabric
+    radius = bal.bobbin_case / 2.0
+    spec.worldbody.add_geom(
+        name=CASE,
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[radius, bal.bobbin_case_width / 2.0, 0.0],
+        pos=[*centre.tolist(), 0.0],
+        contype=0,
+        conaffinity=0,
+        rgba=[0.6, 0.6, 0.65, 0.5],
+    )
+    for name, y in (("hole_top", top), ("hole_under_a", tm.plate), ("hole_under_b", tm.plate)):
+        spec.worldbody.add_site(name=name, pos=[x, y, 0.0])
+    return _Case(centre=centre, radius=radius, hole=np.array([x, tm.plate]), top=top)
+
+
+def _round_case(tendon: mujoco.MjsTendon, blade: str) -> None:
+    """Continue ``tendon`` round the bobbin case to the hook's blade point and back round it to
+    the underside of the needle's hole, the shorter way each (no side site)."""
+    tendon.wrap_geom(CASE, "")
+    tendon.wrap_site(blade)
+    tendon.wrap_geom(CASE, "")
+    tendon.wrap_site("hole_under_b")
 
 
 def _needle_x(mech: Mechanism, point: str) -> float:
