@@ -179,7 +179,9 @@ def plan_holds(st: spec.Study, made: int) -> None:
     assert p.seconds_least <= p.seconds <= p.seconds_most
 
 
-@pytest.mark.parametrize("name", ["takeup_counterweight", "crank_slider_pareto"])
+# takeup_eyelets_demand: an ill-conditioned fit whose runs take their whole budget where the
+# bowl settles in a sixth of it (the bowl's bound alone planned 0.42 of its evaluations).
+@pytest.mark.parametrize("name", ["takeup_counterweight", "crank_slider_pareto", "takeup_eyelets_demand"])
 def test_an_optimizations_plan_expects_its_evaluations_within_2x(name):
     from mjlink.study import optimize
 
@@ -202,3 +204,26 @@ def test_a_search_too_large_to_try_on_the_bowl_is_planned_at_its_whole_budget(mo
     p = plan.estimate(big, workers=0)
     assert not p.bowl.complete and p.seconds == p.seconds_least == p.seconds_most
     assert "for its whole budget (too large a search to try on a smooth bowl first)" in p.describe()
+
+
+def test_a_rehearsal_that_settles_sets_the_estimate_and_one_that_does_not_raises_its_least(monkeypatch):
+    """Bounds more than settle.WIDE apart are narrowed by rehearsing the first run: one that
+    ends within its time gives every run's evaluations; one cut short gives a lower bound."""
+    from mjlink.study import optimize, settle
+
+    st = spec.load("takeup_counterweight")
+    b = optimize.budget(st)
+    p = plan.estimate(st, workers=0)
+    r = p.rehearsal
+    assert r is not None and r.complete and r.angles < st.per_turn
+    assert p.expected_variants == b.runs * (r.search + r.polish)
+    assert f"settled in {r.search + r.polish:,} evaluations" in p.describe()
+    monkeypatch.setattr(settle, "REHEARSAL_SECONDS", 0.0)
+    cut = plan.estimate(st, workers=0, calibration=p.calibration, bowl=p.bowl)
+    r = cut.rehearsal
+    assert r is not None and not r.complete and r.search >= 1 and r.polish == 0  # its first batch, cut short
+    assert "had not settled after" in cut.describe()
+    assert cut.seconds_least <= cut.seconds <= cut.seconds_most
+    monkeypatch.setattr(settle, "REHEARSAL_SECONDS", 2.0)
+    monkeypatch.setattr(plan, "WIDE", math.inf)  # bounds never too far apart: no rehearsal
+    assert plan.estimate(st, workers=0, calibration=p.calibration, bowl=p.bowl).rehearsal is None

@@ -256,7 +256,9 @@ def prepare(
         # Less work than a local cluster costs to start (a sampled study) or than its round
         # trips cost per generation (an optimization): this process is faster.
         local = 0
-        p = plan.estimate(st, workers=0, limit=max_memory, calibration=p.calibration, bowl=p.bowl)
+        p = plan.estimate(
+            st, workers=0, limit=max_memory, calibration=p.calibration, bowl=p.bowl, rehearsal=p.rehearsal
+        )
     return Prepared(st, dest, cache_dir, local, address, p)
 
 

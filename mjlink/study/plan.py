@@ -11,7 +11,8 @@ the study's size:
   models x their steps at the measured rate (a calibration run of one model where the study
   verifies more than a few), or at :data:`MUJOCO_STEPS_PER_S` where it verifies a handful;
   an optimization's between its whole budget and its runs on a smooth bowl (:mod:`.settle`),
-  the estimate their geometric mean;
+  the estimate their geometric mean, or, where these lie far apart, its first run rehearsed
+  on a coarser grid, every run taken to need as many evaluations (or, unsettled, more);
 * memory: the largest of (a) the tasks running at once, each its rows x the measured peak bytes
   per variant-angle or a MuJoCo chunk's recorded sensor values (its longest model's steps) and
   one model's comparison with the reference, (b) what this process holds: the variants' values
@@ -42,7 +43,7 @@ from ..sim import steps as _steps  # the clock alone: no MuJoCo is imported
 from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks, reference_chunks
 from .optimize import CHUNK_ROWS, budget, needed
 from .polish import batch_size as polish_batch
-from .settle import Settled, on_bowl
+from .settle import WIDE, Rehearsed, Settled, on_bowl, rehearse
 from .spec import Study
 from .tasks import mujoco_chunk, reference_chunk
 
@@ -86,7 +87,8 @@ class Plan:
     workers; ``mujoco_models`` and ``mujoco_steps``; ``memory`` bytes (an optimization's whole
     budget) and its bound ``memory_limit``; ``seconds`` wall, the estimate, between
     ``seconds_least`` and ``seconds_most`` (an optimization: its runs settling as on a smooth
-    bowl, and its whole budget, :mod:`.settle`; a sampled study: all three the same);
+    bowl or, where it was ``rehearsal``-ed, as its first run did or later, and its whole
+    budget, :mod:`.settle`; a sampled study: all three the same);
     ``row_seconds`` and ``row_bytes`` the calibration's CPU seconds and peak bytes per
     variant-angle; ``what`` the study's shape in words.
     """
@@ -110,6 +112,7 @@ class Plan:
     mujoco_model_seconds: float
     calibration: Calibration | None = None
     bowl: Settled | None = None
+    rehearsal: Rehearsed | None = None
 
     def describe(self) -> str:
         """The plan as one line."""
@@ -130,9 +133,18 @@ class Plan:
             return " for its whole budget (too large a search to try on a smooth bowl first)"
         if self.seconds_most <= self.seconds_least:
             return ""
+        r = self.rehearsal
+        least = f"{duration_text(self.seconds_least)} if every run settles as on a smooth bowl"
+        if r is not None:
+            done = f"its first run, rehearsed on {r.angles} crank angles, {{}} {r.search + r.polish:,} evaluations"
+            least = (
+                done.format("settled in")
+                if r.complete
+                else f"at least {duration_text(self.seconds_least)}: {done.format('had not settled after')}"
+            )
         return (
-            f" for about {self.expected_variants:,} variants ({duration_text(self.seconds_least)} if every run "
-            f"settles as on a smooth bowl, at most {duration_text(self.seconds_most)} for the whole budget)"
+            f" for about {self.expected_variants:,} variants ({least}; "
+            f"at most {duration_text(self.seconds_most)} for the whole budget)"
         )
 
     def check(self) -> None:
@@ -324,11 +336,14 @@ def estimate(
     calibration: Calibration | None = None,
     cluster: bool = False,
     bowl: Settled | None = None,
+    rehearsal: Rehearsed | None = None,
 ) -> Plan:
     """The :class:`Plan` of ``study`` on ``workers`` worker processes (0: this process), its
     memory held to ``limit`` bytes (default :func:`memory_limit`); ``cluster``: a local
-    cluster is started for it; ``calibration`` and ``bowl`` (an optimization's runs on the
-    bowl, :mod:`.settle`) those of an earlier plan of the same study, not made again."""
+    cluster is started for it; ``calibration``, ``bowl`` (an optimization's runs on the bowl,
+    :mod:`.settle`) and ``rehearsal`` (its first run rehearsed, where the bowl and the whole
+    budget lie more than :data:`~.settle.WIDE` apart) those of an earlier plan of the same
+    study, not made again."""
     mech = study.mechanism
     angles = len(angle_grid(mech, study.per_turn))
     P, C = len(study.varied), len(study.columns)
@@ -406,7 +421,6 @@ def estimate(
             if bowl.complete
             else (most_search, most_polish)
         )
-        mid_search, mid_polish = math.sqrt(low_search * most_search), math.sqrt(low_polish * most_polish)
         R, lam = b.samples, polish_batch(P)
 
         def run_seconds(searched: float, polished: float) -> float:
@@ -414,9 +428,21 @@ def estimate(
             batches = searched / b.population + polished / lam
             return seconds_of(searched * R, polished * R) + batches * bowl.batch_seconds
 
+        most = run_seconds(most_search, most_polish)
+        if rehearsal is None and bowl.complete and most > WIDE * run_seconds(low_search, low_polish):
+            rehearsal = rehearse(study, cal.row_seconds)
+        mid_search, mid_polish = math.sqrt(low_search * most_search), math.sqrt(low_polish * most_polish)
+        if rehearsal is not None:  # every run as long as the rehearsed one, or longer than it was seen
+            seen_search = min(b.runs * rehearsal.search, most_search)
+            seen_polish = min(b.runs * rehearsal.polish, most_polish)
+            if rehearsal.complete:
+                mid_search, mid_polish = seen_search, seen_polish
+                low_search, low_polish = min(low_search, seen_search), min(low_polish, seen_polish)
+            else:
+                low_search, low_polish = max(low_search, seen_search), max(low_polish, seen_polish)
+                mid_search, mid_polish = math.sqrt(low_search * most_search), math.sqrt(low_polish * most_polish)
         seconds = run_seconds(mid_search, mid_polish)
         least = run_seconds(low_search, low_polish)
-        most = run_seconds(most_search, most_polish)
         expected = round((mid_search + mid_polish) * R)
     return Plan(
         study=study.name,
@@ -438,6 +464,7 @@ def estimate(
         mujoco_model_seconds=model_s,
         calibration=cal,
         bowl=bowl,
+        rehearsal=rehearsal,
     )
 
 

@@ -1,4 +1,5 @@
-"""How long an optimization's runs take on a smooth bowl: the plan's least likely cost.
+"""How long an optimization's runs take on a smooth bowl, and its first run rehearsed: the plan's
+least likely cost and its best guess.
 
 An optimization stops when its runs settle (:mod:`.search`), not at its budget, and how soon
 depends on the objective, which is unknown before the work. Two cases bound it: the whole budget
@@ -13,15 +14,29 @@ drawn from each run's seed within the middle of every range: its minimum equals 
 unit of the scaled box, so scipy's spread test (relative to the objective's level) and the
 stall and collapse tests all have their say, as on a metric whose best value is of the order of
 its variation over the ranges.
+
+Where the two bounds are more than 4x apart their geometric mean cannot promise 2x, and the
+runs' length is the objective's own (an ill-conditioned fit whose polish runs to its budget,
+a shallow problem that settles sooner than the bowl). The plan then rehearses the study's
+first run (:func:`rehearse`): the very search, on the study's own objective, on a grid of
+:data:`REHEARSAL_COARSER` times fewer crank angles (at least :data:`REHEARSAL_ANGLES`), for
+at most :data:`REHEARSAL_SECONDS` of CPU. A run that ends within them gives its evaluations,
+which every run is taken to need; one that does not gives those it has made, a lower bound on
+every run's (the shipped optimizations' counts against their runs': bench/bench_study.py).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from ..errors import MjlinkError
+from .optimize import Evaluator
 from .search import search
 from .spec import Study
 
@@ -89,3 +104,74 @@ def on_bowl(study: Study) -> Settled:
         found += r.evaluations - spent
         polished += spent
     return Settled(search=found, polish=polished, batch_seconds=(time.process_time() - t) / max(1, batches))
+
+
+REHEARSAL_SECONDS = 2.0  # CPU seconds a rehearsal may take, at most
+REHEARSAL_COARSER = 4  # the rehearsal's grid: this many times fewer crank angles than the study's
+REHEARSAL_ANGLES = 24  # and at least this many (or the study's own, if fewer)
+GENERATION_SECONDS = 1.0  # a generation costing more is not rehearsed: its first would overrun
+WIDE = 4.0  # bounds further apart than this are narrowed by a rehearsal
+
+
+@dataclass(frozen=True, kw_only=True)
+class Rehearsed:
+    """The study's first run rehearsed (module docstring): the candidates it evaluated in its
+    global ``search`` and its ``polish`` (not their tolerance samples), on ``angles`` crank
+    angles; ``complete`` whether the run ended by itself within :data:`REHEARSAL_SECONDS`
+    (otherwise the counts are of what it had done)."""
+
+    search: int
+    polish: int
+    angles: int
+    complete: bool
+
+
+def rehearse(study: Study, row_seconds: float) -> Rehearsed | None:
+    """Rehearse ``study``'s first run (module docstring), its variant-angles costing about
+    ``row_seconds`` each (the plan's calibration); None where a generation would take more than
+    :data:`GENERATION_SECONDS`, or the coarse grid cannot be evaluated."""
+    opt = study.optimize
+    assert opt is not None
+    angles = min(study.per_turn, max(REHEARSAL_ANGLES, study.per_turn // REHEARSAL_COARSER // 2 * 2))
+    samples = study.robust.samples if study.robust else 1
+    if opt.population * samples * angles * row_seconds > GENERATION_SECONDS:
+        return None
+    coarse = dataclasses.replace(study, per_turn=angles)
+    seen = {"search": 0, "polish": 0}
+    t = time.process_time()
+
+    def counted(key: str, ev: Evaluator) -> Callable[[np.ndarray], Any]:
+        def score(X: np.ndarray) -> Any:
+            out = ev.score(X)
+            seen[key] += len(X)
+            if time.process_time() - t > REHEARSAL_SECONDS:
+                raise _Outgrown
+            return out
+
+        return score
+
+    def objective(s: Any) -> tuple[np.ndarray, np.ndarray]:
+        if opt.pareto is None:
+            return s.objective, s.violation
+        return s.columns[opt.pareto[0]], s.violation
+
+    with Evaluator(coarse, None, 1) as ev:
+        try:
+            r = search(
+                coarse,
+                counted("search", ev),
+                lambda *_: None,
+                0,
+                "rehearsal",
+                objective,
+                None,
+                opt.seed,
+                None,
+                polish_score=counted("polish", ev),
+            )
+        except _Outgrown:
+            return Rehearsed(search=seen["search"], polish=seen["polish"], angles=angles, complete=False)
+        except (MjlinkError, ValueError, ArithmeticError):
+            return None
+    polished = r.polish.evaluations if r.polish is not None else 0
+    return Rehearsed(search=r.evaluations - polished, polish=polished, angles=angles, complete=True)
