@@ -113,6 +113,7 @@ class Plan:
     calibration: Calibration | None = None
     bowl: Settled | None = None
     rehearsal: Rehearsed | None = None
+    least_rehearsed: bool = False
 
     def describe(self) -> str:
         """The plan as one line."""
@@ -137,11 +138,12 @@ class Plan:
         least = f"{duration_text(self.seconds_least)} if every run settles as on a smooth bowl"
         if r is not None:
             done = f"its first run, rehearsed on {r.angles} crank angles, {{}} {r.search + r.polish:,} evaluations"
-            least = (
-                done.format("settled in")
-                if r.complete
-                else f"at least {duration_text(self.seconds_least)}: {done.format('had not settled after')}"
-            )
+            if r.complete:
+                least = done.format("settled in")
+            elif self.least_rehearsed:
+                least = f"at least {duration_text(self.seconds_least)}: {done.format('had not settled after')}"
+            else:
+                least += f"; {done.format('had not settled after')}"
         return (
             f" for about {self.expected_variants:,} variants ({least}; "
             f"at most {duration_text(self.seconds_most)} for the whole budget)"
@@ -349,6 +351,7 @@ def estimate(
     P, C = len(study.varied), len(study.columns)
     lanes = max(1, workers)
     client = 0.0
+    raised = False  # an optimization's least set by its rehearsal cut short, not by the bowl
     if study.optimize is None:
         V = study.samples
         tasks = len(reference_chunks(study, V))
@@ -439,6 +442,7 @@ def estimate(
                 mid_search, mid_polish = seen_search, seen_polish
                 low_search, low_polish = min(low_search, seen_search), min(low_polish, seen_polish)
             else:
+                raised = seen_search + seen_polish > low_search + low_polish
                 low_search, low_polish = max(low_search, seen_search), max(low_polish, seen_polish)
                 mid_search, mid_polish = math.sqrt(low_search * most_search), math.sqrt(low_polish * most_polish)
         seconds = run_seconds(mid_search, mid_polish)
@@ -465,6 +469,7 @@ def estimate(
         calibration=cal,
         bowl=bowl,
         rehearsal=rehearsal,
+        least_rehearsed=raised,
     )
 
 
