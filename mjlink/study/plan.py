@@ -43,6 +43,7 @@ from ..sim import steps as _steps  # the clock alone: no MuJoCo is imported
 from .engine import MUJOCO_CHUNK, REFERENCE_CHUNK, chunks, reference_chunks
 from .optimize import CHUNK_ROWS, budget, needed
 from .polish import batch_size as polish_batch
+from .search import first_generation
 from .settle import WIDE, Rehearsed, Settled, on_bowl, rehearse
 from .spec import Study
 from .tasks import mujoco_chunk, reference_chunk
@@ -214,10 +215,10 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     """Evaluate as many variants of ``study`` as one of its tasks does (at least
     :data:`CALIBRATION_VARIANTS`, at most :data:`CALIBRATION_ROWS` variant-angles, and no more
     than fit, traced once and timed, in :data:`CALIBRATION_SECONDS` by the first variant's
-    cost; all at the nominal values, or the middle of the ranges of an optimization) here,
-    traced and timed (the fastest of :data:`CALIBRATION_RUNS` where they fit, else one; a
-    variant that alone costs more than the budget by its first call); with ``mujoco``, verify
-    one in MuJoCo, timed."""
+    cost) here: all at the nominal values, or an optimization's nominal design (the middle of
+    its ranges where it has none) and then its first generation. Traced and timed (the fastest of
+    :data:`CALIBRATION_RUNS` where they fit, else one; a variant that alone costs more than
+    the budget by its first call); with ``mujoco``, verify one in MuJoCo, timed."""
     angles = len(angle_grid(study.mechanism, study.per_turn))
     per_task = budget(study).per_generation if study.optimize is not None else min(study.samples, REFERENCE_CHUNK[1])
     n = max(CALIBRATION_VARIANTS, min(per_task, CALIBRATION_ROWS // angles))
@@ -231,6 +232,12 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     else:
         row = [v.param.nominal if math.isfinite(v.param.nominal) else 0.0 for v in study.varied]
     values = np.tile(np.array(row, dtype=float), (n, 1))
+    if study.optimize is not None:
+        # After the nominal design (whose cost sizes the batch), the candidates the search
+        # evaluates first: distinct designs, as the search's are. Copies of one would be
+        # measured once by a metric that measures a head once for variants of one geometry
+        # (mjlink.analysis.timing), and timed at next to nothing.
+        values[1:] = first_generation(study, study.optimize.seed, n - 1)
     t = time.process_time()
     reference_chunk(study, values[:1])  # the nominal batch and first-call costs, not timed
     first = time.process_time() - t
@@ -256,7 +263,9 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     if study.optimize is not None and budget(study).polish and m * angles <= CALIBRATION_ROWS:
         # The polish evaluates a generation of its own at a time, in this process: a batch
         # small enough that a call's own cost counts (a larger one costs what the search's do).
-        polish = _fastest(lambda: reference_chunk(study, values[:1].repeat(m, axis=0))) / (m * angles)
+        assert study.optimize is not None
+        batch = first_generation(study, study.optimize.seed, m)
+        polish = _fastest(lambda: reference_chunk(study, batch)) / (m * angles)
     rows = n * angles
     model, model_steps = math.nan, 0
     if mujoco:

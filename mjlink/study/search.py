@@ -158,14 +158,7 @@ def search(
         return False
 
     if init is None:
-        from scipy.stats import qmc  # here: scipy.stats, only for a first generation
-
-        engine: qmc.QMCEngine = (
-            qmc.Sobol(P, scramble=True, seed=seed) if opt.init == "sobol" else qmc.LatinHypercube(P, seed=seed)
-        )
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # Sobol warns for counts that are no power of 2
-            init = qmc.scale(engine.random(opt.population), lo, hi)
+        init = first_generation(study, seed, opt.population)
     with warnings.catch_warnings():
         # scipy warns when it finds nothing feasible (we say so) or stops by the callback.
         warnings.simplefilter("ignore", UserWarning)
@@ -194,6 +187,26 @@ def search(
         (run.polish is None and opt.polish_evaluations == 0) or bool(run.polish and run.polish.converged)
     )
     return run
+
+
+def first_generation(study: Study, seed: int, count: int) -> np.ndarray:
+    """(count, P) the first ``count`` candidates of a run's first generation drawn from ``seed``
+    (file units): a scrambled Sobol or Latin hypercube sample of the ranges, as the study's
+    ``init`` says."""
+    from scipy.stats import qmc  # here: scipy.stats, only for a first generation
+
+    opt = study.optimize
+    assert opt is not None
+    lo = np.array([v.low for v in study.varied])
+    hi = np.array([v.high for v in study.varied])
+    P = len(lo)
+    engine: qmc.QMCEngine = (
+        qmc.Sobol(P, scramble=True, seed=seed) if opt.init == "sobol" else qmc.LatinHypercube(P, seed=seed)
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # Sobol warns for counts that are no power of 2
+        out: np.ndarray = qmc.scale(engine.random(count), lo, hi)
+    return out
 
 
 def _polish(
