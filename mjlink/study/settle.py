@@ -20,7 +20,8 @@ runs' length is the objective's own (an ill-conditioned fit whose polish runs to
 a shallow problem that settles sooner than the bowl). The plan then rehearses the study's
 first run (:func:`rehearse`): the very search, on the study's own objective, on a grid of
 :data:`REHEARSAL_COARSER` times fewer crank angles (at least :data:`REHEARSAL_ANGLES`), for
-at most :data:`REHEARSAL_SECONDS` of CPU. A run that ends within them gives its evaluations,
+at most :data:`REHEARSAL_SHARE` of the study's budget of candidates (or
+:data:`REHEARSAL_SECONDS` of CPU, where they cost much). A run that ends within them gives its evaluations,
 which every run is taken to need; one that does not gives those it has made, a lower bound on
 every run's (the shipped optimizations' counts against their runs': bench/bench_study.py).
 """
@@ -106,7 +107,10 @@ def on_bowl(study: Study) -> Settled:
     return Settled(search=found, polish=polished, batch_seconds=(time.process_time() - t) / max(1, batches))
 
 
-REHEARSAL_SECONDS = 2.0  # CPU seconds a rehearsal may take, at most
+# A rehearsal stops after this share of the study's whole budget of candidates (a count, the
+# same on every machine), or after REHEARSAL_SECONDS of CPU where its designs cost much.
+REHEARSAL_SHARE = 0.25
+REHEARSAL_SECONDS = 10.0
 REHEARSAL_COARSER = 4  # the rehearsal's grid: this many times fewer crank angles than the study's
 REHEARSAL_ANGLES = 24  # and at least this many (or the study's own, if fewer)
 GENERATION_SECONDS = 1.0  # a generation costing more is not rehearsed: its first would overrun
@@ -117,7 +121,8 @@ WIDE = 4.0  # bounds further apart than this are narrowed by a rehearsal
 class Rehearsed:
     """The study's first run rehearsed (module docstring): the candidates it evaluated in its
     global ``search`` and its ``polish`` (not their tolerance samples), on ``angles`` crank
-    angles; ``complete`` whether the run ended by itself within :data:`REHEARSAL_SECONDS`
+    angles; ``complete`` whether the run ended by itself within :data:`REHEARSAL_SHARE` of the
+    study's budget and :data:`REHEARSAL_SECONDS`
     (otherwise the counts are of what it had done)."""
 
     search: int
@@ -137,6 +142,8 @@ def rehearse(study: Study, row_seconds: float) -> Rehearsed | None:
     if opt.population * samples * angles * row_seconds > GENERATION_SECONDS:
         return None
     coarse = dataclasses.replace(study, per_turn=angles)
+    runs = opt.points + 1 if opt.pareto else opt.seeds
+    most = REHEARSAL_SHARE * runs * (opt.population * (opt.generations + 1) + opt.polish_evaluations)
     seen = {"search": 0, "polish": 0}
     t = time.process_time()
 
@@ -144,7 +151,7 @@ def rehearse(study: Study, row_seconds: float) -> Rehearsed | None:
         def score(X: np.ndarray) -> Any:
             out = ev.score(X)
             seen[key] += len(X)
-            if time.process_time() - t > REHEARSAL_SECONDS:
+            if seen["search"] + seen["polish"] >= most or time.process_time() - t > REHEARSAL_SECONDS:
                 raise _Outgrown
             return out
 
