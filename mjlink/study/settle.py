@@ -20,10 +20,10 @@ runs' length is the objective's own (an ill-conditioned fit whose polish runs to
 a shallow problem that settles sooner than the bowl). The plan then rehearses the study's
 first run (:func:`rehearse`): the very search, on the study's own objective, on a grid of
 :data:`REHEARSAL_COARSER` times fewer crank angles (at least :data:`REHEARSAL_ANGLES`), for
-at most :data:`REHEARSAL_SHARE` of the study's budget of candidates (or
-:data:`REHEARSAL_SECONDS` of CPU, where they cost much). A run that ends within them gives its evaluations,
-which every run is taken to need; one that does not gives those it has made, a lower bound on
-every run's (the shipped optimizations' counts against their runs': bench/bench_study.py).
+at most :data:`REHEARSAL_SHARE` of the study's budget of candidates (or :data:`REHEARSAL_SECONDS`
+of CPU, where they cost much). A run that ends within them gives its evaluations, which every
+run is taken to need; one that does not gives those it has made, a lower bound on every run's
+(the shipped optimizations' counts against their runs': bench/bench_study.py).
 """
 
 from __future__ import annotations
@@ -32,12 +32,11 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from ..errors import MjlinkError
-from .optimize import Evaluator
+from .optimize import Evaluator, Scores
 from .search import search
 from .spec import Study
 
@@ -122,8 +121,8 @@ class Rehearsed:
     """The study's first run rehearsed (module docstring): the candidates it evaluated in its
     global ``search`` and its ``polish`` (not their tolerance samples), on ``angles`` crank
     angles; ``complete`` whether the run ended by itself within :data:`REHEARSAL_SHARE` of the
-    study's budget and :data:`REHEARSAL_SECONDS`
-    (otherwise the counts are of what it had done)."""
+    study's budget and :data:`REHEARSAL_SECONDS` (otherwise the counts are of what it had
+    done)."""
 
     search: int
     polish: int
@@ -147,8 +146,8 @@ def rehearse(study: Study, row_seconds: float) -> Rehearsed | None:
     seen = {"search": 0, "polish": 0}
     t = time.process_time()
 
-    def counted(key: str, ev: Evaluator) -> Callable[[np.ndarray], Any]:
-        def score(X: np.ndarray) -> Any:
+    def counted(key: str, ev: Evaluator) -> Callable[[np.ndarray], Scores]:
+        def score(X: np.ndarray) -> Scores:
             out = ev.score(X)
             seen[key] += len(X)
             if seen["search"] + seen["polish"] >= most or time.process_time() - t > REHEARSAL_SECONDS:
@@ -157,7 +156,7 @@ def rehearse(study: Study, row_seconds: float) -> Rehearsed | None:
 
         return score
 
-    def objective(s: Any) -> tuple[np.ndarray, np.ndarray]:
+    def objective(s: Scores) -> tuple[np.ndarray, np.ndarray]:
         if opt.pareto is None:
             return s.objective, s.violation
         return s.columns[opt.pareto[0]], s.violation
