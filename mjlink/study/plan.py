@@ -263,7 +263,6 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     if study.optimize is not None and budget(study).polish and m * angles <= CALIBRATION_ROWS:
         # The polish evaluates a generation of its own at a time, in this process: a batch
         # small enough that a call's own cost counts (a larger one costs what the search's do).
-        assert study.optimize is not None
         batch = first_generation(study, study.optimize.seed, m)
         polish = _fastest(lambda: reference_chunk(study, batch)) / (m * angles)
     rows = n * angles

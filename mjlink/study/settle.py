@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MjlinkError
-from .optimize import Evaluator, Scores
+from .optimize import Evaluator, Scores, budget
 from .search import search
 from .spec import Study
 
@@ -141,8 +141,7 @@ def rehearse(study: Study, row_seconds: float) -> Rehearsed | None:
     if opt.population * samples * angles * row_seconds > GENERATION_SECONDS:
         return None
     coarse = dataclasses.replace(study, per_turn=angles)
-    runs = opt.points + 1 if opt.pareto else opt.seeds
-    most = REHEARSAL_SHARE * runs * (opt.population * (opt.generations + 1) + opt.polish_evaluations)
+    most = REHEARSAL_SHARE * budget(study).candidates
     seen = {"search": 0, "polish": 0}
     t = time.process_time()
 
