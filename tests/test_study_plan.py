@@ -208,7 +208,8 @@ def test_a_search_too_large_to_try_on_the_bowl_is_planned_at_its_whole_budget(mo
 
 def test_a_rehearsal_that_settles_sets_the_estimate_and_one_that_does_not_raises_its_least(monkeypatch):
     """Bounds more than settle.WIDE apart are narrowed by rehearsing the first run: one that
-    ends within its time gives every run's evaluations; one cut short gives a lower bound."""
+    ends within its time gives every run's evaluations; one cut short gives a lower bound, and
+    the plan takes every run to its budget."""
     from mjlink.study import optimize, settle
 
     st = spec.load("takeup_counterweight")
@@ -223,7 +224,8 @@ def test_a_rehearsal_that_settles_sets_the_estimate_and_one_that_does_not_raises
     r = cut.rehearsal
     assert r is not None and not r.complete and r.search >= 1 and r.polish == 0  # its first batch, cut short
     assert "had not settled after" in cut.describe()
-    assert cut.seconds_least <= cut.seconds <= cut.seconds_most
+    assert cut.seconds_least <= cut.seconds == cut.seconds_most  # still improving: to its budget
+    assert cut.expected_variants == b.candidates * b.samples
     monkeypatch.setattr(settle, "REHEARSAL_SECONDS", 2.0)
     monkeypatch.setattr(plan, "WIDE", math.inf)  # bounds never too far apart: no rehearsal
     assert plan.estimate(st, workers=0, calibration=p.calibration, bowl=p.bowl).rehearsal is None

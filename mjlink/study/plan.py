@@ -12,7 +12,8 @@ the study's size:
   verifies more than a few), or at :data:`MUJOCO_STEPS_PER_S` where it verifies a handful;
   an optimization's between its whole budget and its runs on a smooth bowl (:mod:`.settle`),
   the estimate their geometric mean, or, where these lie far apart, its first run rehearsed
-  on a coarser grid, every run taken to need as many evaluations (or, unsettled, more);
+  on a coarser grid, every run taken to need as many evaluations (or, unsettled, its whole
+  budget);
 * memory: the largest of (a) the tasks running at once, each its rows x the measured peak bytes
   per variant-angle or a MuJoCo chunk's recorded sensor values (its longest model's steps) and
   one model's comparison with the reference, (b) what this process holds: the variants' values
@@ -449,10 +450,10 @@ def estimate(
             if rehearsal.complete:
                 mid_search, mid_polish = seen_search, seen_polish
                 low_search, low_polish = min(low_search, seen_search), min(low_polish, seen_polish)
-            else:
+            else:  # still improving when the rehearsal stopped: planned to run to its budget
                 raised = seen_search + seen_polish > low_search + low_polish
                 low_search, low_polish = max(low_search, seen_search), max(low_polish, seen_polish)
-                mid_search, mid_polish = math.sqrt(low_search * most_search), math.sqrt(low_polish * most_polish)
+                mid_search, mid_polish = most_search, most_polish
         seconds = run_seconds(mid_search, mid_polish)
         least = run_seconds(low_search, low_polish)
         expected = round((mid_search + mid_polish) * R)
