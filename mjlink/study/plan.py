@@ -12,8 +12,8 @@ the study's size:
   verifies more than a few), or at :data:`MUJOCO_STEPS_PER_S` where it verifies a handful;
   an optimization's between its whole budget and its runs on a smooth bowl (:mod:`.settle`),
   the estimate their geometric mean, or, where these lie far apart, its first run rehearsed
-  on a coarser grid, every run taken to need as many evaluations (or, unsettled, its whole
-  budget);
+  on a coarser grid, every run taken to need as many evaluations (or, unsettled after more
+  generations than its stall test waits, its whole budget);
 * memory: the largest of (a) the tasks running at once, each its rows x the measured peak bytes
   per variant-angle or a MuJoCo chunk's recorded sensor values (its longest model's steps) and
   one model's comparison with the reference, (b) what this process holds: the variants' values
@@ -216,8 +216,8 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     """Evaluate as many variants of ``study`` as one of its tasks does (at least
     :data:`CALIBRATION_VARIANTS`, at most :data:`CALIBRATION_ROWS` variant-angles, and no more
     than fit, traced once and timed, in :data:`CALIBRATION_SECONDS` by the first variant's
-    cost) here: all at the nominal values, or an optimization's nominal design (the middle of
-    its ranges where it has none) and then its first generation. Traced and timed (the fastest of
+    cost) here: the study's own variants spread over them, or an optimization's nominal design
+    (the middle of its ranges where it has none) and then its first generation. Traced and timed (the fastest of
     :data:`CALIBRATION_RUNS` where they fit, else one; a variant that alone costs more than
     the budget by its first call); with ``mujoco``, verify one in MuJoCo, timed."""
     angles = len(angle_grid(study.mechanism, study.per_turn))
@@ -233,6 +233,12 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     else:
         row = [v.param.nominal if math.isfinite(v.param.nominal) else 0.0 for v in study.varied]
     values = np.tile(np.array(row, dtype=float), (n, 1))
+    # A sampled study's first call (which sizes the batch) at its nominal values, then its own
+    # variants spread over them: copies of one would be measured once by a metric that measures
+    # a head once for variants of one geometry and thread balance.
+    own = study.values() if study.method != "optimize" else None
+    if own is not None:
+        n = min(n, len(own))
     if study.optimize is not None:
         # After the nominal design (whose cost sizes the batch), the candidates the search
         # evaluates first: distinct designs, as the search's are. Copies of one would be
@@ -249,7 +255,7 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
         n, runs = 1, 0
     elif first * n * (1 + runs) > CALIBRATION_SECONDS:
         n = max(1, int(CALIBRATION_SECONDS / (first * (1 + runs))))
-    values = values[:n]
+    values = values[:n] if own is None else own[_spread(len(own), n)]
     tracemalloc.start()
     try:
         reference_chunk(study, values)
@@ -278,6 +284,13 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
         )
         model_steps = _steps.verify_steps(study.mechanism.period, speed)
     return Calibration(seconds / rows, peak / rows, model, model_steps, polish)
+
+
+def _spread(V: int, n: int) -> np.ndarray:
+    """(n,) indices of ``n`` of ``V`` variants spread evenly over them, the middle of each
+    n-th share (one: the middle variant)."""
+    out: np.ndarray = ((np.arange(n) + 0.5) * V / n).astype(int)
+    return out
 
 
 def _fastest(f: Callable[[], object], runs: int = CALIBRATION_RUNS) -> float:
@@ -450,10 +463,15 @@ def estimate(
             if rehearsal.complete:
                 mid_search, mid_polish = seen_search, seen_polish
                 low_search, low_polish = min(low_search, seen_search), min(low_polish, seen_polish)
-            else:  # still improving when the rehearsal stopped: planned to run to its budget
+            else:
                 raised = seen_search + seen_polish > low_search + low_polish
                 low_search, low_polish = max(low_search, seen_search), max(low_polish, seen_polish)
-                mid_search, mid_polish = most_search, most_polish
+                if rehearsal.search >= b.population * study.optimize.stall:
+                    # Still improving after more generations than the stall test waits: the
+                    # run goes on as long as the objective gives, planned to its whole budget.
+                    mid_search, mid_polish = most_search, most_polish
+                else:  # too few generations seen to tell: between the raised least and the budget
+                    mid_search, mid_polish = math.sqrt(low_search * most_search), math.sqrt(low_polish * most_polish)
         seconds = run_seconds(mid_search, mid_polish)
         least = run_seconds(low_search, low_polish)
         expected = round((mid_search + mid_polish) * R)

@@ -22,11 +22,11 @@ first run (:func:`rehearse`): the very search, on the study's own objective, on 
 :data:`REHEARSAL_COARSER` times fewer crank angles (at least :data:`REHEARSAL_ANGLES`), for
 at most :data:`REHEARSAL_SHARE` of the study's budget of candidates (or :data:`REHEARSAL_SECONDS`
 of CPU, where they cost much). A run that ends within them gives its evaluations, which every
-run is taken to need; one that does not gives those it has made, a lower bound on every run's,
-and the plan takes every run to its budget: a run still improving on its own objective after a
-quarter of the study's candidates (or with too few generations seen to tell) is planned on the
-side a user can plan for (the shipped optimizations' counts against their runs':
-bench/bench_study.py).
+run is taken to need; one that does not gives those it has made, a lower bound on every run's.
+Where that run had gone more generations than its stall test waits (``stall``) and was still
+improving, the plan takes every run to its whole budget; where it had gone fewer, it cannot
+tell, and takes the geometric mean of that bound and the budget (the shipped optimizations'
+counts against their runs': bench/bench_study.py).
 """
 
 from __future__ import annotations
