@@ -216,8 +216,9 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     """Evaluate as many variants of ``study`` as one of its tasks does (at least
     :data:`CALIBRATION_VARIANTS`, at most :data:`CALIBRATION_ROWS` variant-angles, and no more
     than fit, traced once and timed, in :data:`CALIBRATION_SECONDS` by the first variant's
-    cost) here: the study's own variants spread over them, or an optimization's nominal design
-    (the middle of its ranges where it has none) and then its first generation. Traced and timed (the fastest of
+    cost) here: the first call at the nominal values (an optimization's nominal design, the
+    middle of its ranges where it has none), then a sampled study's own variants spread over
+    them, or an optimization's first generation. Traced and timed (the fastest of
     :data:`CALIBRATION_RUNS` where they fit, else one; a variant that alone costs more than
     the budget by its first call); with ``mujoco``, verify one in MuJoCo, timed."""
     angles = len(angle_grid(study.mechanism, study.per_turn))
