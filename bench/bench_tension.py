@@ -17,7 +17,10 @@ With ``--study``, only a 1,000-variant tension study (needle tension x check-spr
 speed, on the 2 workers of a local cluster), its wall time against ``simulate takeup``'s CPU,
 interleaved, and the periods its heads settled in.
 
-Run: ``python bench/bench_tension.py [--repeat N] [--study]`` (default 5).
+With ``--vs REV`` too, the same study from a git worktree of that revision, alternately with
+this checkout, their wall times' ratio and their results' largest differences.
+
+Run: ``python bench/bench_tension.py [--repeat N] [--study [--vs REV]]`` (default 5).
 """
 
 from __future__ import annotations
@@ -219,41 +222,69 @@ kind = "tension"
 """
 
 
-def study(repeat: int) -> None:
+def _study_run(tree: Path, f: Path, out: Path) -> tuple[float, Path]:
+    """The wall time of ``mjlink study f`` run from the checkout ``tree``, and its results."""
+    w0 = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-m", "mjlink", "study", str(f), "--out", str(out), "--no-plots"],
+        cwd=tree,
+        check=True,
+        capture_output=True,
+        env={**os.environ, "PYTHONPATH": str(tree)},
+    )
+    return time.perf_counter() - w0, out / "tension_1000-study" / "results.csv"
+
+
+def _rows(results: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(line for line in results.open() if not line.startswith("#")))
+
+
+def study(repeat: int, vs: str | None) -> None:
     """A 1,000-variant tension study (the grid above: 1,500 to 6,000 stitches/min) on a local
     cluster of one worker a core, its wall time against ``simulate takeup``'s CPU, interleaved,
-    and how its heads settled (their periods, the stitches run)."""
+    and how its heads settled (their periods); with ``vs`` (a git revision), the same study
+    from a worktree of that revision alternately, and how far their results lie apart."""
     walls: list[float] = []
+    theirs: list[float] = []
     takeup: list[float] = []
     with tempfile.TemporaryDirectory() as tmp:
         f = Path(tmp) / "tension_1000.toml"
         f.write_text(STUDY)
-        _simulate_takeup(Path(tmp))
-        for i in range(repeat):
-            out = Path(tmp) / f"out{i}"
-            w0 = time.perf_counter()
+        base = Path(tmp) / "base"
+        if vs is not None:
             subprocess.run(
-                [sys.executable, "-m", "mjlink", "study", str(f), "--out", str(out), "--no-plots"],
-                cwd=ROOT,
-                check=True,
-                capture_output=True,
-                env={**os.environ, "PYTHONPATH": str(ROOT)},
+                ["git", "worktree", "add", "--detach", str(base), vs], cwd=ROOT, check=True, capture_output=True
             )
-            walls.append(time.perf_counter() - w0)
-            print(f"1,000-variant tension study: {walls[-1]:.1f} s wall", flush=True)
-            takeup.append(_simulate_takeup(Path(tmp)))
-            print(f"simulate takeup --no-video --no-plots: {takeup[-1]:.2f} s CPU", flush=True)
-        rows = list(
-            csv.DictReader(
-                line for line in (out / "tension_1000-study" / "results.csv").open() if not line.startswith("#")
-            )
-        )
+        try:
+            _simulate_takeup(Path(tmp))
+            for i in range(repeat):
+                wall, results = _study_run(ROOT, f, Path(tmp) / f"out{i}")
+                walls.append(wall)
+                print(f"1,000-variant tension study: {wall:.1f} s wall", flush=True)
+                if vs is not None:
+                    wall, other = _study_run(base, f, Path(tmp) / f"base{i}")
+                    theirs.append(wall)
+                    print(f"the same from {vs}: {wall:.1f} s wall", flush=True)
+                takeup.append(_simulate_takeup(Path(tmp)))
+                print(f"simulate takeup --no-video --no-plots: {takeup[-1]:.2f} s CPU", flush=True)
+            rows = _rows(results)
+            if vs is not None:
+                old = _rows(other)
+                for col in ("tension_peak_N", "tension_per_stitch_mm", "tension_period"):
+                    d = max(abs(float(x[col]) - float(y[col])) for x, y in zip(rows, old, strict=True))
+                    print(f"largest difference of {col} from {vs}: {d:.3g}")
+        finally:
+            if vs is not None:
+                subprocess.run(["git", "worktree", "remove", "--force", str(base)], cwd=ROOT, check=True)
     periods = collections.Counter(int(float(r["tension_period"])) for r in rows)
     a, b = statistics.median(walls), statistics.median(takeup)
     print(f"periods of the 1,000 heads (0: none in 80 stitches): {dict(sorted(periods.items()))}")
     print(
         f"median of {repeat}: study {a:.1f} s wall; simulate takeup {b:.2f} s CPU; study / simulate takeup: {a / b:.1f}"
     )
+    if vs is not None:
+        c = statistics.median(theirs)
+        print(f"median of {repeat}: {vs} {c:.1f} s wall; {vs} / this checkout: {c / a:.2f}")
 
 
 def main() -> None:
@@ -261,9 +292,10 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5, help="runs of each for the cost (default 5)")
     ap.add_argument("--no-cost", action="store_true", help="only the comparisons")
     ap.add_argument("--study", action="store_true", help="only the 1,000-variant tension study's time")
+    ap.add_argument("--vs", help="with --study: the same study from this git revision, alternately")
     a = ap.parse_args()
     if a.study:
-        study(a.repeat)
+        study(a.repeat, a.vs)
         return
     comparisons()
     mujoco_comparison()

@@ -143,3 +143,94 @@ kind = "{kind}"
         cut = reference_chunks(study, n)
         assert len(cut) == tasks, (n, kind, cut)
         assert cut[0][0] == 0 and cut[-1][1] == n and all(b - a <= REFERENCE_CHUNK[1] for a, b in cut)
+
+
+def test_the_hook_stiffness_is_the_derivative_of_the_threads_pull_in_every_state(head):
+    """The check spring's Newton steps take the thread's stiffness at the hook: here it is
+    compared with the pull's central difference over the hook's place (its contacts' states
+    held), where the thread holds on the hook and where it slides over it either way, in the
+    twin and in the array step."""
+    from mjlink.analysis import tension, tension_many
+
+    mech, timing = head
+    pb = _problem(mech, timing, needle_tension=2.8, spring_rate=10.0)
+    seen: dict[int, list] = {-1: [], 0: [], 1: []}
+    real = tension._Thread.settle
+
+    def settle(self, k, xh, s, prev, state):
+        now = real(self, k, xh, s, prev, state)
+        if xh > 0.0 and len(seen[now.state[self.spring_at]]) < 40:
+            seen[now.state[self.spring_at]].append((self, k, xh, list(s), list(prev), list(state), now))
+        return now
+
+    tension._Thread.settle = settle
+    try:
+        step(pb, cycles=3)
+    finally:
+        tension._Thread.settle = real
+    cs, h = pb.spring_at, 1e-9
+    checked = 0
+    for hook_state, samples in seen.items():
+        assert samples, f"no step with the thread {hook_state} on the hook"
+        for thread, k, xh, s, prev, state, now in samples:
+            ends = [thread.settle(k, xh + d, s, prev, state) for d in (h, -h)]
+            if any(e.state != now.state for e in ends):
+                continue  # a contact changes its state within the difference
+            f = [e.T[cs - 1] * e.ga + e.T[cs] * e.gb for e in ends]
+            numeric = -(f[0] - f[1]) / (2 * h)
+            exact = tension._hook_stiffness(now, cs, pb.friction)
+            assert exact == pytest.approx(numeric, rel=1e-6, abs=1e-6), (hook_state, exact, numeric)
+            arrays = {name: np.array([getattr(now, name)]) for name in tension._Step.__dataclass_fields__}
+            arrays["first"], arrays["w"] = tension_many._runs(arrays["state"], arrays["r"])[1:]
+            many = tension_many._hook_stiffness(
+                tension_many._Now(**arrays), cs, np.array([now.state[0] != 0]), np.array([pb.friction])
+            )
+            assert many[0] == pytest.approx(exact, rel=1e-12, abs=1e-9)
+            checked += 1
+    assert checked >= 60
+
+
+def test_a_tension_studys_tasks_each_take_a_share_of_the_whole_study_and_give_each_variant_its_own(tmp_path):
+    """The few large tasks of a study stepped together are dealt blocks of variants from
+    across the study (their costs alike where they follow a parameter), and each variant's
+    row is still its own: what needle_tension gives the head with its numbers."""
+    from mjlink.analysis.tension import needle_tension
+    from mjlink.api import read_study, run_study
+    from mjlink.study.engine import reference_order
+
+    f = tmp_path / "t.toml"
+    f.write_text(
+        """[study]
+mechanism = "lockstitch_head"
+title = "t"
+angles = 180
+[sampling]
+method = "grid"
+[verify]
+mujoco = "none"
+[[parameter]]
+path = "tension.needle_tension"
+values = [1.0, 1.3, 1.6, 1.9, 2.2, 2.5]
+[[parameter]]
+path = "input.speed"
+values = [209.44, 314.159, 418.879, 523.599]
+[[metric]]
+kind = "tension"
+"""
+    )
+    study = load(f)
+    n = len(study.values())
+    cut, order = reference_chunks(study, n), reference_order(study, n)
+    assert len(cut) >= 2 and order is not None
+    assert sorted(order.tolist()) == list(range(n))
+    for a, b in cut:
+        held = order[a:b]
+        assert held.min() < n // 3 and held.max() >= n - n // 3, (a, b, held)  # from across the study
+    run_study(f, tmp_path / "out", workers=0, plots=False)
+    table = read_study(tmp_path / "out" / "t-study")
+    base = mechanism.load(HEAD)
+    for i in range(n):
+        nt, w = float(table["tension.needle_tension_N"][i]), float(table["input.speed_rad_s"][i])
+        own = dataclasses.replace(base, speed=w, tension=dataclasses.replace(DEFAULTS, needle_tension=nt))
+        expected = needle_tension(own, head_timing(own, samples=180), samples=180)
+        assert float(table["tension_peak_N"][i]) == pytest.approx(expected.peak, rel=1e-6)

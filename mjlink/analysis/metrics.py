@@ -29,7 +29,7 @@ from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
 from ..model.mechanism import Mechanism
 from ..reference.batch import Batch
 from ..reference.kinematics import angle_ranges
-from . import kinematic_metrics, load_metrics, motion, tension, timing
+from . import kinematic_metrics, load_metrics, motion, tension_metric, timing
 from .metric_base import AtSpeed, Column, Curve, Loads, Metric, MetricError, MetricLimitError
 
 __all__ = [
@@ -48,7 +48,7 @@ __all__ = [
     "load_metrics",
     "motion",
     "read",
-    "tension",
+    "tension_metric",
     "timing",
 ]
 

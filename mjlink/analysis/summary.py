@@ -22,7 +22,8 @@ from ..model import paths
 from ..model.mechanism import Mechanism
 from ..reference import batch
 from . import key_point, mass_centres, metrics
-from .tension import NeedleTension, TensionMetric
+from .tension import NeedleTension
+from .tension_metric import TensionMetric
 
 PER_TURN = 360  # crank angles per input turn of the summary's reference
 

@@ -30,24 +30,20 @@ the fabric), the bobbin thread's pull at the interlacing, the loop's shape in th
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
 
 import numpy as np
 
 from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
 from ..model.timing import StitchType
-from ..reference.batch import Batch
 from ..units import MM
-from .metric_base import Column, Curve, Loads, MetricError
 from .stitch import _between
-from .timing import HeadTiming, TimingChecks
+from .timing import HeadTiming
 
-__all__ = ["NeedleTension", "TensionError", "TensionMetric", "disc_hold", "needle_tension", "of_head"]
+__all__ = ["NeedleTension", "TensionError", "disc_hold", "needle_tension", "of_head"]
 
 TOL = 1e-9  # a contact holds while its tension ratio is within this of its capstan bound
 TINY = 1e-9  # N: tensions this small count as none
@@ -188,11 +184,18 @@ def _stretched(ea: float, T: float, L: float) -> float:
 def _scale(ea: float, w: list[float], L: list[float], total: float) -> float:
     """N: the tension scale ``t`` of a run of stretches whose tensions are ``t * w`` over paths
     ``L`` with ``total`` m of stretch between them (> 0): Newton on the run's stretch, which
-    grows and bends down with ``t``, from the small-strain value below the root (monotone)."""
-    t = ea * total / sum(wi * Li for wi, Li in zip(w, L, strict=True))
+    grows and bends down with ``t`` (so Newton's steps lie below the root after the first),
+    from the root of the stretch to second order in the strain, ``A t - B t^2``."""
+    wl = [wi * Li for wi, Li in zip(w, L, strict=True)]
+    A = sum(wl) / ea
+    B = sum(wi * x for wi, x in zip(w, wl, strict=True)) / (ea * ea)
+    t = 2.0 * total / (A + math.sqrt(max(A * A - 4.0 * B * total, 0.0)))
     for _ in range(60):
-        f = sum(t * wi * Li / (ea + t * wi) for wi, Li in zip(w, L, strict=True)) - total
-        df = sum(ea * wi * Li / (ea + t * wi) ** 2 for wi, Li in zip(w, L, strict=True))
+        f, df = -total, 0.0
+        for wi, x in zip(w, wl, strict=True):
+            a = ea + t * wi
+            f += t * x / a
+            df += ea * x / (a * a)
         step = f / df
         t -= step
         if abs(step) <= 1e-14 * t:
@@ -269,43 +272,68 @@ def _settle(
     raise RuntimeError("the thread's contacts found no consistent state")
 
 
-def _hook_stiffness(
-    s: list[float], c: list[float], r: list[float], state: list[int], j: int, ga: float, gb: float
-) -> float:
+def _hook_stiffness(now: _Step, j: int, friction: float) -> float:
     """N/m: how much harder the thread pulls the hook at contact ``j`` (between stretches j-1
-    and j) along its travel per metre it moves there, the contacts' states held: the hook's
-    move shortens the stretch before it by ``ga`` and the one after by ``gb`` per metre, each
-    run of stretches between holding contacts shares one tension scale over its thread (none
-    where the discs slide: they pay out at their hold; none where the run is slack)."""
-    n = len(s)
+    and j) along its travel per metre it moves there, the contacts' states held (the exact
+    derivative, so that the spring's Newton steps converge quadratically).
 
-    def run(i: int) -> tuple[int, int]:
-        a = i
-        while a > 0 and state[a] != 0:
-            a -= 1
-        b = i
-        while b + 1 < n and state[b + 1] != 0:
-            b += 1
-        return a, b
+    The hook's move shortens the stretch before it by ``ga`` and the one after by ``gb`` per
+    metre and turns both (the tension times each stretch's bend); each run of stretches between
+    holding contacts keeps its thread and shares one tension scale ``t`` (``T = t * w``), its
+    stretches each ``t * w * L / (EA + t * w)``; where the thread slides over the hook, the
+    capstan bound there changes with the wrap, so the weights beyond it do too. A run the discs
+    pay out keeps their hold; a slack run pulls with nothing."""
+    s, c, L, r, state, T, ga, gb = now.s, now.c, now.L, now.r, now.state, now.T, now.ga, now.gb
+    n, i, k = len(s), j - 1, j
+    out = T[i] * (1.0 - ga * ga) / L[i] + T[k] * (1.0 - gb * gb) / L[k]
+    short_a, short_b = ga * (1.0 - s[i] / L[i]), gb * (1.0 - s[k] / L[k])
+    first = i
+    while first > 0 and state[first] != 0:
+        first -= 1
+    last = k
+    while last + 1 < n and state[last + 1] != 0:
+        last += 1
+    pays = state[0] != 0  # a run from the discs paying out keeps their hold
 
-    def weights(a: int, b: int) -> list[float]:
-        w = [1.0]
-        for k in range(a + 1, b + 1):
-            w.append(w[-1] * (r[k] if state[k] > 0 else 1.0 / r[k]))
-        return w
+    def run(a: int, b: int) -> tuple[float, float, float, float, float]:
+        """The run a..b's weights (relative to its first stretch) of the stretches either side
+        of the hook, its compliance, its stretch and its compliance from the hook on."""
+        w = 1.0
+        at_i = at_k = compliance = total = beyond = 0.0
+        for m in range(a, b + 1):
+            if m > a:
+                w *= r[m] if state[m] > 0 else 1.0 / r[m]
+            compliance += w / c[m]
+            total += s[m]
+            if m >= k:
+                beyond += w / c[m]
+            if m == i:
+                at_i = w
+            elif m == k:
+                at_k = w
+        return at_i, at_k, compliance, total, beyond
 
-    def part(a: int, b: int, moved: dict[int, float]) -> float:
-        if (a == 0 and state[0] != 0) or sum(s[a : b + 1]) <= 0.0:
-            return 0.0
-        w = weights(a, b)
-        compliance = sum(w[i - a] / c[i] for i in range(a, b + 1))
-        g = sum(w[i - a] * moved[i] for i in moved)
-        return g * g / compliance
-
-    ra, rb = run(j - 1), run(j)
-    if ra == rb:
-        return part(*ra, {j - 1: ga, j: gb})
-    return part(*ra, {j - 1: ga}) + part(*rb, {j: gb})
+    if state[k] == 0:
+        # The thread holds on the hook: the runs either side each feel their own stretch.
+        wa, _, ca, ta, _ = run(first, i)
+        if ta > 0.0 and not (first == 0 and pays):
+            out += ga * wa * short_a / ca
+        _, wb, cb, tb, _ = run(k, last)
+        if tb > 0.0:
+            out += gb * wb * short_b / cb
+        return out
+    wa, wb, compliance, total, beyond = run(first, last)
+    if total <= 0.0:
+        return out
+    dw = 0.0  # the weights from the hook on turn with the wrap, each by its own share
+    if friction > 0.0:
+        wrap = math.log(r[k]) / friction
+        if math.sin(wrap) > TINY:
+            dcos = gb / L[i] + ga / L[k] + math.cos(wrap) * (ga / L[i] + gb / L[k])
+            dw = -state[k] * friction * dcos / math.sin(wrap)
+    t = T[first]
+    dt = 0.0 if first == 0 and pays else -(short_a + short_b + t * dw * beyond) / compliance
+    return out - (ga * wa * dt + gb * wb * (dt + t * dw))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -681,7 +709,7 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
                     T = now.T
                     f = T[cs - 1] * now.ga + T[cs] * now.gb
                     g = inertia * (xh - x - dt * v) + damp * (xh - x) + pb.force + k_s * xh - f
-                    stiff = inertia + damp + k_s + _hook_stiffness(now.s, now.c, now.r, now.state, cs, now.ga, now.gb)
+                    stiff = inertia + damp + k_s + _hook_stiffness(now, cs, pb.friction)
                     nxt = min(max(xh - g / stiff, 0.0), travel)
                     if abs(nxt - xh) <= SPRING_TOL:
                         break
@@ -716,74 +744,3 @@ def periodic(feds: list[float]) -> int:
         if len(feds) >= 2 * p and all(abs(feds[-i] - feds[-i - p]) <= PERIODIC for i in range(1, p + 1)):
             return p
     return 0
-
-
-class TensionMetric(TimingChecks):
-    """A lockstitch head's needle thread under tension, per variant (:func:`needle_tension` at
-    the variant's speed and [tension] numbers, on the study's crank angles): ``tension_peak``
-    N, ``tension_margin`` (the breaking load over the peak), ``tension_per_stitch`` mm (drawn
-    through the discs), ``tension_slack`` deg (of the stitch with the thread below the eye
-    slack: a loop), ``tension_spring`` mm (the check spring's largest travel),
-    ``tension_periodic`` (1 where the stitch reached its periodic state) and ``tension_period``
-    (1, or 2 where the stitches alternate; 0 without a periodic state)."""
-
-    kind = "tension"
-    options = ()
-    together = 256  # stepped at once (:mod:`.tension_many`): a task of this many costs least per variant
-
-    def read(self, raw: dict[str, Any]) -> None:
-        tm, bal = self.mech.timing, self.mech.balance
-        if tm is None or bal is None or not self.mech.thread or tm.stitch is not StitchType.LOCKSTITCH:
-            raise MetricError(
-                f"{self.where}: {self.mech.name} is not a lockstitch head with [timing], [thread] and [balance] "
-                "tables (docs/head.md, The thread under tension)"
-            )
-        self.maker, self.tag = tm.target, ""
-
-    COLUMNS: ClassVar[tuple[Column, ...]] = (
-        Column("tension_peak", "N", "the needle thread's largest tension over the stitch"),
-        Column("tension_margin", "", "the thread's breaking load over its peak tension"),
-        Column("tension_per_stitch", "mm", "needle thread drawn through the discs per stitch"),
-        Column("tension_slack", "deg", "of the stitch the thread below the eye is slack (a loop)"),
-        Column("tension_spring", "mm", "the check spring's largest travel"),
-        Column("tension_periodic", "", "1 if the stitch reached its periodic state"),
-        Column("tension_period", "", "stitches after which the thread's state repeats (2: alternating; 0: none)"),
-    )
-
-    def columns(self) -> list[Column]:
-        return list(self.COLUMNS)
-
-    def _tensions(self, b: Batch) -> list[tuple[HeadTiming, NeedleTension]]:
-        from .tension_many import step_many  # it steps this module's problems
-
-        heads, problems = [], []
-        for head, bal, _, own in self.variants(b):
-            whole = dataclasses.replace(head, balance=bal)
-            heads.append(whole)
-            problems.append(prepare(own, whole, samples=len(head.theta)))
-        return list(zip(heads, step_many(problems), strict=True))
-
-    def compute(self, b: Batch, nominal: Batch, loads: Loads) -> dict[str, np.ndarray]:
-        rows = []
-        for _, t in self._tensions(b):
-            rows.append(
-                [
-                    t.peak,
-                    t.margin,
-                    t.per_stitch * 1e3,
-                    float(t.slack.mean()) * 360.0,
-                    float(t.spring.max()) * 1e3,
-                    float(t.converged),
-                    float(t.period),
-                ]
-            )
-        out = np.array(rows, dtype=float).reshape(b.variants, 7)
-        return {c.name: out[:, j] for j, c in enumerate(self.columns())}
-
-    def curve(self, b: Batch, loads: Loads) -> Curve | None:
-        """The largest tension of any stretch over the stitch, N."""
-        values = np.full((b.variants, b.angles), np.nan)
-        for i, (head, t) in enumerate(self._tensions(b)):
-            assert head.order is not None
-            values[i, head.order] = t.tension.max(axis=0)
-        return Curve("needle thread: largest tension", "N", values)

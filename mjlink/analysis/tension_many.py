@@ -53,9 +53,10 @@ def _pull(ea: np.ndarray, s: np.ndarray, L: np.ndarray) -> np.ndarray:
 
 def _solve(
     s: np.ndarray, L: np.ndarray, ea: np.ndarray, r: np.ndarray, hold: np.ndarray, state: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The stretches and the discs' feed for the contacts' ``state`` held (one pass of
-    :func:`.tension._settle`'s loop): ``ea`` and ``hold`` (V, 1)."""
+    :func:`.tension._settle`'s loop): ``ea`` and ``hold`` (V, 1); and the runs' ``first`` and
+    ``w`` (:func:`_runs`)."""
     same, first, w = _runs(state, r)
     total = _in_run(same, s)
     discs = (first == 0) & (state[:, :1] != 0)
@@ -65,8 +66,10 @@ def _solve(
         # A run paying out of the discs is at their hold.
         held = hold * w
         new_discs = held * L / (ea + held)
-        # A taut run shares one tension scale over its thread: Newton from below the root.
-        t = np.where(taut, ea * total / np.where(taut, _in_run(same, wL), 1.0), 1.0)
+        # A taut run shares one tension scale over its thread: Newton from the root of its
+        # stretch to second order in the strain (:func:`.tension._scale`).
+        A, B = _in_run(same, wL) / ea, _in_run(same, w * wL) / (ea * ea)
+        t = np.where(taut, 2.0 * total / (A + np.sqrt(np.maximum(A * A - 4.0 * B * total, 0.0))), 1.0)
         for _ in range(_NEWTON):
             a = ea + t * w
             f = _in_run(same, t * wL / a) - total
@@ -81,22 +84,25 @@ def _solve(
         new_slack = np.where(s < 0.0, s * total / np.where(loose < 0.0, loose, -1.0), 0.0)
     new = np.where(discs, new_discs, np.where(taut, new_taut, new_slack))
     fed = np.where(discs[:, 0], total[:, 0] - _in_run(same, new)[:, 0], 0.0)
-    return new, fed
+    return new, fed, first, w
 
 
 def _settle(
     s: np.ndarray, L: np.ndarray, ea: np.ndarray, r: np.ndarray, hold: np.ndarray, state: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`.tension._settle` for V threads at once: ``s``, ``L``, ``r``, ``state`` (V, Z)
-    (``state`` updated in place), ``ea`` and ``hold`` (V, 1). Each thread changes its contact
+    (``state`` updated in place), ``ea`` and ``hold`` (V, 1); with the new stretches and feed,
+    the runs' ``first`` and ``w`` (:func:`_runs`) in the state found. Each thread changes its contact
     most out of its state, one a pass, until none is; the ones done leave the passes."""
     V, Z = s.shape
     new_all = np.empty_like(s)
     fed_all = np.zeros(V)
+    first_all = np.empty(s.shape, dtype=np.int64)
+    w_all = np.empty_like(s)
     todo = np.arange(V)
     for _ in range(16 * Z):
         sv, Lv, eav, rv, hv, st = s[todo], L[todo], ea[todo], r[todo], hold[todo], state[todo]
-        new, fed = _solve(sv, Lv, eav, rv, hv, st)
+        new, fed, first, w = _solve(sv, Lv, eav, rv, hv, st)
         T = _pull(eav, new, Lv)
         e = eav[:, 0]
         score = np.zeros((len(todo), Z + 1))
@@ -123,18 +129,20 @@ def _settle(
         done = ~moves
         new_all[todo[done]] = new[done]
         fed_all[todo[done]] = fed[done]
+        first_all[todo[done]] = first[done]
+        w_all[todo[done]] = w[done]
         which = todo[moves]
         state[which, np.where(worst[moves] == Z, 0, worst[moves])] = to[rows[moves], worst[moves]]
         todo = which
         if not len(todo):
-            return new_all, fed_all
+            return new_all, fed_all, first_all, w_all
     raise RuntimeError("the thread's contacts found no consistent state")
 
 
 @dataclass(kw_only=True)
 class _Now:
     """V threads' equilibrium in one step (:class:`.tension._Step` as (V, Z) arrays; ``fed``,
-    ``ga`` and ``gb`` (V,))."""
+    ``ga`` and ``gb`` (V,)), with its runs' ``first`` and ``w`` (:func:`_runs`)."""
 
     L: np.ndarray
     r: np.ndarray
@@ -145,10 +153,12 @@ class _Now:
     fed: np.ndarray
     ga: np.ndarray
     gb: np.ndarray
+    first: np.ndarray
+    w: np.ndarray
 
     def put(self, at: np.ndarray, other: _Now) -> None:
         """Replaces the threads ``at`` by ``other``'s."""
-        for name in ("L", "r", "c", "T", "s", "state", "fed", "ga", "gb"):
+        for name in self.__dataclass_fields__:
             getattr(self, name)[at] = getattr(other, name)
 
 
@@ -190,10 +200,10 @@ class _Batch:
         gb = np.einsum("ij,ij->i", ub, d) / lb
         st = state.copy()
         ea = self.ea[at]
-        moved, fed = _settle(s + (L - prev), L, ea, r, self.hold[at], st)
+        moved, fed, first, w = _settle(s + (L - prev), L, ea, r, self.hold[at], st)
         taut = moved > 0.0
         c = np.where(taut, ea * L / np.where(taut, L - moved, 1.0) ** 2, ea / L)
-        return _Now(L=L, r=r, c=c, T=_pull(ea, moved, L), s=moved, state=st, fed=fed, ga=ga, gb=gb)
+        return _Now(L=L, r=r, c=c, T=_pull(ea, moved, L), s=moved, state=st, fed=fed, ga=ga, gb=gb, first=first, w=w)
 
     def lengths_at(self, at: np.ndarray, k: np.ndarray, xh: np.ndarray) -> np.ndarray:
         """(V, Z) m: the threads' ``at`` path lengths at step ``k`` with the hook at ``xh``."""
@@ -206,22 +216,37 @@ class _Batch:
         return L
 
 
-def _hook_stiffness(now: _Now, cs: int, pays: np.ndarray) -> np.ndarray:
-    """:func:`.tension._hook_stiffness` for V threads (N/m, (V,)): each run of stretches next to
-    the hook, between holding contacts, adds its share unless the discs pay it out or it is
-    slack; ``pays`` (V,) whether the discs pay out."""
-    same, first, w = _runs(now.state, now.r)
-    compliance = _in_run(same, w / now.c)
-    slack = _in_run(same, now.s)
-    live = (slack > 0.0) & ~((first == 0) & pays[:, None])
+def _hook_stiffness(now: _Now, cs: int, pays: np.ndarray, friction: np.ndarray) -> np.ndarray:
+    """:func:`.tension._hook_stiffness` for V threads (N/m, (V,)): ``pays`` (V,) whether the
+    discs pay out, ``friction`` (V,) the thread's coefficient."""
+    first, w = now.first, now.w
+    Z = w.shape[1]
     a, b = cs - 1, cs
-    ga, gb = w[:, a] * now.ga, w[:, b] * now.gb
+    T, L, s, c, ga, gb = now.T, now.L, now.s, now.c, now.ga, now.gb
+    bend = T[:, a] * (1.0 - ga * ga) / L[:, a] + T[:, b] * (1.0 - gb * gb) / L[:, b]
+    in_a, in_b = first == first[:, a : a + 1], first == first[:, b : b + 1]  # (V, Z) each run's stretches
+    wc = w / c
+    compliance_a, compliance_b = np.sum(wc, axis=1, where=in_a), np.sum(wc, axis=1, where=in_b)
+    live_a, live_b = np.sum(s, axis=1, where=in_a) > 0.0, np.sum(s, axis=1, where=in_b) > 0.0
+    held_a, held_b = (first[:, a] == 0) & pays, (first[:, b] == 0) & pays  # the discs pay out: it stays
+    t = np.take_along_axis(T, first[:, a : a + 1], axis=1)[:, 0]
     joined = now.state[:, b] != 0
-    both = np.where(live[:, a], (ga + gb) ** 2 / compliance[:, a], 0.0)
-    apart = np.where(live[:, a], ga * ga / compliance[:, a], 0.0) + np.where(
-        live[:, b], gb * gb / compliance[:, b], 0.0
-    )
-    out: np.ndarray = np.where(joined, both, apart)
+    short_a, short_b = ga * (1.0 - s[:, a] / L[:, a]), gb * (1.0 - s[:, b] / L[:, b])
+    # Apart: each run its own stretch.
+    out: np.ndarray = bend + np.where(~joined & live_a & ~held_a, ga * w[:, a] * short_a / compliance_a, 0.0)
+    out += np.where(~joined & live_b & ~held_b, gb * w[:, b] * short_b / compliance_b, 0.0)
+    if not joined.any():
+        return out
+    # Joined: one run over both stretches, whose weights from the hook on turn with the wrap.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wrap = np.where(joined & (friction > 0.0), np.log(now.r[:, b]) / np.where(friction > 0.0, friction, 1.0), 0.0)
+        turning = joined & (np.sin(wrap) > TINY)
+        dcos = gb / L[:, a] + ga / L[:, b] + np.cos(wrap) * (ga / L[:, a] + gb / L[:, b])
+        dw = np.where(turning, -now.state[:, b] * friction * dcos / np.where(turning, np.sin(wrap), 1.0), 0.0)
+        beyond = np.sum(wc, axis=1, where=in_b & (np.arange(Z) >= b))
+        dt = np.where(held_a, 0.0, -(short_a + short_b + t * dw * beyond) / compliance_a)
+        both = -(ga * w[:, a] * dt + gb * w[:, b] * (dt + t * dw))
+    out += np.where(joined & live_a, both, 0.0)
     return out
 
 
@@ -305,6 +330,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
         ordr = order[live]
         tr, dtv, ks, fs = travel[live], dt[live], k_s[live], force[live]
         inr, dmp = inertia[live], damp[live]
+        fr = g.friction[live, 0]
         sprung = tr > 0.0
         for stepno in range(n):
             k = ordr[:, stepno]
@@ -327,7 +353,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
                 resid = (
                     inr[at] * (xh[at] - xa - dtv[at] * va) + dmp[at] * (xh[at] - xa) + fs[at] + ks[at] * xh[at] - f_hook
                 )
-                stiff = inr[at] + dmp[at] + ks[at] + _hook_stiffness(sub, cs, sub.state[:, 0] != 0)
+                stiff = inr[at] + dmp[at] + ks[at] + _hook_stiffness(sub, cs, sub.state[:, 0] != 0, fr[at])
                 nxt = np.minimum(np.maximum(xh[at] - resid / stiff, 0.0), tr[at])
                 still = np.abs(nxt - xh[at]) > SPRING_TOL
                 newton[at[~still]] = False

@@ -41,6 +41,10 @@ from .tasks import Evaluated, StudyWorker, Verified, mujoco_chunk, reference_chu
 REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
 MUJOCO_CHUNK = (4, 128)  # variants per MuJoCo task (one rollout of that many models)
 TOGETHER_PARTS = 4  # reference tasks at least of a study whose metric steps its variants together
+# Blocks of consecutive variants each of those tasks draws from, spread over the study: its few
+# large tasks then cost alike where the variants' costs follow a parameter (a head's thread
+# settles slower at a higher tension), and neighbours (one head's geometry) stay together.
+DEALT = 8
 PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx", "inproc")  # Dask's address schemes
 
 
@@ -56,7 +60,7 @@ class SchedulerError(EngineError, InputError):
 def chunking(study: Study) -> dict[str, list[int]]:
     """How variants are cut (the cache records it: another cut makes other chunks)."""
     together = max((m.together for m in study.metrics), default=1)
-    return {"reference": [*REFERENCE_CHUNK, together], "mujoco": list(MUJOCO_CHUNK)}
+    return {"reference": [*REFERENCE_CHUNK, together, DEALT], "mujoco": list(MUJOCO_CHUNK)}
 
 
 ADDRESS = re.compile(
@@ -94,6 +98,20 @@ def reference_chunks(study: Study, n: int) -> list[tuple[int, int]]:
     lo, hi = REFERENCE_CHUNK
     together = max((m.together for m in study.metrics), default=1)
     return chunks(n, (int(min(hi, max(lo, min(together, -(-n // TOGETHER_PARTS))))), hi))
+
+
+def reference_order(study: Study, n: int) -> np.ndarray | None:
+    """The order the reference's tasks take ``n`` variants of ``study`` in (:func:`reference_chunks`
+    cuts it; None: the study's own). A study whose metric steps its variants together, in a few
+    large tasks, deals them blocks of consecutive variants in turn, :data:`DEALT` blocks a
+    task: each task holds a share of every part of the study."""
+    cut = reference_chunks(study, n)
+    if max((m.together for m in study.metrics), default=1) <= 1 or len(cut) < 2:
+        return None
+    block = -(-(cut[0][1] - cut[0][0]) // DEALT)
+    i = np.arange(n)
+    order: np.ndarray = np.lexsort((i, (i // block) % len(cut)))
+    return order
 
 
 @dataclass
@@ -222,6 +240,8 @@ def _run(
 ) -> Outcome:
     V = len(values)
     ref_chunks = reference_chunks(study, V)
+    order = reference_order(study, V)
+    dealt = values if order is None else values[order]
     resumed = 0
     results: dict[tuple[int, int], Evaluated] = {}
     todo = []
@@ -246,10 +266,12 @@ def _run(
             progress("reference", done, V)
 
     with timing.stage("reference"):
-        _map(client, reference_chunk, study, values, todo, ref_done, {})
-    cols = {c.name: np.concatenate([results[k].columns[c.name] for k in ref_chunks]) for c in study.columns}
-    feasible = np.concatenate([results[k].feasible for k in ref_chunks])
-    reason = tuple(r for k in ref_chunks for r in results[k].reason)
+        _map(client, reference_chunk, study, dealt, todo, ref_done, {})
+    back = np.arange(V) if order is None else np.argsort(order)  # the study's order again
+    cols = {c.name: np.concatenate([results[k].columns[c.name] for k in ref_chunks])[back] for c in study.columns}
+    feasible = np.concatenate([results[k].feasible for k in ref_chunks])[back]
+    reasons = [r for k in ref_chunks for r in results[k].reason]
+    reason = tuple(reasons[i] for i in back.tolist())
 
     chosen = select(study, cols, feasible)
     verified = np.full(V, -1, dtype=np.int8)

@@ -74,6 +74,9 @@ CALIBRATION_RUNS = 3
 # stepped to its periodic state) calibrates on as few of them as fit, at least one, traced once
 # and timed once, rather than spend on the estimate a good part of what the study itself costs.
 CALIBRATION_SECONDS = 2.0
+# How many times longer a call takes traced by tracemalloc than not, at most (a thread's
+# tension, stepped in plain floats, every float an allocation traced; array code much less).
+TRACING = 15.0
 
 
 class PlanError(InputError):
@@ -218,9 +221,10 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     than fit, traced once and timed, in :data:`CALIBRATION_SECONDS` by the first variant's
     cost) here: the first call at the nominal values (an optimization's nominal design, the
     middle of its ranges where it has none), then a sampled study's own variants spread over
-    them, or an optimization's first generation. Traced and timed (the fastest of
+    them, or an optimization's first generation. Timed (the fastest of
     :data:`CALIBRATION_RUNS` where they fit, else one; a variant that alone costs more than
-    the budget by its first call); with ``mujoco``, verify one in MuJoCo, timed."""
+    the budget by its first call), then traced once, on as many of them as fit in the budget
+    at :data:`TRACING` times that cost; with ``mujoco``, verify one in MuJoCo, timed."""
     angles = len(angle_grid(study.mechanism, study.per_turn))
     per_task = budget(study).per_generation if study.optimize is not None else min(study.samples, REFERENCE_CHUNK[1])
     n = max(CALIBRATION_VARIANTS, min(per_task, CALIBRATION_ROWS // angles))
@@ -257,15 +261,19 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     elif first * n * (1 + runs) > CALIBRATION_SECONDS:
         n = max(1, int(CALIBRATION_SECONDS / (first * (1 + runs))))
     values = values[:n] if own is None else own[_spread(len(own), n)]
-    tracemalloc.start()
-    try:
-        reference_chunk(study, values)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
     # Timed without the tracing (which slows every allocation), the fastest of a few: a single
     # short run on a shared machine is as often slowed by a neighbour as it is representative.
     seconds = _fastest(lambda: reference_chunk(study, values), runs) if runs else first
+    # Traced once, on as many of them as the budget allows at the tracing's cost (at least
+    # one): the memory a row needs, the call's own shared by fewer rows, can only come out
+    # larger.
+    traced = n if not runs else max(1, min(n, int(n * CALIBRATION_SECONDS / (TRACING * seconds))))
+    tracemalloc.start()
+    try:
+        reference_chunk(study, values[:traced])
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
     polish = math.nan
     m = polish_batch(len(study.varied)) * budget(study).samples if study.optimize is not None else 0
     if study.optimize is not None and budget(study).polish and m * angles <= CALIBRATION_ROWS:
@@ -284,7 +292,7 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
             study.mechanism.speed,
         )
         model_steps = _steps.verify_steps(study.mechanism.period, speed)
-    return Calibration(seconds / rows, peak / rows, model, model_steps, polish)
+    return Calibration(seconds / rows, peak / (traced * angles), model, model_steps, polish)
 
 
 def _spread(V: int, n: int) -> np.ndarray:
