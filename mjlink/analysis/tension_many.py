@@ -15,11 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .tension import MOST_NEWTON, SPRING_TOL, TINY, TINY_M, TOL, Carry, NeedleTension, Problem, periodic, step
+from .tension import _settle as _settle_one
 
 __all__ = ["step_many"]
 
 _NEWTON = 60  # a run's tension scale: Newton steps at most (the scalar's bound)
 ALONE = 24  # threads still stepping at a stitch's end at most for the plain twin to take them over
+FEW = 8  # threads still changing their contacts at most for a step's passes to go on one by one
 TOGETHER = 48  # threads at least for an array step to cost less than the twin's (bench/bench_tension.py)
 
 
@@ -134,6 +136,17 @@ def _settle(
         which = todo[moves]
         state[which, np.where(worst[moves] == Z, 0, worst[moves])] = to[rows[moves], worst[moves]]
         todo = which
+        if 0 < len(todo) <= FEW:
+            # The few threads whose contacts still change take the plain passes from here:
+            # the same decisions, without an array pass's own cost.
+            for i in todo.tolist():
+                st_i = state[i].tolist()
+                new_i, fed_all[i] = _settle_one(
+                    s[i].tolist(), L[i].tolist(), float(ea[i, 0]), r[i].tolist(), float(hold[i, 0]), st_i
+                )
+                new_all[i], state[i] = new_i, st_i
+            _, first_all[todo], w_all[todo] = _runs(state[todo], r[todo])
+            return new_all, fed_all, first_all, w_all
         if not len(todo):
             return new_all, fed_all, first_all, w_all
     raise RuntimeError("the thread's contacts found no consistent state")
