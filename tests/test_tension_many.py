@@ -24,6 +24,16 @@ HEAD = shipped("mechanisms") / "lockstitch_head.toml"
 # search of needle tension (N) and check-spring rate (N/m); the tests below check it from
 # outside the detection.
 ALTERNATING = {"needle_tension": 2.2415538907306627, "spring_rate": 30.459956818458064}
+# A grid study of the shipped head without MuJoCo, its parameters and metrics to follow.
+GRID = """[study]
+mechanism = "lockstitch_head"
+title = "t"
+angles = {angles}
+[sampling]
+method = "grid"
+[verify]
+mujoco = "none"
+"""
 
 
 @pytest.fixture(scope="module")
@@ -122,20 +132,15 @@ def test_the_shipped_head_can_alternate_its_stitches(head):
 def test_a_tension_study_steps_its_variants_in_large_tasks(tmp_path):
     """A study whose metric steps its variants at once cuts them into tasks of up to that
     many, four at least where there are enough; others keep about sixteen."""
-    body = """[study]
-mechanism = "lockstitch_head"
-title = "t"
-angles = 720
-[sampling]
-method = "grid"
-[verify]
-mujoco = "none"
-[[parameter]]
+    body = (
+        GRID.format(angles=720)
+        + """[[parameter]]
 path = "tension.needle_tension"
 values = [{values}]
 [[metric]]
 kind = "{kind}"
 """
+    )
     for n, kind, tasks in ((1000, "tension", 4), (27, "tension", 4), (8, "tension", 1), (1000, "timing", 16)):
         f = tmp_path / f"{kind}{n}.toml"
         f.write_text(body.format(values=", ".join(str(1.0 + i * 1e-3) for i in range(n)), kind=kind))
@@ -200,15 +205,8 @@ def test_a_tension_studys_tasks_each_take_a_share_of_the_whole_study_and_give_ea
 
     f = tmp_path / "t.toml"
     f.write_text(
-        """[study]
-mechanism = "lockstitch_head"
-title = "t"
-angles = 180
-[sampling]
-method = "grid"
-[verify]
-mujoco = "none"
-[[parameter]]
+        GRID.format(angles=180)
+        + """[[parameter]]
 path = "tension.needle_tension"
 values = [1.0, 1.3, 1.6, 1.9, 2.2, 2.5]
 [[parameter]]

@@ -94,8 +94,9 @@ def _settle(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`.tension._settle` for V threads at once: ``s``, ``L``, ``r``, ``state`` (V, Z)
     (``state`` updated in place), ``ea`` and ``hold`` (V, 1); with the new stretches and feed,
-    the runs' ``first`` and ``w`` (:func:`_runs`) in the state found. Each thread changes its contact
-    most out of its state, one a pass, until none is; the ones done leave the passes."""
+    the runs' ``first`` and ``w`` (:func:`_runs`) in the state found. Each thread changes its
+    contact most out of its state, one a pass, until none is; the ones done leave the passes,
+    and the last :data:`FEW` finish theirs one by one."""
     V, Z = s.shape
     new_all = np.empty_like(s)
     fed_all = np.zeros(V)

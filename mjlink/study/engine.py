@@ -14,8 +14,10 @@ An optimization's generations, small batches one after the other, go to :class:`
 study held by an actor on every worker, called straight from the client.
 
 The reference is elementwise over variants, so its results are identical bit for bit whatever
-the engine and the chunking; MuJoCo's are within the thresholds (a rollout does not depend on
-its batch either, but the engine does not promise more than the thresholds).
+the engine and the chunking, but for a metric that steps its variants together (the thread's
+tension), whose arithmetic in another order agrees to rounding; MuJoCo's are within the
+thresholds (a rollout does not depend on its batch either, but the engine does not promise more
+than the thresholds).
 """
 
 from __future__ import annotations
