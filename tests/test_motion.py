@@ -98,6 +98,33 @@ def test_the_needles_velocity_as_it_passes_the_fabric_is_the_plain_solutions(spe
         assert np.allclose(cols["v_down"], -ccw["v_up"], rtol=1e-9)
 
 
+@pytest.mark.parametrize(("origin", "direction"), [("min", "down"), ("max", "up")])
+def test_a_height_from_the_points_own_extreme_is_the_plain_solutions(origin, direction):
+    """``from = "min"``: the needle point 12.5 mm above its own bottom dead centre, wherever a
+    variant puts that centre (``"max"``: 12.5 mm below its top). The head's needle bar is an
+    in-line crank-slider with the crank's pivot on its line, so the point's lowest and highest
+    heights are -(r + l + NT) and -(l - r + NT) in closed form (NT the point 43.65 mm under the
+    bar's joint); the crossing is then found by the plain root-finder."""
+    offset = 12.5 if origin == "min" else -12.5
+    cols = _evaluate(
+        [
+            {
+                "kind": "motion",
+                "name": "v",
+                "point": "NT",
+                "quantity": "velocity",
+                "axis": "y",
+                "event": {"height": offset, "from": origin, "direction": direction},
+            }
+        ]
+    )
+    for i, r in enumerate(CRANKS):
+        extreme = -(r + ROD + 43.65) if origin == "min" else -(ROD - r + 43.65)
+        mech = _variant(r)
+        phi = _first_crossing(mech, "NT", (extreme + offset) * 1e-3, direction == "down", W)
+        assert cols["v"][i] == pytest.approx(_y(mech, "NT", phi, 1) * W, rel=1e-9), r
+
+
 def test_an_event_that_does_not_happen_gives_nan():
     cols = _evaluate(
         [
@@ -216,7 +243,15 @@ min = -8.5
         ),
         (
             {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"when": 1}},
-            "unknown key 'when' (valid: point, axis, height, height_of, direction, extreme, angle)",
+            "unknown key 'when' (valid: point, axis, height, from, height_of, direction, extreme, angle)",
+        ),
+        (
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"extreme": "min", "from": "min"}},
+            "'from' measures a height (mm) from the point's own min or max; give height",
+        ),
+        (
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"height": 1, "from": "bdc"}},
+            "from must be 'min' or 'max' (the point's own lowest or highest coordinate), got 'bdc'",
         ),
         ({"kind": "motion", "point": "NT", "quantity": "velocity", "name": "2fast"}, "name must be a column name"),
         ({"kind": "motion", "point": "NT", "quantity": "velocity", "name": "feasible"}, "every study table has"),

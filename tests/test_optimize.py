@@ -352,3 +352,13 @@ def test_an_objective_at_another_speed_than_the_files_is_named_with_the_command_
     assert objective_speed_rpm(spec.load(root / "known_path_crank_rocker.toml")) is None
     assert speed_option(5000.0) == "--speed 5000rpm"
     assert speed_option(-5000.0) == "--speed=-5000rpm"
+
+
+def test_a_front_drops_a_design_equal_but_for_rounding_in_one_objective_and_worse_in_the_other():
+    """The robust NBTTL study's case: the lever's velocity ratio does not depend on the needle's
+    link, so two designs differing only there have ratios equal but for rounding (1e-16) and
+    different jerks: the one with more jerk is dominated, not a second front point."""
+    jerk = np.array([2.779e6, 2.801e6, 2.70e6, 2.779e6])
+    ratio = np.array([1.193145288500862, 1.193145288500862 - 2e-16, 1.30, 1.193145288500862])
+    keep = optimize._nondominated(jerk, ratio)
+    assert keep.tolist() == [True, False, True, False]  # the exact duplicate (last) keeps its first

@@ -593,6 +593,11 @@ max = 40.0
 """
     active = optimize.run(spec.parse(head, "h.toml")).caveats.active
     assert len(active) == 1 and active[0].startswith("pressure_max <= 40")
+    # A band narrower than the 1 % a caveat allows has both ends near: the winner is named
+    # once, on the end it sits on.
+    band = head.replace("max = 40.0", "min = 39.9\nmax = 40.0")
+    active = optimize.run(spec.parse(band, "h.toml")).caveats.active
+    assert len(active) == 1 and active[0].endswith("on its max"), active
 
 
 def test_the_winner_file_is_rounded_to_the_resolution_and_reverified(tmp_path):

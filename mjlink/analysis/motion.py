@@ -22,7 +22,10 @@ Events (``event``, a table; without one, ``statistic``):
 
 * a point crossing a height along an axis (``height`` mm, default axis y) or another point's
   height (``height_of``), in a ``direction`` (``up`` or ``down``, in time: the sense of the
-  crank's rotation is taken into account); the first such crossing from the crank's setting;
+  crank's rotation is taken into account); the first such crossing from the crank's setting.
+  With ``from = "min"`` (or ``"max"``) the height is measured from the point's own lowest (or
+  highest) coordinate over the cycle: the fabric's top 12.5 mm above the needle point's bottom
+  dead centre, wherever a variant puts that centre;
 * an extreme of a point's coordinate (``extreme`` = ``max`` or ``min``), e.g. the needle bar's
   bottom dead centre;
 * a crank angle (``angle`` deg, the input crank's absolute angle as the file's ``phi0``).
@@ -56,19 +59,21 @@ POINT = {"position": "mm", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "
 LINK = {"angle": "deg", "angular_velocity": "rad/s", "angular_acceleration": "rad/s^2", "velocity_ratio": ""}
 TIMED = ("velocity", "acceleration", "jerk", "angular_velocity", "angular_acceleration")  # depend on the speed
 STATISTICS = ("peak", "rms", "range", "max", "min")
-_EVENT_KEYS = ("point", "axis", "height", "height_of", "direction", "extreme", "angle")
+_EVENT_KEYS = ("point", "axis", "height", "from", "height_of", "direction", "extreme", "angle")
 _NEWTON = 8  # iterations: quadratic convergence from a bracket one sample wide
 
 
 @dataclass(frozen=True, kw_only=True)
 class Event:
-    """An instant of the cycle: a crossing (``height`` m or ``height_of``, ``direction`` +1 up,
-    -1 down), an ``extreme`` ('max'/'min') of ``point``'s coordinate ``axis``, or a crank
-    ``angle`` (rad, absolute)."""
+    """An instant of the cycle: a crossing (``height`` m, from ``origin`` 'min'/'max' of the
+    point's own coordinate where given, or ``height_of``; ``direction`` +1 up, -1 down), an
+    ``extreme`` ('max'/'min') of ``point``'s coordinate ``axis``, or a crank ``angle`` (rad,
+    absolute)."""
 
     point: str = ""
     axis: int = 1
     height: float | None = None
+    origin: str = ""
     height_of: str = ""
     direction: int = 0
     extreme: str = ""
@@ -81,6 +86,8 @@ class Event:
         if self.extreme:
             return f"at_{self.point}_{ax}_{self.extreme}"
         to = self.height_of or f"{self.height * 1e3:g}mm".replace("-", "m").replace(".", "p")  # type: ignore[operator]
+        if self.origin:
+            to += f"_from_{self.origin}"
         return f"at_{self.point}_{ax}_{'up' if self.direction > 0 else 'down'}_{to}"
 
 
@@ -193,6 +200,13 @@ class Motion(AtSpeed):
                 f"{where} needs exactly one of height (mm), height_of (a point), extreme (max/min) or angle "
                 f"(deg), got {', '.join(kinds) or 'none'}"
             )
+        if "from" in raw and "height" not in raw:
+            raise MetricError(f"{where}: 'from' measures a height (mm) from the point's own min or max; give height")
+        origin = raw.get("from", "")
+        if origin not in ("", "min", "max"):
+            raise MetricError(
+                f"{where} from must be 'min' or 'max' (the point's own lowest or highest coordinate), got {shown(origin)}"
+            )
         if "angle" in raw:
             extra = [k for k in raw if k != "angle"]
             if extra:
@@ -221,7 +235,7 @@ class Motion(AtSpeed):
                 raise MetricError(f"{where}: a point cannot cross its own height")
             return Event(point=point, axis=axis, height_of=raw["height_of"], direction=1 if d == "up" else -1)
         h = _number(raw["height"], f"{where} height", 1e6) * 1e-3
-        return Event(point=point, axis=axis, height=h, direction=1 if d == "up" else -1)
+        return Event(point=point, axis=axis, height=h, origin=origin, direction=1 if d == "up" else -1)
 
     def _point(self, p: Any, where: str) -> None:
         if not isinstance(p, str) or p not in self.mech.point_names:
@@ -334,6 +348,9 @@ class Motion(AtSpeed):
         else:
             assert ev.height is not None
             e = y - ev.height
+            if ev.origin:
+                # From the point's own extreme, refined between samples as the extreme metrics are.
+                e = e - _extreme(np.fft.rfft(y, axis=1), y, T, ev.origin == "max")[:, None]
         # Time runs with the batch's angles for a crank turning counter-clockwise, against them
         # for one turning clockwise: "up" in time is then falling along the angles.
         ahead = self.speed > 0

@@ -473,7 +473,8 @@ def optimization(res: OptimizeResult) -> str:
             + f" ({w['objective_unrounded']:.8g} unrounded; the mechanism file's design: {was})"
         )
     elif s["front"]:
-        lines.append(f"Pareto front: {len(s['front'])} designs; winner: the knee ({s['optimizer']['knee']})")
+        n = len(s["front"])
+        lines.append(f"Pareto front: {n} design{'' if n == 1 else 's'}; winner: the knee ({s['optimizer']['knee']})")
     for p in s["parameters"]:
         lines.append(
             f"  {p['path']:<32} {p['winner']:>12.10g} {shown(p['unit']):<7} (file: {p['nominal']:.6g}, range {p['low']:g}..{p['high']:g})"

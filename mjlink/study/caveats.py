@@ -209,9 +209,12 @@ def _active(study: Study, ev: Any, x: np.ndarray) -> list[str]:
     out = []
     for b in study.bounds:
         a = rows.columns[b.column]
+        near = []
         for limit, side, worst in ((b.low, "min", np.nanmin(a)), (b.high, "max", np.nanmax(a))):
             if limit is None or not math.isfinite(worst):
                 continue
             if abs(worst - limit) <= NEAR_LIMIT * max(abs(limit), 1e-12) or (limit == 0 and abs(worst) <= 1e-9):
-                out.append(f"{b.text()}: {b.column} = {worst:.6g} at the winner, on its {side}")
+                near.append((abs(worst - limit), f"{b.text()}: {b.column} = {worst:.6g} at the winner, on its {side}"))
+        if near:  # a band narrower than NEAR_LIMIT has both ends near: the winner is on the nearer
+            out.append(min(near)[1])
     return out

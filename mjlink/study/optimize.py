@@ -552,13 +552,20 @@ def _warm_init(study: Study, warm: list[np.ndarray], index: int) -> np.ndarray:
     return np.asarray(pop)
 
 
+TIE = 1e-9  # of a column's largest magnitude: two values this close are one value
+
+
 def _nondominated(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Which points of (a, b) no other point dominates (both minimized); duplicates keep one."""
+    """Which points of (a, b) no other point dominates (both minimized); duplicates keep one.
+    Values within TIE count as equal: an objective that does not depend on a parameter still
+    differs by rounding between designs, and must not make a worse design a front point."""
     n = len(a)
+    ta = TIE * max(float(np.nanmax(np.abs(a), initial=0.0)), 1e-300)
+    tb = TIE * max(float(np.nanmax(np.abs(b), initial=0.0)), 1e-300)
     keep = np.ones(n, dtype=bool)
     for i in range(n):
-        dom = (a <= a[i]) & (b <= b[i]) & ((a < a[i]) | (b < b[i]))
-        same = (a == a[i]) & (b == b[i]) & (np.arange(n) < i)
+        dom = (a <= a[i] + ta) & (b <= b[i] + tb) & ((a < a[i] - ta) | (b < b[i] - tb))
+        same = (np.abs(a - a[i]) <= ta) & (np.abs(b - b[i]) <= tb) & (np.arange(n) < i)
         keep[i] = not dom.any() and not same.any()
     return keep
 
