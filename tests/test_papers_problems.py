@@ -51,11 +51,11 @@ def _motion(mech, values, event_height: float = FABRIC) -> np.ndarray:
 
 
 def test_the_crank_sliders_penetration_velocity_is_its_closed_form():
-    """The baseline of the link-drive comparison: the crank-slider of the 33 mm stroke (r 16.5,
-    l 55 mm, r/l 0.3) and the NBTTL's own (r 15.35, l 52 mm), the NBTTL file's needle bar made
-    that crank-slider by its crank and link."""
+    """The baseline of the link-drive comparison: crank-sliders of r/l 0.3 for the strokes
+    32.5 and 33 mm and the NBTTL's own (r 15.35, l 52 mm), the NBTTL file's needle bar made
+    each by its crank and link."""
     mech = api.load(NBTTL)
-    cranks, rods = [16.5, 15.35], [55.0, 52.0]
+    cranks, rods = [16.25, 16.5, 15.35], [16.25 / 0.3, 55.0, 52.0]
     got = _motion(mech, {"construct.P6.length": cranks, "construct.NB.length": rods})
     want = [_penetration(r, rod) for r, rod in zip(cranks, rods, strict=True)]
     assert np.allclose(got, want, rtol=1e-9, atol=0)
@@ -70,8 +70,8 @@ def test_the_optimized_link_drive_is_the_plain_solutions_and_beats_the_crank_sli
     """The shipped winner of studies/needle_link_drive_penetration.toml: its needle stroke
     within the study's bound, its penetration velocity (the point's lowest height by a scalar
     minimum, the crossing FABRIC mm above it by brentq, the reference's exact velocity there)
-    equal to the motion metric's, below the issue's hand-made link drive and the crank-slider
-    of the same stroke."""
+    equal to the motion metric's, below the issue's hand-made link drive of a 33 mm stroke and
+    the crank-slider of its own stroke."""
     mech = api.load(LINK_DRIVE)
     bounds = {b["metric"]: b for b in tomllib.loads(STUDY.read_text())["bound"]}
     phi = mech.phi0 + np.radians(np.arange(3600) * 0.1)
@@ -90,7 +90,8 @@ def test_the_optimized_link_drive_is_the_plain_solutions_and_beats_the_crank_sli
     crank = tomllib.loads(LINK_DRIVE.read_text())["construct"][0]["length"]  # the file's own design
     got = float(_motion(mech, {"construct.B.length": [crank]})[0])
     assert got == pytest.approx(plain, rel=1e-9)
-    assert got < DESIGNERS < _penetration(16.5, 55.0)
+    r = stroke / 2  # the crank-slider of the same stroke, r/l 0.3 as the head's
+    assert got < DESIGNERS < _penetration(r, r / 0.3)
 
 
 def test_the_optimized_link_drive_runs_in_mujoco_within_the_thresholds(tmp_path):
