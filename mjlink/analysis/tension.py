@@ -53,6 +53,9 @@ MOST_PERIOD = 8  # stitches: the longest period of a state looked for
 SAMPLES = 1440  # steps per stitch: a quarter degree of the main shaft
 MOST_NEWTON = 12  # Newton steps on the check spring's hook per step, at most
 SPRING_TOL = 1e-12  # m: the hook's place found when a Newton step moves it less
+# A run's tension scale: Newton converges quadratically from its start, so a step this small
+# against the scale leaves an error of the order of its square, below rounding: taken, and done.
+SCALE_DONE = 1e-8
 
 
 class TensionError(ValueError):
@@ -198,7 +201,7 @@ def _scale(ea: float, w: list[float], L: list[float], total: float) -> float:
             df += ea * x / (a * a)
         step = f / df
         t -= step
-        if abs(step) <= 1e-14 * t:
+        if abs(step) <= SCALE_DONE * t:
             break
     return t
 

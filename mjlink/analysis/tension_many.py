@@ -14,15 +14,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tension import MOST_NEWTON, SPRING_TOL, TINY, TINY_M, TOL, Carry, NeedleTension, Problem, periodic, step
+from .tension import (
+    MOST_NEWTON,
+    SCALE_DONE,
+    SPRING_TOL,
+    TINY,
+    TINY_M,
+    TOL,
+    Carry,
+    NeedleTension,
+    Problem,
+    periodic,
+    step,
+)
 from .tension import _settle as _settle_one
 
 __all__ = ["step_many"]
 
 _NEWTON = 60  # a run's tension scale: Newton steps at most (the scalar's bound)
-ALONE = 24  # threads still stepping at a stitch's end at most for the plain twin to take them over
-FEW = 8  # threads still changing their contacts at most for a step's passes to go on one by one
 TOGETHER = 48  # threads at least for an array step to cost less than the twin's (bench/bench_tension.py)
+# Threads still stepping at a stitch's end at most for the plain twin to take them over: below
+# TOGETHER the twin steps them for less.
+ALONE = TOGETHER
+FEW = 8  # threads still changing their contacts at most for a step's passes to go on one by one
 
 
 def _runs(state: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -72,13 +86,15 @@ def _solve(
         # stretch to second order in the strain (:func:`.tension._scale`).
         A, B = _in_run(same, wL) / ea, _in_run(same, w * wL) / (ea * ea)
         t = np.where(taut, 2.0 * total / (A + np.sqrt(np.maximum(A * A - 4.0 * B * total, 0.0))), 1.0)
+        going = taut.copy()  # each run stops at its own step, as the scalar twin's does
         for _ in range(_NEWTON):
             a = ea + t * w
             f = _in_run(same, t * wL / a) - total
             df = _in_run(same, ea * wL / (a * a))
-            dt = np.where(taut, f / np.where(taut, df, 1.0), 0.0)
+            dt = np.where(going, f / np.where(going, df, 1.0), 0.0)
             t = t - dt
-            if np.all(np.abs(dt) <= 1e-14 * np.abs(t)):
+            going &= np.abs(dt) > SCALE_DONE * np.abs(t)
+            if not going.any():
                 break
         new_taut = t * w * L / (ea + t * w)
         # A slack run: the taut stretches have drawn the slack of the others.
