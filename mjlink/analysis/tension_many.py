@@ -32,11 +32,9 @@ from .tension import _settle as _settle_one
 __all__ = ["step_many"]
 
 _NEWTON = 60  # a run's tension scale: Newton steps at most (the scalar's bound)
-TOGETHER = 48  # threads at least for an array step to cost less than the twin's (bench/bench_tension.py)
-# Threads still stepping at a stitch's end at most for the plain twin to take them over: below
-# TOGETHER the twin steps them for less.
-ALONE = TOGETHER
+ALONE = 24  # threads still stepping at a stitch's end at most for the plain twin to take them over
 FEW = 8  # threads still changing their contacts at most for a step's passes to go on one by one
+TOGETHER = 48  # threads at least for an array step to cost less than the twin's (bench/bench_tension.py)
 
 
 def _runs(state: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
