@@ -7,6 +7,7 @@ needle thread under tension against the head with the paper's take-up."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 
@@ -18,6 +19,7 @@ from mjlink.analysis.tension import needle_tension
 from mjlink.analysis.timing import head_timing
 from mjlink.model import mechanism, paths
 from mjlink.model.catalogue import shipped
+from mjlink.model.tension import DEFAULTS
 
 SIZED = shipped("mechanisms") / "examples" / "lockstitch_head_sized.toml"
 STUDY = tomllib.loads((shipped("studies") / "lockstitch_head_takeup_sized.toml").read_text())
@@ -156,3 +158,24 @@ def test_the_sized_heads_thread_reaches_its_periodic_state_within_its_breaking_l
     k0 = int(np.searchsorted(t.theta, t.set_at % 360.0)) % len(t.theta)
     formula = sized.balance.stitch_length + sized.timing.fabric
     assert t.per_stitch == pytest.approx(formula / (1.0 + t.tension[-1][k0 - 1] / t.stiffness), abs=1e-7)
+
+
+def test_the_sized_heads_check_spring_acts_and_the_published_directions_hold(sized):
+    """With the discs and the spring's hook placed by studies/lockstitch_head_sized_spring.toml
+    the thread pulls the spring off its rest, within its travel, and the spring makes the
+    peaks: taken away (its hook a fixed guide), the peak falls. Parameters affecting needle
+    thread tension during lockstitch process (IJFTR): the peak rises with the pre-tension and
+    the feed (the stitch length) and falls with the thread's extensibility; the feed is the
+    direction the head with the paper's take-up does not give (tests/test_tension.py)."""
+    timing = head_timing(sized)
+    base = needle_tension(sized, timing)
+    assert 0.0 < base.spring.max() < sized.balance.check_spring_travel
+    assert needle_tension(sized, timing, spring=False).peak < base.peak
+    tighter = needle_tension(sized, timing, settings=dataclasses.replace(DEFAULTS, needle_tension=2.4))
+    stretchier = needle_tension(sized, timing, settings=dataclasses.replace(DEFAULTS, elongation_at_break=0.25))
+    assert stretchier.peak < base.peak < tighter.peak
+    peaks = []
+    for length in (2.0e-3, 4.0e-3):  # m, either side of the file's 3 mm
+        fed = dataclasses.replace(sized, balance=dataclasses.replace(sized.balance, stitch_length=length))
+        peaks.append(needle_tension(fed, head_timing(fed)).peak)
+    assert peaks[0] < base.peak < peaks[1]
