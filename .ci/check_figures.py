@@ -108,21 +108,16 @@ def main_check(names: list[str]) -> int:
                 copy.write_text(cut_budget((catalogue.STUDIES_DIR / f"{name}.toml").read_text(), catalogue.STUDIES_DIR))
                 args = ["study", str(copy), "--out", str(out / "studies"), "--workers", "0"]
             status, found, last = run(args)
-            if status != 0 and "no feasible design" in last:
-                # The cut budget found nothing to draw: a wider one (WIDER), on the cores.
-                wider = out / "wider" / f"{name}.toml"
-                wider.parent.mkdir(exist_ok=True)
-                wider.write_text(
-                    cut_budget((catalogue.STUDIES_DIR / f"{name}.toml").read_text(), catalogue.STUDIES_DIR, WIDER)
-                )
-                status, found, last = run(["study", str(wider), "--out", str(out / "shipped")])
-            if status != 0 and "no feasible design" in last:
-                whole = out / "whole" / f"{name}.toml"
-                whole.parent.mkdir(exist_ok=True)
-                whole.write_text(
-                    cut_budget((catalogue.STUDIES_DIR / f"{name}.toml").read_text(), catalogue.STUDIES_DIR, WHOLE)
-                )
-                status, found, last = run(["study", str(whole), "--out", str(out / "whole-runs")])
+            # Where the cut budget finds nothing to draw, a wider one (WIDER), then the study's own
+            # (WHOLE), on the cores.
+            for label, caps in (("wider", WIDER), ("whole", WHOLE)):
+                if status != 0 and "no feasible design" in last:
+                    wider = out / label / f"{name}.toml"
+                    wider.parent.mkdir(exist_ok=True)
+                    wider.write_text(
+                        cut_budget((catalogue.STUDIES_DIR / f"{name}.toml").read_text(), catalogue.STUDIES_DIR, caps)
+                    )
+                    status, found, last = run(["study", str(wider), "--out", str(out / f"{label}-runs")])
             bad += report(name, status, found, last)
     print(f"{bad} run(s) with a defect or an error" if bad else "every figure passes")
     return 1 if bad else 0
