@@ -79,6 +79,13 @@ def sized():
     return mechanism.load(SIZED)
 
 
+@pytest.fixture(scope="module")
+def sized_tension(sized):
+    """The sized head's needle thread at its file's [tension] numbers: its timing and tension."""
+    timing = head_timing(sized)
+    return timing, needle_tension(sized, timing)
+
+
 def test_the_closed_form_eyelet_is_the_references(sized):
     """The test's own take-up (above) is the file's: its eyelet at every input angle is the
     reference's, so that what follows measures the shipped design."""
@@ -142,11 +149,11 @@ def test_the_sized_take_up_needs_a_fraction_of_the_slack_of_the_papers(sized):
     assert _row(t, "thread_slack").value <= 10.0e-3 < _row(paper, "thread_slack").value / 5
 
 
-def test_the_sized_heads_thread_reaches_its_periodic_state_within_its_breaking_load(sized):
+def test_the_sized_heads_thread_reaches_its_periodic_state_within_its_breaking_load(sized, sized_tension):
     """The needle thread under the file's [tension] numbers: periodic, its peak below the head
     with the paper's take-up (which draws what it falls short through the discs) and within the
     tension map's margin to the breaking load; the discs let through per stitch what the stitch locks."""
-    t = needle_tension(sized, head_timing(sized))
+    _, t = sized_tension
     paper = mjlink.load("lockstitch_head")
     tp = needle_tension(paper, head_timing(paper))
     assert t.converged and tp.converged
@@ -160,15 +167,14 @@ def test_the_sized_heads_thread_reaches_its_periodic_state_within_its_breaking_l
     assert t.per_stitch == pytest.approx(formula / (1.0 + t.tension[-1][k0 - 1] / t.stiffness), abs=1e-7)
 
 
-def test_the_sized_heads_check_spring_acts_and_the_published_directions_hold(sized):
+def test_the_sized_heads_check_spring_acts_and_the_published_directions_hold(sized, sized_tension):
     """With the discs and the spring's hook placed by studies/lockstitch_head_sized_spring.toml
     the thread pulls the spring off its rest, within its travel, and the spring makes the
     peaks: taken away (its hook a fixed guide), the peak falls. Parameters affecting needle
     thread tension during lockstitch process (IJFTR): the peak rises with the pre-tension and
     the feed (the stitch length) and falls with the thread's extensibility; the feed is the
     direction the head with the paper's take-up does not give (tests/test_tension.py)."""
-    timing = head_timing(sized)
-    base = needle_tension(sized, timing)
+    timing, base = sized_tension
     assert 0.0 < base.spring.max() < sized.balance.check_spring_travel
     assert needle_tension(sized, timing, spring=False).peak < base.peak
     tighter = needle_tension(sized, timing, settings=dataclasses.replace(DEFAULTS, needle_tension=2.4))
