@@ -20,6 +20,7 @@ from mjlink.model.catalogue import shipped
 from mjlink.reference import kinematics
 
 HEAD = shipped("mechanisms") / "lockstitch_head.toml"
+PAPER = shipped("mechanisms") / "examples" / "lockstitch_head_paper_takeup.toml"
 
 
 @pytest.fixture(scope="module")
@@ -93,11 +94,12 @@ def test_the_shipped_head_meets_its_composite_target_and_says_which_machines_win
     against each single machine's table, a window the target's lies inside is met, one disjoint
     from it is missed, and the hook's rise (the one overlap) is decided by the closed form."""
     assert timing.target == TARGET == "juki_composite"
-    # Every window is met but the thread's supply: the take-up was sized (studies/
-    # lockstitch_head_takeup.toml) against a demand that set the last stitch's end at the needle's
-    # line when the stitch was set; counted where the feed has carried it, the loop takes more
-    # than the take-up gives beyond what the thread stretches (docs/head.md, The thread balance).
-    assert [r.key for r in timing.rows if r.counts and not r.ok] == ["thread_shortfall"]
+    # Every window is met, the thread's supply too: the take-up is sized for the loop over the
+    # bobbin case's faces (studies/lockstitch_head_takeup_sized.toml). The paper's take-up, sized
+    # against a demand that set the last stitch's end at the needle's line, falls short of it.
+    assert [r.key for r in timing.rows if r.counts and not r.ok] == []
+    paper = head_timing(mechanism.load(PAPER))
+    assert [r.key for r in paper.rows if r.counts and not r.ok] == ["thread_shortfall"]
     for r in timing.rows:  # the general rows and the target's count, the slack is for information
         assert r.counts == (r.maker in (None, TARGET) and r.key not in ("thread_slack", "loop_thread"))
     # The hook timing where the file's numbers put it (the head is built to the manual's 2.0 and
@@ -256,9 +258,15 @@ def test_check_prints_the_timing_table_and_names_a_miss(tmp_path):
 
     r = in_process("check", "lockstitch_head")
     assert r.returncode == 0, r.stderr
-    # The shipped head misses one window, the thread's supply (its take-up sized against the
-    # demand before the stitch's end was counted where the feed has carried it: docs/head.md).
-    assert "Timing over one stitch" in r.stdout and "misses" in r.stdout and "timing: 1 window(s) missed" in r.stdout
+    # The shipped head meets every window of its target and misses some of the other makers'.
+    assert "Timing over one stitch" in r.stdout and "misses" in r.stdout and "FAIL" not in r.stdout
+    assert re.search(
+        r"every head +thread short of what needle and loop take +[\d.]+ +-inf\.\.[\d.]+ mm +pass", r.stdout
+    )
+    # The paper's take-up misses one window, the thread's supply (sized against the demand before
+    # the stitch's end was counted where the feed has carried it: docs/head.md).
+    r = in_process("check", str(PAPER))
+    assert "timing: 1 window(s) missed" in r.stdout
     assert re.search(
         r"every head +thread short of what needle and loop take +[\d.]+ +-inf\.\.[\d.]+ mm +FAIL", r.stdout
     )
@@ -303,11 +311,12 @@ def test_the_timing_study_measures_each_head_as_simulate_does(tolerance_study, h
 
     res, table = tolerance_study
     st = load_study(res.summary["file"])
-    # No head meets every window: the take-up, sized against the demand before the stitch's end
-    # was counted where the feed has carried it, falls short of the thread in every one of them
-    # (docs/head.md). The feed timing's window is met by some heads and missed by others.
+    # Every head supplies the thread its loop takes: the take-up was sized with a margin to what
+    # the thread stretches (docs/head.md). The feed timing's window is met by some heads and
+    # missed by others, so some heads meet every window and others do not.
     limit = _row(head_timing(head), "thread_shortfall").window.hi * 1e3  # what the thread stretches, mm
-    assert table["timing_ok"].sum() == 0 and (table["timing_thread_shortfall_mm"] > limit).all()
+    assert (table["timing_thread_shortfall_mm"] <= limit).all()
+    assert 0 < table["timing_ok"].sum() < table.rows
     lo, hi = tomllib.loads(HEAD.read_text())["timing"][TARGET]["needle_at_dog_flush"]
     flush = table["timing_needle_at_dog_flush_mm"]
     assert 0 < ((flush >= lo) & (flush <= hi)).sum() < table.rows
@@ -526,14 +535,13 @@ def _loop_phase(t):
 def test_a_take_up_with_its_stroke_cut_by_30_percent_cannot_supply_the_loop(tmp_path):
     """The take-up lever's arm to the eyelet 30 % shorter: the eyelet's stroke, and with it the
     thread the take-up gives out, fall short of what the loop takes: the supply row fails."""
-    t = head_timing(_edited(tmp_path, r'(point = "P5".*\n(?:.*\n){4}length = )47\.0', r"\g<1>32.9", "short.toml"))
+    t = head_timing(_edited(tmp_path, r'(point = "P5".*\n(?:.*\n){4}length = )69\.81', r"\g<1>48.87", "short.toml"))
     row = _row(t, "thread_shortfall")
-    assert not row.ok and row.counts and row.value > 10e-3
+    assert not row.ok and row.counts and row.value > 1.5 * row.window.hi
     (line,) = [f for f in t.failures() if "shortfall" in f]
     assert "what the take-up holds back of what the needle and the loop take" in line
-    # The shipped take-up falls short too (sized against the old demand: docs/head.md), but by
-    # far less than the one whose stroke is cut.
-    assert _row(head_timing(mechanism.load(HEAD)), "thread_shortfall").value < row.value - 5e-3
+    # The shipped take-up supplies it.
+    assert _row(head_timing(mechanism.load(HEAD)), "thread_shortfall").ok
 
 
 def test_a_stitch_holds_its_length_and_the_fabric_of_needle_thread(head):
@@ -600,9 +608,16 @@ def test_an_optimization_draws_the_balance_curve_before_and_after(head):
     assert cv is not None and cv.values.shape == (2, 720) and cv.unit == "mm"
     for i in range(2):
         # The curve's samples, 0.5 deg apart, against the rows' extremes refined between them:
-        # measured 1.5e-3 mm apart.
-        assert np.nanmax(cv.values[i]) == pytest.approx(cols["timing_thread_slack"][i], abs=5e-3)
-        assert -np.nanmin(cv.values[i]) == pytest.approx(cols["timing_thread_shortfall"][i], abs=5e-3)
+        # an extreme lies within a step of the best sample, so it differs from that sample by at
+        # most what the curve changes over the steps either side (more than a parabola's error
+        # where the extreme sits on a kink, as where the eye enters the fabric).
+        for v, col in (
+            (cv.values[i], cols["timing_thread_slack"][i]),
+            (-cv.values[i], cols["timing_thread_shortfall"][i]),
+        ):
+            j = int(np.nanargmax(v))
+            step = np.nanmax(np.abs([v[j] - v[j - 1], v[(j + 1) % len(v)] - v[j]]))
+            assert np.nanmax(v) - 1e-12 <= col <= np.nanmax(v) + step
     assert cols["timing_thread_shortfall"][1] > cols["timing_thread_shortfall"][0]  # thicker fabric
 
 

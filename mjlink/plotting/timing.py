@@ -164,6 +164,9 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
     ax.plot(b.theta, np.where(forming, b.demand, np.nan), color="C3", label="demand: needle, fabric and loop")
     ax.plot(b.theta, np.where(forming, np.nan, b.supply), color="C2", lw=0.8, ls=":")
     ax.set_ylabel("thread since the\nstitch was set [mm]")
+    # Headroom for the phases' names, which hang from the top.
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, hi + 0.12 * (hi - lo))
     ax.legend(loc="upper left", bbox_to_anchor=(0.0, 0.86), fontsize=8, framealpha=0.9)
     travel = mech.balance.check_spring_travel / MM
     bx.axhspan(0.0, travel, color="C0", alpha=0.12, lw=0)
