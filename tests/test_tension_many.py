@@ -238,4 +238,9 @@ kind = "tension"
         nt, w = float(table["tension.needle_tension_N"][i]), float(table["input.speed_rad_s"][i])
         own = dataclasses.replace(base, speed=w, tension=dataclasses.replace(DEFAULTS, needle_tension=nt))
         expected = needle_tension(own, head_timing(own, samples=180), samples=180)
+        assert float(table["tension_period"][i]) == expected.period
+        if expected.period == 0:
+            # No state in 80 stitches (one head on these coarse steps): both say so; its last
+            # stitches, stepped in another order, drift apart by more than rounding.
+            continue
         assert float(table["tension_peak_N"][i]) == pytest.approx(expected.peak, rel=1e-6)

@@ -157,8 +157,8 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
     spring's travel as a band, and the phases named."""
     assert head.balance is not None and mech.balance is not None
     b = head.balance
-    fig, (ax, bx) = subplots(2, 1, figsize=(10.0, 8.3), sharex=True, height_ratios=[1.4, 1.0])
-    place(fig, ax.get_gridspec(), left=1.0, right=0.3, top=0.95, bottom=1.4, hgap=0.3)
+    fig, (ax, bx) = subplots(2, 1, figsize=(10.0, 8.6), sharex=True, height_ratios=[1.4, 1.0])
+    place(fig, ax.get_gridspec(), left=1.0, right=0.3, top=1.25, bottom=1.4, hgap=0.3)
     forming = np.isfinite(b.balance)
     ax.plot(b.theta, np.where(forming, b.supply, np.nan), color="C2", label="supply: take-up and guides")
     ax.plot(b.theta, np.where(forming, b.demand, np.nan), color="C3", label="demand: needle, fabric and loop")
@@ -167,7 +167,8 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
     # Headroom for the phases' names, which hang from the top.
     lo, hi = ax.get_ylim()
     ax.set_ylim(lo, hi + 0.12 * (hi - lo))
-    ax.legend(loc="upper left", bbox_to_anchor=(0.0, 0.86), fontsize=8, framealpha=0.9)
+    # Above the panel: inside it, some head's curves or phase names would run through it.
+    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=2, fontsize=8, frameon=False)
     travel = mech.balance.check_spring_travel / MM
     bx.axhspan(0.0, travel, color="C0", alpha=0.12, lw=0)
     bx.plot(b.theta, b.balance, color="C0")
