@@ -580,8 +580,10 @@ def test_stitch_and_fabric_are_study_parameters_measured_per_variant(head, tmp_p
         )
         own_timing = head_timing(own)
         expect = _row(own_timing, "thread_shortfall").value * 1e3
-        # The study's 0.5 deg grid against simulate's 0.05 deg (extremes refined between samples).
-        assert table["timing_thread_shortfall_mm"][i] == pytest.approx(expect, abs=0.02)
+        # The study's 0.5 deg grid against simulate's 0.05 deg, the extremes and the stitch's set
+        # point refined between samples: measured 6e-4 mm (0.037 mm with the set point on the
+        # nearest sample, where the take-up dwells at its top while the needle moves the thread).
+        assert table["timing_thread_shortfall_mm"][i] == pytest.approx(expect, abs=5e-3)
         assert table["timing_loop_thread_mm"][i] == pytest.approx(own_timing.balance.most_under, abs=0.02)
         assert table["timing_ok"][i] == float(not any(r.counts and not r.ok for r in own_timing.rows))
     # The thinnest fabric with the shortest stitch is sewn, the thickest fabric with either is not.
