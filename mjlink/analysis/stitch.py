@@ -126,6 +126,30 @@ def _vertex(x: np.ndarray, j: int) -> tuple[float, float] | None:
     return float(0.5 * (a - c) / curv), float(b - (a - c) ** 2 / (8.0 * curv))
 
 
+def _set_point(
+    theta: np.ndarray, path: np.ndarray, below: np.ndarray, window: np.ndarray, enters: float
+) -> tuple[float, float, float, float]:
+    """Where the stitch is set: the longest ``path`` (N,) over the angles ``window`` (N,) bool,
+    refined between samples. Returns the set point (deg), the path and the thread ``below``
+    the eye (N,) there, and where the balance's phase starts (deg): the set point, or the
+    longest sample where the take-up is still drawing as the needle enters the fabric
+    (``enters``, deg), which then sets the stitch."""
+    n = len(theta)
+    i0 = int(np.argmax(np.where(window, path, -np.inf)))
+    start = float(theta[i0])
+    if not window[(i0 + 1) % n] and path[(i0 + 1) % n] > path[i0]:
+        # Set at the entry itself, between two samples (a study's coarse grid then agrees with
+        # simulate's fine one).
+        return enters, _at(theta, path, enters), _at(theta, below, enters), start
+    if window[(i0 - 1) % n] and window[(i0 + 1) % n] and (top := _vertex(path, i0)) is not None:
+        # Between two samples. A take-up that dwells at its top leaves the path flat there
+        # while the needle and the feed still move the thread below the eye, so the sample
+        # nearest the top would shift the whole demand by what they move in half a step.
+        drawn = float(theta[i0] + top[0] * ((theta[(i0 + 1) % n] - theta[i0]) % 360.0))
+        return drawn, top[1], _at(theta, below, drawn), drawn
+    return start, float(path[i0]), float(below[i0]), start
+
+
 def _between(theta: np.ndarray, a: float, b: float) -> np.ndarray:
     """(N,) bool: the angles from ``a`` to ``b`` (deg), going forwards round the stitch."""
     return (theta - a) % 360.0 <= (b - a) % 360.0

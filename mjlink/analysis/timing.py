@@ -26,7 +26,7 @@ from ..reference.batch import Batch
 from ..units import DEG, MM
 from .loop import case_leg, wrapped
 from .metric_base import Column, Curve, Loads, Metric, MetricError
-from .stitch import StitchEnd, _at, _between, _crossing, _peak, _vertex, stitch_end
+from .stitch import StitchEnd, _at, _between, _crossing, _peak, _set_point, stitch_end
 
 GENERAL = {
     "dog_below_while_needle_down": "feed dog's highest point above the throat plate while the needle point is below it",
@@ -562,31 +562,17 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     # the held loop's cast-off) and the needle's entry into the fabric: the take-up has drawn
     # the most thread.
     window = _between(th, release, enters)
-    i0 = int(np.argmax(np.where(window, path, -np.inf)))
-    drawn = float(th[i0])
     under = np.full(len(th), np.nan)
     if tm.stitch is StitchType.CHAIN:
         below = _chain_below(mech, head, hook, at)
-        forming = _between(th, drawn, pick)
+        end = pick
         per_stitch = 3.0 * bal.stitch_length + 2.0 * tm.fabric
     else:
         below, under = _lock_below(mech, head, hook, at)
-        forming = _between(th, drawn, release)
+        end = release
         per_stitch = bal.stitch_length + tm.fabric
-    path_at, below_at = path[i0], below[i0]
-    n = len(th)
-    if not window[(i0 + 1) % n] and path[(i0 + 1) % n] > path[i0]:
-        # Still drawing as the needle enters the fabric: the stitch is set at the entry itself,
-        # between two samples (a study's coarse grid then agrees with simulate's fine one).
-        drawn = enters
-        path_at, below_at = _at(th, path, enters), _at(th, below, enters)
-    elif window[(i0 - 1) % n] and window[(i0 + 1) % n] and (top := _vertex(path, i0)) is not None:
-        # The longest path between two samples. A take-up that dwells at its top leaves the path
-        # flat there while the needle and the feed still move the thread below the eye, so the
-        # sample nearest the top would shift the whole demand by what they move in half a step.
-        drawn = float(th[i0] + top[0] * ((th[(i0 + 1) % n] - th[i0]) % 360.0))
-        path_at, below_at = top[1], _at(th, below, drawn)
-        forming = _between(th, drawn, pick if tm.stitch is StitchType.CHAIN else release)
+    drawn, path_at, below_at, start = _set_point(th, path, below, window, enters)
+    forming = _between(th, start, end)
     supply = path_at - path
     demand = below - below_at
     balance = np.where(forming, supply - demand, np.nan)
