@@ -138,7 +138,7 @@ def test_a_head_can_alternate_its_stitches(head):
 
 def test_a_tension_study_steps_its_variants_in_large_tasks(tmp_path):
     """A study whose metric steps its variants at once cuts them into tasks of up to that
-    many, four at least where there are enough; others keep about sixteen."""
+    many, two at least and one a worker where there are enough; others keep about sixteen."""
     body = (
         GRID.format(angles=720)
         + """[[parameter]]
@@ -148,13 +148,23 @@ values = [{values}]
 kind = "{kind}"
 """
     )
-    for n, kind, tasks in ((1000, "tension", 4), (27, "tension", 4), (8, "tension", 1), (1000, "timing", 16)):
+    cases = (
+        (1000, "tension", 1, 2),
+        (1000, "tension", 2, 2),
+        (1000, "tension", 3, 3),
+        (1200, "tension", 2, 3),  # 512 at most a task
+        (27, "tension", 2, 2),
+        (8, "tension", 2, 1),
+        (1000, "timing", 2, 16),
+    )
+    for n, kind, lanes, tasks in cases:
         f = tmp_path / f"{kind}{n}.toml"
         f.write_text(body.format(values=", ".join(str(1.0 + i * 1e-3) for i in range(n)), kind=kind))
         study = load(f)
-        cut = reference_chunks(study, n)
-        assert len(cut) == tasks, (n, kind, cut)
-        assert cut[0][0] == 0 and cut[-1][1] == n and all(b - a <= REFERENCE_CHUNK[1] for a, b in cut)
+        cut = reference_chunks(study, n, lanes)
+        most = max(max(m.together for m in study.metrics), 1) if kind == "tension" else REFERENCE_CHUNK[1]
+        assert len(cut) == tasks, (n, kind, lanes, cut)
+        assert cut[0][0] == 0 and cut[-1][1] == n and all(b - a <= most for a, b in cut)
 
 
 def test_the_hook_stiffness_is_the_derivative_of_the_threads_pull_in_every_state(head):
@@ -244,3 +254,46 @@ kind = "tension"
             # stitches, stepped in another order, drift apart by more than rounding.
             continue
         assert float(table["tension_peak_N"][i]) == pytest.approx(expected.peak, rel=1e-6)
+
+
+def test_a_tension_studys_calibration_traces_one_stitch_and_measures_what_the_whole_stepping_holds(tmp_path):
+    """The calibration traces a head's memory on one stitch (probing), not on the stitches to
+    its periodic state, whose every float tracing would cost many times the stepping: the
+    probe's traced bytes are the whole stepping's within 1 %, and only within probing does the
+    head stop after one stitch."""
+    import tracemalloc
+
+    from mjlink.analysis.metric_base import probed, probing
+    from mjlink.study.tasks import reference_chunk
+
+    f = tmp_path / "t.toml"
+    f.write_text(
+        GRID.format(angles=180)
+        + """[[parameter]]
+path = "tension.needle_tension"
+values = [1.0, 1.9, 2.8]
+[[metric]]
+kind = "tension"
+"""
+    )
+    study = load(f)
+
+    def traced(run):
+        tracemalloc.start()
+        try:
+            out = run()
+            return out, tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    rows = study.values()[1:2]
+    reference_chunk(study, rows)  # first-call costs out of both
+    full, full_bytes = traced(lambda: reference_chunk(study, rows))
+    with probing():
+        assert probed()
+        probe, probe_bytes = traced(lambda: reference_chunk(study, rows))
+    assert not probed()
+    # One stitch from the start draws other thread than the periodic state's.
+    drawn = probe.columns["tension_per_stitch"][0], full.columns["tension_per_stitch"][0]
+    assert abs(drawn[0] - drawn[1]) > 0.1, drawn  # mm
+    assert probe_bytes == pytest.approx(full_bytes, rel=0.01)

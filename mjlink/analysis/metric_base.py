@@ -11,6 +11,9 @@ from __future__ import annotations
 import math
 import re
 from abc import ABC, abstractmethod
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -24,6 +27,27 @@ from ..reference import kinetostatics
 from ..reference.batch import Batch, angle_grid
 from ..reference.dynamics import reduced
 from ..reference.kinematics import solve
+
+# A study's calibration traces the memory its metrics need (:mod:`mjlink.study.plan`), not their
+# values: a metric that steps each variant to a periodic state may step it one cycle instead,
+# as what it holds does not grow with the cycles stepped, and tracing every allocation of the
+# whole stepping costs many times the stepping.
+_PROBING: ContextVar[bool] = ContextVar("mjlink_probing", default=False)
+
+
+@contextmanager
+def probing() -> Iterator[None]:
+    """Within it, metrics compute for their memory's sake only (their values not used)."""
+    token = _PROBING.set(True)
+    try:
+        yield
+    finally:
+        _PROBING.reset(token)
+
+
+def probed() -> bool:
+    """Whether metrics compute within :func:`probing`."""
+    return _PROBING.get()
 
 
 class MetricError(MjlinkError):

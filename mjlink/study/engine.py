@@ -42,7 +42,10 @@ from .tasks import Evaluated, StudyWorker, Verified, mujoco_chunk, reference_chu
 
 REFERENCE_CHUNK = (8, 256)  # variants per reference task: at least, at most
 MUJOCO_CHUNK = (4, 128)  # variants per MuJoCo task (one rollout of that many models)
-TOGETHER_PARTS = 4  # reference tasks at least of a study whose metric steps its variants together
+# Reference tasks at least of a study whose metric steps its variants together, and at least one
+# a worker: a task's every step costs its own overhead whatever its size, so one a worker is
+# cheapest (bench/bench_tension.py --study: 2 tasks of 500 heads took 0.75x the CPU of 4 of 250).
+TOGETHER_PARTS = 2
 # Blocks of consecutive variants each of those tasks draws from, spread over the study: its few
 # large tasks then cost alike where the variants' costs follow a parameter (a head's thread
 # settles slower at a higher tension), and neighbours (one head's geometry) stay together.
@@ -59,10 +62,20 @@ class SchedulerError(EngineError, InputError):
     refused before any work (exit status 2)."""
 
 
-def chunking(study: Study) -> dict[str, list[int]]:
-    """How variants are cut (the cache records it: another cut makes other chunks)."""
+def chunking(study: Study, lanes: int = 1) -> dict[str, list[int]]:
+    """How variants are cut on ``lanes`` workers (the cache records it: another cut makes other
+    chunks)."""
     together = max((m.together for m in study.metrics), default=1)
-    return {"reference": [*REFERENCE_CHUNK, together, DEALT], "mujoco": list(MUJOCO_CHUNK)}
+    parts = _parts(study, lanes)
+    return {"reference": [*REFERENCE_CHUNK, together, DEALT, parts], "mujoco": list(MUJOCO_CHUNK)}
+
+
+def _parts(study: Study, lanes: int) -> int:
+    """The reference's tasks at least: :data:`TOGETHER_PARTS` or one a worker of ``lanes``
+    where a metric steps its variants together, else 16 (about)."""
+    if max((m.together for m in study.metrics), default=1) <= 1:
+        return 16
+    return max(TOGETHER_PARTS, lanes)
 
 
 ADDRESS = re.compile(
@@ -93,21 +106,25 @@ def chunks(n: int, bounds: tuple[int, int], parts: int = 16) -> list[tuple[int, 
     return [(i, min(i + size, n)) for i in range(0, n, size)]
 
 
-def reference_chunks(study: Study, n: int) -> list[tuple[int, int]]:
-    """The reference's tasks over ``n`` variants of ``study``: about 16, unless a metric steps
-    its variants together (``Metric.together``), whose tasks then hold up to that many, still
-    four at least (two a core on a 2-core machine) where the variants allow."""
+def reference_chunks(study: Study, n: int, lanes: int = 1) -> list[tuple[int, int]]:
+    """The reference's tasks over ``n`` variants of ``study`` on ``lanes`` workers: about 16
+    within :data:`REFERENCE_CHUNK`, unless a metric steps its variants together
+    (``Metric.together``), whose tasks then hold up to that many, one a worker and
+    :data:`TOGETHER_PARTS` at least where the variants allow."""
     lo, hi = REFERENCE_CHUNK
     together = max((m.together for m in study.metrics), default=1)
-    return chunks(n, (int(min(hi, max(lo, min(together, -(-n // TOGETHER_PARTS))))), hi))
+    if together <= 1:
+        return chunks(n, (lo, hi))
+    parts = _parts(study, lanes)
+    return chunks(n, (int(min(together, max(lo, -(-n // parts)))), together))
 
 
-def reference_order(study: Study, n: int) -> np.ndarray | None:
+def reference_order(study: Study, n: int, lanes: int = 1) -> np.ndarray | None:
     """The order the reference's tasks take ``n`` variants of ``study`` in (:func:`reference_chunks`
     cuts it; None: the study's own). A study whose metric steps its variants together, in a few
     large tasks, deals them blocks of consecutive variants in turn, :data:`DEALT` blocks a
     task: each task holds a share of every part of the study."""
-    cut = reference_chunks(study, n)
+    cut = reference_chunks(study, n, lanes)
     if max((m.together for m in study.metrics), default=1) <= 1 or len(cut) < 2:
         return None
     block = -(-(cut[0][1] - cut[0][0]) // DEALT)
@@ -225,24 +242,33 @@ def run(
     timing = Timing()
     with timing.stage("sampling"):
         values = study.values()
-    cache = Cache(cache_dir, study, len(values), chunking(study))
+    lanes = _lanes(client)
+    cache = Cache(cache_dir, study, len(values), chunking(study, lanes))
     if what is None:
         what = "in process" if client is None else "the given Dask client"
-    return _run(study, values, client, what, cache, progress, timing)
+    return _run(study, values, client, lanes, what, cache, progress, timing)
+
+
+def _lanes(client: Any) -> int:
+    """The workers of ``client`` (1: this process)."""
+    if client is None:
+        return 1
+    return max(1, len(client.scheduler_info().get("workers", {})))
 
 
 def _run(
     study: Study,
     values: np.ndarray,
     client: Any,
+    lanes: int,
     what: str,
     cache: Cache,
     progress: Progress | None,
     timing: Timing,
 ) -> Outcome:
     V = len(values)
-    ref_chunks = reference_chunks(study, V)
-    order = reference_order(study, V)
+    ref_chunks = reference_chunks(study, V, lanes)
+    order = reference_order(study, V, lanes)
     dealt = values if order is None else values[order]
     resumed = 0
     results: dict[tuple[int, int], Evaluated] = {}

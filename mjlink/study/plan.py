@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..analysis.metric_base import probing
 from ..errors import InputError
 from ..reference.batch import angle_grid
 from ..sim import steps as _steps  # the clock alone: no MuJoCo is imported
@@ -270,7 +271,8 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     traced = n if not runs else max(1, min(n, int(n * CALIBRATION_SECONDS / (TRACING * seconds))))
     tracemalloc.start()
     try:
-        reference_chunk(study, values[:traced])
+        with probing():
+            reference_chunk(study, values[:traced])
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -385,8 +387,9 @@ def estimate(
     raised = False  # an optimization's least set by its rehearsal cut short, not by the bowl
     if study.optimize is None:
         V = study.samples
-        tasks = len(reference_chunks(study, V))
-        task_rows = min(REFERENCE_CHUNK[1], max(1, V)) * angles
+        cut = reference_chunks(study, V, max(1, workers))
+        tasks = len(cut)
+        task_rows = max((b - a for a, b in cut), default=1) * angles
         models = {"none": 0, "all": V, "best": min(study.count, V), "worst": min(study.count, V)}[study.verify]
         mj_chunks = chunks(models, MUJOCO_CHUNK, parts=8)
         mj_chunk, mj_tasks = max((b - a for a, b in mj_chunks), default=0), len(mj_chunks)
