@@ -159,6 +159,9 @@ def search(
 
     if init is None:
         init = first_generation(study, seed, opt.population)
+    # The file's design in place of the sample's first member (scipy's x0), where asked: a
+    # search then holds at least the design it was asked to improve.
+    x0 = np.array([v.param.nominal for v in study.varied]) if opt.start == "file" else None
     with warnings.catch_warnings():
         # scipy warns when it finds nothing feasible (we say so) or stops by the callback.
         warnings.simplefilter("ignore", UserWarning)
@@ -169,6 +172,7 @@ def search(
             tol=opt.tol,
             atol=opt.atol,
             init=init,
+            x0=x0,
             rng=np.random.default_rng(seed + index),
             polish=False,
             vectorized=True,

@@ -45,6 +45,7 @@ DISTRIBUTIONS = ("uniform", "normal")
 VERIFY = ("all", "none", "best", "worst")
 SENSES = ("min", "max")
 INITS = ("sobol", "lhs")
+STARTS = ("sample", "file")  # an optimization's runs: from their samples alone, or the file's design among them
 MAX_VARIANTS = 10_000_000
 MAX_PER_TURN = 3600
 STUDIES_DIR = catalogue.STUDIES_DIR
@@ -95,7 +96,9 @@ class Optimize:
     of a single objective (seeds ``seed``, ``seed + 1``, ...), whose agreement is reported;
     ``polish_evaluations`` the local polish's budget per run (0: no polish); ``xtol`` the
     polish's step, a fraction of each range, at which a run is converged. ``resolution`` unit ->
-    the manufacturing resolution the winner file's numbers are rounded to.
+    the manufacturing resolution the winner file's numbers are rounded to. ``start`` 'file':
+    each run's first generation holds the mechanism file's design (scipy's ``x0``), else
+    ('sample') only its sample of the ranges.
     """
 
     objective: tuple[tuple[str, float], ...]
@@ -115,6 +118,7 @@ class Optimize:
     polish_evaluations: int = 0
     xtol: float = 1e-9
     resolution: tuple[tuple[str, float], ...] = tuple(RESOLUTION.items())
+    start: str = "sample"
 
     @property
     def label(self) -> str:
@@ -445,6 +449,21 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
             f"sizing a flywheel needs a drive characteristic: {mech.name} has neither [steady] nor "
             "[dynamics.motor] (give one in the mechanism file, or set steady.* in [set])",
         )
+    if optimize is not None and optimize.start == "file":
+        for v in varied:
+            x = v.param.nominal
+            if not (math.isfinite(x) and v.low <= x <= v.high):
+                there = (
+                    f"is {x:g} there, outside its range [{v.low:g}, {v.high:g}] (widen the range"
+                    if math.isfinite(x)
+                    else "has no value there (give it one"
+                )
+                raise _fail(
+                    src,
+                    "[optimize] start",
+                    f"'file' starts each run from the mechanism file's design, but {v.param.path} {there}, "
+                    "or start = 'sample')",
+                )
     values.check_varied(src, text, base, fixed, varied, method, samples, seed, robust)
 
     code = _functions.fingerprint(own)
@@ -598,6 +617,7 @@ def _optimize(src: object, raw: Any, names: list[str], n_params: int) -> Optimiz
             "polish_evaluations",
             "xtol",
             "resolution",
+            "start",
         ],
     )
     if ("objective" in raw) == ("pareto" in raw):
@@ -632,6 +652,9 @@ def _optimize(src: object, raw: Any, names: list[str], n_params: int) -> Optimiz
     init = raw.get("init", "sobol")
     if init not in INITS:
         raise _fail(src, f"{where} init", f"must be one of {', '.join(INITS)}, got {shown(init)}")
+    start = raw.get("start", "sample")
+    if start not in STARTS:
+        raise _fail(src, f"{where} start", f"must be one of {', '.join(STARTS)}, got {shown(start)}")
     tol = _number(src, raw, "tol", where, default=1e-3)
     atol = _number(src, raw, "atol", where, default=0.0)
     delta = _number(src, raw, "flywheel_delta", where, default=0.0)
@@ -672,6 +695,7 @@ def _optimize(src: object, raw: Any, names: list[str], n_params: int) -> Optimiz
         ),
         xtol=xtol,
         resolution=tuple(sorted(resolution.items())),
+        start=start,
     )
 
 
