@@ -17,7 +17,7 @@ from mjlink.analysis.timing import head_timing
 from mjlink.model import mechanism
 from mjlink.model.catalogue import shipped
 from mjlink.model.tension import DEFAULTS
-from mjlink.study.engine import REFERENCE_CHUNK, reference_chunks
+from mjlink.study.engine import REFERENCE_CHUNK, chunking, reference_chunks
 from mjlink.study.spec import load
 
 HEAD = shipped("mechanisms") / "lockstitch_head.toml"
@@ -165,6 +165,8 @@ kind = "{kind}"
         most = max(max(m.together for m in study.metrics), 1) if kind == "tension" else REFERENCE_CHUNK[1]
         assert len(cut) == tasks, (n, kind, lanes, cut)
         assert cut[0][0] == 0 and cut[-1][1] == n and all(b - a <= most for a, b in cut)
+        # The cache records the cut: another number of workers, another cut, for these alone.
+        assert (chunking(study, 2) == chunking(study, 3)) == (kind == "timing")
 
 
 def test_the_hook_stiffness_is_the_derivative_of_the_threads_pull_in_every_state(head):

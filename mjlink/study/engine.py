@@ -66,15 +66,13 @@ def chunking(study: Study, lanes: int = 1) -> dict[str, list[int]]:
     """How variants are cut on ``lanes`` workers (the cache records it: another cut makes other
     chunks)."""
     together = max((m.together for m in study.metrics), default=1)
-    parts = _parts(study, lanes)
-    return {"reference": [*REFERENCE_CHUNK, together, DEALT, parts], "mujoco": list(MUJOCO_CHUNK)}
+    cut = [*REFERENCE_CHUNK, together, DEALT] + ([_parts(lanes)] if together > 1 else [])
+    return {"reference": cut, "mujoco": list(MUJOCO_CHUNK)}
 
 
-def _parts(study: Study, lanes: int) -> int:
-    """The reference's tasks at least: :data:`TOGETHER_PARTS` or one a worker of ``lanes``
-    where a metric steps its variants together, else 16 (about)."""
-    if max((m.together for m in study.metrics), default=1) <= 1:
-        return 16
+def _parts(lanes: int) -> int:
+    """The tasks at least of a study whose metric steps its variants together, on ``lanes``
+    workers: :data:`TOGETHER_PARTS`, or one a worker."""
     return max(TOGETHER_PARTS, lanes)
 
 
@@ -115,8 +113,7 @@ def reference_chunks(study: Study, n: int, lanes: int = 1) -> list[tuple[int, in
     together = max((m.together for m in study.metrics), default=1)
     if together <= 1:
         return chunks(n, (lo, hi))
-    parts = _parts(study, lanes)
-    return chunks(n, (int(min(together, max(lo, -(-n // parts)))), together))
+    return chunks(n, (int(min(together, max(lo, -(-n // _parts(lanes))))), together))
 
 
 def reference_order(study: Study, n: int, lanes: int = 1) -> np.ndarray | None:
