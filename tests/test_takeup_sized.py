@@ -187,3 +187,15 @@ def test_the_sized_heads_check_spring_acts_and_the_published_directions_hold(siz
         fed = dataclasses.replace(sized, balance=dataclasses.replace(sized.balance, stitch_length=length))
         peaks.append(needle_tension(fed, head_timing(fed)).peak)
     assert peaks[0] < base.peak < peaks[1]
+
+
+def test_the_refining_study_is_the_sizing_study_started_from_the_shipped_design():
+    """studies/lockstitch_head_takeup_refine.toml says it is the take-up study with the same
+    parameters, ranges, bounds, metrics and budget, started from the shipped head's design: held
+    here key by key, so that the two cannot drift apart."""
+    refine = tomllib.loads((shipped("studies") / "lockstitch_head_takeup_refine.toml").read_text())
+    assert refine["optimize"].pop("start") == "file"
+    assert (shipped("studies") / refine["study"]["mechanism"]).resolve() == SIZED.resolve()
+    for key in ("parameter", "bound", "metric", "optimize"):
+        assert refine[key] == STUDY[key], key
+    assert set(refine) == set(STUDY)
