@@ -299,3 +299,32 @@ kind = "tension"
     drawn = probe.columns["tension_per_stitch"][0], full.columns["tension_per_stitch"][0]
     assert abs(drawn[0] - drawn[1]) > 0.1, drawn  # mm
     assert probe_bytes == pytest.approx(full_bytes, rel=0.01)
+
+
+def test_a_tension_studys_plan_scales_its_calibration_to_the_arrays_of_its_tasks(tmp_path, monkeypatch):
+    """The calibration steps a few heads one by one; the tasks step hundreds at once, each
+    head's stitch at a fraction of the cost (tension_many.share: bench/bench_tension.py measures
+    it). The plan's time is the calibration's scaled by that fraction for its tasks' size, and
+    nothing else changes."""
+    from mjlink.analysis.metric_base import Metric
+    from mjlink.analysis.tension_metric import TensionMetric
+    from mjlink.study import plan
+
+    assert tension_many.share(TOGETHER - 1) == 1.0 > tension_many.share(TOGETHER)
+    sizes = [TOGETHER, 96, 192, 384, 512]
+    assert all(tension_many.share(a) > tension_many.share(b) for a, b in itertools.pairwise(sizes))
+    f = tmp_path / "t.toml"
+    f.write_text(
+        GRID.format(angles=720)
+        + '[[parameter]]\npath = "tension.needle_tension"\nvalues = ['
+        + ", ".join(str(1.0 + i * 1e-3) for i in range(1000))
+        + ']\n[[metric]]\nkind = "tension"\n'
+    )
+    study = load(f)
+    cal = plan.Calibration(row_seconds=1e-4, row_bytes=1e3, model_seconds=float("nan"), variants=4)
+    scaled = plan.estimate(study, workers=2, limit=1e12, calibration=cal)
+    monkeypatch.setattr(TensionMetric, "share", Metric.share)
+    alone = plan.estimate(study, workers=2, limit=1e12, calibration=cal)
+    assert scaled.tasks == alone.tasks == 2
+    assert scaled.seconds == pytest.approx(alone.seconds * tension_many.share(500), rel=1e-12)
+    assert scaled.memory == alone.memory

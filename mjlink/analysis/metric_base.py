@@ -127,6 +127,13 @@ class Metric(ABC):
             self.point = p
         self.read(raw)
 
+    @classmethod
+    def share(cls, n: int) -> float:
+        """The cost of a variant computed in a batch of ``n`` against its cost alone (1: a
+        metric whose batches cost their variants' sum; a study's plan scales its calibration,
+        run on a few variants, by it to a task's size)."""
+        return 1.0
+
     def read(self, raw: dict[str, Any]) -> None:  # noqa: B027 (optional hook)
         """Read the metric's own options (raise MetricError)."""
 

@@ -29,12 +29,22 @@ from .tension import (
 )
 from .tension import _settle as _settle_one
 
-__all__ = ["step_many"]
+__all__ = ["share", "step_many"]
 
 _NEWTON = 60  # a run's tension scale: Newton steps at most (the scalar's bound)
 ALONE = 24  # threads still stepping at a stitch's end at most for the plain twin to take them over
 FEW = 8  # threads still changing their contacts at most for a step's passes to go on one by one
 TOGETHER = 48  # threads at least for an array step to cost less than the twin's (bench/bench_tension.py)
+# A thread's stitch in an array step of V threads costs about ARRAY_OWN / V + ARRAY_EACH of the
+# twin's (the array's every call has its own cost; measured on the shipped head, 720 steps a
+# stitch: 0.66 of it at 48 threads, 0.31 at 192, 0.22 at 512).
+ARRAY_OWN = 24.0
+ARRAY_EACH = 0.18
+
+
+def share(n: int) -> float:
+    """A thread's cost stepped among ``n`` (:func:`step_many`) against its cost alone."""
+    return 1.0 if n < TOGETHER else min(1.0, ARRAY_OWN / n + ARRAY_EACH)
 
 
 def _runs(state: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -30,6 +30,12 @@ class TensionMetric(TimingChecks):
     options = ()
     together = 512  # stepped at once (:mod:`.tension_many`): a task of this many costs least per variant
 
+    @classmethod
+    def share(cls, n: int) -> float:
+        from .tension_many import share  # the array step's cost
+
+        return share(n)
+
     def read(self, raw: dict[str, Any]) -> None:
         tm, bal = self.mech.timing, self.mech.balance
         if tm is None or bal is None or not self.mech.thread or tm.stitch is not StitchType.LOCKSTITCH:

@@ -207,13 +207,14 @@ class Calibration:
     """CPU seconds and peak traced bytes per variant-angle of the reference on this machine,
     and MuJoCo's CPU seconds per verified model (NaN where not measured) of ``model_steps``
     steps (0: at the file's speed); an optimization's polish's CPU seconds per variant-angle,
-    in its smaller batches (NaN: as ``row_seconds``)."""
+    in its smaller batches (NaN: as ``row_seconds``); ``variants`` the timed batch's."""
 
     row_seconds: float
     row_bytes: float
     model_seconds: float
     model_steps: int = 0
     polish_row_seconds: float = math.nan
+    variants: int = 1  # in the timed batch
 
 
 def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
@@ -294,7 +295,17 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
             study.mechanism.speed,
         )
         model_steps = _steps.verify_steps(study.mechanism.period, speed)
-    return Calibration(seconds / rows, peak / (traced * angles), model, model_steps, polish)
+    return Calibration(seconds / rows, peak / (traced * angles), model, model_steps, polish, n)
+
+
+def _in_tasks(study: Study, cal: Calibration, variants: int) -> float:
+    """CPU seconds per variant-angle in tasks of ``variants`` variants: the calibration's, scaled
+    where a metric's batches cost less per variant the larger they are (``Metric.share``: a
+    head's thread stepped among hundreds costs a fifth of one stepped alone), from the
+    calibration's batch to the task's. That metric's scale is taken for the whole row: it
+    costs the most."""
+    f = min((m.share(max(1, variants)) / m.share(cal.variants) for m in study.metrics), default=1.0)
+    return cal.row_seconds * f
 
 
 def _spread(V: int, n: int) -> np.ndarray:
@@ -434,12 +445,13 @@ def estimate(
     else:
         side = min(lanes, mj_tasks) if workers else min(os.cpu_count() or 1, models)
     polish_s = cal.row_seconds if math.isnan(cal.polish_row_seconds) else cal.polish_row_seconds
+    row_s = _in_tasks(study, cal, task_rows // angles)
 
     def seconds_of(searched: float, polished: float) -> float:
         """Wall seconds for ``searched`` variants of the engine's batches and ``polished`` of the
         polish's, run here one generation after another, then the MuJoCo models."""
         s = (
-            searched * angles * cal.row_seconds * 1.2 / min(lanes, max(1, tasks))
+            searched * angles * row_s * 1.2 / min(lanes, max(1, tasks))
             + polished * angles * polish_s * 1.2
             + models * model_s / max(1, side)
         )
