@@ -227,16 +227,23 @@ kind = "tension"
 
 
 def _study_run(tree: Path, f: Path, out: Path) -> tuple[float, Path]:
-    """The wall time of ``mjlink study f`` run from the checkout ``tree``, and its results."""
+    """The wall time of ``mjlink study f`` run from the checkout ``tree``, and its results; the
+    plan's estimate of its time is printed."""
     w0 = time.perf_counter()
-    subprocess.run(
+    r = subprocess.run(
         [sys.executable, "-m", "mjlink", "study", str(f), "--out", str(out), "--no-plots"],
         cwd=tree,
         check=True,
         capture_output=True,
+        text=True,
         env={**os.environ, "PYTHONPATH": str(tree)},
     )
-    return time.perf_counter() - w0, out / "tension_1000-study" / "results.csv"
+    wall = time.perf_counter() - w0
+    planned = next(
+        (line.split("time about ")[1].split(";")[0] for line in r.stderr.splitlines() if "time about" in line), "?"
+    )
+    print(f"    its plan estimated {planned}", flush=True)
+    return wall, out / "tension_1000-study" / "results.csv"
 
 
 def _rows(results: Path) -> list[dict[str, str]]:
