@@ -150,3 +150,19 @@ def test_the_whole_head_is_measured_as_before(whole):
     assert (
         np.isfinite(whole.values["penetration velocity"][0]) and whole.values["dog height above the plate"][1] == "mm"
     )
+
+
+def test_a_timing_table_without_its_optional_numbers_takes_their_documented_defaults():
+    """mjlink/model/timing.py's table documents ``fabric`` 1.5 mm, ``loop_release`` 270 deg and
+    ``feed_in_fabric`` 0.2 mm when a file leaves them out. The shipped head writes exactly
+    those: without the three lines it is the same head, its every timing row the same."""
+    lines = ("fabric = 1.5 ", "loop_release = 270.0 ", "feed_in_fabric = 0.2 ")
+    assert all(sum(line.startswith(k) for line in HEAD.splitlines()) == 1 for k in lines)
+    bare = "\n".join(line for line in HEAD.splitlines() if not line.startswith(lines)) + "\n"
+    written, left_out = parse(HEAD, "whole.toml"), parse(bare, "bare.toml")
+    assert left_out.timing.fabric == pytest.approx(1.5e-3, rel=1e-15)  # m
+    assert left_out.timing.loop_release == pytest.approx(math.radians(270.0), rel=1e-15)
+    assert left_out.timing.feed_in_fabric == pytest.approx(0.2e-3, rel=1e-15)  # m
+    a, b = head_timing(written, samples=720), head_timing(left_out, samples=720)
+    rows = [[(r.key, r.maker, r.value, r.window, r.ok) for r in t.rows] for t in (a, b)]
+    assert rows[0] == rows[1] and len(rows[0]) > 10

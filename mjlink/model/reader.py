@@ -131,8 +131,9 @@ class Reader:
         why="",
         bound: Bound | None = None,
     ) -> float:
-        """A finite number; ``lo``/``hi`` bound its magnitude (file units, ``unit`` for messages),
-        ``bound`` its signed range (limits.Bound); both compared with limits.BOUND_RTOL."""
+        """A finite number times ``scale``; ``lo``/``hi`` bound its magnitude (file units, ``unit``
+        for messages), ``bound`` its signed range (limits.Bound); both compared with
+        limits.BOUND_RTOL. A missing key gives ``default`` as it is: already scaled (SI)."""
         if key not in data:
             if default is None:
                 raise self.fail(where, f"missing key '{key}'")

@@ -272,9 +272,10 @@ def read(r: Reader, raw: Any, ground: set[str], steps: Sequence[Block], links: S
     return Timing(
         roles=roles,
         plate=_number(r, scalars, "plate", "[timing]", "timing.plate", MM),
-        fabric=_number(r, scalars, "fabric", "[timing]", "timing.fabric", MM, default=1.5),
-        loop_release=_number(r, scalars, "loop_release", "[timing]", "timing.loop_release", DEG, default=270.0),
-        feed_in_fabric=_number(r, scalars, "feed_in_fabric", "[timing]", "timing.feed_in_fabric", MM, default=0.2),
+        # The defaults in SI, as the reader gives them back unscaled.
+        fabric=_number(r, scalars, "fabric", "[timing]", "timing.fabric", MM, default=1.5 * MM),
+        loop_release=_number(r, scalars, "loop_release", "[timing]", "timing.loop_release", DEG, default=270.0 * DEG),
+        feed_in_fabric=_number(r, scalars, "feed_in_fabric", "[timing]", "timing.feed_in_fabric", MM, default=0.2 * MM),
         target=target,
         settings=settings,
         stitch=stitch,
