@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from mjlink import api, reference, study
 from mjlink.analysis.metric_base import MetricError
@@ -243,7 +243,7 @@ min = -8.5
         ),
         (
             {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"when": 1}},
-            "unknown key 'when' (valid: point, axis, height, from, height_of, direction, extreme, angle)",
+            "unknown key 'when' (valid: point, link, quantity, axis, height, from, height_of, direction, extreme, angle)",
         ),
         (
             {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"extreme": "min", "from": "min"}},
@@ -258,6 +258,50 @@ min = -8.5
         (
             {"kind": "motion", "point": "NT", "quantity": "velocity", "statistic": "peak", "event": {"angle": 1}},
             "either 'statistic' or 'event'",
+        ),
+        (
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "event": {"link": "lever", "height": 1.0}},
+            "a link or a quantity other than a point's position names an extreme",
+        ),
+        (
+            {
+                "kind": "motion",
+                "point": "NB",
+                "quantity": "position",
+                "axis": "y",
+                "event": {"quantity": "speed", "extreme": "max"},
+            },
+            "event quantity: a point's must be one of position, velocity, acceleration, jerk, got 'speed'",
+        ),
+        (
+            {
+                "kind": "motion",
+                "point": "NB",
+                "quantity": "position",
+                "axis": "y",
+                "event": {"link": "levr", "extreme": "max"},
+            },
+            "event link: 'levr' is not a link of lockstitch_head (links: crank,",
+        ),
+        (
+            {
+                "kind": "motion",
+                "point": "NB",
+                "quantity": "position",
+                "axis": "y",
+                "event": {"link": "lever", "quantity": "jerk", "extreme": "max"},
+            },
+            "a link's must be one of angle, angular_velocity, angular_acceleration, velocity_ratio, got 'jerk'",
+        ),
+        (
+            {
+                "kind": "motion",
+                "point": "NB",
+                "quantity": "position",
+                "axis": "y",
+                "event": {"link": "lever", "axis": "y", "extreme": "max"},
+            },
+            "a link's extreme takes no axis",
         ),
     ],
 )
@@ -332,3 +376,66 @@ def test_a_blocks_transmission_and_pressure_angle_are_the_plain_ones():
     u, v = (one.points[q].v[0, :2] - one.points["P3"].v[0, :2] for q in ("P2", "P4"))
     at = math.degrees(math.acos(u @ v / np.linalg.norm(u) / np.linalg.norm(v)))
     assert cols["transmission_angle_P3_at_101deg"][0] == pytest.approx(at, rel=1e-9)
+
+
+def test_an_extreme_of_a_quantity_is_an_event():
+    """The instant a quantity other than a coordinate is at its extreme: the needle bar's
+    upward acceleration is largest at its bottom dead centre (cos t + lambda cos 2t is largest
+    at t = 0 for any lambda > 0), where the bar stands r + l below the crank's pivot and is at
+    rest; the needle point's speed is at its peak where the metric's own peak is; the lever's
+    angle is largest where it stands still."""
+    cols = _evaluate(
+        [
+            {
+                "kind": "motion",
+                "point": "NB",
+                "quantity": "position",
+                "axis": "y",
+                "event": {"quantity": "acceleration", "axis": "y", "extreme": "max"},
+            },
+            {
+                "kind": "motion",
+                "point": "NB",
+                "quantity": "velocity",
+                "axis": "y",
+                "event": {"quantity": "acceleration", "axis": "y", "extreme": "max"},
+            },
+            {
+                "kind": "motion",
+                "point": "NT",
+                "quantity": "velocity",
+                "event": {"quantity": "velocity", "extreme": "max"},
+            },
+            {"kind": "motion", "point": "NT", "quantity": "velocity", "statistic": "peak"},
+            {
+                "kind": "motion",
+                "link": "lever",
+                "quantity": "angular_velocity",
+                "event": {"link": "lever", "extreme": "max"},
+            },
+            {"kind": "motion", "link": "lever", "quantity": "angular_velocity", "statistic": "peak"},
+            {"kind": "motion", "link": "lever", "quantity": "angle", "event": {"link": "lever", "extreme": "max"}},
+            {"kind": "motion", "link": "lever", "quantity": "angle", "statistic": "max"},
+        ]
+    )
+    r = np.array(CRANKS)
+    assert np.allclose(cols["position_y_NB_at_NB_acceleration_y_max"], -(r + ROD), rtol=0, atol=1e-9)  # mm
+    speed = np.abs(r * 1e-3 * W)  # m/s: the crank pin's, a scale for the bar's
+    assert np.all(np.abs(cols["velocity_y_NB_at_NB_acceleration_y_max"]) < 1e-9 * speed)
+    # The needle point's largest speed, the plain way: the reference's exact velocity over a
+    # dense grid of crank angles, its best sample refined by a bounded scalar search.
+    for i, rr in enumerate(CRANKS):
+        mech = _variant(rr)
+        phi = mech.phi0 + np.radians(np.arange(7200) * 0.05)
+        v = np.linalg.norm(reference.solve(mech, phi, check=False).points["NT"].d, axis=1) * abs(W)
+        j = int(np.argmax(v))
+
+        def speed(p, mech=mech):
+            return -float(np.linalg.norm(reference.solve(mech, [p], check=False).points["NT"].d[0])) * abs(W)
+
+        best = -minimize_scalar(speed, bounds=(phi[j - 1], phi[j + 1]), method="bounded", options={"xatol": 1e-12}).fun
+        assert cols["velocity_NT_at_NT_velocity_max"][i] == pytest.approx(best, rel=1e-10)
+        assert cols["velocity_NT_peak"][i] == pytest.approx(best, rel=1e-10)
+    lever = cols["angular_velocity_lever_peak"]
+    assert np.all(np.abs(cols["angular_velocity_lever_at_lever_angle_max"]) < 1e-9 * lever)
+    assert np.allclose(cols["angle_lever_at_lever_angle_max"], cols["angle_lever_max"], rtol=0, atol=1e-9)  # deg

@@ -27,7 +27,10 @@ Events (``event``, a table; without one, ``statistic``):
   highest) coordinate over the cycle: the fabric's top 12.5 mm above the needle point's bottom
   dead centre, wherever a variant puts that centre;
 * an extreme of a point's coordinate (``extreme`` = ``max`` or ``min``), e.g. the needle bar's
-  bottom dead centre;
+  bottom dead centre; or of another quantity (``quantity``): a point's velocity, acceleration
+  or jerk along ``axis`` (without one, the magnitude's), or a link's (``link``) angle, angular
+  velocity, angular acceleration or velocity ratio, e.g. ``{ point = "NT", quantity =
+  "velocity", axis = "y", extreme = "min" }``, the instant the needle falls fastest;
 * a crank angle (``angle`` deg, the input crank's absolute angle as the file's ``phi0``).
 
 How it is exact: a linkage driven by a crank moves analytically in the crank angle, so its
@@ -59,7 +62,7 @@ POINT = {"position": "mm", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "
 LINK = {"angle": "deg", "angular_velocity": "rad/s", "angular_acceleration": "rad/s^2", "velocity_ratio": ""}
 TIMED = ("velocity", "acceleration", "jerk", "angular_velocity", "angular_acceleration")  # depend on the speed
 STATISTICS = ("peak", "rms", "range", "max", "min")
-_EVENT_KEYS = ("point", "axis", "height", "from", "height_of", "direction", "extreme", "angle")
+_EVENT_KEYS = ("point", "link", "quantity", "axis", "height", "from", "height_of", "direction", "extreme", "angle")
 _NEWTON = 8  # iterations: quadratic convergence from a bracket one sample wide
 
 
@@ -67,22 +70,27 @@ _NEWTON = 8  # iterations: quadratic convergence from a bracket one sample wide
 class Event:
     """An instant of the cycle: a crossing (``height`` m, from ``origin`` 'min'/'max' of the
     point's own coordinate where given, or ``height_of``; ``direction`` +1 up, -1 down), an
-    ``extreme`` ('max'/'min') of ``point``'s coordinate ``axis``, or a crank ``angle`` (rad,
+    ``extreme`` ('max'/'min') of ``point``'s coordinate ``axis`` or of another ``quantity`` of
+    ``point`` (along ``axis``, None: its magnitude) or of ``link``, or a crank ``angle`` (rad,
     absolute)."""
 
     point: str = ""
-    axis: int = 1
+    axis: int | None = 1
     height: float | None = None
     origin: str = ""
     height_of: str = ""
     direction: int = 0
     extreme: str = ""
     angle: float | None = None
+    link: str = ""
+    quantity: str = "position"
 
     def tag(self) -> str:
         if self.angle is not None:
             return f"at_{math.degrees(self.angle):g}deg".replace("-", "m").replace(".", "p")
-        ax = "xyz"[self.axis]
+        ax = "" if self.axis is None else "xyz"[self.axis]
+        if self.extreme and self.quantity != "position":
+            return f"at_{self.point or self.link}_{self.quantity}{'_' + ax if ax else ''}_{self.extreme}"
         if self.extreme:
             return f"at_{self.point}_{ax}_{self.extreme}"
         to = self.height_of or f"{self.height * 1e3:g}mm".replace("-", "m").replace(".", "p")  # type: ignore[operator]
@@ -212,18 +220,29 @@ class Motion(AtSpeed):
             if extra:
                 raise MetricError(f"{where}: a crank angle takes no {', '.join(extra)}")
             return Event(angle=math.radians(_number(raw["angle"], f"{where} angle", 1e6)))
+        if ("link" in raw or raw.get("quantity", "position") != "position") and "extreme" not in raw:
+            raise MetricError(
+                f"{where}: a link or a quantity other than a point's position names an extreme "
+                "(extreme = 'max' or 'min'); a crossing is a point's height"
+            )
+        if "link" in raw:
+            return self._link_extreme(raw, where)
         point = raw.get("point", self.point)
         if not point:
-            raise MetricError(f"{where} needs its point (a {self.subject}'s event is a point's crossing or extreme)")
+            raise MetricError(
+                f"{where} needs its point or link (a {self.subject}'s event is a point's crossing, or an extreme "
+                "of a point's or a link's quantity)"
+            )
         self._point(point, f"{where} point")
-        axis = _axis(raw.get("axis"), f"{where} axis", default=1)
-        assert axis is not None
+        q = raw.get("quantity", "position")
+        if q not in POINT:
+            raise MetricError(f"{where} quantity: a point's must be one of {', '.join(POINT)}, got {shown(q)}")
+        # A coordinate is along y unless told; another quantity without an axis is its magnitude.
+        axis = _axis(raw.get("axis"), f"{where} axis", default=1 if q == "position" else None)
         if "extreme" in raw:
-            if raw["extreme"] not in ("max", "min"):
-                raise MetricError(f"{where} extreme must be 'max' or 'min', got {shown(raw['extreme'])}")
-            if "direction" in raw:
-                raise MetricError(f"{where}: an extreme takes no direction")
-            return Event(point=point, axis=axis, extreme=raw["extreme"])
+            self._extreme(raw, where)
+            return Event(point=point, axis=axis, extreme=raw["extreme"], quantity=str(q))
+        assert axis is not None
         d = raw.get("direction")
         if d not in ("up", "down"):
             raise MetricError(
@@ -236,6 +255,28 @@ class Motion(AtSpeed):
             return Event(point=point, axis=axis, height_of=raw["height_of"], direction=1 if d == "up" else -1)
         h = _number(raw["height"], f"{where} height", 1e6) * 1e-3
         return Event(point=point, axis=axis, height=h, origin=origin, direction=1 if d == "up" else -1)
+
+    @staticmethod
+    def _extreme(raw: dict[str, Any], where: str) -> None:
+        if raw["extreme"] not in ("max", "min"):
+            raise MetricError(f"{where} extreme must be 'max' or 'min', got {shown(raw['extreme'])}")
+        if "direction" in raw:
+            raise MetricError(f"{where}: an extreme takes no direction")
+
+    def _link_extreme(self, raw: dict[str, Any], where: str) -> Event:
+        links = [l.name for l in self.mech.links]
+        if raw["link"] not in links:
+            raise MetricError(
+                f"{where} link: {shown(raw['link'])} is not a link of {self.mech.name} (links: {', '.join(links)})"
+            )
+        extra = [k for k in raw if k not in ("link", "quantity", "extreme")]
+        if extra:
+            raise MetricError(f"{where}: a link's extreme takes no {', '.join(extra)}")
+        q = raw.get("quantity", "angle")
+        if q not in LINK:
+            raise MetricError(f"{where} quantity: a link's must be one of {', '.join(LINK)}, got {shown(q)}")
+        self._extreme(raw, where)
+        return Event(link=raw["link"], axis=None, extreme=raw["extreme"], quantity=str(q))
 
     def _point(self, p: Any, where: str) -> None:
         if not isinstance(p, str) or p not in self.mech.point_names:
@@ -254,36 +295,39 @@ class Motion(AtSpeed):
 
     # -- the quantity over the cycle ----------------------------------------------------------
     def _components(self, b: Batch) -> np.ndarray:
-        """(V, A, C) the quantity's components (C = 1 along an axis or for a link's or block's
-        angle, 3 for a magnitude); a link's angle with its turns taken out (:meth:`_turns`)."""
+        """(V, A, C) the metric's quantity's components (:meth:`_of`)."""
+        return self._of(b, self.subject, self.point or self.link or self.block, self.quantity, self.axis)
+
+    def _of(self, b: Batch, subject: str, name: str, quantity: str, axis: int | None) -> np.ndarray:
+        """(V, A, C) the components of ``quantity`` of the ``subject`` ('point', 'link' or
+        'block') ``name`` (C = 1 along ``axis`` or for a link's or block's angle, 3 for a
+        magnitude); a link's angle with its turns taken out (:meth:`_turns`)."""
         rows = b.variants * b.angles
         w = self.speed
-        if self.subject == "block":
-            step = next(s for s in b.mechanism.steps if s.point == self.block)
+        if subject == "block":
+            step = next(s for s in b.mechanism.steps if s.point == name)
             dp = step.dead_point(b.kin.positions())
             assert dp is not None
             return b.per_variant(np.broadcast_to(dp.value_deg, (rows,)))[:, :, None]
-        if self.subject == "link":
-            a = b.kin.angles[self.link]
-            if self.quantity == "angle":
+        if subject == "link":
+            a = b.kin.angles[name]
+            if quantity == "angle":
                 u = np.unwrap(b.per_variant(np.broadcast_to(a.v, (rows,))), axis=1)
                 out: np.ndarray = u - self._turns(u)[:, None] * 2.0 * math.pi * b.theta[None, :] / _period(b)
                 return out[:, :, None]
-            q = {"angular_velocity": a.d * w, "angular_acceleration": a.dd * w * w, "velocity_ratio": a.d}[
-                self.quantity
-            ]
+            q = {"angular_velocity": a.d * w, "angular_acceleration": a.dd * w * w, "velocity_ratio": a.d}[quantity]
             return b.per_variant(np.broadcast_to(q, (rows,)))[:, :, None]
-        p = b.kin.points[self.point]
-        if self.quantity == "position":
+        p = b.kin.points[name]
+        if quantity == "position":
             q = p.v * 1e3
-        elif self.quantity == "velocity":
+        elif quantity == "velocity":
             q = p.d * w
         else:
             q = p.dd * w * w
         q = b.per_variant(np.broadcast_to(q, (rows, 3)))
-        if self.quantity == "jerk":  # d/dt = omega d/dphi of the exact acceleration
+        if quantity == "jerk":  # d/dt = omega d/dphi of the exact acceleration
             q = _derivative(q, _period(b), axis=1) * w
-        return q if self.axis is None else q[:, :, self.axis : self.axis + 1]
+        return q if axis is None else q[:, :, axis : axis + 1]
 
     @staticmethod
     def _turns(u: np.ndarray) -> np.ndarray:
@@ -321,6 +365,15 @@ class Motion(AtSpeed):
             s = np.degrees(s - s[:, :1] + np.angle(np.exp(1j * s[:, :1])))
         if self.statistic == "rms":
             value = np.sqrt((s * s).mean(axis=1))
+        elif c.shape[-1] > 1:
+            # A magnitude's extremes from its square's, which is as smooth as the components:
+            # the magnitude itself has a kink wherever it passes through nought, and its
+            # interpolant rings there over the whole period.
+            q = (c * c).sum(axis=-1)
+            spec = np.fft.rfft(q, axis=1)
+            hi = np.sqrt(np.maximum(_extreme(spec, q, T, True), 0.0))
+            lo = np.sqrt(np.maximum(_extreme(spec, q, T, False), 0.0))
+            value = {"max": hi, "min": lo, "range": hi - lo, "peak": hi}[self.statistic]
         else:
             spec = np.fft.rfft(s, axis=1)
             hi, lo = _extreme(spec, s, T, True), _extreme(spec, s, T, False)
@@ -338,6 +391,17 @@ class Motion(AtSpeed):
         if ev.angle is not None:
             phi0 = b.per_variant(np.broadcast_to(b.kin.phi, (b.variants * b.angles,)))[:, 0]
             return np.mod(ev.angle - phi0, T)
+        if ev.extreme and (ev.link or ev.quantity != "position"):
+            subject, name = ("link", ev.link) if ev.link else ("point", ev.point)
+            c = self._of(b, subject, name, ev.quantity, ev.axis)
+            q = c[..., 0] if c.shape[-1] == 1 else (c * c).sum(axis=-1)  # a magnitude's square: smooth
+            t = _argextreme(np.fft.rfft(q, axis=1), q, T, ev.extreme == "max")
+            if ev.link and ev.quantity == "angle":  # a link that turns fully has no extreme angle
+                rows = b.variants * b.angles
+                u = np.unwrap(b.per_variant(np.broadcast_to(b.kin.angles[ev.link].v, (rows,))), axis=1)
+                t = np.where(self._turns(u) == 0, t, np.nan)
+            return t
+        assert ev.axis is not None
         y = b.per_variant(np.broadcast_to(b.kin.points[ev.point].v, (b.variants * b.angles, 3)))[:, :, ev.axis]
         if ev.extreme:
             spec = np.fft.rfft(y, axis=1)
