@@ -76,6 +76,7 @@ def study_text(extra: str = "", base: str = BASE) -> str:
         (BASE.replace('method = "tolerance"', 'method = "sweep"'), "method: must be one of grid, random, tolerance"),
         (BASE + '\n[verify]\nmujoco = "best"\ncount = 2\nby = "thread_rnage"\n', "did you mean 'thread_range'"),
         (BASE + '\n[verify]\nmujoco = "best"\ncount = 2\n', "'best' needs 'by'"),
+        (BASE + '\n[verify]\nmujoco = "worst"\nby = "thread_range"\n', "'worst' needs 'count' (how many of the worst"),
         (BASE.replace("angles = 72", "angles = 73"), "must be even"),
         (BASE + '\n[[metric]]\nkind = "stroke"\npoint = "P55"\n', "did you mean 'P5'"),
         (BASE.replace('mechanism = "takeup"', 'mechanism = "takeupp"'), "did you mean 'takeup'"),
@@ -102,6 +103,32 @@ def test_every_documented_kind_of_path_resolves() -> None:
     # The input crank has no phase (its setting is input.phi0): refused, naming the path.
     with pytest.raises(paths.PathError, match=r"unknown parameter path 'construct\.B\.phase'"):
         paths.resolve(cs, "construct.B.phase")
+
+
+def test_a_wrong_parameter_path_lists_what_its_point_or_section_has() -> None:
+    """A wrong number of a point names what that point has, not another point's number; a
+    wrong point names the section's points (the take-up's ground points as its file writes
+    them); a guess only where it is a close spelling of what exists."""
+    import tomllib
+
+    from mjlink.model.catalogue import path_of
+
+    cs, tu = validation.get("crank_slider"), validation.get("takeup")
+    ground = ", ".join(sorted(tomllib.loads(path_of("takeup").read_text())["ground"]))
+    cases = [
+        (cs, "construct.B.angle", "(construct.B has length)"),
+        (tu, "ground.P9.x", f"(ground has no 'P9'; it has {ground})"),
+        (tu, "ground.P44.x", "(did you mean 'ground.P4.x'? ground has no 'P44'"),
+        (tu, "construct.P3.lenght_a", "(did you mean 'construct.P3.length_a'? construct.P3 has length_a, length_b)"),
+        (tu, "grond.P4.x", "(did you mean 'ground.P4.x'? valid paths start with: construct., "),
+    ]
+    for mech, path, words in cases:
+        with pytest.raises(paths.PathError) as e:
+            paths.resolve(mech, path)
+        assert words in str(e.value), str(e.value)
+    with pytest.raises(paths.PathError) as e:
+        paths.resolve(cs, "construct.B.angle")
+    assert "did you mean" not in str(e.value)
 
 
 def test_sampling_is_seeded_and_within_its_law() -> None:

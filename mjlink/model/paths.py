@@ -221,12 +221,38 @@ def resolve(mech: Mechanism, path: str) -> Param:
     known = catalogue(mech)
     if path in known:
         return known[path]
-    near = difflib.get_close_matches(path, list(known), n=1, cutoff=0.5)
-    if not near:  # a wrong point or link name: suggest by the last part
-        tail = path.rsplit(".", 1)[-1]
-        near = [k for k in known if k.endswith("." + tail)][:1]
-    hint = f"did you mean '{near[0]}'?" if near else f"valid paths start with: {', '.join(_sections(known))}"
-    raise PathError(f"{mech.name}: unknown parameter path '{path}' ({hint})")
+    raise PathError(f"{mech.name}: unknown parameter path '{path}' ({_hint(known, path)})")
+
+
+def _hint(known: Mapping[str, Param], path: str) -> str:
+    """What exists near ``path``: the numbers of the point, link or table it names, or the names
+    of the section it names, or the sections; a guess only where it is a close spelling of one
+    of those (a guess by the number's name alone would name another point's number)."""
+    head, _, last = path.rpartition(".")
+    own = sorted(k[len(head) + 1 :] for k in known if k.startswith(head + ".") and "." not in k[len(head) + 1 :])
+    if head and own:
+        near = difflib.get_close_matches(last, own, n=1, cutoff=0.6)
+        guess = f"did you mean '{head}.{near[0]}'? " if near else ""
+        return f"{guess}{head} has {', '.join(own)}"
+    section = path.split(".", 1)[0]
+    names = sorted({k.split(".")[1] for k in known if k.startswith(section + ".") and k.count(".") >= 2})
+    if names and "." in path:
+        name = path.split(".")[1]
+        near = [
+            n
+            for n in difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+            if path.replace(f"{section}.{name}.", f"{section}.{n}.", 1) in known
+        ]
+        guess = f"did you mean '{path.replace(f'{section}.{name}.', f'{section}.{near[0]}.', 1)}'? " if near else ""
+        return f"{guess}{section} has no '{name}'; it has {', '.join(names)}"
+    rest = path.split(".", 1)[1] if "." in path else ""
+    near = [
+        n
+        for n in difflib.get_close_matches(section, [x[:-1] for x in _sections(known)], n=3, cutoff=0.6)
+        if f"{n}.{rest}" in known
+    ]
+    guess = f"did you mean '{near[0]}.{rest}'? " if near else ""
+    return f"{guess}valid paths start with: {', '.join(_sections(known))}"
 
 
 def _sections(known: Mapping[str, Param]) -> list[str]:

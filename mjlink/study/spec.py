@@ -238,6 +238,8 @@ def _number(src: object, raw: dict, key: str, where: str, *, default: float | No
 
 
 def _integer(src: object, raw: dict, key: str, where: str, lo: int, hi: int, default: int | None = None) -> int:
+    if key not in raw and default is None:
+        raise _fail(src, where, f"missing key '{key}' (an integer from {lo} to {hi})")
     v = raw.get(key, default)
     if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
         error = _limit if isinstance(v, int) and not isinstance(v, bool) else _fail
@@ -435,6 +437,8 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
         raise _fail(src, "[verify] mujoco", f"must be one of {', '.join(VERIFY)}, got {shown(mode)}")
     count, by = 0, ""
     if mode in ("best", "worst"):
+        if "count" not in ver:
+            raise _fail(src, "[verify]", f"'{mode}' needs 'count' (how many of the {mode} variants to verify)")
         count = _integer(src, ver, "count", "[verify]", 1, MAX_VARIANTS)
         if "by" not in ver:
             raise _fail(src, "[verify]", f"'{mode}' needs 'by' (the metric column that ranks the variants)")
