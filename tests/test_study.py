@@ -423,7 +423,7 @@ def test_study_command_writes_table_summary_and_is_one_line_on_errors(tmp_path: 
     bad.write_text(BASE.replace("ground.P4.x", "ground.P44.x"))
     r = _mjlink("study", str(bad), "--workers", "0")
     assert r.returncode == 1 and r.stderr.count("\n") == 1
-    assert "unknown parameter path 'ground.P44.x' (did you mean 'ground.P4.x'?)" in r.stderr
+    assert "unknown parameter path 'ground.P44.x' (did you mean 'ground.P4.x'? ground has no 'P44'" in r.stderr
     r = _mjlink("study", "takeup_tolerence")
     assert r.returncode == 1 and "did you mean 'takeup_tolerance'" in r.stderr
 
