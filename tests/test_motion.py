@@ -439,3 +439,32 @@ def test_an_extreme_of_a_quantity_is_an_event():
     lever = cols["angular_velocity_lever_peak"]
     assert np.all(np.abs(cols["angular_velocity_lever_at_lever_angle_max"]) < 1e-9 * lever)
     assert np.allclose(cols["angle_lever_at_lever_angle_max"], cols["angle_lever_max"], rtol=0, atol=1e-9)  # deg
+
+
+def test_every_wrong_value_of_a_motion_metric_or_its_event_is_a_one_line_error():
+    """Hostile input: each key of a motion metric and of its event given a value of the wrong
+    kind (a list, a table, nothing, a bool, a number beyond any bound, an empty or control
+    string) is a one-line MetricError, never a crash of another kind."""
+    bad = [[1], {}, {"a": 1}, None, True, 1e309, "", "\x00", 10**400, -1]
+    bases = [
+        {"kind": "motion", "point": "NT", "quantity": "velocity"},
+        {"kind": "motion", "link": "lever", "quantity": "angle"},
+        {"kind": "motion", "block": "NB"},
+    ]
+    events = [
+        {"extreme": "max"},
+        {"height": 1.0, "direction": "down"},
+        {"link": "lever", "extreme": "max"},
+        {"quantity": "velocity", "extreme": "max"},
+    ]
+    keys = ("point", "link", "block", "speed", "quantity", "axis", "statistic", "event", "name")
+    event_keys = ("point", "link", "quantity", "axis", "height", "from", "height_of", "direction", "extreme", "angle")
+    cases = [{**b, k: v} for b in bases for k in keys for v in bad]
+    cases += [{**b, "event": {**e, k: v}} for b in bases[:1] for e in events for k in event_keys for v in bad]
+    for metric in cases:
+        try:
+            study.evaluate(HEAD, {"construct.P6.length": [15.35]}, [metric])
+        except MetricError as e:
+            assert "\n" not in str(e), metric
+        except Exception as e:
+            pytest.fail(f"{metric}: {type(e).__name__}: {e}")

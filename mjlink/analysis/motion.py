@@ -147,7 +147,7 @@ class Motion(AtSpeed):
             table = LINK
         else:
             blocks = {s.point: s.kind for s in self.mech.steps if s.kind in ("dyad", "slider")}
-            if raw["block"] not in blocks:
+            if not isinstance(raw["block"], str) or raw["block"] not in blocks:
                 raise MetricError(
                     f"{self.where}: block {shown(raw['block'])} is not a dyad's or a slider's point of "
                     f"{self.mech.name} (blocks: {', '.join(blocks) or 'none'})"
@@ -160,7 +160,7 @@ class Motion(AtSpeed):
                     f"{self.where}: block {self.block} is a {blocks[self.block]}: its quantity is {own}, got {shown(q)}"
                 )
             table = {own: "deg"}
-        if q not in table:
+        if not isinstance(q, str) or q not in table:
             raise MetricError(
                 f"{self.where}: a {self.subject}'s quantity must be one of {', '.join(table)}, got {shown(q)}"
             )
@@ -220,7 +220,7 @@ class Motion(AtSpeed):
             if extra:
                 raise MetricError(f"{where}: a crank angle takes no {', '.join(extra)}")
             return Event(angle=math.radians(_number(raw["angle"], f"{where} angle", 1e6)))
-        if ("link" in raw or raw.get("quantity", "position") != "position") and "extreme" not in raw:
+        if ("link" in raw or ("quantity" in raw and raw["quantity"] != "position")) and "extreme" not in raw:
             raise MetricError(
                 f"{where}: a link or a quantity other than a point's position names an extreme "
                 "(extreme = 'max' or 'min'); a crossing is a point's height"
@@ -235,7 +235,7 @@ class Motion(AtSpeed):
             )
         self._point(point, f"{where} point")
         q = raw.get("quantity", "position")
-        if q not in POINT:
+        if not isinstance(q, str) or q not in POINT:
             raise MetricError(f"{where} quantity: a point's must be one of {', '.join(POINT)}, got {shown(q)}")
         # A coordinate is along y unless told; another quantity without an axis is its magnitude.
         axis = _axis(raw.get("axis"), f"{where} axis", default=1 if q == "position" else None)
@@ -265,7 +265,7 @@ class Motion(AtSpeed):
 
     def _link_extreme(self, raw: dict[str, Any], where: str) -> Event:
         links = [l.name for l in self.mech.links]
-        if raw["link"] not in links:
+        if not isinstance(raw["link"], str) or raw["link"] not in links:
             raise MetricError(
                 f"{where} link: {shown(raw['link'])} is not a link of {self.mech.name} (links: {', '.join(links)})"
             )
@@ -273,7 +273,7 @@ class Motion(AtSpeed):
         if extra:
             raise MetricError(f"{where}: a link's extreme takes no {', '.join(extra)}")
         q = raw.get("quantity", "angle")
-        if q not in LINK:
+        if not isinstance(q, str) or q not in LINK:
             raise MetricError(f"{where} quantity: a link's must be one of {', '.join(LINK)}, got {shown(q)}")
         self._extreme(raw, where)
         return Event(link=raw["link"], axis=None, extreme=raw["extreme"], quantity=str(q))
