@@ -40,7 +40,7 @@ import orjson
 from .errors import InputError, OutputError
 from .model.catalogue import kind_of
 from .model.jet import norms
-from .model.mechanism import Mechanism
+from .model.mechanism import Link, Mechanism
 from .model.reader import shown
 from .runs import Trace
 from .units import MM, UM, to_rpm
@@ -449,8 +449,8 @@ def read_parquet(path: Path) -> dict[str, np.ndarray]:
 def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.ndarray, float]]]:
     """Column names of a trace of N samples, and its columns as (values (N,) or (N, 3) in SI,
     factor into the column's unit): time s, crank angle deg, speed rad/s and rpm, acceleration
-    rad/s^2, point positions mm, velocities mm/s and accelerations mm/s^2, link speeds rad/s and
-    accelerations rad/s^2, transmission and pressure angles deg, thread length mm, loop gap um. The CSV writer scales them as it
+    rad/s^2, point positions mm, velocities mm/s and accelerations mm/s^2, link angles deg
+    (-180..180), speeds rad/s and accelerations rad/s^2, transmission and pressure angles deg, thread length mm, loop gap um. The CSV writer scales them as it
     copies the rows (no scaled copy of each column first)."""
     names = ["time_s", "phi1_deg", "omega1_rad_s", "eps1_rad_s2", "n1_rpm"]
     # A point's three axes stay one (N, 3) block, not sliced into columns.
@@ -470,8 +470,12 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.nda
         blocks += [(trace.velocities[n], _MM_PER_M), (trace.accelerations[n], _MM_PER_M)]
     for l in mech.links:
         if l.name in trace.link_omega:
-            names += [f"{l.name}_omega_rad_s", f"{l.name}_eps_rad_s2"]
-            blocks += [(trace.link_omega[l.name], 1.0), (trace.link_eps[l.name], 1.0)]
+            names += [f"{l.name}_angle_deg", f"{l.name}_omega_rad_s", f"{l.name}_eps_rad_s2"]
+            blocks += [
+                (link_angle_trace(l, trace.points), 180.0 / math.pi),
+                (trace.link_omega[l.name], 1.0),
+                (trace.link_eps[l.name], 1.0),
+            ]
     for name, angle in block_angle_traces(mech, trace.points):
         names.append(name)
         blocks.append((angle, 1.0))
@@ -485,6 +489,16 @@ def columns(mech: Mechanism, trace: Trace) -> tuple[list[str], list[tuple[np.nda
 
 
 _ANGLE_COLUMN = {"transmission angle": "transmission", "pressure angle": "pressure"}
+
+
+def link_angle_trace(link: Link, points: dict[str, np.ndarray]) -> np.ndarray:
+    """(N,) rad in -pi..pi: a link's direction in the plane along a trace, from the trace's own
+    positions (MuJoCo's for a MuJoCo run), as the reference measures it: its guide line if it
+    slides, else its first two points (``mjlink.reference.kinematics.link_angle``)."""
+    a, b = link.guide if link.guide else link.points[:2]
+    d = points[b] - points[a]
+    out: np.ndarray = np.arctan2(d[:, 1], d[:, 0])
+    return out
 
 
 def block_angle_traces(mech: Mechanism, points: dict[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:

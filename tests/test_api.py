@@ -127,6 +127,32 @@ def test_traces_hold_every_blocks_transmission_and_pressure_angle(name):
         assert np.abs(mj[col] - ref[col]).max() <= tol, col
 
 
+@pytest.mark.parametrize("name", ["lockstitch_head", "warp_knitting"])
+def test_traces_hold_every_links_angle(name):
+    """Every link's angle along the run (its guide line if it slides, else its first two points,
+    as the file lists them), rebuilt here from the trace's own position columns; MuJoCo's within
+    the agreement threshold of the reference's, and the reference's equal to the angle the
+    function traces of a study hand a designer's function."""
+    import tomllib
+
+    from mjlink.model.catalogue import path_of
+
+    mech = mjlink.load(name)
+    raw = tomllib.loads(path_of(name).read_text())["links"]
+    mj = mjlink.traces(mech, cycles=1)
+    ref = mjlink.traces(mech, cycles=1, source="reference")
+    tol = np.degrees(2 * LIMIT["position_um"] * 1e-3 / 5.0)  # links of 5 mm or more, as above
+    for link, table in raw.items():
+        a, b = table.get("guide") or table["points"][:2]
+        for tr, within in ((ref, 1e-9), (mj, tol)):
+            d = [tr[f"{b}_{ax}_mm"] - tr[f"{a}_{ax}_mm"] for ax in "xy"]
+            want = np.degrees(np.arctan2(d[1], d[0]))
+            off = np.abs(np.angle(np.exp(1j * np.radians(tr[f"{link}_angle_deg"] - want))))
+            assert np.degrees(off).max() <= within, (link, tr.source)
+        gap = np.angle(np.exp(1j * np.radians(mj[f"{link}_angle_deg"] - ref[f"{link}_angle_deg"])))
+        assert np.degrees(np.abs(gap)).max() <= tol, link
+
+
 def test_a_study_in_this_process_starts_no_cluster(tmp_path, monkeypatch):
     import distributed
 

@@ -53,6 +53,7 @@ def test_the_function_gets_the_references_traces_and_its_column_is_bounded(tmp_p
     def sample(t):  # the traces at the 17th angle from the setting, and their shapes
         got["shape"] = t["NB_y_mm"].shape
         got["names"] = list(t)
+        got["lever"] = t["lever_angle_deg"][:, 17].copy()
         return t["NB_vy_mm_s"][:, 17]
 
     res = mjlink.run_study(
@@ -68,9 +69,15 @@ def test_the_function_gets_the_references_traces_and_its_column_is_bounded(tmp_p
     )
     tab = mjlink.read_study(res.out_dir)
     assert got["shape"] == (3, 360)
-    assert {"phi1_deg", "theta_deg", "P5_x_mm", "P5_vy_mm_s", "lever_omega_rad_s", "P3_transmission_deg"} <= set(
-        got["names"]
-    )
+    assert {
+        "phi1_deg",
+        "theta_deg",
+        "P5_x_mm",
+        "P5_vy_mm_s",
+        "lever_angle_deg",
+        "lever_omega_rad_s",
+        "P3_transmission_deg",
+    } <= set(got["names"])
     # The crank points straight up and down on the grid (its setting is 90 deg): the bar's
     # stroke is 2 r exactly.
     assert np.allclose(tab.columns["stroke_fn"], 2 * np.array(CRANKS), rtol=0, atol=1e-9)
@@ -80,6 +87,10 @@ def test_the_function_gets_the_references_traces_and_its_column_is_bounded(tmp_p
         one = reference.solve(mech, [mech.phi0 + math.radians(17.0)], check=False)
         want = one.points["NB"].d[0, 1] * mech.speed * 1e3
         assert tab.columns["v17_mm_s"][i] == pytest.approx(want, rel=1e-12)
+        # The lever's angle: its first two points as the file lists them, from the positions.
+        a, b = next(l for l in mech.links if l.name == "lever").points[:2]
+        d = one.points[b].v[0] - one.points[a].v[0]
+        assert got["lever"][i] == pytest.approx(math.degrees(math.atan2(d[1], d[0])), abs=1e-9)
     speeds = tab.columns["bar_speed_peak_m_s"]
     assert list(tab.columns["within_bounds"]) == [bool(v <= 8.5) for v in speeds]
     assert speeds[0] < 8.5 < speeds[2]  # the bound cuts the table

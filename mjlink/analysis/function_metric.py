@@ -10,7 +10,7 @@ The contract (docs/api.md, Your own metric in Python):
 * ``fn(traces)`` receives a read-only mapping from column name to an array of shape (V, A):
   V variants, A crank angles over one period from each variant's setting (uniform, the end
   excluded), the names and units of ``kinematics.csv`` (``phi1_deg``, ``P5_x_mm``,
-  ``P5_vy_mm_s``, ``P5_ay_mm_s2``, ``lever_omega_rad_s``, ``P3_transmission_deg``...), at the
+  ``P5_vy_mm_s``, ``P5_ay_mm_s2``, ``lever_angle_deg``, ``lever_omega_rad_s``, ``P3_transmission_deg``...), at the
   constant crank speed of the file (or the variant's ``input.speed``); ``theta_deg`` is the
   angle from the setting.
 * It returns one number per variant: an array of shape (V,) (NaN where a variant has no
@@ -49,7 +49,7 @@ class Traces(Mapping[str, np.ndarray]):
         for p in mech.moving_points:
             names += [f"{p}_v{ax}_mm_s" for ax in "xyz"] + [f"{p}_a{ax}_mm_s2" for ax in "xyz"]
         for l in mech.links:
-            names += [f"{l.name}_omega_rad_s", f"{l.name}_eps_rad_s2"]
+            names += [f"{l.name}_angle_deg", f"{l.name}_omega_rad_s", f"{l.name}_eps_rad_s2"]
         for s in mech.steps:
             if s.kind == "dyad":
                 names.append(f"{s.point}_transmission_deg")
@@ -94,9 +94,11 @@ class Traces(Mapping[str, np.ndarray]):
         m = re.fullmatch(r"(.+)_a([xyz])_mm_s2", name)
         if m:
             return self._rows(kin.points[m[1]].dd[..., "xyz".index(m[2])] * w * w * 1e3)
-        m = re.fullmatch(r"(.+)_(omega_rad_s|eps_rad_s2)", name)
+        m = re.fullmatch(r"(.+)_(angle_deg|omega_rad_s|eps_rad_s2)", name)
         if m:
             a = kin.angles[m[1]]
+            if m[2] == "angle_deg":  # as the link stands, -180..180 (kinematics.csv's)
+                return self._rows(np.degrees(np.angle(np.exp(1j * a.v))))
             return self._rows(a.d * w if m[2] == "omega_rad_s" else a.dd * w * w)
         point = name.rsplit("_", 2)[0]
         step = next(s for s in b.mechanism.steps if s.point == point)
