@@ -328,3 +328,33 @@ def test_a_tension_studys_plan_scales_its_calibration_to_the_arrays_of_its_tasks
     assert scaled.tasks == alone.tasks == 2
     assert scaled.seconds == pytest.approx(alone.seconds * tension_many.share(500), rel=1e-12)
     assert scaled.memory == alone.memory
+
+
+def test_a_tension_optimizations_plan_scales_to_the_tasks_its_generations_are_cut_into(monkeypatch):
+    """An optimization's generation is cut into a multiple of the workers: 60 candidates on 2
+    workers make tasks of 30 heads, stepped one by one (no scaling); with 8 tolerance samples
+    each, tasks of 120 heads at once, which the plan scales down."""
+    from mjlink.analysis.metric_base import Metric
+    from mjlink.analysis.tension_metric import TensionMetric
+    from mjlink.study import plan
+    from mjlink.study.spec import parse
+
+    body = (
+        GRID.format(angles=720).replace('[sampling]\nmethod = "grid"\n', "")
+        + '[optimize]\nobjective = "tension_peak"\npopulation = 60\ngenerations = 5\nseeds = 1\npolish_evaluations = 0\n'
+        + '[[parameter]]\npath = "tension.needle_tension"\nrange = [1.0, 2.8]\n{tolerance}[[metric]]\nkind = "tension"\n'
+    ).replace('[verify]\nmujoco = "none"\n', "")
+    cal = plan.Calibration(row_seconds=1e-4, row_bytes=1e3, model_seconds=float("nan"), variants=4)
+    robust = "[robust]\nsamples = 8\n"
+
+    plain = parse(body.format(tolerance=""), "o.toml")
+    tolerant = parse(body.replace("[optimize]", robust + "[optimize]").format(tolerance="tolerance = 0.01\n"), "r.toml")
+    scaled = [plan.estimate(st, workers=2, limit=1e12, calibration=cal) for st in (plain, tolerant)]
+    monkeypatch.setattr(TensionMetric, "share", Metric.share)
+    # The same runs on the bowl (timed: they would differ by the clock's noise).
+    alone = [
+        plan.estimate(st, workers=2, limit=1e12, calibration=cal, bowl=p.bowl, rehearsal=p.rehearsal)
+        for st, p in zip((plain, tolerant), scaled, strict=True)
+    ]
+    assert scaled[0].seconds == alone[0].seconds
+    assert scaled[1].seconds < alone[1].seconds * (1 + tension_many.share(120)) / 2

@@ -412,6 +412,10 @@ def estimate(
         per_gen = b.per_generation
         tasks = b.generations * max(1, math.ceil(per_gen * angles / CHUNK_ROWS))
         task_rows = min(per_gen * angles, CHUNK_ROWS)
+        # The variants a generation's task holds: the engine cuts it into equal chunks, a
+        # multiple of the workers in number (Evaluator.rows).
+        cap = max(1, CHUNK_ROWS // angles)
+        task_variants = -(-per_gen // (lanes * max(1, -(-per_gen // (lanes * cap)))))
         models = b.verified
         mj_chunk = mj_tasks = 1  # the winner and each design of a front are verified one at a time
         # A generation's rows (values, metrics), the archive of every candidate (values, metrics,
@@ -444,8 +448,15 @@ def estimate(
         side = mj_tasks
     else:
         side = min(lanes, mj_tasks) if workers else min(os.cpu_count() or 1, models)
-    polish_s = cal.row_seconds if math.isnan(cal.polish_row_seconds) else cal.polish_row_seconds
-    row_s = _in_tasks(study, cal, task_rows // angles)
+    if study.optimize is None:
+        row_s = polish_s = _in_tasks(study, cal, task_rows // angles)
+    else:
+        row_s = _in_tasks(study, cal, task_variants)
+        # The polish's batches: timed on their own size where the calibration could, else
+        # scaled like the search's to theirs.
+        polish_s = cal.polish_row_seconds
+        if math.isnan(polish_s):
+            polish_s = _in_tasks(study, cal, polish_batch(P) * budget(study).samples)
 
     def seconds_of(searched: float, polished: float) -> float:
         """Wall seconds for ``searched`` variants of the engine's batches and ``polished`` of the
