@@ -494,8 +494,8 @@ _ANGLE_COLUMN = {"transmission angle": "transmission", "pressure angle": "pressu
 def link_angle_trace(link: Link, points: dict[str, np.ndarray]) -> np.ndarray:
     """(N,) rad in -pi..pi: a link's direction in the plane along a trace, from the trace's own
     positions (MuJoCo's for a MuJoCo run), as the reference measures it: its guide line if it
-    slides, else its first two points (``mjlink.reference.kinematics.link_angle``)."""
-    a, b = link.guide if link.guide else link.points[:2]
+    slides, else its first two points (``Link.direction``, as ``reference.kinematics.link_angle``)."""
+    a, b = link.direction
     d = points[b] - points[a]
     out: np.ndarray = np.arctan2(d[:, 1], d[:, 0])
     return out

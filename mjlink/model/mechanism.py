@@ -106,6 +106,13 @@ class Link:
     com: str | None = None
     guide: tuple[str, str] | None = None
 
+    @property
+    def direction(self) -> tuple[str, str]:
+        """The two points whose line gives the link's angle: its guide's if it slides, else its
+        first two."""
+        a, b = self.guide if self.guide else self.points[:2]
+        return a, b
+
 
 @dataclass(frozen=True)
 class Force:

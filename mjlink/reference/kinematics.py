@@ -26,7 +26,7 @@ from ..model.mechanism import COUNTERWEIGHT, Link, Mechanism
 
 def link_angle(points: dict[str, jet.V], link: Link) -> jet.S:
     """Angle of a link: of its guide line if it slides, else of its first two points."""
-    a, b = link.guide if link.guide else link.points[:2]
+    a, b = link.direction
     return jet.angle((points[b] - points[a]).planar())
 
 
@@ -142,7 +142,7 @@ def _steps_for(mech: Mechanism, only: Iterable[str]) -> tuple[Block, ...]:
     links' angles and the counterweight are measured from."""
     need = set(only)
     for l in mech.links:
-        need.update(l.guide if l.guide else l.points[:2])
+        need.update(l.direction)
     if mech.counterweight is not None:
         need.update((mech.input_crank.pivot, mech.input_crank.point))
     out = []
