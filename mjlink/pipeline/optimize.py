@@ -42,6 +42,7 @@ from ..reference import batch
 from ..reference.dynamics import flywheel_for, steady_motion, steady_variant
 from ..runtime import cluster, staging
 from ..runtime.progress import optimize_progress
+from ..study import engine
 from ..study import optimize as _opt
 from ..study.spec import Study
 from ..study.tasks import Verified
@@ -130,7 +131,7 @@ def _run(
 ) -> OptimizeResult:
     opt = st.optimize
     assert opt is not None
-    workers = max(1, len(client.scheduler_info()["workers"])) if client is not None else 1
+    workers = engine.workers_of(client)
     res = _opt.run(st, client=client, workers=workers, engine=what, progress=update)
     with _opt.Evaluator(st) as here:
         won, rejected = _winner.choose(st, res, here, _name(st, 0), _candidates(st, res), dest / "winner.toml")

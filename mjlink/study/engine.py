@@ -239,15 +239,15 @@ def run(
     timing = Timing()
     with timing.stage("sampling"):
         values = study.values()
-    lanes = _lanes(client)
+    lanes = workers_of(client)
     cache = Cache(cache_dir, study, len(values), chunking(study, lanes))
     if what is None:
         what = "in process" if client is None else "the given Dask client"
     return _run(study, values, client, lanes, what, cache, progress, timing)
 
 
-def _lanes(client: Any) -> int:
-    """The workers of ``client`` (1: this process)."""
+def workers_of(client: Any) -> int:
+    """The workers of a Dask ``client`` (1: None, this process)."""
     if client is None:
         return 1
     return max(1, len(client.scheduler_info().get("workers", {})))
