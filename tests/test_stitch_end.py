@@ -157,3 +157,54 @@ def test_the_demand_in_the_fabric_counts_the_last_stitch_a_stitch_length_back(he
         assert len(i) > 1000
         at_setting, tol = thread_at_setting(t, tm)
         np.testing.assert_allclose(b.demand[i] * 1e-3, depth[i] + s - at_setting, atol=tol)
+
+
+# ------------------------------------------------ the thread the check spring's travel holds
+def _held(up, rest, down, travel):
+    from mjlink.analysis.stitch import spring_holds
+
+    return float(spring_holds(np.array([up], float), np.array([rest], float), np.array([down], float), travel)[0])
+
+
+def test_a_check_spring_holds_the_paths_length_its_hook_takes_out_not_its_travel():
+    """The thread a check spring holds is what its hook, moved from rest along the bisector of
+    the thread's turn, takes out of the path, not its travel: in closed form for a symmetric V
+    (legs of half-width w and height h: 2 sqrt(w^2 + h^2) - 2 sqrt(w^2 + (h - d)^2), and no
+    more than 2 sqrt(w^2 + h^2) - 2 w once the hook reaches the straight thread), for a thread
+    turning back round the hook (twice the travel, up to twice the shorter leg), and against the
+    path's least length found along the hook's line, 1e-6 mm apart, for a head's own turn."""
+    w, h = 0.004, 0.006
+    for d in (0.001, 0.003, 0.0059):
+        expected = 2 * math.hypot(w, h) - 2 * math.hypot(w, h - d)
+        assert _held((-w, h, 0), (0, 0, 0), (w, h, 0), d) == pytest.approx(expected, abs=1e-12)
+    for d in (0.006, 0.01):
+        assert _held((-w, h, 0), (0, 0, 0), (w, h, 0), d) == pytest.approx(2 * math.hypot(w, h) - 2 * w, abs=1e-12)
+    # Turning back: both legs up, the shorter 5 mm long.
+    assert _held((0, 0.005, 0), (0, 0, 0), (0, 0.05, 0), 0.003) == pytest.approx(0.006, abs=1e-12)
+    assert _held((0, 0.005, 0), (0, 0, 0), (0, 0.05, 0), 0.007) == pytest.approx(0.010, abs=1e-12)
+    # A general turn in space, against a dense search along the hook's line.
+    up, rest, down = np.array([0.012, 0.004, 0.002]), np.zeros(3), np.array([-0.003, 0.051, -0.001])
+    e = (up - rest) / np.linalg.norm(up - rest) + (down - rest) / np.linalg.norm(down - rest)
+    line = np.linspace(0.0, 0.007, 700_001)[:, None] * (e / np.linalg.norm(e))
+    length = np.linalg.norm(up - line, axis=1) + np.linalg.norm(down - line, axis=1)
+    assert _held(up, rest, down, 0.007) == pytest.approx(length[0] - length.min(), abs=1e-9)
+
+
+def test_the_slack_row_is_held_against_the_thread_the_spring_holds(head):
+    """The balance's slack row's window is the thread the file's check spring holds (written out
+    here from its hook, its neighbours on the path and its travel), and the spare row is that
+    less the slack."""
+    t = head_timing(head)
+    rows = {r.key: r for r in t.rows}
+    path = head.thread
+    k = path.index(head.balance.check_spring)
+    up, rest, down = (t.positions[path[k + i]][0] for i in (-1, 0, 1))
+    travel = head.balance.check_spring_travel
+    e = (up - rest) / np.linalg.norm(up - rest) + (down - rest) / np.linalg.norm(down - rest)
+    line = np.linspace(0.0, travel, 200_001)[:, None] * (e / np.linalg.norm(e))
+    length = rest + line
+    held = np.linalg.norm(up - length, axis=1) + np.linalg.norm(down - length, axis=1)
+    held = held[0] - held.min()
+    assert rows["thread_slack"].window.hi == pytest.approx(held, abs=1e-9)
+    assert rows["spring_spare"].value == pytest.approx(held - rows["thread_slack"].value, abs=1e-9)
+    assert not rows["spring_spare"].counts and not rows["thread_slack"].counts

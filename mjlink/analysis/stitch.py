@@ -13,6 +13,8 @@ import numpy as np
 from ..units import MM
 
 if TYPE_CHECKING:
+    from ..model.blocks import Crank
+    from ..model.timing import Timing
     from .timing import HeadTiming
 
 
@@ -150,9 +152,37 @@ def _set_point(
     return start, float(path[i0]), float(below[i0]), start
 
 
+def _carried(tm: Timing, hook: Crank, pick: float) -> float:
+    """The crank angle (deg) at which the hook has carried the loop ``loop_release`` of its own
+    turn from the pick-up at ``pick``: a lockstitch's release, a chain stitch's loop spread."""
+    return (pick + math.degrees(tm.loop_release) / abs(hook.ratio)) % 360.0
+
+
+def spring_holds(up: np.ndarray, rest: np.ndarray, down: np.ndarray, travel: float) -> np.ndarray:
+    """(N,) m: the thread a check spring's hook holds in the path, from its rest (``rest``
+    (N, 3), the path's point) to anywhere within its ``travel`` (m), its neighbours on the path
+    ``up`` and ``down`` (N, 3).
+
+    The hook moves along the bisector of the thread's turn at rest, towards the straight line
+    between its neighbours, as the tension model moves it. The path's length along that line
+    is convex and least where it meets the straight line (the triangle's bisector, of length
+    2 a b cos(alpha / 2) / (a + b)): a hook that travels beyond it holds no more. A thread
+    that turns back round the hook holds nearly twice the hook's travel; one that turns
+    little, far less than its travel."""
+    a, b = np.linalg.norm(up - rest, axis=1), np.linalg.norm(down - rest, axis=1)
+    ea, eb = (up - rest) / a[:, None], (down - rest) / b[:, None]
+    both = ea + eb
+    # |ea + eb| = 2 cos(alpha / 2), alpha the angle between the legs at rest.
+    two_cos = np.linalg.norm(both, axis=1)
+    pull = both / np.where(two_cos > 0.0, two_cos, 1.0)[:, None]
+    at = rest + np.minimum(travel, a * b * two_cos / (a + b))[:, None] * pull
+    out: np.ndarray = a + b - np.linalg.norm(up - at, axis=1) - np.linalg.norm(down - at, axis=1)
+    return out
+
+
 def _between(theta: np.ndarray, a: float, b: float) -> np.ndarray:
     """(N,) bool: the angles from ``a`` to ``b`` (deg), going forwards round the stitch."""
     return (theta - a) % 360.0 <= (b - a) % 360.0
 
 
-__all__ = ["StitchEnd", "stitch_end"]
+__all__ = ["StitchEnd", "spring_holds", "stitch_end"]

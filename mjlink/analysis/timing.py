@@ -26,7 +26,7 @@ from ..reference.batch import Batch
 from ..units import DEG, MM
 from .loop import case_leg, wrapped
 from .metric_base import Column, Curve, Loads, Metric, MetricError
-from .stitch import StitchEnd, _at, _between, _crossing, _peak, _set_point, stitch_end
+from .stitch import StitchEnd, _at, _between, _carried, _crossing, _peak, _set_point, spring_holds, stitch_end
 
 GENERAL = {
     "dog_below_while_needle_down": "feed dog's highest point above the throat plate while the needle point is below it",
@@ -47,8 +47,10 @@ BALANCE = {
     "thread_shortfall": "largest shortfall of thread from the stitch's setting to the loop's release: what the "
     "take-up holds back of what the needle and the loop take, beyond what the thread stretches (drawn through "
     "the tension, or torn)",
-    "thread_slack": "largest slack of thread from the stitch's setting to the loop's release: the check spring's "
-    "travel it needs (beyond the spring's, loose loops form)",
+    "thread_slack": "largest slack of thread from the stitch's setting to the loop's release, against the thread "
+    "the check spring's travel holds (beyond it, loose loops form)",
+    "spring_spare": "thread the check spring's travel holds (its hook from rest to its stop, or to where the thread "
+    "runs straight) less the largest slack: below nought loose loops form",
     "loop_thread": "most needle thread below the material while the hook carries the loop round the bobbin case, "
     "against the 8.9 cm of Union Special's 301 Stitch manual (within 15 %; a comparison, not a requirement)",
 }
@@ -60,7 +62,8 @@ UNION_SPECIAL_LOOP = 89.0 * MM
 
 LABELS = {
     "thread_shortfall": "thread short of what needle and loop take",
-    "thread_slack": "check spring travel the slack needs",
+    "thread_slack": "slack the check spring must hold",
+    "spring_spare": "thread the check spring holds beyond the slack",
     "loop_thread": "most thread below the material (loop)",
     "dog_below_while_needle_down": "feed dog below the plate while the needle is below it",
     "feed_in_fabric": "feed with the needle in the fabric",
@@ -585,6 +588,9 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     # The balance is nought at the set point itself, which now falls between two samples.
     short = max(_peak(-diff, forming), -float(at_end), 0.0)
     slack = max(_peak(diff, forming), float(at_end), 0.0)
+    cs = mech.thread.index(bal.check_spring)
+    up, rest, down = (P[mech.thread[cs + k]] for k in (-1, 0, 1))
+    holds = float(spring_holds(up, rest, down, bal.check_spring_travel).min())
     rows = (
         TimingRow(
             key="thread_shortfall",
@@ -600,9 +606,18 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
             what=BALANCE["thread_slack"],
             maker=None,
             value=slack,
-            window=Window(None, bal.check_spring_travel),
+            window=Window(None, holds),
             unit="mm",
             counts=False,  # the check spring's travel is information: a loose loop, not a failed stitch
+        ),
+        TimingRow(
+            key="spring_spare",
+            what=BALANCE["spring_spare"],
+            maker=None,
+            value=holds - slack,
+            window=Window(0.0, None),
+            unit="mm",
+            counts=False,
         ),
     )
     most_under = most_under_at = math.nan
@@ -656,12 +671,6 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         most_under_at=most_under_at,
         below=below / MM,
     )
-
-
-def _carried(tm: Timing, hook: Crank, pick: float) -> float:
-    """The crank angle (deg) at which the hook has carried the loop ``loop_release`` of its own
-    turn from the pick-up at ``pick``: a lockstitch's release, a chain stitch's loop spread."""
-    return (pick + math.degrees(tm.loop_release) / abs(hook.ratio)) % 360.0
 
 
 def _geometry(

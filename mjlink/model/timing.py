@@ -350,6 +350,12 @@ def read_balance(
     spring = r.name(t["check_spring"], "[balance] check_spring")
     if spring not in thread:
         raise r.fail("[balance] check_spring", f"'{spring}' is not a point of the [thread] path")
+    if spring in (thread[0], thread[-1]):
+        # The thread turns round the spring's hook: it needs a point of the path either side.
+        raise r.fail(
+            "[balance] check_spring",
+            f"'{spring}' must lie between the path's first point (the tension discs) and the eye",
+        )
     diameter = _number(r, t, body, "[balance]", "balance.loop_body", MM)
     hook = next(s for s in steps if isinstance(s, Crank) and s.point == timing.roles["hook_point"])
     if diameter >= 2.0 * hook.length:

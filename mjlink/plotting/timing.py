@@ -169,8 +169,10 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
     ax.set_ylim(lo, hi + 0.12 * (hi - lo))
     # Above the panel: inside it, some head's curves or phase names would run through it.
     ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=2, fontsize=8, frameon=False)
-    travel = mech.balance.check_spring_travel / MM
-    bx.axhspan(0.0, travel, color="C0", alpha=0.12, lw=0)
+    slack = next(r for r in head.rows if r.key == "thread_slack")
+    # The spring's hook, over its travel, takes this much thread out of the path.
+    holds = (slack.window.hi or 0.0) / MM
+    bx.axhspan(0.0, holds, color="C0", alpha=0.12, lw=0)
     bx.plot(b.theta, b.balance, color="C0")
     bx.axhline(0.0, color="0.3", lw=1.0)
     bx.set_ylabel("supply - demand [mm]\n(slack > 0 > shortfall)")
@@ -188,14 +190,13 @@ def balance_plot(mech: Mechanism, head: HeadTiming, out_dir: Path | str) -> Path
         rotation = 90 if (hi - lo) % 360.0 < 60.0 else 0
         _label(ax, name, mid, dy=-4, ha="center", fontsize=7.5, rotation=rotation, color="0.25")
     short = next(r for r in head.rows if r.key == "thread_shortfall")
-    slack = next(r for r in head.rows if r.key == "thread_slack")
     # The figures in words under the panels: inside, the curves would run through them.
     fig.text(
         0.5,
         0.012,
         f"largest shortfall {short.value / MM:.2f} mm ({'within' if short.ok else 'FAIL: beyond'} the thread's "
-        f"stretch, {(short.window.hi or 0.0) / MM:.2f} mm)\nlargest slack {slack.value / MM:.2f} mm (check spring "
-        f"travel {travel:g} mm, shaded below)\na stitch holds {b.per_stitch:.2f} mm of needle thread"
+        f"stretch, {(short.window.hi or 0.0) / MM:.2f} mm)\nlargest slack {slack.value / MM:.2f} mm (the check spring's "
+        f"{mech.balance.check_spring_travel / MM:g} mm travel holds {holds:.2f} mm, shaded below)\na stitch holds {b.per_stitch:.2f} mm of needle thread"
         + (
             f"; the loop takes up to {b.most_under:.1f} mm below the material,\nthe blade point "
             + (f"{round(b.most_under_at):+d} deg from six o'clock" if round(b.most_under_at) else "at six o'clock")
