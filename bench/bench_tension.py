@@ -85,11 +85,21 @@ def comparisons() -> None:
     tops = [float(head.theta[i]) for i in range(n) if hp[i] >= hp[i - 1] and hp[i] >= hp[(i + 1) % n]]
     x = base.spring
     starts = [float(base.theta[i]) for i in range(len(x)) if x[i] > 0.0 and x[i - 1] == 0.0]
+    ends = [float(base.theta[i]) for i in range(len(x)) if x[i] == 0.0 and x[i - 1] > 0.0]
     print(
         "    the hook point's upper point at (deg): "
         + ", ".join(f"{a:.2f}" for a in tops)
         + "; the check spring leaves its rest at (deg): "
         + ", ".join(f"{a:.2f}" for a in starts)
+        + "; comes back to it at (deg): "
+        + ", ".join(f"{a:.2f}" for a in ends)
+    )
+    eye = head.positions[mech.timing.roles["needle_eye"]][:, 1]
+    top = mech.timing.plate + mech.timing.fabric
+    into = [float(head.theta[i]) for i in range(1, n) if eye[i - 1] > top >= eye[i]]
+    print(
+        f"    the needle point reaches the fabric at {head.events['needle point into the fabric, down']:.2f} deg, "
+        "its eye at " + ", ".join(f"{a:.2f}" for a in into) + " deg"
     )
     bare = needle_tension(mech, head, spring=False)
     print(_row("without the check spring", bare))
