@@ -170,6 +170,9 @@ def spring_holds(up: np.ndarray, rest: np.ndarray, down: np.ndarray, travel: flo
     that turns back round the hook holds nearly twice the hook's travel; one that turns
     little, far less than its travel."""
     a, b = np.linalg.norm(up - rest, axis=1), np.linalg.norm(down - rest, axis=1)
+    # A hook on its neighbour (a study's variant may put it there) holds nothing.
+    on = (a <= 0.0) | (b <= 0.0)
+    a, b = np.where(on, 1.0, a), np.where(on, 1.0, b)
     ea, eb = (up - rest) / a[:, None], (down - rest) / b[:, None]
     both = ea + eb
     # |ea + eb| = 2 cos(alpha / 2), alpha the angle between the legs at rest.
@@ -177,7 +180,7 @@ def spring_holds(up: np.ndarray, rest: np.ndarray, down: np.ndarray, travel: flo
     pull = both / np.where(two_cos > 0.0, two_cos, 1.0)[:, None]
     at = rest + np.minimum(travel, a * b * two_cos / (a + b))[:, None] * pull
     out: np.ndarray = a + b - np.linalg.norm(up - at, axis=1) - np.linalg.norm(down - at, axis=1)
-    return out
+    return np.where(on, 0.0, out)
 
 
 def _between(theta: np.ndarray, a: float, b: float) -> np.ndarray:

@@ -697,7 +697,9 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         if mech.fabric is not None and mech.fabric.plies:
             mech = _plied(r, mech, data["timing"])
     if "balance" in data:
-        mech = dataclasses.replace(mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing, steps))
+        mech = dataclasses.replace(
+            mech, balance=_timing.read_balance(r, data["balance"], thread, mech.timing, steps, ground)
+        )
     if "tension" in data:
         mech = dataclasses.replace(mech, tension=read_tension(r, data["tension"], mech.balance is not None))
     if "presser" in data:

@@ -37,9 +37,12 @@ names each value's machine::
 from __future__ import annotations
 
 import enum
-from collections.abc import Iterable, Sequence
+import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from ..units import DEG, MM
 from .blocks import Block, Crank
@@ -111,6 +114,8 @@ _DESCRIPTION = {StitchType.LOCKSTITCH: "lockstitch", StitchType.CHAIN: "single-t
 _LOOP_BODY = {StitchType.LOCKSTITCH: "bobbin_case", StitchType.CHAIN: "looper"}
 
 BOBBIN_CASE_WIDTH = 10.0 * MM
+MIN_HOOK_LEG = 0.01 * MM  # the check spring's hook this near a neighbour on the path lies on it
+MIN_HOOK_TURN_DEG = 1.0  # a thread turning less round the hook pulls it nowhere in particular
 """A lockstitch's ``[balance] bobbin_case_width`` when the file gives none, m: a case round an
 industrial bobbin about 9 mm wide [choice: no public hook catalogue with the case's width was
 found]."""
@@ -328,11 +333,17 @@ class Balance:
 
 
 def read_balance(
-    r: Reader, raw: Any, thread: tuple[str, ...] | None, timing: Timing | None, steps: Sequence[Block]
+    r: Reader,
+    raw: Any,
+    thread: tuple[str, ...] | None,
+    timing: Timing | None,
+    steps: Sequence[Block],
+    ground: Mapping[str, np.ndarray],
 ) -> Balance:
     """The ``[balance]`` table: needs ``[timing]`` (the needle, hook and plate) and a
-    ``[thread]`` path that ends at the needle's eye and holds the check spring's point; the
-    loop's body lies inside the circle the hook point turns on (``steps`` hold its crank)."""
+    ``[thread]`` path that ends at the needle's eye and holds the check spring's point, the
+    thread turning round it where it and its neighbours are ``ground`` points; the loop's body
+    lies inside the circle the hook point turns on (``steps`` hold its crank)."""
     t = r.table(raw, "[balance]")
     if timing is None:
         raise r.fail("[balance]", "needs a [timing] table (the needle, the hook and the plate)")
@@ -356,6 +367,20 @@ def read_balance(
             "[balance] check_spring",
             f"'{spring}' must lie between the path's first point (the tension discs) and the eye",
         )
+    k = thread.index(spring)
+    if all(p in ground for p in thread[k - 1 : k + 2]):
+        up, hook, down = (np.asarray(ground[p], dtype=float) for p in thread[k - 1 : k + 2])
+        a, b = float(np.linalg.norm(up - hook)), float(np.linalg.norm(down - hook))
+        for leg, near in ((a, thread[k - 1]), (b, thread[k + 1])):
+            if leg < MIN_HOOK_LEG:
+                raise r.fail("[balance] check_spring", f"'{spring}' lies on '{near}': the thread must reach its hook")
+        turn = math.degrees(math.pi - math.acos(max(-1.0, min(1.0, float(np.dot(up - hook, down - hook)) / (a * b)))))
+        if turn < MIN_HOOK_TURN_DEG:
+            raise r.fail(
+                "[balance] check_spring",
+                f"the thread runs straight past '{spring}' (it turns {turn:.2g} deg there): it must turn round the "
+                "spring's hook, which it pulls along the bisector of that turn",
+            )
     diameter = _number(r, t, body, "[balance]", "balance.loop_body", MM)
     hook = next(s for s in steps if isinstance(s, Crank) and s.point == timing.roles["hook_point"])
     if diameter >= 2.0 * hook.length:
