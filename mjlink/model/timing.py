@@ -114,11 +114,11 @@ _DESCRIPTION = {StitchType.LOCKSTITCH: "lockstitch", StitchType.CHAIN: "single-t
 _LOOP_BODY = {StitchType.LOCKSTITCH: "bobbin_case", StitchType.CHAIN: "looper"}
 
 BOBBIN_CASE_WIDTH = 10.0 * MM
-MIN_HOOK_LEG = 0.01 * MM  # the check spring's hook this near a neighbour on the path lies on it
-MIN_HOOK_TURN_DEG = 1.0  # a thread turning less round the hook pulls it nowhere in particular
 """A lockstitch's ``[balance] bobbin_case_width`` when the file gives none, m: a case round an
 industrial bobbin about 9 mm wide [choice: no public hook catalogue with the case's width was
 found]."""
+MIN_HOOK_LEG = 0.01 * MM  # the check spring's hook this near a neighbour on the path lies on it
+MIN_HOOK_TURN_DEG = 1.0  # a thread turning less round the hook pulls it nowhere in particular
 
 
 SETTINGS = {
