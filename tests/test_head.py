@@ -929,20 +929,18 @@ def test_the_check_spring_is_a_point_the_thread_turns_round(point, message):
     assert message in _refusal(_head_text("balance.check_spring", f'"{point}"'))
 
 
-@pytest.mark.parametrize(
-    ("hook", "message"),
-    [
-        ("[-34.29, -22.89, 0.0]", "[balance] check_spring: 'CS' lies on 'T': the thread must reach its hook"),
-        ("[-34.289, -22.89, 0.0]", "'CS' lies on 'T'"),  # 1 um away
-        ("[17.82, 56.5, 0.0]", "'CS' lies on 'N1'"),
-        # On the straight line from the discs to the next guide, half way.
-        ("[-8.235, 16.805, 0.0]", "the thread runs straight past 'CS' (it turns 0 deg there)"),
-    ],
-)
-def test_a_check_spring_hook_the_thread_does_not_turn_round_is_refused(hook, message):
+def test_a_check_spring_hook_the_thread_does_not_turn_round_is_refused(head):
     """A hook on its neighbour, or on the straight line between them, has no direction to be
     pulled in: the tension model once returned a peak of 0 N and a NaN hold for it, exit 0."""
+    t, n1 = (np.asarray(head.ground[p]) * 1e3 for p in ("T", "N1"))  # mm
     text = HEAD.read_text()
     line = re.search(r"\nCS = \[[^\]]*\]", text)
     assert line is not None
-    assert message in _refusal(text.replace(line[0], f"\nCS = {hook}", 1))
+    for hook, message in [
+        (t, "[balance] check_spring: 'CS' lies on 'T': the thread must reach its hook"),
+        (t + np.array([0.001, 0.0, 0.0]), "'CS' lies on 'T'"),  # 1 um away
+        (n1, "'CS' lies on 'N1'"),
+        ((t + n1) / 2.0, "the thread runs straight past 'CS' (it turns 0 deg there)"),  # half way
+    ]:
+        at = ", ".join(f"{v:.6f}" for v in hook)
+        assert message in _refusal(text.replace(line[0], f"\nCS = [{at}]", 1))
