@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..model.timing import spring_pull
 from ..units import MM
 
 if TYPE_CHECKING:
@@ -173,11 +174,9 @@ def spring_holds(up: np.ndarray, rest: np.ndarray, down: np.ndarray, travel: flo
     # A hook on its neighbour (a study's variant may put it there) holds nothing.
     on = (a <= 0.0) | (b <= 0.0)
     a, b = np.where(on, 1.0, a), np.where(on, 1.0, b)
-    ea, eb = (up - rest) / a[:, None], (down - rest) / b[:, None]
-    both = ea + eb
-    # |ea + eb| = 2 cos(alpha / 2), alpha the angle between the legs at rest.
-    two_cos = np.linalg.norm(both, axis=1)
-    pull = both / np.where(two_cos > 0.0, two_cos, 1.0)[:, None]
+    pull = spring_pull(up, rest, down)
+    # 2 cos(alpha / 2), alpha the angle between the legs at rest: the unit legs' sum's length.
+    two_cos = np.sum(((up - rest) / a[:, None] + (down - rest) / b[:, None]) * pull, axis=1)
     at = rest + np.minimum(travel, a * b * two_cos / (a + b))[:, None] * pull
     out: np.ndarray = a + b - np.linalg.norm(up - at, axis=1) - np.linalg.norm(down - at, axis=1)
     return np.where(on, 0.0, out)

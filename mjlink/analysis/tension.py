@@ -38,7 +38,7 @@ import numpy as np
 
 from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
-from ..model.timing import StitchType
+from ..model.timing import StitchType, spring_pull
 from ..units import MM
 from .stitch import _between
 from .timing import HeadTiming
@@ -549,9 +549,7 @@ def prepare(
     cs = path.index(bal.check_spring)
     travel = bal.check_spring_travel if spring else 0.0
     rest, up, down = P[path[cs]], P[path[cs - 1]], P[path[cs + 1]]
-    # The spring's hook moves along the bisector of the thread's turn at rest, towards the
-    # straight line between its neighbours: the way the thread pulls it.
-    pull = _unit(_unit(up - rest) + _unit(down - rest))
+    pull = spring_pull(up, rest, down)
     # The discs' hold: the file's needle tension drawn slowly out of the eye at the needle
     # bar's top, the spring pulled to its stop.
     stop = rest[:1] + travel * pull[:1]

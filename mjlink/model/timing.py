@@ -404,6 +404,21 @@ def read_balance(
     )
 
 
+def spring_pull(up: np.ndarray, rest: np.ndarray, down: np.ndarray) -> np.ndarray:
+    """(..., 3): the direction the check spring's hook travels from ``rest``, its neighbours on
+    the thread's path at ``up`` and ``down``: the bisector of the thread's turn there, towards
+    the straight line between the neighbours, the way the thread pulls it. One convention for
+    the balance, the reference's tension and MuJoCo's spring; nought where the thread runs
+    straight past the hook or the hook lies on a neighbour."""
+
+    def unit(v: np.ndarray) -> np.ndarray:
+        n = np.linalg.norm(v, axis=-1, keepdims=True)
+        out: np.ndarray = v / np.where(n > 0.0, n, 1.0)
+        return out
+
+    return unit(unit(up - rest) + unit(down - rest))
+
+
 def hook_crank(mech: Mechanism) -> Crank:
     """The geared crank whose point is the ``[timing]`` table's hook point: its pivot is the
     hook shaft, the bobbin case's centre."""

@@ -33,7 +33,7 @@ SWEEP_RPM = tuple(range(500, 6001, 500))  # a sewing head's speeds, stitches/min
 # Speeds the feed is run at, rpm: below 60 a stitch is over 100,000 steps of 10 us; above
 # 10,000 no sewing head sews.
 MIN_RPM, MAX_RPM = 60.0, 10_000.0
-MIN_STITCHES, MAX_STITCHES = 2, 50  # the first starts from rest; 50 stitches take some 10 s at 6,000 rpm
+MIN_STITCHES, MAX_STITCHES = 2, 50  # the first starts from rest; a run's cost grows with its stitches
 FEED_STITCHES = 6  # stitches a head's simulate feeds from rest: the advance settles within 2 to 3
 
 

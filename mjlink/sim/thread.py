@@ -25,7 +25,7 @@ from .. import reference
 from ..model import names
 from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
-from ..model.timing import hook_crank
+from ..model.timing import hook_crank, spring_pull
 from ..runs import Case
 from . import builder
 from ._mujoco import mujoco, rollout
@@ -57,11 +57,6 @@ class ThreadRun:
     cycles: int
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    out: np.ndarray = v / np.linalg.norm(v)
-    return out
-
-
 def run_thread(
     mech: Mechanism, material: float, *, settings: ThreadTension | None = None, cycles: int = 3, loop: bool = False
 ) -> ThreadRun:
@@ -88,7 +83,7 @@ def run_thread(
     up, hook, down = (mech.ground.get(p) for p in path[cs - 1 : cs + 2])
     if up is None or hook is None or down is None:
         raise ValueError(f"{mech.name}: the check spring and its neighbours on the path must be [ground] points")
-    axis = _unit(_unit(np.asarray(up) - hook) + _unit(np.asarray(down) - hook))
+    axis = spring_pull(np.asarray(up), np.asarray(hook), np.asarray(down))
     case = kinematic_case(mech, cycles=cycles)
     spec = builder.build_spec(mech, case.settings)
 
