@@ -261,6 +261,8 @@ def _without_tension() -> str:
         ("friction = -0.1", "friction"),
         ("elongation_at_break = 1.5", "elongation_at_break"),
         ("elongation_at_break = 0", "elongation_at_break"),
+        ("elongation_at_break = 1e-300", "elongation_at_break"),  # EA beyond any float's square
+        ("breaking_load = 1e-300", "breaking_load"),
         ("needle_tension = 1e300", "needle_tension"),
         ("needle_tension = nan", "needle_tension"),
         ("breaking_load = '12 kg'", "breaking_load"),

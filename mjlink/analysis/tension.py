@@ -637,9 +637,9 @@ def needle_tension(
 class Carry:
     """Where a thread's stepping stands at a stitch's end: its stretches ``s`` (m), contacts'
     ``state``, the spring's hook ``x`` (m) and speed ``v`` (m/s), the path ``prev`` (m), the
-    thread each stitch drew through the discs ``feds`` (m, oldest first) and its peak
-    tension ``tops`` (N), the ``period`` found (0: none yet) and the stitch to ``finish`` at,
-    the stitches ``ran``."""
+    thread each stitch drew through the discs ``feds`` (m, oldest first), the thread in the
+    path at its end ``helds`` (m) and its peak tension ``tops`` (N), the ``period`` found (0:
+    none yet) and the stitch to ``finish`` at, the stitches ``ran``."""
 
     s: list[float]
     state: list[int]
@@ -647,6 +647,7 @@ class Carry:
     v: float
     prev: list[float]
     feds: tuple[float, ...]
+    helds: tuple[float, ...]
     tops: tuple[float, ...]
     period: int
     finish: int
@@ -682,6 +683,7 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
     out_d = np.zeros(n)
     state = [0] * segs
     feds: list[float] = []
+    helds: list[float] = []  # m: the thread in the path at each stitch's end
     tops: list[float] = []
     fed = 0.0
     prev = thread.geometry(int(pb.order[0]), x)[0]
@@ -689,7 +691,8 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
     ran = done = 0
     if carry is not None:
         s, state, x, v, prev, done = list(carry.s), list(carry.state), carry.x, carry.v, list(carry.prev), carry.ran
-        feds, tops, period, finish = list(carry.feds), list(carry.tops), carry.period, carry.finish
+        feds, helds, tops = list(carry.feds), list(carry.helds), list(carry.tops)
+        period, finish = carry.period, carry.finish
     for ran in range(done + 1, (cycles or most_cycles) + 1):
         fed = 0.0
         for step, k in enumerate(pb.order.tolist()):
@@ -710,6 +713,10 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
                     T = now.T
                     f = T[cs - 1] * now.ga + T[cs] * now.gb
                     g = inertia * (xh - x - dt * v) + damp * (xh - x) + pb.force + k_s * xh - f
+                    if (xh == 0.0 and g >= 0.0) or (xh == travel and g <= 0.0):
+                        # Pressed against its stop: Newton's step (its stiffness is positive,
+                        # the hook's inertia over the step) would only clip it back there.
+                        break
                     stiff = inertia + damp + k_s + _hook_stiffness(now, cs, pb.friction)
                     nxt = min(max(xh - g / stiff, 0.0), travel)
                     if abs(nxt - xh) <= SPRING_TOL:
@@ -724,9 +731,10 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
             out_x[k] = x
             out_d[k] = fed
         feds.append(fed)
+        helds.append(sum(p - q for p, q in zip(prev, s, strict=True)))
         tops.append(float(out_T.max()))
         if cycles is None and not period:
-            period = periodic(feds)
+            period = periodic(feds, helds)
             finish = ran + (period - 1 - int(np.argmax(tops[-period:]))) if period else 0
         if period and ran == finish:
             break
@@ -737,11 +745,16 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
     return pb.result(out_T.T.copy(), out_x, out_d, ran, period, per_stitch)
 
 
-def periodic(feds: list[float]) -> int:
+def periodic(feds: list[float], helds: list[float]) -> int:
     """The least ``p`` up to :data:`MOST_PERIOD` for which each of the last ``p`` stitches
-    drew the same thread through the discs (within :data:`PERIODIC`) as the stitch ``p``
-    before it (1: the last two alike), else 0."""
+    drew the same thread through the discs and ended with the same thread in the path (``feds``
+    and ``helds``, m; within :data:`PERIODIC`) as the stitch ``p`` before it (1: the last two
+    alike), else 0. The draws alone are not the state: a thread that starts with slack in its
+    path draws nothing for a stitch or two while the stitches use the slack up."""
     for p in range(1, MOST_PERIOD + 1):
-        if len(feds) >= 2 * p and all(abs(feds[-i] - feds[-i - p]) <= PERIODIC for i in range(1, p + 1)):
+        if len(feds) >= 2 * p and all(
+            abs(feds[-i] - feds[-i - p]) <= PERIODIC and abs(helds[-i] - helds[-i - p]) <= PERIODIC
+            for i in range(1, p + 1)
+        ):
             return p
     return 0

@@ -47,16 +47,18 @@ def share(n: int) -> float:
     return 1.0 if n < TOGETHER else min(1.0, ARRAY_OWN / n + ARRAY_EACH)
 
 
-def _runs(state: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each stretch's run (the stretches a sliding contact links): ``same`` (V, Z, Z) 1.0 where
-    two stretches share a run, ``first`` (V, Z) the index of its run's first stretch and ``w``
+def _runs(state: np.ndarray, lr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each stretch's run (the stretches a sliding contact links), from the contacts' ``state``
+    and the logarithms ``lr`` (V, Z) of their capstan bounds: ``same`` (V, Z, Z) 1.0 where two
+    stretches share a run, ``first`` (V, Z) the index of its run's first stretch and ``w``
     (V, Z) its tension relative to that first stretch's (the sliding contacts' bounds
     multiplied, as logarithms summed along the run)."""
     Z = state.shape[1]
     linked = state != 0
     linked[:, 0] = False
     first = np.maximum.accumulate(np.where(linked, 0, np.arange(Z)), axis=1)
-    steps = np.where(linked, np.where(state > 0, 1.0, -1.0) * np.log(r), 0.0)
+    steps = state * lr  # a sliding contact (+1 or -1) multiplies by its bound or divides
+    steps[:, 0] = 0.0  # the discs link nothing before them
     c = np.cumsum(steps, axis=1)
     w = np.exp(c - c.ravel()[first + Z * np.arange(len(c))[:, None]])
     same = (first[:, :, None] == first[:, None, :]).astype(float)
@@ -76,12 +78,12 @@ def _pull(ea: np.ndarray, s: np.ndarray, L: np.ndarray) -> np.ndarray:
 
 
 def _solve(
-    s: np.ndarray, L: np.ndarray, ea: np.ndarray, r: np.ndarray, hold: np.ndarray, state: np.ndarray
+    s: np.ndarray, L: np.ndarray, ea: np.ndarray, lr: np.ndarray, hold: np.ndarray, state: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The stretches and the discs' feed for the contacts' ``state`` held (one pass of
-    :func:`.tension._settle`'s loop): ``ea`` and ``hold`` (V, 1); and the runs' ``first`` and
-    ``w`` (:func:`_runs`)."""
-    same, first, w = _runs(state, r)
+    :func:`.tension._settle`'s loop): ``ea`` and ``hold`` (V, 1), ``lr`` the logarithms of
+    the capstan bounds; and the runs' ``first`` and ``w`` (:func:`_runs`)."""
+    same, first, w = _runs(state, lr)
     total = _in_run(same, s)
     discs = (first == 0) & (state[:, :1] != 0)
     taut = ~discs & (total > 0.0)
@@ -114,10 +116,16 @@ def _solve(
 
 
 def _settle(
-    s: np.ndarray, L: np.ndarray, ea: np.ndarray, r: np.ndarray, hold: np.ndarray, state: np.ndarray
+    s: np.ndarray,
+    L: np.ndarray,
+    ea: np.ndarray,
+    r: np.ndarray,
+    lr: np.ndarray,
+    hold: np.ndarray,
+    state: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`.tension._settle` for V threads at once: ``s``, ``L``, ``r``, ``state`` (V, Z)
-    (``state`` updated in place), ``ea`` and ``hold`` (V, 1); with the new stretches and feed,
+    (``state`` updated in place), ``lr`` the logarithms of ``r``, ``ea`` and ``hold`` (V, 1); with the new stretches and feed,
     the runs' ``first`` and ``w`` (:func:`_runs`) in the state found. Each thread changes its
     contact most out of its state, one a pass, until none is; the ones done leave the passes,
     and the last :data:`FEW` finish theirs one by one."""
@@ -129,7 +137,7 @@ def _settle(
     todo = np.arange(V)
     for _ in range(16 * Z):
         sv, Lv, eav, rv, hv, st = s[todo], L[todo], ea[todo], r[todo], hold[todo], state[todo]
-        new, fed, first, w = _solve(sv, Lv, eav, rv, hv, st)
+        new, fed, first, w = _solve(sv, Lv, eav, lr[todo], hv, st)
         T = _pull(eav, new, Lv)
         e = eav[:, 0]
         score = np.zeros((len(todo), Z + 1))
@@ -170,7 +178,7 @@ def _settle(
                     s[i].tolist(), L[i].tolist(), float(ea[i, 0]), r[i].tolist(), float(hold[i, 0]), st_i
                 )
                 new_all[i], state[i] = new_i, st_i
-            _, first_all[todo], w_all[todo] = _runs(state[todo], r[todo])
+            _, first_all[todo], w_all[todo] = _runs(state[todo], lr[todo])
             return new_all, fed_all, first_all, w_all
         if not len(todo):
             return new_all, fed_all, first_all, w_all
@@ -180,11 +188,12 @@ def _settle(
 @dataclass(kw_only=True)
 class _Now:
     """V threads' equilibrium in one step (:class:`.tension._Step` as (V, Z) arrays; ``fed``,
-    ``ga`` and ``gb`` (V,)), with its runs' ``first`` and ``w`` (:func:`_runs`)."""
+    ``ga`` and ``gb`` (V,)), with its runs' ``first`` and ``w`` (:func:`_runs`); without the
+    stretches' tangent stiffness, which only the hook's Newton steps need
+    (:func:`_hook_stiffness` makes it for the threads that take them)."""
 
     L: np.ndarray
     r: np.ndarray
-    c: np.ndarray
     T: np.ndarray
     s: np.ndarray
     state: np.ndarray
@@ -208,6 +217,7 @@ class _Batch:
 
     lengths: np.ndarray
     bounds: np.ndarray
+    log_bounds: np.ndarray
     up: np.ndarray
     down: np.ndarray
     rest: np.ndarray
@@ -223,7 +233,7 @@ class _Batch:
         """:meth:`.tension._Thread.settle` for the threads ``at`` (V,) of the batch, each at its
         step ``k`` (V,), its spring's hook at ``xh`` (V,) m, from its stretches ``s`` over its
         path ``prev`` and its contacts' ``state`` (V, Z; copied)."""
-        L, r = self.lengths[at, k], self.bounds[at, k]
+        L, r, lr = self.lengths[at, k], self.bounds[at, k], self.log_bounds[at, k]
         d = self.pull[at, k]
         rest = self.rest[at, k]
         ua = self.up[at, k] - rest - xh[:, None] * d
@@ -233,15 +243,14 @@ class _Batch:
         j = self.cs
         L[:, j - 1], L[:, j] = la, lb
         turn = -np.einsum("ij,ij->i", ua, ub) / (la * lb)
-        r[:, j] = np.exp(self.friction[at, 0] * np.arccos(np.clip(turn, -1.0, 1.0)))
+        lr[:, j] = self.friction[at, 0] * np.arccos(np.clip(turn, -1.0, 1.0))
+        r[:, j] = np.exp(lr[:, j])
         ga = np.einsum("ij,ij->i", ua, d) / la
         gb = np.einsum("ij,ij->i", ub, d) / lb
         st = state.copy()
         ea = self.ea[at]
-        moved, fed, first, w = _settle(s + (L - prev), L, ea, r, self.hold[at], st)
-        taut = moved > 0.0
-        c = np.where(taut, ea * L / np.where(taut, L - moved, 1.0) ** 2, ea / L)
-        return _Now(L=L, r=r, c=c, T=_pull(ea, moved, L), s=moved, state=st, fed=fed, ga=ga, gb=gb, first=first, w=w)
+        moved, fed, first, w = _settle(s + (L - prev), L, ea, r, lr, self.hold[at], st)
+        return _Now(L=L, r=r, T=_pull(ea, moved, L), s=moved, state=st, fed=fed, ga=ga, gb=gb, first=first, w=w)
 
     def lengths_at(self, at: np.ndarray, k: np.ndarray, xh: np.ndarray) -> np.ndarray:
         """(V, Z) m: the threads' ``at`` path lengths at step ``k`` with the hook at ``xh``."""
@@ -254,20 +263,22 @@ class _Batch:
         return L
 
 
-def _hook_stiffness(now: _Now, cs: int, pays: np.ndarray, friction: np.ndarray) -> np.ndarray:
+def _hook_stiffness(now: _Now, cs: int, pays: np.ndarray, friction: np.ndarray, ea: np.ndarray) -> np.ndarray:
     """:func:`.tension._hook_stiffness` for V threads (N/m, (V,)): ``pays`` (V,) whether the
-    discs pay out, ``friction`` (V,) the thread's coefficient."""
+    discs pay out, ``friction`` (V,) the thread's coefficient, ``ea`` (V, 1) its EA."""
     first, w = now.first, now.w
     Z = w.shape[1]
     a, b = cs - 1, cs
-    T, L, s, c, ga, gb = now.T, now.L, now.s, now.c, now.ga, now.gb
+    T, L, s, ga, gb = now.T, now.L, now.s, now.ga, now.gb
+    taut = s > 0.0
+    c = np.where(taut, ea * L / np.where(taut, L - s, 1.0) ** 2, ea / L)  # dT/ds (.tension._Thread.settle)
     bend = T[:, a] * (1.0 - ga * ga) / L[:, a] + T[:, b] * (1.0 - gb * gb) / L[:, b]
     in_a, in_b = first == first[:, a : a + 1], first == first[:, b : b + 1]  # (V, Z) each run's stretches
     wc = w / c
-    compliance_a, compliance_b = np.sum(wc, axis=1, where=in_a), np.sum(wc, axis=1, where=in_b)
-    live_a, live_b = np.sum(s, axis=1, where=in_a) > 0.0, np.sum(s, axis=1, where=in_b) > 0.0
+    compliance_a, compliance_b = (wc * in_a).sum(axis=1), (wc * in_b).sum(axis=1)
+    live_a, live_b = (s * in_a).sum(axis=1) > 0.0, (s * in_b).sum(axis=1) > 0.0
     held_a, held_b = (first[:, a] == 0) & pays, (first[:, b] == 0) & pays  # the discs pay out: it stays
-    t = np.take_along_axis(T, first[:, a : a + 1], axis=1)[:, 0]
+    t = T.ravel()[first[:, a] + Z * np.arange(len(T))]
     joined = now.state[:, b] != 0
     short_a, short_b = ga * (1.0 - s[:, a] / L[:, a]), gb * (1.0 - s[:, b] / L[:, b])
     # Apart: each run its own stretch.
@@ -281,7 +292,7 @@ def _hook_stiffness(now: _Now, cs: int, pays: np.ndarray, friction: np.ndarray) 
         turning = joined & (np.sin(wrap) > TINY)
         dcos = gb / L[:, a] + ga / L[:, b] + np.cos(wrap) * (ga / L[:, a] + gb / L[:, b])
         dw = np.where(turning, -now.state[:, b] * friction * dcos / np.where(turning, np.sin(wrap), 1.0), 0.0)
-        beyond = np.sum(wc, axis=1, where=in_b & (np.arange(Z) >= b))
+        beyond = (wc * (in_b & (np.arange(Z) >= b))).sum(axis=1)
         dt = np.where(held_a, 0.0, -(short_a + short_b + t * dw * beyond) / compliance_a)
         both = -(ga * w[:, a] * dt + gb * w[:, b] * (dt + t * dw))
     out += np.where(joined & live_a, both, 0.0)
@@ -313,9 +324,11 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
     def col(name: str) -> np.ndarray:
         return np.array([float(getattr(p, name)) for p in problems])
 
+    bounds = np.stack([p.bounds for p in problems])
     g = _Batch(
         lengths=np.stack([p.lengths for p in problems]),
-        bounds=np.stack([p.bounds for p in problems]),
+        bounds=bounds,
+        log_bounds=np.log(bounds),
         up=np.stack([p.up for p in problems]),
         down=np.stack([p.down for p in problems]),
         rest=np.stack([p.rest for p in problems]),
@@ -334,6 +347,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
     out_x = np.zeros((V, n))
     out_d = np.zeros((V, n))
     feds = np.full((V, (cycles or most_cycles)), np.nan)
+    helds = np.full((V, (cycles or most_cycles)), np.nan)
     tops = np.full((V, (cycles or most_cycles)), np.nan)
     period = np.zeros(V, dtype=np.int64)
     finish = np.zeros(V, dtype=np.int64)
@@ -357,6 +371,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
                     v=float(v[i]),
                     prev=prev[i].tolist(),
                     feds=tuple(float(f) for f in feds[at, : ran - 1]),
+                    helds=tuple(float(f) for f in helds[at, : ran - 1]),
                     tops=tuple(float(f) for f in tops[at, : ran - 1]),
                     period=int(period[at]),
                     finish=int(finish[at]),
@@ -385,15 +400,21 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
                 at = np.flatnonzero(newton)
                 if not len(at):
                     break
+                f_hook = now.T[at, cs - 1] * now.ga[at] + now.T[at, cs] * now.gb[at]
+                xa, va, xt = x[at], v[at], xh[at]
+                resid = inr[at] * (xt - xa - dtv[at] * va) + dmp[at] * (xt - xa) + fs[at] + ks[at] * xt - f_hook
+                # A hook pressed against its stop stays (the twin's rule, before its stiffness).
+                free = ~(((xt == 0.0) & (resid >= 0.0)) | ((xt == tr[at]) & (resid <= 0.0)))
+                newton[at[~free]] = False
+                at, resid, xt = at[free], resid[free], xt[free]
+                if not len(at):
+                    break
                 sub = _Now(**{name: getattr(now, name)[at] for name in _Now.__dataclass_fields__})
-                f_hook = sub.T[:, cs - 1] * sub.ga + sub.T[:, cs] * sub.gb
-                xa, va = x[at], v[at]
-                resid = (
-                    inr[at] * (xh[at] - xa - dtv[at] * va) + dmp[at] * (xh[at] - xa) + fs[at] + ks[at] * xh[at] - f_hook
+                stiff = (
+                    inr[at] + dmp[at] + ks[at] + _hook_stiffness(sub, cs, sub.state[:, 0] != 0, fr[at], g.ea[live[at]])
                 )
-                stiff = inr[at] + dmp[at] + ks[at] + _hook_stiffness(sub, cs, sub.state[:, 0] != 0, fr[at])
-                nxt = np.minimum(np.maximum(xh[at] - resid / stiff, 0.0), tr[at])
-                still = np.abs(nxt - xh[at]) > SPRING_TOL
+                nxt = np.minimum(np.maximum(xt - resid / stiff, 0.0), tr[at])
+                still = np.abs(nxt - xt) > SPRING_TOL
                 newton[at[~still]] = False
                 moving = at[still]
                 if not len(moving):
@@ -409,12 +430,15 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
             out_x[live, k] = x
             out_d[live, k] = fed
         feds[live, ran - 1] = fed
+        helds[live, ran - 1] = [
+            sum(p - q for p, q in zip(a, b, strict=True)) for a, b in zip(prev.tolist(), s.tolist())
+        ]
         tops[live, ran - 1] = out_T[live].max(axis=(1, 2))
         if cycles is None:
             # A state found: on to its stitch with the highest peak (the twin's rule).
             for i in np.flatnonzero(period[live] == 0):
                 at = int(live[i])
-                p = periodic(feds[at, :ran].tolist())
+                p = periodic(feds[at, :ran].tolist(), helds[at, :ran].tolist())
                 if p:
                     period[at] = p
                     finish[at] = ran + (p - 1 - int(np.argmax(tops[at, ran - p : ran])))

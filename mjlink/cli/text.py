@@ -595,7 +595,7 @@ def tension_line(t: NeedleTension) -> str:
     zone, at = t.peak_at
     return (
         f"needle thread tension (thread_tension.png): peak {t.peak:.3g} N ({t.peak / GF:.0f} gf) in {zone} at "
-        f"{at:.1f} deg, breaking load {t.breaking_load:.3g} N (margin {t.margin:.2f}); discs' hold {t.hold:.3g} N\n"
+        f"{at:.1f} deg, breaking load {t.breaking_load:.3g} N (margin {t.margin:.3g}); discs' hold {t.hold:.3g} N\n"
         f"  a stitch draws {t.per_stitch / MM:.3f} mm through the discs (stitch formula {t.formula / MM:.2f} mm); "
         f"check spring travel up to {float(t.spring.max()) / MM:.2f} mm; below the eye slack for "
         f"{float(t.slack.mean()) * 360.0:.0f} deg of the stitch" + t.repeats

@@ -230,7 +230,7 @@ def tension_plot(mech: Mechanism, head: HeadTiming, t: NeedleTension, out_dir: P
     zone, at = t.peak_at
     ax.set_title(
         f"peak {t.peak:.3g} N ({t.peak / GF:.0f} gf) in {zone} at {at:.1f} deg: breaking load "
-        f"{t.breaking_load:.3g} N, margin {t.margin:.2f}; discs' hold {t.hold:.3g} N\n"
+        f"{t.breaking_load:.3g} N, margin {t.margin:.3g}; discs' hold {t.hold:.3g} N\n"
         f"a stitch draws {t.per_stitch / MM:.3f} mm through the discs (stitch formula {t.formula / MM:.2f} mm)"
         + t.repeats,
         fontsize=8.5,
