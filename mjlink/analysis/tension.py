@@ -731,7 +731,7 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
             out_x[k] = x
             out_d[k] = fed
         feds.append(fed)
-        helds.append(sum(p - q for p, q in zip(prev, s, strict=True)))
+        helds.append(in_path(prev, s))
         tops.append(float(out_T.max()))
         if cycles is None and not period:
             period = periodic(feds, helds)
@@ -743,6 +743,12 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
     # Any `period` stitches in a row of the repeating state draw the same thread between them.
     per_stitch = sum(feds[-period:]) / period if period else feds[-1]
     return pb.result(out_T.T.copy(), out_x, out_d, ran, period, per_stitch)
+
+
+def in_path(prev: list[float], s: list[float]) -> float:
+    """m: the thread the path holds, its stretches' paths ``prev`` less their stretches ``s``
+    (summed in one order, so that the twin and the array step agree to the bit)."""
+    return sum(p - q for p, q in zip(prev, s, strict=True))
 
 
 def periodic(feds: list[float], helds: list[float]) -> int:

@@ -24,6 +24,7 @@ from .tension import (
     Carry,
     NeedleTension,
     Problem,
+    in_path,
     periodic,
     step,
 )
@@ -125,8 +126,9 @@ def _settle(
     state: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`.tension._settle` for V threads at once: ``s``, ``L``, ``r``, ``state`` (V, Z)
-    (``state`` updated in place), ``lr`` the logarithms of ``r``, ``ea`` and ``hold`` (V, 1); with the new stretches and feed,
-    the runs' ``first`` and ``w`` (:func:`_runs`) in the state found. Each thread changes its
+    (``state`` updated in place), ``lr`` the logarithms of ``r``, ``ea`` and ``hold`` (V, 1);
+    with the new stretches and feed, the runs' ``first`` and ``w`` (:func:`_runs`) in the state
+    found. Each thread changes its
     contact most out of its state, one a pass, until none is; the ones done leave the passes,
     and the last :data:`FEW` finish theirs one by one."""
     V, Z = s.shape
@@ -430,9 +432,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
             out_x[live, k] = x
             out_d[live, k] = fed
         feds[live, ran - 1] = fed
-        helds[live, ran - 1] = [
-            sum(p - q for p, q in zip(a, b, strict=True)) for a, b in zip(prev.tolist(), s.tolist())
-        ]
+        helds[live, ran - 1] = [in_path(a, b) for a, b in zip(prev.tolist(), s.tolist(), strict=True)]
         tops[live, ran - 1] = out_T[live].max(axis=(1, 2))
         if cycles is None:
             # A state found: on to its stitch with the highest peak (the twin's rule).
