@@ -6,8 +6,10 @@ import dataclasses
 import json
 import math
 import os
+import statistics
 import subprocess
 import sys
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -129,6 +131,19 @@ def test_a_wrong_parameter_path_lists_what_its_point_or_section_has() -> None:
     with pytest.raises(paths.PathError) as e:
         paths.resolve(cs, "construct.B.angle")
     assert "did you mean" not in str(e.value)
+
+
+def test_the_summary_states_the_spread_of_values_near_the_floats_range() -> None:
+    """A thread under next to no tension has a margin of some 1e301 to its breaking load:
+    summary.json's standard deviation is Python's statistics module's (in exact fractions), not
+    an overflow."""
+    from mjlink.pipeline.study import _stats
+
+    v = [0.5639, 1.6198e301, 1.6198e301 / 2]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = _stats(np.array(v))
+    assert got["std"] == pytest.approx(statistics.stdev(v), rel=1e-12)
 
 
 def test_sampling_is_seeded_and_within_its_law() -> None:

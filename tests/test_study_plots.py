@@ -4,6 +4,8 @@ text (rendered extents of neighbouring panels' texts apart) and the drawing time
 from __future__ import annotations
 
 import itertools
+import statistics
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -242,6 +244,19 @@ def test_histograms_list_percentiles_mean_and_spread(tmp_path: Path, figures: li
     assert "N·m" in fig.axes[2].get_legend().get_title().get_text()  # units as printed
     assert "1,000 of 1,001 variants that assemble" in fig._suptitle.get_text()
     assert_legible(fig)
+
+
+def test_a_histogram_of_values_near_the_floats_range_states_their_spread(tmp_path: Path, figures: list[Figure]) -> None:
+    """A thread under next to no tension has a margin to its breaking load of some 1e301: the
+    spread is still stated (as Python's statistics module finds it in exact fractions), with no
+    overflow warning."""
+    v = np.array([0.5639, 1.6198e301, 1.6198e301 / 2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _png(sp.histograms("huge", [sp.Column("margin", "margin", "", v)], np.ones(3, dtype=bool), tmp_path))
+    (fig,) = figures
+    spread = statistics.stdev(v.tolist())  # in exact fractions
+    assert f"σ {spread:.1e}" in fig.axes[0].get_legend().get_title().get_text()
 
 
 def test_histograms_edge_cases(tmp_path: Path) -> None:

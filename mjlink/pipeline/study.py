@@ -93,7 +93,8 @@ def _stats(x: np.ndarray) -> dict[str, float]:
         "min": float(x.min()),
         "max": float(x.max()),
         "mean": float(x.mean()),
-        "std": float(x.std(ddof=1)) if len(x) > 1 else 0.0,
+        # Scaled first: the squares of values beyond 1e154 (a margin over no tension) overflow.
+        "std": float((x / top).std(ddof=1) * top) if len(x) > 1 and (top := float(np.abs(x).max())) > 0 else 0.0,
     }
     for q in PERCENTILES:
         out[f"p{q}"] = float(np.percentile(x, q))
