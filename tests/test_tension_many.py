@@ -10,8 +10,8 @@ import itertools
 import numpy as np
 import pytest
 
-from mjlink.analysis import tension_many
-from mjlink.analysis.tension import periodic, prepare, step
+from mjlink.analysis import tension, tension_many
+from mjlink.analysis.tension import hardest, periodic, prepare, step
 from mjlink.analysis.tension_many import TOGETHER, step_many
 from mjlink.analysis.timing import head_timing
 from mjlink.model import mechanism
@@ -374,6 +374,67 @@ def test_a_tension_optimizations_plan_scales_to_the_tasks_its_generations_are_cu
     ]
     assert scaled[0].seconds == alone[0].seconds
     assert scaled[1].seconds < alone[1].seconds * (1 + tension_many.share(120)) / 2
+
+
+def test_a_period_shows_its_hardest_pulled_stitch(head):
+    """A state that repeats every 3 stitches (the head with the paper's take-up at 3,500
+    stitches/min, 2.6 N and 0.01 N/mm, 360 steps a stitch): the stitch reported is the period's
+    hardest pulled, checked by stepping the two before it from the start. Before, the run went
+    on to the stitch a period on from the wrong one of three (the count was reversed) and
+    reported a softer stitch."""
+    assert [hardest(10, t) for t in ([3.0, 1.0, 2.0], [1.0, 3.0, 2.0], [1.0, 2.0, 3.0])] == [11, 12, 10]
+    mech, timing = head
+    pb = _problem(mech, timing, speed=366.52, needle_tension=2.6, spring_rate=10.0)
+    t = step(pb)
+    assert t.converged and t.period == 3
+    others = [step(pb, cycles=t.cycles - k).peak for k in (1, 2)]
+    assert t.peak >= max(others) and t.peak - min(others) > 1e-6 * t.peak  # not all alike
+
+
+def test_a_long_period_is_found_once_seen_twice_over():
+    """The draws of the shipped head at 3,000 stitches/min, 2.4 N at the discs and a spring of
+    0.06 N/mm (mm, rounded), which repeat every 12 stitches: four alike in a row twice in each
+    period, while the thread in the path changes after each (m)."""
+    draws = [4.4984, 4.4941, 4.4986, *[4.4961] * 4, 4.4985, *[4.4961] * 4]
+    run = draws * 3
+    held = [0.3767 + 1e-7 * (k % 12) for k in range(len(run))]
+    got = [periodic([f * 1e-3 for f in run[a:b]], held[a:b]) for a, b in ((0, 24), (1, 24), (0, 25), (0, 36))]
+    assert got == [12, 0, 12, 12]  # the second: not yet twice over
+    # The draws alone: four alike in a row would pass for one stitch repeating itself.
+    assert periodic([f * 1e-3 for f in run[:7]], [0.3767] * 7) == 1
+
+
+def test_a_head_whose_check_spring_repeats_every_dozen_stitches_is_periodic(monkeypatch):
+    """The shipped head at 3,500 stitches/min with 2.8 N at the discs and a spring of 0.01
+    N/mm, 360 steps a stitch: its check spring strikes its stop and the stitches repeat every
+    12 (before, only periods up to 8 were looked for, and it ran 80 stitches to no state).
+    Checked by stepping a fixed number of stitches from the start, outside the detection: the
+    stitch a period on is the reported one again, one half a period before is not; the draw
+    reported is the mean of the period's draws, which differ. A state found on the last stitch
+    allowed still runs on to its hardest pulled stitch, in the twin and the array step alike."""
+    mech = mechanism.load(HEAD)
+    timing = head_timing(mech, samples=720)
+    cfg = dataclasses.replace(mech.tension or DEFAULTS, needle_tension=2.8, spring_rate=10.0)
+    pb = prepare(dataclasses.replace(mech, speed=366.52), timing, settings=cfg, samples=360)
+    seen: list[tuple[list[float], int]] = []  # each stitch's draws as the stepping hands them over, the period found
+    monkeypatch.setattr(tension, "periodic", lambda f, h: seen.append((list(f), periodic(f, h))) or seen[-1][1])
+    t = step(pb)
+    assert t.converged and t.period == 12 and t.cycles < 80
+    again = step(pb, cycles=t.cycles + 12)
+    np.testing.assert_allclose(again.tension, t.tension, rtol=0, atol=1e-6 * t.peak)
+    assert again.drawn[pb.order[-1]] == pytest.approx(t.drawn[pb.order[-1]], abs=1e-8)  # m: the periodic test's
+    half = step(pb, cycles=t.cycles - 6)
+    # Another stitch of the period: a hundred times further from it than the one a period on.
+    assert np.abs(half.tension - t.tension).max() > 1e-4 * t.peak and t.peak >= half.peak  # the hardest pulled
+    draws, found = next((f[-12:], len(f)) for f, p in seen if p)
+    assert max(draws) - min(draws) > 1e-6  # m: the stitches of the period differ
+    assert t.per_stitch == pytest.approx(sum(draws) / 12, abs=1e-8)  # m: the periodic test's
+    assert found < t.cycles  # it ran on to the period's hardest pulled stitch
+    monkeypatch.setattr(tension_many, "TOGETHER", 1)  # the arrays step it, and one more
+    monkeypatch.setattr(tension_many, "ALONE", 0)
+    for b in (step(pb, most_cycles=found), step_many([pb, _problem(mech, timing)], most_cycles=found)[0]):
+        assert (b.cycles, b.period) == (t.cycles, t.period)
+        np.testing.assert_allclose(b.tension, t.tension, rtol=0, atol=1e-9 * t.peak)
 
 
 def test_a_head_that_starts_with_slack_is_not_periodic_until_it_draws_its_stitch():

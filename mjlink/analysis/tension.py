@@ -49,7 +49,6 @@ TOL = 1e-9  # a contact holds while its tension ratio is within this of its caps
 TINY = 1e-9  # N: tensions this small count as none
 TINY_M = 1e-15  # m: thread passed this short counts as none
 PERIODIC = 1e-8  # m: the periodic state: two stitches' draws through the discs this close
-MOST_PERIOD = 8  # stitches: the longest period of a state looked for
 SAMPLES = 1440  # steps per stitch: a quarter degree of the main shaft
 MOST_NEWTON = 12  # Newton steps on the check spring's hook per step, at most
 SPRING_TOL = 1e-12  # m: the hook's place found when a Newton step moves it less
@@ -74,8 +73,8 @@ class NeedleTension:
     per stitch (stitch length + fabric); ``set_at`` deg where the stitch is set (its thread
     locked); ``hold`` N the discs' hold; ``stiffness`` N the thread's EA; ``breaking_load`` N;
     ``cycles`` the stitches run; ``period`` the stitches after which the state repeats: 1,
-    or up to :data:`MOST_PERIOD` where the check spring, striking its stop, repeats its
-    motion only every so many stitches (the traces are then those of the period's stitch
+    or more where the check spring, striking its stop, repeats its motion only every so many
+    stitches (any period the stitches run show twice over) (the traces are then those of the period's stitch
     with the highest peak, ``per_stitch`` the period's mean), 0 where none was found within
     the stitches run; ``converged`` whether one was (each stitch drew the same thread through
     the discs as the one a period before, within :data:`PERIODIC`)."""
@@ -139,8 +138,7 @@ class NeedleTension:
             )
         if not self.converged:
             out.append(
-                f"tension: no periodic state in {self.cycles} stitches (the stitches repeat neither one after another "
-                "nor every other)"
+                f"tension: no periodic state in {self.cycles} stitches (no run of stitches repeats twice over in them)"
             )
         return tuple(out)
 
@@ -615,7 +613,8 @@ def needle_tension(
         defaults (:data:`~mjlink.model.tension.DEFAULTS`) when None.
       spring: False takes the check spring away (its hook a fixed guide).
       samples: steps per stitch.
-      most_cycles: stitches run at most to reach the periodic state.
+      most_cycles: stitches run at most to reach the periodic state (a state found, up to its
+        period less one more, to its hardest pulled stitch).
       anchored: hold this much thread (m, unstretched) at the discs (they never let it
         through) and at the eye, with nothing below it, the spring at rest at the needle bar's
         top and any slack there in the first stretch: what a MuJoCo tendon through the same
@@ -693,7 +692,7 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
         s, state, x, v, prev, done = list(carry.s), list(carry.state), carry.x, carry.v, list(carry.prev), carry.ran
         feds, helds, tops = list(carry.feds), list(carry.helds), list(carry.tops)
         period, finish = carry.period, carry.finish
-    for ran in range(done + 1, (cycles or most_cycles) + 1):
+    for ran in range(done + 1, at_most(most_cycles, cycles) + 1):
         fed = 0.0
         for step, k in enumerate(pb.order.tolist()):
             if step == 0 and ran > 1 and not pb.anchored:
@@ -735,8 +734,8 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
         tops.append(float(out_T.max()))
         if cycles is None and not period:
             period = periodic(feds, helds)
-            finish = ran + (period - 1 - int(np.argmax(tops[-period:]))) if period else 0
-        if period and ran == finish:
+            finish = hardest(ran, tops[-period:]) if period else 0
+        if (period and ran == finish) or (not period and ran == (cycles or most_cycles)):
             break
     if cycles is not None:
         return pb.result(out_T.T.copy(), out_x, out_d, ran, 1, feds[-1])
@@ -751,14 +750,28 @@ def in_path(prev: list[float], s: list[float]) -> float:
     return sum(p - q for p, q in zip(prev, s, strict=True))
 
 
+def at_most(most_cycles: int, cycles: int | None) -> int:
+    """Stitches a run steps at most: ``cycles`` if given, else ``most_cycles`` to find its
+    periodic state and, a state found, up to its period less one more to its hardest pulled
+    stitch (:func:`periodic` finds periods up to half the stitches run)."""
+    return cycles if cycles is not None else most_cycles + most_cycles // 2 - 1
+
+
+def hardest(ran: int, tops: list[float]) -> int:
+    """The stitch, from ``ran`` on, that repeats the hardest pulled of a period's stitches: their
+    peaks ``tops`` (N, the last ``len(tops)`` stitches to ``ran``, oldest first)."""
+    return ran + (int(np.argmax(tops)) + 1) % len(tops)
+
+
 def periodic(feds: list[float], helds: list[float]) -> int:
-    """The least ``p`` up to :data:`MOST_PERIOD` for which each of the last ``p`` stitches
-    drew the same thread through the discs and ended with the same thread in the path (``feds``
-    and ``helds``, m; within :data:`PERIODIC`) as the stitch ``p`` before it (1: the last two
-    alike), else 0. The draws alone are not the state: a thread that starts with slack in its
-    path draws nothing for a stitch or two while the stitches use the slack up."""
-    for p in range(1, MOST_PERIOD + 1):
-        if len(feds) >= 2 * p and all(
+    """The least ``p`` for which each of the last ``p`` stitches drew the same thread through
+    the discs and ended with the same thread in the path (``feds`` and ``helds``, m; within
+    :data:`PERIODIC`) as the stitch ``p`` before it (1: the last two alike), else 0: any period
+    the stitches show twice over (a check spring striking its stop may repeat its motion only
+    every dozen stitches or so). The draws alone are not the state: a thread that starts with slack
+    in its path draws nothing for a stitch or two while the stitches use the slack up."""
+    for p in range(1, len(feds) // 2 + 1):
+        if all(
             abs(feds[-i] - feds[-i - p]) <= PERIODIC and abs(helds[-i] - helds[-i - p]) <= PERIODIC
             for i in range(1, p + 1)
         ):

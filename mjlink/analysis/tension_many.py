@@ -24,6 +24,8 @@ from .tension import (
     Carry,
     NeedleTension,
     Problem,
+    at_most,
+    hardest,
     in_path,
     periodic,
     step,
@@ -307,7 +309,8 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
     Args:
       problems: V problems of one path's shape (the same steps N, stretches Z and spring
         contact), from :func:`.tension.prepare`.
-      most_cycles: stitches run at most to reach the periodic state.
+      most_cycles: stitches run at most to reach the periodic state (a state found, up to its
+        period less one more, to its hardest pulled stitch).
       cycles: run exactly this many stitches (the twin's ``cycles``).
     Returns:
       V :class:`NeedleTension`, each what :func:`.tension.step` gives its problem.
@@ -348,9 +351,10 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
     out_T = np.zeros((V, n, Z))
     out_x = np.zeros((V, n))
     out_d = np.zeros((V, n))
-    feds = np.full((V, (cycles or most_cycles)), np.nan)
-    helds = np.full((V, (cycles or most_cycles)), np.nan)
-    tops = np.full((V, (cycles or most_cycles)), np.nan)
+    last = at_most(most_cycles, cycles)
+    feds = np.full((V, last), np.nan)
+    helds = np.full((V, last), np.nan)
+    tops = np.full((V, last), np.nan)
     period = np.zeros(V, dtype=np.int64)
     finish = np.zeros(V, dtype=np.int64)
     results: list[NeedleTension | None] = [None] * V
@@ -361,7 +365,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
     v = np.zeros(V)
     state = np.zeros((V, Z), dtype=np.int64)
     prev = g.lengths_at(live, order[:, 0], x)
-    for ran in range(1, (cycles or most_cycles) + 1):
+    for ran in range(1, last + 1):
         if len(live) <= ALONE and ran > 1:
             # A few left (slow to settle): the plain twin steps each from here, cheaper than
             # an array step over a handful of threads.
@@ -441,8 +445,9 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
                 p = periodic(feds[at, :ran].tolist(), helds[at, :ran].tolist())
                 if p:
                     period[at] = p
-                    finish[at] = ran + (p - 1 - int(np.argmax(tops[at, ran - p : ran])))
-        ends = ((period[live] > 0) & (finish[live] == ran)) | (ran == (cycles or most_cycles))
+                    finish[at] = hardest(ran, tops[at, ran - p : ran].tolist())
+        found = period[live] > 0
+        ends = (found & (finish[live] == ran)) | (~found & (ran == (cycles or most_cycles)))
         for i in np.flatnonzero(ends):
             at = int(live[i])
             results[at] = _result(

@@ -24,7 +24,8 @@ class TensionMetric(TimingChecks):
     through the discs), ``tension_slack`` deg (of the stitch with the thread below the eye
     slack: a loop), ``tension_spring`` mm (the check spring's largest travel),
     ``tension_periodic`` (1 where the stitch reached its periodic state) and ``tension_period``
-    (1, or 2 where the stitches alternate; 0 without a periodic state)."""
+    (1; 2 where the stitches alternate, more where the check spring striking its stop repeats
+    its motion only every few; 0 without a periodic state)."""
 
     kind = "tension"
     options = ()
