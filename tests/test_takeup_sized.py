@@ -169,6 +169,29 @@ def test_the_sized_heads_thread_reaches_its_periodic_state_within_its_breaking_l
     assert t.per_stitch == pytest.approx(formula / (1.0 + t.tension[-1][k0 - 1] / t.stiffness), abs=1e-7)
 
 
+def test_the_sized_heads_thread_is_what_the_head_guide_states(sized, sized_tension):
+    """docs/head.md's rows for the shipped head's thread (The shipped take-up, sized for the
+    head's loop), to the digits it prints: a change that moves one is a change of the guide."""
+    timing, t = sized_tension
+    gf = 9.80665e-3  # N
+    # docs/head.md's figures, to the digits and steps (0.25 deg) it prints.
+    assert t.peak / gf == pytest.approx(165.0, abs=0.5) and t.peak_at == ("below NE", pytest.approx(167.0, abs=0.25))
+    assert t.margin == pytest.approx(6.5, abs=0.05)
+    assert t.per_stitch * 1e3 == pytest.approx(4.500, abs=5e-4)  # mm
+    assert t.slack.mean() * 360.0 == pytest.approx(232.0, abs=0.25)  # deg
+    assert t.spring.max() * 1e3 == pytest.approx(2.2, abs=0.05)  # mm of its 7
+    x = t.spring
+    leaves = [float(t.theta[i]) for i in range(len(x)) if x[i] > 0.0 and x[i - 1] == 0.0]
+    back = [float(t.theta[i]) for i in range(len(x)) if x[i] == 0.0 and x[i - 1] > 0.0]
+    # deg: the guide's 35.5 and 247 where the spring leaves its rest (again at 153.5), 120 back.
+    assert leaves == pytest.approx([35.5, 153.5, 247.0], abs=0.5) and back[0] == pytest.approx(120.0, abs=0.25)
+    rows = {r.key: r for r in timing.rows}
+    slack, spare = rows["thread_slack"], rows["spring_spare"]
+    # mm, to the guide's tenths: the slack, what the spring holds, and to spare.
+    assert slack.value * 1e3 == pytest.approx(9.7, abs=0.05) and slack.window.hi * 1e3 == pytest.approx(12.6, abs=0.05)
+    assert spare.value * 1e3 == pytest.approx(2.9, abs=0.05) and spare.ok
+
+
 def test_the_sized_heads_check_spring_acts_and_the_published_directions_hold(sized, sized_tension):
     """With the discs and the spring's hook placed by studies/lockstitch_head_sized_spring.toml
     the thread pulls the spring off its rest, within its travel, and the spring makes the
@@ -187,6 +210,10 @@ def test_the_sized_heads_check_spring_acts_and_the_published_directions_hold(siz
         fed = dataclasses.replace(sized, balance=dataclasses.replace(sized.balance, stitch_length=length))
         peaks.append(needle_tension(fed, head_timing(fed)).peak)
     assert peaks[0] < base.peak < peaks[1]
+    # docs/head.md's figures (N, to the digits it prints): 1.5x the needle tension, twice the
+    # elongation at break, 2, 3 and 4 mm stitches.
+    got = [tighter.peak, stretchier.peak, peaks[0], base.peak, peaks[1]]
+    assert got == pytest.approx([2.22, 1.45, 1.10, 1.62, 2.01], abs=0.005)
 
 
 def test_the_refining_study_is_the_sizing_study_started_from_the_shipped_design():
