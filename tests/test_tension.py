@@ -447,3 +447,78 @@ kind = "tension"
         expected = needle_tension(own, head_timing(own, samples=720), samples=720)
         assert float(table["tension_peak_N"][i]) == pytest.approx(expected.peak, rel=1e-6)
         assert float(table["tension_spring_mm"][i]) == pytest.approx(expected.spring.max() * 1e3, rel=1e-6, abs=1e-9)
+
+
+def test_the_shipped_tension_map_is_what_the_head_guide_states(tmp_path):
+    """studies/lockstitch_head_tension_map.toml as shipped, run here: docs/head.md's sentences
+    on it (A tension study), to the digits they print."""
+    from mjlink.api import read_study, run_study
+
+    run_study(shipped("studies") / "lockstitch_head_tension_map.toml", tmp_path, workers=0, plots=False)
+    (folder,) = tmp_path.iterdir()
+    table = read_study(folder)
+    rows = {
+        (float(table["tension.needle_tension_N"][i]), float(table["tension.spring_rate_N_mm"][i])): i
+        for i in range(table.rows)
+    }
+
+    def at(nt: float, rate: float, column: str) -> float:
+        return float(table[column][rows[(nt, rate)]])
+
+    peaks = np.asarray(table["tension_peak_N"], dtype=float)
+    margins = np.asarray(table["tension_margin"], dtype=float)
+    # N and the margin, to the guide's digits: the peak from 0.63 to 2.55 N, the least margin
+    # 4.12 at 2.5 N.
+    assert (peaks.min(), peaks.max(), margins.min()) == pytest.approx((0.63, 2.55, 4.12), abs=0.005)
+    assert float(table["tension.needle_tension_N"][int(np.argmin(margins))]) == 2.5
+    # At 2.5 N a stiffer spring, to the guide's digits: the peak 1.75 to 2.55 N, the travel 5.7
+    # to 4.9 mm, the slack below the eye 236.5 to 214 deg.
+    assert (at(2.5, 0.01, "tension_peak_N"), at(2.5, 0.06, "tension_peak_N")) == pytest.approx((1.75, 2.55), abs=0.005)
+    assert (at(2.5, 0.01, "tension_spring_mm"), at(2.5, 0.06, "tension_spring_mm")) == pytest.approx(
+        (5.7, 4.9), abs=0.05
+    )
+    slack = (at(2.5, 0.01, "tension_slack_deg"), at(2.5, 0.06, "tension_slack_deg"))
+    assert slack == pytest.approx((236.5, 214.0), abs=0.25)  # deg: within a step of the study's 720
+    # N, to the guide's digits: below 2 N the rate hardly moves the peak.
+    assert (at(1.6, 0.01, "tension_peak_N"), at(1.6, 0.06, "tension_peak_N")) == pytest.approx((1.64, 1.61), abs=0.005)
+    assert (at(1.0, 0.01, "tension_peak_N"), at(1.0, 0.06, "tension_peak_N")) == pytest.approx((0.64, 0.63), abs=0.005)
+    periods = {
+        key: float(table["tension_period"][i]) for key, i in rows.items() if float(table["tension_period"][i]) != 1
+    }
+    assert periods == {(2.5, 0.045): 4.0}  # one head repeats only every fourth stitch
+
+
+def test_the_shipped_tension_study_is_what_the_head_guide_states(tmp_path):
+    """studies/lockstitch_head_tension.toml as shipped, run here: docs/head.md's sentences on it
+    (A tension study), to the digits they print."""
+    from mjlink.api import read_study, run_study
+
+    run_study(shipped("studies") / "lockstitch_head_tension.toml", tmp_path, workers=0, plots=False)
+    (folder,) = tmp_path.iterdir()
+    table = read_study(folder)
+    col = {name: np.asarray(table[name], dtype=float) for name in table if name.startswith(("tension", "input"))}
+    nt, rate, speed = col["tension.needle_tension_N"], col["tension.spring_rate_N_mm"], col["input.speed_rad_s"]
+    peak = col["tension_peak_N"]
+
+    def at(n: float, k: float, rpm: float) -> float:
+        (i,) = np.flatnonzero((nt == n) & (rate == k) & (np.abs(speed * 30.0 / np.pi - rpm) < 1.0))
+        return float(peak[i])
+
+    # N, to the guide's digits: the peak's span at each needle tension, the margin's.
+    spans = [f(peak[nt == n]) for n in (1.0, 1.6, 2.2) for f in (np.min, np.max)]
+    assert spans == pytest.approx([0.63, 1.03, 1.61, 2.41, 1.86, 2.83], abs=0.005)
+    assert (col["tension_margin"].max(), col["tension_margin"].min()) == pytest.approx((16.7, 3.7), abs=0.05)
+    # The spring leaves its rest in every head, by 0.4 mm at least; at 2.2 N, 0.01 N/mm and
+    # 3,000 stitches/min it reaches its 7 mm stop. Every head repeats every stitch.
+    spring = col["tension_spring_mm"]
+    assert spring.min() == pytest.approx(0.4, abs=0.05) and spring[(nt == 2.2) & (rate == 0.01)].max() == 7.0
+    assert (col["tension_period"] == 1).all()
+    # N, to the guide's digits: at 1.0 N the peak falls with the speed; at 2.2 N the softest and
+    # the stiffest spring at 5,000 and at 3,000 stitches/min.
+    assert (at(1.0, 0.01, 3000), at(1.0, 0.01, 5000)) == pytest.approx((1.03, 0.64), abs=0.005)
+    assert (at(2.2, 0.01, 5000), at(2.2, 0.06, 5000)) == pytest.approx((1.86, 2.41), abs=0.005)
+    assert (at(2.2, 0.01, 3000), at(2.2, 0.06, 3000)) == pytest.approx((2.83, 2.82), abs=0.005)
+    # The thread per stitch within 1.9 um of 4.50 mm, the loop slack for 140 to 271 deg.
+    assert np.abs(col["tension_per_stitch_mm"] - 4.5).max() == pytest.approx(1.9e-3, abs=5e-5)
+    slack = col["tension_slack_deg"]
+    assert (slack.min(), slack.max()) == pytest.approx((140.0, 271.0), abs=0.25)  # deg: a step of the study's 720
