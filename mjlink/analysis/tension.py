@@ -74,10 +74,10 @@ class NeedleTension:
     locked); ``hold`` N the discs' hold; ``stiffness`` N the thread's EA; ``breaking_load`` N;
     ``cycles`` the stitches run; ``period`` the stitches after which the state repeats: 1,
     or more where the check spring, striking its stop, repeats its motion only every so many
-    stitches (any period the stitches run show twice over) (the traces are then those of the period's stitch
-    with the highest peak, ``per_stitch`` the period's mean), 0 where none was found within
-    the stitches run; ``converged`` whether one was (each stitch drew the same thread through
-    the discs as the one a period before, within :data:`PERIODIC`)."""
+    stitches (any period the stitches run show twice over; the traces are then those of the
+    period's stitch with the highest peak, ``per_stitch`` the period's mean), 0 where none was
+    found within the stitches run; ``converged`` whether one was (each stitch drew the same
+    thread through the discs as the one a period before, within :data:`PERIODIC`)."""
 
     theta: np.ndarray
     zones: tuple[str, ...]
@@ -768,8 +768,8 @@ def periodic(feds: list[float], helds: list[float]) -> int:
     the discs and ended with the same thread in the path (``feds`` and ``helds``, m; within
     :data:`PERIODIC`) as the stitch ``p`` before it (1: the last two alike), else 0: any period
     the stitches show twice over (a check spring striking its stop may repeat its motion only
-    every dozen stitches or so). The draws alone are not the state: a thread that starts with slack
-    in its path draws nothing for a stitch or two while the stitches use the slack up."""
+    every dozen stitches or so). The draws alone are not the state: a thread that starts with
+    slack in its path draws nothing for a stitch or two while the stitches use the slack up."""
     for p in range(1, len(feds) // 2 + 1):
         if all(
             abs(feds[-i] - feds[-i - p]) <= PERIODIC and abs(helds[-i] - helds[-i - p]) <= PERIODIC
