@@ -29,6 +29,7 @@ from ..runtime import cluster, staging
 from ..runtime.progress import study_progress
 from ..study import cache, engine, plan
 from ..study.plan import Plan
+from ..study.sampling import sample_std
 from ..study.spec import Study, load
 from ..version import __version__
 from . import optimize
@@ -93,8 +94,7 @@ def _stats(x: np.ndarray) -> dict[str, float]:
         "min": float(x.min()),
         "max": float(x.max()),
         "mean": float(x.mean()),
-        # Scaled first: the squares of values beyond 1e154 (a margin over no tension) overflow.
-        "std": float((x / top).std(ddof=1) * top) if len(x) > 1 and (top := float(np.abs(x).max())) > 0 else 0.0,
+        "std": sample_std(x),
     }
     for q in PERCENTILES:
         out[f"p{q}"] = float(np.percentile(x, q))

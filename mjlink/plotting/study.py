@@ -30,6 +30,7 @@ from matplotlib.patches import Patch, PathPatch
 from matplotlib.path import Path as MplPath
 from matplotlib.ticker import MaxNLocator
 
+from ..study.sampling import sample_std
 from .study_base import (
     ADMISSIBLE_FACE,
     FAILED_COLOR,
@@ -407,10 +408,7 @@ def _histogram(ax: Axes, col: Column, v: np.ndarray, n_feas: int, pcts: list[flo
         style: dict[str, Any] = dict(color=FAILED_COLOR, lw=1.2, ls="-.")
         ax.axvline(nom, **style)
         handles.append(Line2D([], [], label=f"nominal {_fmt(nom, scale)}{sep}{unit}", **style))
-    top = float(np.abs(v).max())
-    # Scaled first: the squares of values beyond 1e154 (a margin over no tension) overflow.
-    sd = float(np.std(v / top, ddof=1) * top) if v.size > 1 and top > 0 else 0.0
-    std = f"{_fmt(sd, scale)}{sep}{unit}" if v.size > 1 else "–"
+    std = f"{_fmt(sample_std(v), scale)}{sep}{unit}" if v.size > 1 else "–"
     head = f"mean {_fmt(float(np.mean(v)), scale)}{sep}{unit}, σ {std}\n{_count(v.size, 'variant')}"
     if v.size < n_feas:
         head += f" ({n_feas - v.size:,} without value)"

@@ -64,3 +64,11 @@ def tolerance(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:
     """(samples, P) a tolerance study's variants: nominal + :func:`deviations`."""
     nominal = np.array([v.param.nominal for v in varied])
     return nominal + deviations(varied, samples, seed)
+
+
+def sample_std(x: np.ndarray) -> float:
+    """The sample standard deviation (one degree of freedom less) of ``x`` (finite values; 0
+    for fewer than two), scaled first: the squares of values beyond 1e154 (a margin to the
+    breaking load over next to no tension) would overflow."""
+    top = float(np.abs(x).max()) if x.size else 0.0
+    return float(np.std(x / top, ddof=1) * top) if x.size > 1 and top > 0 else 0.0
