@@ -264,17 +264,17 @@ def test_a_fabric_without_damping_is_fed():
 @pytest.mark.parametrize(
     ("tables", "says"),
     [
-        ("[presser]\npreload = 0.0\n", "[presser] preload: must be above 0 and at most 500 N"),
-        ("[presser]\npreload = 1e6\n", "[presser] preload: must be above 0 and at most 500 N"),
-        ("[presser]\nrate = -2.0\n", "[presser] rate: must be above 0"),
+        ("[presser]\npreload = 0.0\n", "[presser] preload: must be at least 0.1 and at most 500 N"),
+        ("[presser]\npreload = 1e6\n", "[presser] preload: must be at least 0.1 and at most 500 N"),
+        ("[presser]\nrate = -2.0\n", "[presser] rate: must be at least 0.001"),
         ("[presser]\ndamping = 1.0\n", "[presser] damping: must be at least 0 and below 1"),
         ("[presser]\nlift = 1.0\n", "must clear the fabric ([timing] fabric = 1.5 mm)"),
         ("[presser]\nspring = 3.0\n", "spring"),
-        ("[fabric]\nmass = 0.0\n", "[fabric] mass: must be above 0"),
+        ("[fabric]\nmass = 0.0\n", "[fabric] mass: must be at least 1"),
         ("[fabric]\nfriction_foot = 3.0\n", "[fabric] friction_foot: must be at least 0 and at most 2"),
         ("[fabric]\nmass = nan\n", "mass"),
         ("[fabric]\nmass = '2 kg/m'\n", "mass"),
-        ("[fabric]\nstiffness = 0.0\n", "[fabric] stiffness: must be above 0"),
+        ("[fabric]\nstiffness = 0.0\n", "[fabric] stiffness: must be at least 0.001"),
         # (80 N + 0.05 kg g) / (50 + 2) N/mm = 1.55 mm, more than the 1.5 mm fabric
         ("[presser]\npreload = 80.0\n[fabric]\nstiffness = 50.0\n", "presses the 1.5 mm fabric by 1.55 mm"),
         ("[fabric]\ndamping = -0.1\n", "[fabric] damping: must be at least 0"),
@@ -283,7 +283,7 @@ def test_a_fabric_without_damping_is_fed():
         (PLIES.replace("area = 200.0", "stiffness = 90.0"), "[fabric] stiffness: with [[fabric.ply]] give"),
         ("[fabric]\nply = 3\n", "[[fabric.ply]]: must be a list of 1 to 8 tables"),
         ("[[fabric.ply]]\nmass = 100.0\n", "[[fabric.ply]] 1: missing key 'thickness'"),
-        ("[[fabric.ply]]\nthickness = 0.0\n", "[[fabric.ply]] 1 thickness: must be above 0"),
+        ("[[fabric.ply]]\nthickness = 0.0\n", "[[fabric.ply]] 1 thickness: must be at least 0.01"),
         ("[[fabric.ply]]\nthickness = 0.5\nfoo = 1\n", "[[fabric.ply]] 1: unknown key 'foo'"),
         ("[[fabric.ply]]\nthickness = 12.0\n[[fabric.ply]]\nthickness = 12.0\n", "the plies together must be"),
         # 40 N and the foot's weight over 2 + 1/(1/300 + 1/20) N/mm press the 20 N/mm ply by 1.99 mm

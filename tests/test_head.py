@@ -776,7 +776,13 @@ def _refusal(text: str) -> str:
 # (table.key, accepted values, refused values). Every value as TOML writes it.
 HEAD_RANGES = [
     ("timing.plate", ["-1000", "1000", "-100", '"-1 m"', '"-10cm"'], ["-1000.01", "1000.01", "1e300", "-1e300"]),
-    ("timing.fabric", ["0", "20", "1.5", '"2 cm"', '"0.5mm"'], ["-0.01", "20.01", "1e6", '"3 cm"']),
+    # The head names its feed dog: its fabric fits under the default presser foot's 7 mm lift and
+    # is not pressed through by its 40 N at 130 N/mm (0.3 mm).
+    (
+        "timing.fabric",
+        ["0.5", "6.99", "1.5", '"0.5 cm"', '"0.5mm"'],
+        ["0", "7", "20", "-0.01", "20.01", "1e6", '"3 cm"'],
+    ),
     ("timing.loop_release", ["0.001", "359.99", "270", '"0.5 rev"', '"3 rad"'], ["0", "360", "990", "-270", '"1 rev"']),
     ("timing.feed_in_fabric", ["0", "50", "0.2", '"5 cm"'], ["-0.001", "50.01", "1e300"]),
     ("balance.stitch_length", ["0.1", "50", "3", '"100 um"', '"0.01 cm"'], ["0.099", "0", "-3", "50.01", '"99 um"']),

@@ -9,6 +9,7 @@ import itertools
 
 import numpy as np
 import pytest
+from threadchecks import hook_stiffness_checked, stepped_alike
 
 from mjlink.analysis import tension, tension_many
 from mjlink.analysis.tension import hardest, periodic, prepare, step
@@ -72,15 +73,7 @@ def test_the_array_step_gives_what_the_twin_gives_each_head(head, monkeypatch):
     ]
     problems += [_problem(mech, timing, needle_tension=1.0 + 0.1 * i, spring_rate=20.0 + 2.0 * i) for i in range(20)]
     assert len(problems) >= TOGETHER  # stepped as arrays, the last few handed to the twin
-    many = step_many(problems)
-    for p, b in zip(problems, many, strict=True):
-        a = step(p)
-        assert (b.cycles, b.period, b.converged) == (a.cycles, a.period, a.converged)
-        np.testing.assert_allclose(b.tension, a.tension, rtol=0, atol=1e-9 * a.peak)
-        np.testing.assert_allclose(b.spring, a.spring, rtol=0, atol=1e-12)  # m
-        np.testing.assert_allclose(b.drawn, a.drawn, rtol=0, atol=1e-12)  # m
-        assert b.per_stitch == pytest.approx(a.per_stitch, rel=1e-12, abs=1e-15)
-    assert {t.period for t in many} >= {1, 2}
+    assert {t.period for t in stepped_alike(problems)} >= {1, 2}
 
 
 def test_a_fixed_number_of_stitches_is_the_twins(head, monkeypatch):
@@ -181,52 +174,10 @@ def test_the_hook_stiffness_is_the_derivative_of_the_threads_pull_in_every_state
     """The check spring's Newton steps take the thread's stiffness at the hook: here it is
     compared with the pull's central difference over the hook's place (its contacts' states
     held), where the thread holds on the hook and where it slides over it either way, in the
-    twin and in the array step."""
-    from mjlink.analysis import tension, tension_many
-
+    twin and in the array step (tests/threadchecks.py; tests/test_spring_arc.py on an arc)."""
     mech, timing = head
     pb = _problem(mech, timing, needle_tension=2.8, spring_rate=10.0)
-    seen: dict[int, list] = {-1: [], 0: [], 1: []}
-    real = tension._Thread.settle
-
-    def settle(self, k, xh, s, prev, state):
-        now = real(self, k, xh, s, prev, state)
-        if xh > 0.0 and len(seen[now.state[self.spring_at]]) < 40:
-            seen[now.state[self.spring_at]].append((self, k, xh, list(s), list(prev), list(state), now))
-        return now
-
-    tension._Thread.settle = settle
-    try:
-        step(pb, cycles=3)
-    finally:
-        tension._Thread.settle = real
-    cs, h = pb.spring_at, 1e-9
-    checked = 0
-    for hook_state, samples in seen.items():
-        assert samples, f"no step with the thread {hook_state} on the hook"
-        for thread, k, xh, s, prev, state, now in samples:
-            ends = [thread.settle(k, xh + d, s, prev, state) for d in (h, -h)]
-            if any(e.state != now.state for e in ends):
-                continue  # a contact changes its state within the difference
-            f = [e.T[cs - 1] * e.ga + e.T[cs] * e.gb for e in ends]
-            numeric = -(f[0] - f[1]) / (2 * h)
-            exact = tension._hook_stiffness(now, cs, pb.friction)
-            assert exact == pytest.approx(numeric, rel=1e-6, abs=1e-6), (hook_state, exact, numeric)
-            arrays = {
-                name: np.array([getattr(now, name)])
-                for name in tension._Step.__dataclass_fields__
-                if name in tension_many._Now.__dataclass_fields__
-            }
-            arrays["first"], arrays["w"] = tension_many._runs(arrays["state"], np.log(arrays["r"]))[1:]
-            many = tension_many._hook_stiffness(
-                tension_many._Now(**arrays),
-                cs,
-                np.array([now.state[0] != 0]),
-                np.array([pb.friction]),
-                np.array([[pb.stiffness]]),
-            )
-            assert many[0] == pytest.approx(exact, rel=1e-12, abs=1e-9)
-            checked += 1
+    checked, _ = hook_stiffness_checked(pb, 40, (-1, 0, 1))
     assert checked >= 60
 
 

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..model.timing import spring_pull
+from ..model.timing import Stroke, spring_pull, spring_stroke
 from ..units import MM
 
 if TYPE_CHECKING:
@@ -159,17 +159,24 @@ def _carried(tm: Timing, hook: Crank, pick: float) -> float:
     return (pick + math.degrees(tm.loop_release) / abs(hook.ratio)) % 360.0
 
 
-def spring_holds(up: np.ndarray, rest: np.ndarray, down: np.ndarray, travel: float) -> np.ndarray:
+def spring_holds(
+    up: np.ndarray, rest: np.ndarray, down: np.ndarray, travel: float, pivot: np.ndarray | None = None
+) -> np.ndarray:
     """(N,) m: the thread a check spring's hook holds in the path, from its rest (``rest``
     (N, 3), the path's point) to anywhere within its ``travel`` (m), its neighbours on the path
-    ``up`` and ``down`` (N, 3).
+    ``up`` and ``down`` (N, 3); with a ``pivot`` (3,), the hook swinging round it
+    (:func:`~mjlink.model.timing.spring_stroke`).
 
-    The hook moves along the bisector of the thread's turn at rest, towards the straight line
-    between its neighbours, as the tension model moves it. The path's length along that line
-    is convex and least where it meets the straight line (the triangle's bisector, of length
-    2 a b cos(alpha / 2) / (a + b)): a hook that travels beyond it holds no more. A thread
-    that turns back round the hook holds nearly twice the hook's travel; one that turns
-    little, far less than its travel."""
+    On a slide the hook moves along the bisector of the thread's turn at rest, towards the
+    straight line between its neighbours, as the tension model moves it. The path's length
+    along that line is convex and least where it meets the straight line (the triangle's
+    bisector, of length 2 a b cos(alpha / 2) / (a + b)): a hook that travels beyond it holds no
+    more. A thread that turns back round the hook holds nearly twice the hook's travel; one
+    that turns little, far less than its travel. On an arc the hold is the path's length at
+    rest less its least over the arc: a thread that leaves the stud along the arm keeps that
+    leg's length, and the hook holds at most the arc's chord."""
+    if pivot is not None:
+        return _arc_holds(spring_stroke(up, rest, down, pivot, travel), up, down, travel)
     a, b = np.linalg.norm(up - rest, axis=1), np.linalg.norm(down - rest, axis=1)
     # A hook on its neighbour (a study's variant may put it there) holds nothing.
     on = (a <= 0.0) | (b <= 0.0)
@@ -180,6 +187,50 @@ def spring_holds(up: np.ndarray, rest: np.ndarray, down: np.ndarray, travel: flo
     at = rest + np.minimum(travel, a * b * two_cos / (a + b))[:, None] * pull
     out: np.ndarray = a + b - np.linalg.norm(up - at, axis=1) - np.linalg.norm(down - at, axis=1)
     return np.where(on, 0.0, out)
+
+
+ARC_SAMPLES = 64  # the arc's stretches searched for the path's least length, each then refined
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def _arc_holds(stroke: Stroke, up: np.ndarray, down: np.ndarray, travel: float) -> np.ndarray:
+    """(N,) m: :func:`spring_holds` on an arc: the path's length at rest less its least along the
+    stroke, found on :data:`ARC_SAMPLES` stretches of it and refined by golden section in the
+    best one and its neighbours (the path's length along an arc of at most half a turn has one
+    least point there; on an exact sample the refinement keeps it)."""
+
+    def path(x: np.ndarray) -> np.ndarray:
+        # x (N, K) m along the arc -> (N, K) the path's length with the hook there.
+        phi = x / stroke.arm
+        hook = (
+            stroke.rest[:, None, :]
+            + (np.cos(phi) - 1.0)[..., None] * stroke.radial[:, None, :]
+            + (stroke.arm * np.sin(phi))[..., None] * stroke.pull[:, None, :]
+        )
+        out: np.ndarray = np.linalg.norm(up[:, None, :] - hook, axis=2) + np.linalg.norm(
+            down[:, None, :] - hook, axis=2
+        )
+        return out
+
+    n = len(up)
+    grid = np.broadcast_to(np.linspace(0.0, travel, ARC_SAMPLES + 1), (n, ARC_SAMPLES + 1))
+    lengths = path(grid)
+    best = np.argmin(lengths, axis=1)
+    rows = np.arange(n)
+    lo = grid[rows, np.maximum(best - 1, 0)]
+    hi = grid[rows, np.minimum(best + 1, ARC_SAMPLES)]
+    least = lengths[rows, best]
+    a, b = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
+    fa, fb = path(a[:, None])[:, 0], path(b[:, None])[:, 0]
+    while float(np.max(hi - lo)) > 1e-12 * max(travel, 1e-300):
+        left = fa < fb
+        hi = np.where(left, b, hi)
+        lo = np.where(left, lo, a)
+        a, b = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
+        fa, fb = path(a[:, None])[:, 0], path(b[:, None])[:, 0]
+    least = np.minimum(least, np.minimum(fa, fb))
+    out: np.ndarray = lengths[:, 0] - least
+    return out
 
 
 def _between(theta: np.ndarray, a: float, b: float) -> np.ndarray:

@@ -11,8 +11,9 @@ higher tension and the ratio stays on the bound. The tension discs feed thread f
 into the first stretch only while the tension downstream of them is at their hold (the
 pre-tension); nothing is drawn back through them. The check spring is a spring-mass-damper
 with its stops: its hook is the thread's contact at the ``[balance] check_spring`` point at
-rest, held against its rest stop by its preload; the thread's pull draws it along the bisector
-of the thread's turn there, up to its travel, where the stop takes the load.
+rest, held against its rest stop by its preload; the thread's pull draws it along its stroke
+(the bisector of the thread's turn there, or its arc round the stud it is wound on:
+:class:`~mjlink.model.timing.Stroke`), up to its travel, where the stop takes the load.
 
 Below the needle's eye the thread's taut length is the kinematic balance's (:mod:`.timing`):
 the needle thread to the last stitch's end, round the hook's blade and the bobbin case while
@@ -38,7 +39,7 @@ import numpy as np
 
 from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
-from ..model.timing import StitchType, spring_pull
+from ..model.timing import StitchType, spring_stroke
 from ..units import MM
 from .stitch import _between
 from .timing import HeadTiming
@@ -287,6 +288,8 @@ def _hook_stiffness(now: _Step, j: int, friction: float) -> float:
     s, c, L, r, state, T, ga, gb = now.s, now.c, now.L, now.r, now.state, now.T, now.ga, now.gb
     n, i, k = len(s), j - 1, j
     out = T[i] * (1.0 - ga * ga) / L[i] + T[k] * (1.0 - gb * gb) / L[k]
+    if now.ha or now.hb:
+        out -= T[i] * now.ha + T[k] * now.hb  # the arc's tangent turning
     short_a, short_b = ga * (1.0 - s[i] / L[i]), gb * (1.0 - s[k] / L[k])
     first = i
     while first > 0 and state[first] != 0:
@@ -354,6 +357,8 @@ class _Step:
     fed: float
     ga: float
     gb: float
+    ha: float = 0.0
+    hb: float = 0.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -370,18 +375,33 @@ class _Thread:
     down: list[list[float]]
     rest: list[list[float]]
     travel_dir: list[list[float]]
+    radial: list[list[float]]
+    arm: float
     spring_at: int
     friction: float
     stiffness: float
     hold: float
 
-    def geometry(self, k: int, xh: float) -> tuple[list[float], list[float], float, float]:
+    def geometry(self, k: int, xh: float) -> tuple[list[float], list[float], float, float, float, float]:
         """Step ``k``'s lengths and capstan bounds with the spring's hook ``xh`` (m) along its
-        travel, and the hook's ``ga``, ``gb``."""
+        travel, and the hook's ``ga``, ``gb`` and, on an arc, ``ha``, ``hb`` (how its turning
+        path turns them; nought on a slide)."""
         L, r = list(self.lengths[k]), list(self.bounds[k])
         up, down, rest, d = self.up[k], self.down[k], self.rest[k], self.travel_dir[k]
-        ua = [up[i] - rest[i] - xh * d[i] for i in range(3)]
-        ub = [down[i] - rest[i] - xh * d[i] for i in range(3)]
+        ha = hb = 0.0
+        if self.arm == math.inf:
+            ua = [up[i] - rest[i] - xh * d[i] for i in range(3)]
+            ub = [down[i] - rest[i] - xh * d[i] for i in range(3)]
+        else:
+            # On the arc: the hook rest + (cos - 1) radial + arm sin pull, moving along its
+            # tangent, which turns towards the pivot by 1/arm per metre.
+            rad, arm = self.radial[k], self.arm
+            cos, sin = math.cos(xh / arm), math.sin(xh / arm)
+            hook = [rest[i] + (cos - 1.0) * rad[i] + arm * sin * d[i] for i in range(3)]
+            ua = [up[i] - hook[i] for i in range(3)]
+            ub = [down[i] - hook[i] for i in range(3)]
+            d = [cos * d[i] - sin / arm * rad[i] for i in range(3)]
+            bend = [-(cos * rad[i] / arm + sin * self.travel_dir[k][i]) / arm for i in range(3)]
         la = math.sqrt(ua[0] * ua[0] + ua[1] * ua[1] + ua[2] * ua[2])
         lb = math.sqrt(ub[0] * ub[0] + ub[1] * ub[1] + ub[2] * ub[2])
         j = self.spring_at
@@ -390,13 +410,16 @@ class _Thread:
         r[j] = math.exp(self.friction * math.acos(max(-1.0, min(1.0, turn))))
         ga = (ua[0] * d[0] + ua[1] * d[1] + ua[2] * d[2]) / la
         gb = (ub[0] * d[0] + ub[1] * d[1] + ub[2] * d[2]) / lb
-        return L, r, ga, gb
+        if self.arm != math.inf:
+            ha = (ua[0] * bend[0] + ua[1] * bend[1] + ua[2] * bend[2]) / la
+            hb = (ub[0] * bend[0] + ub[1] * bend[1] + ub[2] * bend[2]) / lb
+        return L, r, ga, gb, ha, hb
 
     def settle(self, k: int, xh: float, s: list[float], prev: list[float], state: list[int]) -> _Step:
         """Step ``k``'s equilibrium from the last step's stretches ``s`` over its path ``prev``
         and contacts' ``state``, the hook at ``xh``: the thread each stretch holds stays until
         it slides, so its stretch first follows its path's length."""
-        L, r, ga, gb = self.geometry(k, xh)
+        L, r, ga, gb, ha, hb = self.geometry(k, xh)
         moved = [si + (Li - Pi) for si, Li, Pi in zip(s, L, prev, strict=True)]
         st = list(state)
         moved, fed = _settle(moved, L, self.stiffness, r, self.hold, st)
@@ -406,7 +429,7 @@ class _Thread:
             for x, Li in zip(moved, L, strict=True)
         ]
         T = [_pull(self.stiffness, x, Li) for x, Li in zip(moved, L, strict=True)]
-        return _Step(L=L, r=r, c=c, T=T, s=moved, state=st, fed=fed, ga=ga, gb=gb)
+        return _Step(L=L, r=r, c=c, T=T, s=moved, state=st, fed=fed, ga=ga, gb=gb, ha=ha, hb=hb)
 
 
 def _wrap(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -453,6 +476,8 @@ class Problem:
     down: np.ndarray
     rest: np.ndarray
     pull: np.ndarray
+    radial: np.ndarray
+    arm: float
     order: np.ndarray
     spring_at: int
     friction: float
@@ -547,10 +572,14 @@ def prepare(
     cs = path.index(bal.check_spring)
     travel = bal.check_spring_travel if spring else 0.0
     rest, up, down = P[path[cs]], P[path[cs - 1]], P[path[cs + 1]]
-    pull = spring_pull(up, rest, down)
+    pivot = None if bal.check_spring_pivot is None else mech.ground[bal.check_spring_pivot]
+    try:
+        stroke = spring_stroke(up, rest, down, pivot, travel)
+    except ValueError as e:
+        raise TensionError(f"{mech.name}: {e}") from None
     # The discs' hold: the file's needle tension drawn slowly out of the eye at the needle
     # bar's top, the spring pulled to its stop.
-    stop = rest[:1] + travel * pull[:1]
+    stop = stroke.at(travel)[:1]
     at_top = wraps[:, 0].copy()
     at_top[cs] = _wrap(up[:1], stop, down[:1])[0]
     hold = math.inf if anchored is not None else disc_hold(float(np.exp(cfg.friction * at_top[1:].sum())), cfg)
@@ -571,7 +600,9 @@ def prepare(
         up=up,
         down=down,
         rest=rest,
-        pull=pull,
+        pull=stroke.pull,
+        radial=stroke.radial,
+        arm=stroke.arm,
         order=order,
         spring_at=cs,
         friction=cfg.friction,
@@ -667,6 +698,8 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
         down=pb.down.tolist(),
         rest=pb.rest.tolist(),
         travel_dir=pb.pull.tolist(),
+        radial=pb.radial.tolist(),
+        arm=pb.arm,
         spring_at=cs,
         friction=pb.friction,
         stiffness=pb.stiffness,

@@ -10,7 +10,9 @@ rounding; tests/test_tension_many.py holds them together.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any, cast
 
 import numpy as np
 
@@ -204,13 +206,17 @@ class _Now:
     fed: np.ndarray
     ga: np.ndarray
     gb: np.ndarray
+    ha: np.ndarray | None  # None on a slide
+    hb: np.ndarray | None
     first: np.ndarray
     w: np.ndarray
 
     def put(self, at: np.ndarray, other: _Now) -> None:
         """Replaces the threads ``at`` by ``other``'s."""
         for name in self.__dataclass_fields__:
-            getattr(self, name)[at] = getattr(other, name)
+            mine = getattr(self, name)
+            if mine is not None:
+                mine[at] = getattr(other, name)
 
 
 @dataclass(kw_only=True)
@@ -226,6 +232,9 @@ class _Batch:
     down: np.ndarray
     rest: np.ndarray
     pull: np.ndarray
+    radial: np.ndarray
+    arm: np.ndarray
+    swings: bool  # the hooks swing on arcs (every problem's, or none's)
     friction: np.ndarray
     ea: np.ndarray
     hold: np.ndarray
@@ -238,10 +247,7 @@ class _Batch:
         step ``k`` (V,), its spring's hook at ``xh`` (V,) m, from its stretches ``s`` over its
         path ``prev`` and its contacts' ``state`` (V, Z; copied)."""
         L, r, lr = self.lengths[at, k], self.bounds[at, k], self.log_bounds[at, k]
-        d = self.pull[at, k]
-        rest = self.rest[at, k]
-        ua = self.up[at, k] - rest - xh[:, None] * d
-        ub = self.down[at, k] - rest - xh[:, None] * d
+        ua, ub, d, bend = self._legs(at, k, xh)
         la = np.sqrt(np.einsum("ij,ij->i", ua, ua))
         lb = np.sqrt(np.einsum("ij,ij->i", ub, ub))
         j = self.cs
@@ -251,20 +257,48 @@ class _Batch:
         r[:, j] = np.exp(lr[:, j])
         ga = np.einsum("ij,ij->i", ua, d) / la
         gb = np.einsum("ij,ij->i", ub, d) / lb
+        if bend is None:
+            ha = hb = None
+        else:
+            ha = np.einsum("ij,ij->i", ua, bend) / la
+            hb = np.einsum("ij,ij->i", ub, bend) / lb
         st = state.copy()
         ea = self.ea[at]
         moved, fed, first, w = _settle(s + (L - prev), L, ea, r, lr, self.hold[at], st)
-        return _Now(L=L, r=r, T=_pull(ea, moved, L), s=moved, state=st, fed=fed, ga=ga, gb=gb, first=first, w=w)
+        return _Now(
+            L=L, r=r, T=_pull(ea, moved, L), s=moved, state=st, fed=fed, ga=ga, gb=gb, ha=ha, hb=hb, first=first, w=w
+        )
 
     def lengths_at(self, at: np.ndarray, k: np.ndarray, xh: np.ndarray) -> np.ndarray:
         """(V, Z) m: the threads' ``at`` path lengths at step ``k`` with the hook at ``xh``."""
         L: np.ndarray = self.lengths[at, k]
-        d = self.pull[at, k]
-        ua = self.up[at, k] - self.rest[at, k] - xh[:, None] * d
-        ub = self.down[at, k] - self.rest[at, k] - xh[:, None] * d
+        ua, ub, _, _ = self._legs(at, k, xh)
         L[:, self.cs - 1] = np.sqrt(np.einsum("ij,ij->i", ua, ua))
         L[:, self.cs] = np.sqrt(np.einsum("ij,ij->i", ub, ub))
         return L
+
+    def _legs(
+        self, at: np.ndarray, k: np.ndarray, xh: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """The threads' ``at`` legs from the hook at ``xh`` to its neighbours (V, 3 each), the
+        hook's direction of travel there and, on an arc, how that direction turns per metre
+        (None on a slide): :meth:`.tension._Thread.geometry`'s."""
+        d = self.pull[at, k]
+        rest = self.rest[at, k]
+        if not self.swings:
+            return self.up[at, k] - rest - xh[:, None] * d, self.down[at, k] - rest - xh[:, None] * d, d, None
+        rad, arm = self.radial[at, k], self.arm[at][:, None]
+        phi = xh[:, None] / arm
+        cos, sin = np.cos(phi), np.sin(phi)
+        hook = rest + (cos - 1.0) * rad + arm * sin * d
+        tangent = cos * d - sin / arm * rad
+        bend = -(cos * rad / arm + sin * d) / arm
+        return self.up[at, k] - hook, self.down[at, k] - hook, tangent, bend
+
+
+def _rows(a: np.ndarray | None, at: np.ndarray) -> np.ndarray | None:
+    """``a``'s rows ``at``, or None for None."""
+    return None if a is None else a[at]
 
 
 def _hook_stiffness(now: _Now, cs: int, pays: np.ndarray, friction: np.ndarray, ea: np.ndarray) -> np.ndarray:
@@ -277,6 +311,8 @@ def _hook_stiffness(now: _Now, cs: int, pays: np.ndarray, friction: np.ndarray, 
     taut = s > 0.0
     c = np.where(taut, ea * L / np.where(taut, L - s, 1.0) ** 2, ea / L)  # dT/ds (.tension._Thread.settle)
     bend = T[:, a] * (1.0 - ga * ga) / L[:, a] + T[:, b] * (1.0 - gb * gb) / L[:, b]
+    if now.ha is not None and now.hb is not None:
+        bend -= T[:, a] * now.ha + T[:, b] * now.hb  # an arc's tangent turning
     in_a, in_b = first == first[:, a : a + 1], first == first[:, b : b + 1]  # (V, Z) each run's stretches
     wc = w / c
     compliance_a, compliance_b = (wc * in_a).sum(axis=1), (wc * in_b).sum(axis=1)
@@ -319,7 +355,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
     """
     if len(problems) < TOGETHER:
         return [step(p, most_cycles=most_cycles, cycles=cycles) for p in problems]
-    shapes = {(p.lengths.shape, p.spring_at, p.anchored) for p in problems}
+    shapes = {(p.lengths.shape, p.spring_at, p.anchored, math.isfinite(p.arm)) for p in problems}
     if len(shapes) > 1:
         raise ValueError(f"step_many: problems of different shapes {sorted(shapes)}")
     V = len(problems)
@@ -338,6 +374,9 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
         down=np.stack([p.down for p in problems]),
         rest=np.stack([p.rest for p in problems]),
         pull=np.stack([p.pull for p in problems]),
+        radial=np.stack([p.radial for p in problems]),
+        arm=col("arm"),
+        swings=math.isfinite(problems[0].arm),
         friction=col("friction")[:, None],
         ea=col("stiffness")[:, None],
         hold=col("hold")[:, None],
@@ -415,7 +454,7 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
                 at, resid, xt = at[free], resid[free], xt[free]
                 if not len(at):
                     break
-                sub = _Now(**{name: getattr(now, name)[at] for name in _Now.__dataclass_fields__})
+                sub = _Now(**cast(Any, {name: _rows(getattr(now, name), at) for name in _Now.__dataclass_fields__}))
                 stiff = (
                     inr[at] + dmp[at] + ks[at] + _hook_stiffness(sub, cs, sub.state[:, 0] != 0, fr[at], g.ea[live[at]])
                 )

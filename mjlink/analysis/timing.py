@@ -590,7 +590,8 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     slack = max(_peak(diff, forming), float(at_end), 0.0)
     cs = mech.thread.index(bal.check_spring)
     up, rest, down = (P[mech.thread[cs + k]] for k in (-1, 0, 1))
-    holds = float(spring_holds(up, rest, down, bal.check_spring_travel).min())
+    pivot = None if bal.check_spring_pivot is None else mech.ground[bal.check_spring_pivot]
+    holds = float(spring_holds(up, rest, down, bal.check_spring_travel, pivot).min())
     rows = (
         TimingRow(
             key="thread_shortfall",

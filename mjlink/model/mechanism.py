@@ -59,13 +59,12 @@ from .limits import (
 from .names import RESERVED_LINK_NAMES
 from .presser import (
     FABRIC_DEFAULTS,
-    GRAVITY,
     PRESSER_DEFAULTS,
     Fabric,
     Presser,
     read_fabric,
     read_presser,
-    too_fast,
+    unfit,
 )
 from .reader import Reader, shown
 from .tension import ThreadTension, read_tension
@@ -649,6 +648,11 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
         for p in thread:
             if p not in known:
                 raise r.fail("[thread] path", f"uses point '{p}', which is not defined")
+        for a, b in itertools.pairwise(thread):
+            if a == b:
+                raise r.fail(
+                    "[thread] path", f"names '{a}' twice in a row: the thread runs from each point to the next"
+                )
 
     synthesis = None
     if "synthesis" in data:
@@ -705,7 +709,8 @@ def parse(text: str, path: Path | str = "<string>") -> Mechanism:
     if "presser" in data:
         thick = mech.timing.fabric if mech.timing is not None else 0.0
         mech = dataclasses.replace(mech, presser=read_presser(r, data["presser"], fed, thick))
-    if mech.timing is not None and (mech.presser is not None or mech.fabric is not None):
+    if mech.timing is not None and (mech.presser is not None or mech.fabric is not None or mech.timing.has("feed_dog")):
+        # The defaults a head without the tables feeds with are held as a written table is.
         where, why = unfed(mech)
         if why:
             raise r.fail(where, why)
@@ -748,31 +753,12 @@ def _plied(r: Reader, mech: Mechanism, timing: Any) -> Mechanism:
 
 
 def unfed(mech: Mechanism) -> tuple[str, str]:
-    """Why the head's presser and fabric cannot be fed, as (the table or key at fault, why), or
-    ('', '') if they can: the fabric under the foot moves too fast to step
-    (:func:`~.presser.too_fast`), or the presser presses a ply through its thickness at rest
-    (each ply is a linear spring, mjlink.sim.feed, which no fabric is that far)."""
+    """Why the head's presser and fabric (its tables, or the defaults) cannot be fed, as (the
+    table or key at fault, why), or ('', '') if they can (:func:`~.presser.unfit`)."""
     if mech.timing is None:
         return "", ""
     p, f = mech.presser or PRESSER_DEFAULTS, mech.fabric or FABRIC_DEFAULTS
-    thick = float(mech.timing.fabric)
-    fast = too_fast(p, f, thick)
-    if fast:
-        return "[fabric]", fast
-    # The foot sinks into the plies one on the next; each gives the load over its stiffness.
-    load = f.stiffness_of(thick) * (p.preload + p.mass * GRAVITY) / (f.stiffness_of(thick) + p.rate)
-    layers = f.layers(thick)
-    for i, ply in enumerate(layers, 1):
-        pressed = load / ply.stiffness
-        if pressed >= ply.thickness:
-            what = (
-                f"the {ply.thickness / MM:g} mm fabric" if len(layers) == 1 else f"ply {i} ({ply.thickness / MM:g} mm)"
-            )
-            return "[presser] preload", (
-                f"the foot at rest ({p.preload:g} N and its weight) presses {what} by {pressed / MM:.3g} mm, "
-                "through its thickness: a lighter preload or a stiffer [fabric] stiffness"
-            )
-    return "", ""
+    return unfit(p, f, float(mech.timing.fabric), default_presser=mech.presser is None)
 
 
 def load(path: str | Path) -> Mechanism:

@@ -69,6 +69,7 @@ __all__ = [
     "read_fabric",
     "read_presser",
     "too_fast",
+    "unfit",
 ]
 
 
@@ -95,7 +96,7 @@ class Presser:
     @property
     def static(self) -> float:
         """N: what the foot presses on the fabric at rest (the spring's preload and the foot's
-        weight), the dynamic load factor's denominator."""
+        weight; the spring's dynamic load factor is over its preload alone)."""
         return self.preload + self.mass * GRAVITY
 
 
@@ -166,19 +167,31 @@ _PRESSER: dict[str, tuple[float, float, Bound, str]] = {
     "preload": (
         40.0,
         1.0,
-        Bound(0.0, 500.0, "N", "a presser spring's push, tens of newtons on industrial heads", lo_open=True),
+        Bound(
+            0.1,
+            500.0,
+            "N",
+            "a presser spring's push, tens of newtons on industrial heads; below a tenth of a newton the foot "
+            "rests on its weight and the spring's load factor, against its preload, means nothing",
+        ),
         "[choice] about the 4 kgf of a DDL-class head; no maker's figure was found",
     ),
     "rate": (
         2.0,
         1.0 / MM,
-        Bound(0.0, 100.0, "N/mm", "a presser spring's rate", lo_open=True),
+        Bound(
+            0.001,
+            100.0,
+            "N/mm",
+            "a presser spring's rate; below 0.001 N/mm a constant push (the spring at rest "
+            "would stand metres from its free length)",
+        ),
         "[choice] the push grows by a tenth over 2 mm of the foot's rise",
     ),
     "mass": (
         50.0,
         G,
-        Bound(0.0, 5000.0, "g", "the presser bar, the foot and a third of the spring", lo_open=True),
+        Bound(1.0, 5000.0, "g", "the presser bar, the foot and a third of the spring: tens of grams"),
         "[choice] a steel bar of 8 mm and 100 mm with its foot",
     ),
     "damping": (
@@ -205,13 +218,13 @@ _FABRIC: dict[str, tuple[float, float, Bound, str]] = {
     "area": (
         160.0,
         1e-4,
-        Bound(0.0, 1e4, "cm^2", "the piece of fabric the dog carries", lo_open=True),
+        Bound(1.0, 1e4, "cm^2", "the piece of fabric the dog carries, no smaller than the foot"),
         "[choice] a piece some 10 x 16 cm between the operator's hands and the foot",
     ),
     "mass": (
         125.0,
         G,
-        Bound(0.0, 5000.0, "g/m^2", "a ply's mass per area: sheer fabrics weigh tens, canvas hundreds", lo_open=True),
+        Bound(1.0, 5000.0, "g/m^2", "a ply's mass per area: sheer fabrics weigh tens, canvas hundreds"),
         "[choice] a light woven fabric; the ten garment fabrics Wang, Ramamoorthi and O'Brien measured "
         "weigh 113 to 324 g/m^2 (Data-Driven Elastic Models for Cloth, ACM TOG 30(4), 2011; their "
         "material files as the ARCSim simulator ships them)",
@@ -219,7 +232,7 @@ _FABRIC: dict[str, tuple[float, float, Bound, str]] = {
     "stiffness": (
         130.0,
         1.0 / MM,
-        Bound(0.0, 1e5, "N/mm", "a fabric's compressive stiffness under a presser foot", lo_open=True),
+        Bound(0.001, 1e5, "N/mm", "a fabric's compressive stiffness under a presser foot"),
         "[choice] 1.5 mm of woven fabric pressed 0.3 mm thinner by the foot's 40 N; no published "
         "figure for a fabric under a presser foot was found",
     ),
@@ -256,7 +269,10 @@ _FABRIC: dict[str, tuple[float, float, Bound, str]] = {
 }
 MAX_PLIES = 8  # a sewing head's foot clears some 20 mm of fabric: a few plies of a garment
 PLY_THICKNESS = Bound(
-    0.0, 20.0, "mm", "a ply under the raised presser foot, which heads lift some 20 mm at most", lo_open=True
+    0.01,
+    20.0,
+    "mm",
+    "a ply under the raised presser foot, no thinner than a thread, which heads lift some 20 mm at most",
 )
 """A ply's ``thickness`` range, mm."""
 PER_PLY = ("mass", "stiffness", "damping")
@@ -307,18 +323,59 @@ def feed_step(presser: Presser, fabric: Fabric, thickness: float) -> float:
     return min(SPRING_STEP / math.sqrt(k * inv), DAMPER_STEP / (c * inv) if c > 0.0 else math.inf)
 
 
-def too_fast(presser: Presser, fabric: Fabric, thickness: float) -> str:
-    """Why the fabric cannot be stepped under the foot ('' if it can): it asks for steps below
-    :data:`MIN_FEED_STEP` (a fault of the ``[fabric]`` table)."""
+def too_fast(presser: Presser, fabric: Fabric, thickness: float) -> tuple[str, str]:
+    """Why the fabric cannot be stepped under the foot, as (the table or key at fault, why), or
+    ('', '') if it can: it asks for steps below :data:`MIN_FEED_STEP`, set by the lighter of the
+    top ply (the ``[fabric]`` table at fault) and the foot (``[presser] mass``)."""
     step = feed_step(presser, fabric, thickness)
     if step >= MIN_FEED_STEP:
-        return ""
+        return "", ""
     top = fabric.area * fabric.layers(thickness)[-1].mass
-    return (
+    needs = f"it needs steps of {step * 1e6:.2g} us, at least {MIN_FEED_STEP * 1e6:g} us"
+    if presser.mass < top:
+        return "[presser] mass", (
+            f"the foot ({presser.mass * 1e3:.3g} g) on the fabric's {fabric.stiffness_of(thickness) * 1e-3:.4g} N/mm "
+            f"moves too fast to step ({needs}): a heavier presser bar and foot"
+        )
+    return "[fabric]", (
         f"its top ply ({top * 1e3:.3g} g: area times mass per area) on {fabric.stiffness_of(thickness) * 1e-3:.4g} "
-        f"N/mm under the foot moves too fast to step (it needs steps of {step * 1e6:.2g} us, at least "
-        f"{MIN_FEED_STEP * 1e6:g} us): a larger area or mass per area, or a softer fabric"
+        f"N/mm under the foot moves too fast to step ({needs}): a larger area or mass per area, or a softer fabric"
     )
+
+
+def unfit(presser: Presser, fabric: Fabric, thickness: float, *, default_presser: bool = False) -> tuple[str, str]:
+    """Why a presser and fabric cannot be fed over ``thickness`` m of fabric, as (the table or
+    key at fault, why), or ('', '') if they can: no fabric, a fabric the foot's lift does not
+    clear, a fabric under the foot that moves too fast to step (:func:`too_fast`), or a
+    presser that presses a ply through its thickness at rest (each ply is a linear spring,
+    mjlink.sim.feed, which no fabric is that far). ``default_presser``: the presser is the
+    defaults (the message says so)."""
+    if thickness <= 0.0:
+        return "[timing] fabric", "the feed dog feeds a fabric under the presser foot: give its thickness (above 0 mm)"
+    if presser.lift <= thickness:
+        return "[timing] fabric", (
+            f"{thickness / MM:g} mm of fabric does not fit under the presser foot, which lifts to "
+            f"{presser.lift / MM:g} mm above the plate{' (the default)' if default_presser else ''}: "
+            "a [presser] lift above it"
+        )
+    where, fast = too_fast(presser, fabric, thickness)
+    if fast:
+        return where, fast
+    # The foot sinks into the plies one on the next; each gives the load over its stiffness.
+    k = fabric.stiffness_of(thickness)
+    load = k * (presser.preload + presser.mass * GRAVITY) / (k + presser.rate)
+    layers = fabric.layers(thickness)
+    for i, ply in enumerate(layers, 1):
+        pressed = load / ply.stiffness
+        if pressed >= ply.thickness:
+            what = (
+                f"the {ply.thickness / MM:g} mm fabric" if len(layers) == 1 else f"ply {i} ({ply.thickness / MM:g} mm)"
+            )
+            return "[presser] preload", (
+                f"the foot at rest ({presser.preload:g} N and its weight) presses {what} by {pressed / MM:.3g} mm, "
+                "through its thickness: a lighter preload or a stiffer [fabric] stiffness"
+            )
+    return "", ""
 
 
 def _needs_feed_dog(r: Reader, where: str, has_feed_dog: bool) -> None:

@@ -107,7 +107,9 @@ _TABLE: dict[str, tuple[float, float, Bound, str]] = {
         0.3,
         1.0,
         Bound(0.0, 10.0, "N", "a check spring's force, some 0.05 to 0.5 N in makers' manuals"),
-        "Brother S-1110A and SL-710A manuals: 0.25 to 0.35 N for the -3 (medium) specification",
+        "[choice] the force at the hook at rest; Brother reads 0.25 to 0.35 N (the -3 specification; "
+        "S-1110A, SL-710A and S-7300A manuals) in the thread pulled until the spring reaches its guide, "
+        "which the shipped spring meets (0.32 N, docs/head.md)",
     ),
     "spring_rate": (
         0.03,

@@ -119,6 +119,10 @@ industrial bobbin about 9 mm wide [choice: no public hook catalogue with the cas
 found]."""
 MIN_HOOK_LEG = 0.01 * MM  # the check spring's hook this near a neighbour on the path lies on it
 MIN_HOOK_TURN_DEG = 1.0  # a thread turning less round the hook pulls it nowhere in particular
+MIN_SPRING_ARM = 1.0 * MM  # a check spring's arm, some 10 to 30 mm from the stud to its hook
+# The thread pulls a swinging hook along its arc with at least this share of its pull along the
+# straight stroke (the bisector): less, and it pulls the hook at its stud, not round it.
+MIN_ARC_PULL = 0.01
 
 
 SETTINGS = {
@@ -330,6 +334,9 @@ class Balance:
     stretch: float = 0.01  # the thread's elastic elongation at its working tension, a fraction
     looper: float = 0.0
     bobbin_case_width: float = 0.0  # a lockstitch's: across the case's faces, which the loop passes over
+    # The point the spring's hook swings about (a spring wound on the tension stud), on an axis
+    # normal to the face; None: the hook slides on a straight stroke (:class:`Stroke`).
+    check_spring_pivot: str | None = None
 
 
 def read_balance(
@@ -351,6 +358,7 @@ def read_balance(
         raise r.fail("[balance]", "needs the needle's eye and the hook named in [timing] (needle_eye, hook_point)")
     body = timing.stitch.loop_body
     optional = ["stretch", "bobbin_case_width"] if timing.stitch is StitchType.LOCKSTITCH else ["stretch"]
+    optional.append("check_spring_pivot")
     r.keys(t, "[balance]", ["stitch_length", body, "check_spring", "check_spring_travel"], optional)
     if not thread or thread[-1] != timing.roles["needle_eye"]:
         raise r.fail(
@@ -381,6 +389,21 @@ def read_balance(
                 f"the thread runs straight past '{spring}' (it turns {turn:.2g} deg there): it must turn round the "
                 "spring's hook, which it pulls along the bisector of that turn",
             )
+    travel = _number(r, t, "check_spring_travel", "[balance]", "balance.check_spring_travel", MM)
+    pivot = None
+    if "check_spring_pivot" in t:
+        pivot = r.name(t["check_spring_pivot"], "[balance] check_spring_pivot")
+        if pivot not in ground or spring not in ground:
+            raise r.fail(
+                "[balance] check_spring_pivot",
+                f"'{pivot}' and the hook '{spring}' must be [ground] points: the spring swings on the frame",
+            )
+        if all(p in ground for p in thread[k - 1 : k + 2]):  # else checked where the path moves
+            legs = [np.asarray(ground[p], dtype=float) for p in thread[k - 1 : k + 2]]
+            try:
+                spring_stroke(legs[0], legs[1], legs[2], np.asarray(ground[pivot], dtype=float), travel)
+            except ValueError as e:
+                raise r.fail("[balance] check_spring_pivot", str(e)) from None
     diameter = _number(r, t, body, "[balance]", "balance.loop_body", MM)
     hook = next(s for s in steps if isinstance(s, Crank) and s.point == timing.roles["hook_point"])
     if diameter >= 2.0 * hook.length:
@@ -393,7 +416,7 @@ def read_balance(
         stitch_length=_number(r, t, "stitch_length", "[balance]", "balance.stitch_length", MM),
         bobbin_case=diameter if timing.stitch is StitchType.LOCKSTITCH else 0.0,
         check_spring=spring,
-        check_spring_travel=_number(r, t, "check_spring_travel", "[balance]", "balance.check_spring_travel", MM),
+        check_spring_travel=travel,
         stretch=_number(r, t, "stretch", "[balance]", "balance.stretch", default=0.01),
         looper=diameter if timing.stitch is StitchType.CHAIN else 0.0,
         bobbin_case_width=(
@@ -401,6 +424,7 @@ def read_balance(
             if timing.stitch is StitchType.LOCKSTITCH
             else 0.0
         ),
+        check_spring_pivot=pivot,
     )
 
 
@@ -417,6 +441,84 @@ def spring_pull(up: np.ndarray, rest: np.ndarray, down: np.ndarray) -> np.ndarra
         return out
 
     return unit(unit(up - rest) + unit(down - rest))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Stroke:
+    """The check spring's hook over its travel ``x`` (m, from its rest stop): from ``rest``
+    (..., 3) along ``pull`` (..., 3, a unit vector, the way the thread pulls it there), on a
+    straight line where ``arm`` is infinite (a slide), else on the arc of radius ``arm`` (m)
+    about an axis normal to the face (Z) through ``rest - radial`` (``radial`` (..., 3), from
+    that axis to the hook at rest, in the face's plane): a spring wound on a stud swings its
+    hook round it. ``x`` is the hook's travel along its path (on an arc, the arc's length)."""
+
+    rest: np.ndarray
+    pull: np.ndarray
+    radial: np.ndarray
+    arm: float
+
+    @property
+    def swings(self) -> bool:
+        """Whether the hook swings on an arc (not a slide)."""
+        return math.isfinite(self.arm)
+
+    def at(self, x: float) -> np.ndarray:
+        """(..., 3) m: the hook ``x`` m along its travel."""
+        if not self.swings:
+            out: np.ndarray = self.rest + x * self.pull
+            return out
+        phi = x / self.arm
+        return self.rest + (math.cos(phi) - 1.0) * self.radial + self.arm * math.sin(phi) * self.pull
+
+    def tangent(self, x: float) -> np.ndarray:
+        """(..., 3): the unit direction the hook moves in ``x`` m along its travel."""
+        if not self.swings:
+            return self.pull
+        phi = x / self.arm
+        out: np.ndarray = math.cos(phi) * self.pull - math.sin(phi) / self.arm * self.radial
+        return out
+
+
+def spring_stroke(
+    up: np.ndarray, rest: np.ndarray, down: np.ndarray, pivot: np.ndarray | None = None, travel: float = 0.0
+) -> Stroke:
+    """The check spring's :class:`Stroke`, its hook at ``rest`` between the path's points ``up``
+    and ``down`` (each (3,) or (N, 3), N steps of the stitch): a slide along
+    :func:`spring_pull`, or, with a ``pivot`` (3,), the arc about it, swung the way the thread
+    pulls the hook at the first step (at the needle bar's top; the spring's rest stop holds it
+    from the other way).
+
+    Raises:
+      ValueError: a hook within :data:`MIN_SPRING_ARM` of its pivot's axis, one the thread
+        pulls at its pivot rather than round it (less than :data:`MIN_ARC_PULL` of its pull
+        along the arc), or a ``travel`` (m) of more than half a turn on its arm.
+    """
+    rest = np.asarray(rest, dtype=float)
+    pull = spring_pull(np.asarray(up, dtype=float), rest, np.asarray(down, dtype=float))
+    if pivot is None:
+        return Stroke(rest=rest, pull=pull, radial=np.zeros_like(rest), arm=math.inf)
+    radial = rest - np.asarray(pivot, dtype=float)
+    radial[..., 2] = 0.0
+    first = radial.reshape(-1, 3)[0]
+    arm = float(np.linalg.norm(first))
+    if arm < MIN_SPRING_ARM:
+        raise ValueError(
+            f"the check spring's hook is {arm / MM:.3g} mm from its pivot's axis: a spring's arm is at least "
+            f"{MIN_SPRING_ARM / MM:g} mm (some 10 to 30 mm)"
+        )
+    across = np.array([-first[1], first[0], 0.0]) / arm  # round the axis (+Z), in the face
+    share = float(np.dot(across, pull.reshape(-1, 3)[0]))
+    if abs(share) < MIN_ARC_PULL:
+        raise ValueError(
+            "the thread pulls the check spring's hook at its pivot, not round it: the pivot must lie off the "
+            "bisector of the thread's turn at the hook"
+        )
+    if travel > math.pi * arm:
+        raise ValueError(
+            f"a travel of {travel / MM:g} mm is more than half a turn of the check spring's {arm / MM:.3g} mm arm"
+        )
+    tangent = np.broadcast_to(math.copysign(1.0, share) * across, rest.shape).copy()
+    return Stroke(rest=rest, pull=tangent, radial=radial, arm=arm)
 
 
 def hook_crank(mech: Mechanism) -> Crank:

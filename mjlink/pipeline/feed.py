@@ -118,7 +118,8 @@ def feed(
         speeds = [float(w) for w in SWEEP_RPM]
     else:
         rpm = abs(speed_rpm) if speed_rpm is not None else abs(mech.speed) * 30.0 / math.pi
-        if not MIN_RPM <= rpm <= MAX_RPM:
+        # A speed given in rad/s or turned into rpm and back is not exactly its end: a rounding.
+        if not MIN_RPM * (1.0 - 1e-12) <= rpm <= MAX_RPM * (1.0 + 1e-12):
             given = "--speed" if speed_rpm is not None else "the file's [input] speed (give --speed)"
             raise InputError(
                 f"{given}: the feed runs at {MIN_RPM:g} to {MAX_RPM:g} rpm (a stitch in 10 us steps), got {rpm:.6g} rpm"

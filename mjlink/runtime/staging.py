@@ -103,7 +103,11 @@ def check_destination(
     except OSError as e:  # a name longer than the system allows, a loop of links on the way
         raise OutputError(f"cannot write outputs to {dest}: {_why(e)}") from None
     if link:
-        dest = Path(os.path.realpath(dest))
+        target = Path(os.path.realpath(dest))
+        if not os.path.lexists(target):
+            # Following it would create folders wherever it points, outside the one asked for.
+            raise OutputError(f"output path {dest} is a symbolic link to {target}, which does not exist")
+        dest = target
     anc = dest.parent
     while not os.path.lexists(anc) and anc != anc.parent:
         anc = anc.parent

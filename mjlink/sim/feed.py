@@ -46,7 +46,7 @@ import numpy as np
 
 from .. import reference
 from ..model.mechanism import Mechanism
-from ..model.presser import FABRIC_DEFAULTS, GRAVITY, PRESSER_DEFAULTS, Fabric, Presser, feed_step, too_fast
+from ..model.presser import FABRIC_DEFAULTS, GRAVITY, PRESSER_DEFAULTS, Fabric, Presser, feed_step, unfit
 from ._mujoco import mujoco
 
 __all__ = [
@@ -66,6 +66,11 @@ DOG_MASS = 1e3  # kg-equivalent (armature) of the driven dog's slides
 # fabric's length and width. Their sizes do not enter the answer while the fabric covers both.
 DOG_HALF = (0.004, 0.003, 0.001)
 FABRIC_HALF = (0.03, 0.01)
+PLATE_HALF = 0.05  # the throat plate's half-length along the feed, m (at least)
+# A run's piece of fabric is long enough behind the dog for its stitches at this many times the
+# dog's advance ([choice]: the stitch grows as the foot leaves the fabric at speed, by a fifth
+# at 6,000 stitches/min on the shipped head), and a run whose fabric fed further is refused.
+FED_ALLOWANCE = 2.0
 # The foot's sole is the bottom of a sphere: one contact point with the fabric, whose stiffness
 # is then the fabric's (a box's face would touch at up to four points, each that stiff).
 FOOT_RADIUS = 0.005
@@ -128,6 +133,7 @@ class FeedRun:
     ply_x: np.ndarray
     thickness: float
     frames: np.ndarray | None = None  # (F, nq) the model's joints at F even steps of the last stitch
+    fabric_half: float = FABRIC_HALF[0]  # m: the piece's half-length along the feed
 
     @property
     def lift(self) -> np.ndarray:
@@ -391,7 +397,11 @@ def _slides(body: mujoco.MjsBody, name: str, armature: float = 0.0) -> None:
         body.add_joint(name=f"{name}_{tag}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, armature=armature)
 
 
-def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x0: float) -> mujoco.MjModel:
+def _model(
+    mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x0: float, half: float = FABRIC_HALF[0]
+) -> mujoco.MjModel:
+    """The feed's model, the dog's path centred on ``x0`` (m) and the fabric ``half`` m long
+    either side of it."""
     tm = mech.timing
     assert tm is not None
     thick = tm.fabric
@@ -403,7 +413,7 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
     spec.worldbody.add_geom(
         name="plate",
         type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=[0.05, 0.02, 0.005],
+        size=[max(PLATE_HALF, half + 0.02), 0.02, 0.005],
         pos=[x0, 0.0, -0.005],
         contype=0,
         conaffinity=0,
@@ -445,7 +455,7 @@ def _model(mech: Mechanism, presser: Presser, fabric: Fabric, timestep: float, x
         body.add_geom(
             name=ply_name(k),
             type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=[*FABRIC_HALF, ply.thickness / 2.0],
+            size=[half, FABRIC_HALF[1], ply.thickness / 2.0],
             pos=[0.0, 0.0, below + ply.thickness / 2.0],
             mass=fabric.area * ply.mass,
             contype=0,
@@ -546,23 +556,29 @@ def run_feed(
     Returns:
       :class:`FeedRun`.
     Raises:
-      ValueError: a fabric too light for its stiffness to step (:func:`~mjlink.model.presser.too_fast`).
+      ValueError: a presser and fabric that cannot be fed (:func:`~mjlink.model.presser.unfit`), a
+        run that diverged, or a fabric that fed beyond its piece.
     """
     presser = presser or mech.presser or PRESSER_DEFAULTS
     fabric = fabric or mech.fabric or FABRIC_DEFAULTS
     tm = mech.timing
     if tm is None:
         raise ValueError(f"{mech.name}: the feed needs a [timing] table")
-    fast = too_fast(presser, fabric, tm.fabric)
-    if fast:
-        raise ValueError(f"{mech.name}: [fabric]: {fast}")
+    where, why = unfit(presser, fabric, tm.fabric, default_presser=presser is PRESSER_DEFAULTS)
+    if why:
+        raise ValueError(f"{mech.name}: {where}: {why}")
     w = abs(speed_rpm) * math.pi / 30.0 if speed_rpm is not None else abs(mech.speed)
     # At most the given step, and short enough for the fabric's spring and damper.
     steps = max(1, math.ceil(mech.period / w / min(timestep, feed_step(presser, fabric, tm.fabric))))
     dt = mech.period / w / steps
     u, pos, rate = dog_path(mech, steps)
     x0 = float(pos[:, 0].mean())
-    m = _model(mech, presser, fabric, dt, x0)
+    # The fabric must cover the dog's teeth and the foot (at x0) all run long: its piece reaches
+    # beyond the teeth's furthest edge by what the stitches may feed.
+    teeth = DOG_HALF[0] + float(np.abs(pos[:, 0] - x0).max())
+    geometric = dog_advance(mech)
+    half = max(FABRIC_HALF[0], teeth + FED_ALLOWANCE * stitches * geometric + 0.005)
+    m = _model(mech, presser, fabric, dt, x0, half)
     d = mujoco.MjData(m)
     jx, jz = (m.joint(f"dog_{t}") for t in "xz")
     n = len(fabric.layers(tm.fabric))
@@ -612,6 +628,17 @@ def run_feed(
                         if which == "foot_force":
                             out["foot_drag"][k] += math.hypot(force[1], force[2])
     starts[stitches] = d.qpos[px]
+    fed = float(np.abs(starts[:, 0] - starts[0, 0]).max())
+    if not np.isfinite(starts).all() or not all(np.isfinite(v).all() for v in out.values()):
+        raise ValueError(
+            f"{mech.name}: the feed at {w * 30.0 / math.pi:.6g} rpm diverged (a value of [presser] or [fabric] "
+            "the contacts cannot step)"
+        )
+    if fed + teeth > half:
+        raise ValueError(
+            f"{mech.name}: the fabric fed {fed * 1e3:.4g} mm in {stitches} stitches, more than "
+            f"{FED_ALLOWANCE:g} times the dog's {geometric * 1e3:.4g} mm a stitch: it left the dog's teeth"
+        )
     return FeedRun(
         speed_rpm=w * 30.0 / math.pi,
         timestep=dt,
@@ -622,10 +649,11 @@ def run_feed(
         ply_advance=np.diff(starts, axis=0),
         fabric=ply_x[:, 0].copy(),
         ply_x=ply_x,
-        geometric=dog_advance(mech),
+        geometric=geometric,
         theta=np.degrees(u),
         thickness=tm.fabric,
         frames=kept if frames else None,
+        fabric_half=half,
         **out,
     )
 
@@ -732,7 +760,7 @@ def feed_video(
     run = run_feed(mech, speed_rpm=speed_rpm, presser=presser, fabric=fabric, stitches=stitches, frames=n)
     assert run.frames is not None
     x0 = float(dog_path(mech, len(run.theta))[1][:, 0].mean())
-    model = _model(mech, presser, fabric, run.timestep, x0)
+    model = _model(mech, presser, fabric, run.timestep, x0, run.fabric_half)
     k = np.round(np.arange(n) * len(run.theta) / n).astype(int)
     lines = [
         [

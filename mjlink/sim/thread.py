@@ -1,10 +1,12 @@
 """The needle thread under tension in MuJoCo: the thread a tendon that only pulls, the check spring
-a sprung slide joint with its stops, the head turned at its speed.
+a sprung slide joint with its stops (a hinge on its stud where its hook swings), the head
+turned at its speed.
 
 The kinematic model of the head (:mod:`.builder`) is changed in three places: the check spring's
 thread hook (the ``[balance] check_spring`` point, a ground site) moves onto a body of its own on
-a slide joint along the bisector of the thread's turn there at the needle bar's top, limited to
-the spring's travel, with its stiffness, damping and mass and a spring reference that presses
+a slide joint along the bisector of the thread's turn there at the needle bar's top (or a
+hinge on the axis through ``[balance] check_spring_pivot`` normal to the face, the hook on its
+arm), limited to the spring's travel, with its stiffness, damping and mass and a spring reference that presses
 it against its rest stop with its force at rest; the thread's tendon gets the thread's
 stiffness ``EA / M`` and a dead band ``springlength = [0, M]``, ``M`` the thread it holds (so
 it pulls only when longer, with ``EA`` times the strain on the thread's own length: the
@@ -25,7 +27,7 @@ from .. import reference
 from ..model import names
 from ..model.mechanism import Mechanism
 from ..model.tension import DEFAULTS, ThreadTension
-from ..model.timing import hook_crank, spring_pull
+from ..model.timing import hook_crank, spring_stroke
 from ..runs import Case
 from . import builder
 from ._mujoco import mujoco, rollout
@@ -83,25 +85,42 @@ def run_thread(
     up, hook, down = (mech.ground.get(p) for p in path[cs - 1 : cs + 2])
     if up is None or hook is None or down is None:
         raise ValueError(f"{mech.name}: the check spring and its neighbours on the path must be [ground] points")
-    axis = spring_pull(np.asarray(up), np.asarray(hook), np.asarray(down))
+    pivot = None if bal.check_spring_pivot is None else mech.ground[bal.check_spring_pivot]
+    stroke = spring_stroke(np.asarray(up), np.asarray(hook), np.asarray(down), pivot, bal.check_spring_travel)
     case = kinematic_case(mech, cycles=cycles)
     spec = builder.build_spec(mech, case.settings)
 
-    # The spring's hook on its own body, sliding towards the thread's line.
+    # The spring's hook on its own body, sliding towards the thread's line, or swinging round
+    # its pivot: a hinge on the axis normal to the face, the hook's mass on its arm, its rate,
+    # damping and force at rest as torques (times the arm), its travel as an angle (over it).
     spec.delete(spec.site(bal.check_spring))
-    body = spec.worldbody.add_body(name=SPRING, pos=np.asarray(hook, dtype=float).tolist())
+    damping = 2.0 * cfg.spring_damping * math.sqrt(cfg.spring_rate * cfg.spring_mass)
+    if stroke.swings:
+        arm = stroke.arm
+        axle = np.asarray(hook, dtype=float) - stroke.radial
+        body = spec.worldbody.add_body(name=SPRING, pos=axle.tolist())
+        sense = float(np.cross(stroke.radial, stroke.pull)[2])
+        axis = [0.0, 0.0, math.copysign(1.0, sense)]
+        joint = body.add_joint(name=SPRING, type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis)
+        scale = arm  # m of the hook's travel per radian
+        body.ipos = stroke.radial.tolist()
+        at = stroke.radial.tolist()
+    else:
+        body = spec.worldbody.add_body(name=SPRING, pos=np.asarray(hook, dtype=float).tolist())
+        joint = body.add_joint(name=SPRING, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=stroke.pull.tolist())
+        scale = 1.0
+        at = [0.0, 0.0, 0.0]
     body.mass = cfg.spring_mass
-    body.inertia = [1e-12, 1e-12, 1e-12]  # a point mass: the slide has no rotation to weigh
-    joint = body.add_joint(name=SPRING, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis.tolist())
+    body.inertia = [1e-12, 1e-12, 1e-12]  # a point mass at the hook: the arm weighs it, the slide has no turn
     joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
-    joint.range = [0.0, bal.check_spring_travel]
-    joint.damping = _first(joint.damping, 2.0 * cfg.spring_damping * math.sqrt(cfg.spring_rate * cfg.spring_mass))
-    joint.stiffness = _first(joint.stiffness, cfg.spring_rate)
-    joint.springref = -cfg.spring_force / cfg.spring_rate
+    joint.range = [0.0, bal.check_spring_travel / scale]
+    joint.damping = _first(joint.damping, damping * scale * scale)
+    joint.stiffness = _first(joint.stiffness, cfg.spring_rate * scale * scale)
+    joint.springref = -cfg.spring_force / cfg.spring_rate / scale
     # The stops as stiff as the loops' closures: inelastic within a few timesteps.
     joint.solref_limit = list(case.settings.solref)
     joint.solimp_limit = list(case.settings.solimp)
-    body.add_site(name=bal.check_spring, pos=[0.0, 0.0, 0.0])
+    body.add_site(name=bal.check_spring, pos=at)
     pos_sensor = spec.add_sensor(
         name=names.sensor(SPRING, "pos"),
         type=mujoco.mjtSensor.mjSENS_JOINTPOS,
@@ -123,7 +142,7 @@ def run_thread(
     return ThreadRun(
         theta=theta,
         length=length,
-        spring=column(pos_sensor.name),
+        spring=column(pos_sensor.name) * scale,
         tension=stiffness * np.maximum(length - material, 0.0),
         material=material,
         stiffness=stiffness,
