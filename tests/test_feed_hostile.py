@@ -120,3 +120,13 @@ def test_a_thread_path_naming_a_point_twice_in_a_row_is_refused():
     assert text != HEAD_TEXT
     with pytest.raises(mechanism.MechanismFileError, match=r"\[thread\] path: names 'P5' twice in a row"):
         mechanism.parse(text, "head.toml")
+
+
+def test_a_feed_speed_against_the_files_direction_says_its_sign_is_not_taken(tmp_path, capsys):
+    from mjlink.cli import main
+
+    code = main(["feed", str(HEAD), "--speed", "-3000rpm", "--stitches", "2", "--no-plots", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "note: --speed -3000rpm is against the file's own direction" in out
+    assert "3000 rpm" in out.replace(",", "")

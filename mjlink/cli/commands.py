@@ -527,6 +527,13 @@ def _feed(args: argparse.Namespace) -> int:
 
     mech = validation.get(args.mechanism)
     rad = _rad_s(args.speed)
+    if rad is not None and rad != 0.0 and (rad > 0.0) != (mech.speed > 0.0):
+        # The feed's dog runs its path the file's way: a speed's sign does not turn it back.
+        print(
+            f"note: --speed {args.speed.arg} is against the file's own direction ([input] speed = {mech.speed:g} "
+            "rad/s); the feed keeps the file's direction and runs at its size",
+            flush=True,
+        )
     res = pipeline.feed(
         mech,
         args.out,
