@@ -130,3 +130,13 @@ def test_a_feed_speed_against_the_files_direction_says_its_sign_is_not_taken(tmp
     assert code == 0
     assert "note: --speed -3000rpm is against the file's own direction" in out
     assert "3000 rpm" in out.replace(",", "")
+
+
+def test_a_study_of_the_fabrics_thickness_on_a_plied_head_is_told_to_vary_its_plies():
+    from mjlink.errors import MjlinkError
+    from mjlink.model.paths import resolve
+
+    mech = _with("[[fabric.ply]]\nthickness = 0.9\n[[fabric.ply]]\nthickness = 0.6\n")
+    with pytest.raises(MjlinkError, match=r"vary fabric\.ply1\.thickness, fabric\.ply2\.thickness") as e:
+        resolve(mech, "timing.fabric")
+    assert "\n" not in str(e.value)

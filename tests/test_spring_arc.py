@@ -183,7 +183,7 @@ def _pivoted(path, key):
     return mechanism.parse(text)
 
 
-def _holds(mech):
+def _spring_rows(mech):
     rows = {r.key: r for r in head_timing(mech).rows if r.maker is None}
     return rows["thread_slack"], rows["spring_spare"]
 
@@ -197,13 +197,13 @@ def test_the_shipped_heads_spring_swung_round_its_discs_holds_what_docs_head_md_
     (Juki's LK-1900B draws 1.3 times its spring's travel)."""
     head = shipped("mechanisms") / "lockstitch_head.toml"
     arc, slide = _pivoted(head, "T"), _pivoted(head, None)
-    slack, spare = _holds(arc)
+    slack, spare = _spring_rows(arc)
     # Each figure to the digits docs/head.md prints it with (half its last digit).
     assert slack.value * 1e3 == pytest.approx(9.74, abs=0.005)  # mm
     assert slack.window.hi * 1e3 == pytest.approx(5.64, abs=0.005) and not slack.ok  # mm, as printed
     assert spare.value * 1e3 == pytest.approx(-4.10, abs=0.005) and not spare.ok  # mm, as printed
     travel = arc.balance.check_spring_travel
-    ratios = [_holds(m)[0].window.hi / travel for m in (slide, _pivoted(PAPER, None), arc)]
+    ratios = [_spring_rows(m)[0].window.hi / travel for m in (slide, _pivoted(PAPER, None), arc)]
     assert ratios == pytest.approx([1.80, 1.50, 0.81], abs=0.005)  # as printed
     timing = head_timing(arc)
     t = needle_tension(arc, timing)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -821,6 +822,10 @@ def test_dry_run_prints_the_plan_and_writes_nothing(tmp_path, capsys):
     plan = next(line for line in cap.err.splitlines() if line.startswith("mjlink: plan: "))
     assert "40 variants x 36 crank angles" in plan and "memory about" in plan and "time about" in plan
     assert "dry run" in cap.out and not (tmp_path / "out").exists()
+    # It says what its calibration computed: a dry run plans by measuring a few variants.
+    assert re.search(
+        r"dry run: nothing written \(its plan computed \d+ variants? here to measure their cost\)", cap.out
+    )
 
 
 def test_the_plan_measures_and_scales():

@@ -639,7 +639,13 @@ def _study(args: argparse.Namespace) -> int:
     print(f"mjlink: {pre.plan.describe()}", file=sys.stderr, flush=True)
     pre.plan.check()
     if args.dry_run:
-        print(f"dry run: nothing computed or written; the outputs would go to {pre.dest}/")
+        cal = pre.plan.calibration
+        measured = (
+            f"its plan computed {cal.variants} variant{'s' if cal.variants != 1 else ''} here to measure their cost"
+            if cal is not None
+            else "nothing computed"
+        )
+        print(f"dry run: nothing written ({measured}); the outputs would go to {pre.dest}/")
         return 0
     res = pipeline_study.run(
         pre,

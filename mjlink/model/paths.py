@@ -221,6 +221,9 @@ def resolve(mech: Mechanism, path: str) -> Param:
     known = catalogue(mech)
     if path in known:
         return known[path]
+    if path == "timing.fabric" and mech.fabric is not None and mech.fabric.plies:
+        plies = ", ".join(f"fabric.ply{k}.thickness" for k in range(1, len(mech.fabric.plies) + 1))
+        raise PathError(f"{mech.name}: 'timing.fabric' is its plies' thickness together: vary {plies}")
     raise PathError(f"{mech.name}: unknown parameter path '{path}' ({_hint(known, path)})")
 
 
