@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import re
 from pathlib import Path
 
@@ -685,3 +686,26 @@ def test_a_light_piece_is_fed_on_a_shorter_step_and_one_too_light_is_refused(hea
             head, speed_rpm=LOW_RPM, stitches=2, fabric=dataclasses.replace(FABRIC_DEFAULTS, area=1e-4, mass=1e-3)
         )
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="the resident memory is read from Linux's /proc")
+def test_a_plan_whose_tracing_would_take_minutes_measures_the_resident_peak_instead(tmp_path, monkeypatch):
+    """A study's plan calibrates by computing a variant, then traced it again at many times its
+    cost: a feed metric of 12 speeds at about 60 rpm made `study --dry-run` run for minutes.
+    Where the tracing would take longer than TRACED_MOST, the first call's growth of the
+    resident peak measures the memory and nothing is traced (here with the limit at nought)."""
+    import tracemalloc
+
+    from mjlink.study import plan, spec
+
+    path = tmp_path / "s.toml"
+    path.write_text(STUDY)
+    study = spec.load(path)
+    monkeypatch.setattr(plan, "TRACED_MOST", 0.0)
+
+    def traced():
+        raise AssertionError("traced")
+
+    monkeypatch.setattr(tracemalloc, "start", traced)
+    cal = plan.calibrate(study)
+    assert cal.row_seconds > 0.0 and cal.row_bytes >= 0.0

@@ -78,6 +78,12 @@ CALIBRATION_SECONDS = 2.0
 # How many times longer a call takes traced by tracemalloc than not, at most (a thread's
 # tension, stepped in plain floats, every float an allocation traced; array code much less).
 TRACING = 15.0
+# A call whose tracing would take longer than this (CPU s: TRACING times its cost) is not traced:
+# the growth of the process's resident peak over the first call measures its memory instead,
+# where the system tells it (Linux). It misses what the call reuses of memory the process
+# already held, so it may read lower than tracing would: taken only where tracing would make
+# a dry run wait minutes.
+TRACED_MOST = 60.0
 
 
 class PlanError(InputError):
@@ -252,9 +258,11 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
         # measured once by a metric that measures a head once for variants of one geometry
         # (mjlink.analysis.timing), and timed at next to nothing.
         values[1:] = first_generation(study, study.optimize.seed, n - 1)
+    resident = _resident()
     t = time.process_time()
     reference_chunk(study, values[:1])  # the nominal batch and first-call costs, not timed
     first = time.process_time() - t
+    grown = None if resident is None else max(0, _resident_peak() - resident)
     # The first call's cost bounds a variant's from above: it holds the first call's own too.
     # A variant that alone costs more than the whole budget is timed by that first call.
     runs = CALIBRATION_RUNS if first * n * (1 + CALIBRATION_RUNS) <= CALIBRATION_SECONDS else 1
@@ -270,13 +278,18 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
     # one): the memory a row needs, the call's own shared by fewer rows, can only come out
     # larger.
     traced = n if not runs else max(1, min(n, int(n * CALIBRATION_SECONDS / (TRACING * seconds))))
-    tracemalloc.start()
-    try:
-        with probing():
-            reference_chunk(study, values[:traced])
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    if grown is not None and TRACING * first > TRACED_MOST:
+        # A costly variant: the first call's growth of the resident peak (TRACED_MOST says
+        # what it may miss), not another call traced at many times its cost.
+        peak, traced = grown, 1
+    else:
+        tracemalloc.start()
+        try:
+            with probing():
+                reference_chunk(study, values[:traced])
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
     polish = math.nan
     m = polish_batch(len(study.varied)) * budget(study).samples if study.optimize is not None else 0
     if study.optimize is not None and budget(study).polish and m * angles <= CALIBRATION_ROWS:
@@ -296,6 +309,23 @@ def calibrate(study: Study, *, mujoco: bool = False) -> Calibration:
         )
         model_steps = _steps.verify_steps(study.mechanism.period, speed)
     return Calibration(seconds / rows, peak / (traced * angles), model, model_steps, polish, n)
+
+
+def _resident() -> int | None:
+    """Bytes of this process resident in memory now, None where the system does not say
+    (not Linux)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _resident_peak() -> int:
+    """Bytes: the most this process has held resident so far (Linux counts it in KiB)."""
+    import resource  # here: Unix only, and only where _resident found Linux's figure
+
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
 
 
 def _in_tasks(study: Study, cal: Calibration, variants: int) -> float:
