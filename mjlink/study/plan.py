@@ -81,9 +81,9 @@ TRACING = 15.0
 # A call whose tracing would take longer than this (CPU s: TRACING times its cost) is not traced:
 # the growth of the process's resident peak over the first call measures its memory instead,
 # where the system tells it (Linux). It misses what the call reuses of memory the process
-# already held, so it may read lower than tracing would: taken only where tracing would make
-# a dry run wait minutes.
-TRACED_MOST = 60.0
+# already held, so it may read lower than tracing would: taken only where tracing would hold
+# a dry run up for long.
+TRACED_MOST = 20.0
 
 
 class PlanError(InputError):
