@@ -68,7 +68,7 @@ DOG_HALF = (0.004, 0.003, 0.001)
 FABRIC_HALF = (0.03, 0.01)
 PLATE_HALF = 0.05  # the throat plate's half-length along the feed, m (at least)
 # A run's piece of fabric is long enough behind the dog for its stitches at this many times the
-# dog's advance ([choice]: the stitch grows as the foot leaves the fabric at speed, by a fifth
+# dog's advance ([choice]: the stitch grows as the foot leaves the fabric at speed, by 13 %
 # at 6,000 stitches/min on the shipped head), and a run whose fabric fed further is refused.
 FED_ALLOWANCE = 2.0
 # The foot's sole is the bottom of a sphere: one contact point with the fabric, whose stiffness
