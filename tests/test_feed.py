@@ -141,6 +141,7 @@ def test_the_foots_bounce_on_the_fabric_is_its_mass_on_the_spring_and_the_fabric
     zeta = (2 * p.damping * math.sqrt(p.rate * m) + 2 * f.damping * math.sqrt(f.stiffness * m)) / (2 * math.sqrt(k * m))
     closed = math.sqrt(k / m) * math.sqrt(1 - zeta**2) / (2 * math.pi)
     assert measured == pytest.approx(closed, rel=FREQUENCY)
+    assert round(measured, 1) == 245.7 and round(closed, 1) == 246.4  # Hz, as docs/head.md prints them
     assert feed.bounce(p, f, head.timing.fabric) == pytest.approx(closed, rel=1e-12)
 
 
@@ -709,3 +710,34 @@ def test_a_plan_whose_tracing_would_take_minutes_measures_the_resident_peak_inst
     monkeypatch.setattr(tracemalloc, "start", traced)
     cal = plan.calibrate(study)
     assert cal.row_seconds > 0.0 and cal.row_bytes >= 0.0
+
+
+def test_the_shipped_heads_speed_sweep_is_what_docs_head_md_states(head):
+    """docs/head.md (The fabric under the presser foot, Speed), each figure to the digits it
+    prints: the stitch 3.074 mm from 300 to 2,000 rpm within 0.01 % of the dog's 3.0739 mm,
+    3.063 to 3.068 mm from 3,000 to 5,000 (-0.35 to -0.20 %), 3.174 mm at 5,500 (+3.2 %) and
+    3.485 at 6,000 (+13.4 %); the error first over 2 % at 5,500; the foot off the fabric first
+    at 5,000 (7 deg from 57 deg, 0.015 mm), 18 deg at 6,000 (0.035 mm); the load factor 1.025
+    to 1.044; the fabric sliding 0.3 to 5 µm on the teeth."""
+    runs = feed.sweep(head, [500.0 * k for k in range(1, 13)]).runs
+    at = {round(r.speed_rpm): r for r in feed.sweep(head, [300.0]).runs + runs}
+    # Each figure within half the last digit docs/head.md prints it with.
+    assert feed.dog_advance(head) * 1e3 == pytest.approx(3.0739, abs=5e-5)  # mm
+    for w in (300, 500, 1000, 1500, 2000):
+        assert at[w].stitch * 1e3 == pytest.approx(3.074, abs=5e-4) and abs(at[w].error) < 1e-4  # mm; 0.01 %
+    middle = [at[w] for w in (3000, 3500, 4000, 4500, 5000)]
+    assert min(r.stitch for r in middle) * 1e3 == pytest.approx(3.063, abs=5e-4)  # mm
+    assert max(r.stitch for r in middle) * 1e3 == pytest.approx(3.068, abs=5e-4)  # mm
+    assert min(r.error for r in middle) * 100 == pytest.approx(-0.35, abs=5e-3)  # %
+    assert max(r.error for r in middle) * 100 == pytest.approx(-0.20, abs=5e-3)  # %
+    assert (at[5500].stitch * 1e3, at[5500].error * 100) == pytest.approx((3.174, 3.2), abs=5e-2)  # mm, %
+    assert (at[6000].stitch * 1e3, at[6000].error * 100) == pytest.approx((3.485, 13.4), abs=5e-2)  # mm, %
+    assert feed.FeedSweep(runs=tuple(runs)).first_over(0.02).speed_rpm == pytest.approx(5500.0)
+    assert all(at[w].separation[0] == 0.0 for w in at if w < 5000)
+    deg, start = at[5000].separation
+    assert (round(deg), round(start)) == (7, 57) and round(at[5000].lift.max() * 1e3, 3) == 0.015
+    assert round(at[6000].separation[0]) == 18 and round(at[6000].lift.max() * 1e3, 3) == 0.035
+    factors = [r.load_factor for r in at.values()]
+    assert (round(min(factors), 3), round(max(factors), 3)) == (1.025, 1.044)
+    slips = [r.slip * 1e6 for r in at.values()]  # µm, from 300 rpm on
+    assert round(min(slips), 1) == 0.3 and round(max(slips)) == 5
