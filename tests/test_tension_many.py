@@ -12,8 +12,9 @@ import pytest
 from threadchecks import hook_stiffness_checked, stepped_alike
 
 from mjlink.analysis import tension, tension_many
-from mjlink.analysis.tension import hardest, periodic, prepare, step
+from mjlink.analysis.tension import prepare, step
 from mjlink.analysis.tension_many import TOGETHER, step_many
+from mjlink.analysis.tension_state import hardest, periodic
 from mjlink.analysis.timing import head_timing
 from mjlink.model import mechanism
 from mjlink.model.catalogue import shipped

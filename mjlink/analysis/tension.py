@@ -42,6 +42,7 @@ from ..model.tension import DEFAULTS, ThreadTension
 from ..model.timing import StitchType, spring_stroke
 from ..units import MM
 from .stitch import _between
+from .tension_state import at_most, hardest, in_path, periodic
 from .timing import HeadTiming
 
 __all__ = ["NeedleTension", "TensionError", "disc_hold", "needle_tension", "of_head"]
@@ -49,7 +50,6 @@ __all__ = ["NeedleTension", "TensionError", "disc_hold", "needle_tension", "of_h
 TOL = 1e-9  # a contact holds while its tension ratio is within this of its capstan bound
 TINY = 1e-9  # N: tensions this small count as none
 TINY_M = 1e-15  # m: thread passed this short counts as none
-PERIODIC = 1e-8  # m: the periodic state: two stitches' draws through the discs this close
 SAMPLES = 1440  # steps per stitch: a quarter degree of the main shaft
 MOST_NEWTON = 12  # Newton steps on the check spring's hook per step, at most
 SPRING_TOL = 1e-12  # m: the hook's place found when a Newton step moves it less
@@ -78,7 +78,8 @@ class NeedleTension:
     stitches (any period the stitches run show twice over; the traces are then those of the
     period's stitch with the highest peak, ``per_stitch`` the period's mean), 0 where none was
     found within the stitches run; ``converged`` whether one was (each stitch drew the same
-    thread through the discs as the one a period before, within :data:`PERIODIC`)."""
+    thread through the discs as the one a period before, within
+    :data:`~.tension_state.PERIODIC`)."""
 
     theta: np.ndarray
     zones: tuple[str, ...]
@@ -775,38 +776,3 @@ def step(pb: Problem, *, most_cycles: int = 80, cycles: int | None = None, carry
     # Any `period` stitches in a row of the repeating state draw the same thread between them.
     per_stitch = sum(feds[-period:]) / period if period else feds[-1]
     return pb.result(out_T.T.copy(), out_x, out_d, ran, period, per_stitch)
-
-
-def in_path(prev: list[float], s: list[float]) -> float:
-    """m: the thread the path holds, its stretches' paths ``prev`` less their stretches ``s``
-    (summed in one order, so that the twin and the array step agree to the bit)."""
-    return sum(p - q for p, q in zip(prev, s, strict=True))
-
-
-def at_most(most_cycles: int, cycles: int | None) -> int:
-    """Stitches a run steps at most: ``cycles`` if given, else ``most_cycles`` to find its
-    periodic state and, a state found, up to its period less one more to its hardest pulled
-    stitch (:func:`periodic` finds periods up to half the stitches run)."""
-    return cycles if cycles is not None else most_cycles + most_cycles // 2 - 1
-
-
-def hardest(ran: int, tops: list[float]) -> int:
-    """The stitch, from ``ran`` on, that repeats the hardest pulled of a period's stitches: their
-    peaks ``tops`` (N, the last ``len(tops)`` stitches to ``ran``, oldest first)."""
-    return ran + (int(np.argmax(tops)) + 1) % len(tops)
-
-
-def periodic(feds: list[float], helds: list[float]) -> int:
-    """The least ``p`` for which each of the last ``p`` stitches drew the same thread through
-    the discs and ended with the same thread in the path (``feds`` and ``helds``, m; within
-    :data:`PERIODIC`) as the stitch ``p`` before it (1: the last two alike), else 0: any period
-    the stitches show twice over (a check spring striking its stop may repeat its motion only
-    every dozen stitches or so). The draws alone are not the state: a thread that starts with
-    slack in its path draws nothing for a stitch or two while the stitches use the slack up."""
-    for p in range(1, len(feds) // 2 + 1):
-        if all(
-            abs(feds[-i] - feds[-i - p]) <= PERIODIC and abs(helds[-i] - helds[-i - p]) <= PERIODIC
-            for i in range(1, p + 1)
-        ):
-            return p
-    return 0

@@ -26,13 +26,10 @@ from .tension import (
     Carry,
     NeedleTension,
     Problem,
-    at_most,
-    hardest,
-    in_path,
-    periodic,
     step,
 )
 from .tension import _settle as _settle_one
+from .tension_state import at_most, hardest, in_path, periodic
 
 __all__ = ["share", "step_many"]
 
