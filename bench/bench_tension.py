@@ -21,7 +21,10 @@ interleaved, and the periods its heads settled in.
 With ``--vs REV`` too, the same study from a git worktree of that revision, alternately with
 this checkout, their wall times' ratio and their results' largest differences.
 
-Run: ``python bench/bench_tension.py [--repeat N] [--study [--vs REV]]`` (default 5).
+With ``--head FILE``, the comparisons are that head's (the head with the paper's take-up:
+``mechanisms/examples/lockstitch_head_paper_takeup.toml``).
+
+Run: ``python bench/bench_tension.py [--repeat N] [--head FILE] [--study [--vs REV]]`` (default 5).
 """
 
 from __future__ import annotations
@@ -71,11 +74,13 @@ def _row(label: str, t: NeedleTension) -> str:
     )
 
 
-def comparisons() -> None:
-    mech = mechanism.load(shipped("mechanisms") / "lockstitch_head.toml")
+def comparisons(path: Path | None = None) -> None:
+    """The head's column of docs/head.md's table of published measurements: the shipped head,
+    or the head file at ``path`` (the head with the paper's take-up)."""
+    mech = mechanism.load(path or shipped("mechanisms") / "lockstitch_head.toml")
     head = head_timing(mech)
     base = needle_tension(mech, head)
-    print(_row("shipped head, defaults", base))
+    print(_row("shipped head, defaults" if path is None else f"{mech.name}, defaults", base))
     for z, T in zip(base.zones, base.tension, strict=True):
         print(f"    {z:12s} up to {T.max() / GF:6.1f} gf at {base.theta[int(np.argmax(T))]:6.2f} deg")
     print("    local peaks (deg, gf): " + ", ".join(f"({a:.1f}, {g:.0f})" for a, g in _peaks(base)))
@@ -314,11 +319,12 @@ def main() -> None:
     ap.add_argument("--no-cost", action="store_true", help="only the comparisons")
     ap.add_argument("--study", action="store_true", help="only the 1,000-variant tension study's time")
     ap.add_argument("--vs", help="with --study: the same study from this git revision, alternately")
+    ap.add_argument("--head", type=Path, help="the comparisons of this head file instead of the shipped head's")
     a = ap.parse_args()
     if a.study:
         study(a.repeat, a.vs)
         return
-    comparisons()
+    comparisons(a.head)
     mujoco_comparison()
     if not a.no_cost:
         cost(a.repeat)

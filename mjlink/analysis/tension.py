@@ -50,6 +50,7 @@ __all__ = ["NeedleTension", "TensionError", "disc_hold", "needle_tension", "of_h
 TOL = 1e-9  # a contact holds while its tension ratio is within this of its capstan bound
 TINY = 1e-9  # N: tensions this small count as none
 TINY_M = 1e-15  # m: thread passed this short counts as none
+BLADE_ZONE = "past the hook's blade"  # the loop's leg from the blade point to the last stitch's end
 SAMPLES = 1440  # steps per stitch: a quarter degree of the main shaft
 MOST_NEWTON = 12  # Newton steps on the check spring's hook per step, at most
 SPRING_TOL = 1e-12  # m: the hook's place found when a Newton step moves it less
@@ -124,8 +125,10 @@ class NeedleTension:
 
     @property
     def slack(self) -> np.ndarray:
-        """(N,) bool: the thread below the eye is slack (a loop, no tension)."""
-        out: np.ndarray = self.tension[-1] <= TINY
+        """(N,) bool: the thread below the eye is slack (a loop, no tension): the stretch from
+        the eye (to the hook's blade while it carries the loop)."""
+        below = [k for k, z in enumerate(self.zones) if z.startswith("below ")]
+        out: np.ndarray = self.tension[below[0] if below else -1] <= TINY
         return out
 
     def failures(self) -> tuple[str, ...]:
@@ -558,7 +561,9 @@ def prepare(
     if anchored is not None:
         order = np.arange(n)
     held = anchored is not None and below is None  # held at the eye, nothing below it
-    segs = len(path) - (1 if held else 0)  # the path's stretches and the one below the eye
+    # The loop's turn over the hook's blade splits the thread below the eye in two there.
+    split = anchored is None and cfg.hook_wrap > 0.0
+    segs = len(path) - (1 if held else 0) + (1 if split else 0)  # the path's, and below the eye
     lengths = np.zeros((segs, n))
     for i in range(len(path) - 1):
         lengths[i] = np.linalg.norm(P[path[i + 1]] - P[path[i]], axis=1)
@@ -566,7 +571,25 @@ def prepare(
     wraps = np.zeros((segs, n))
     for j in range(1, len(path) - 1):
         wraps[j] = _wrap(P[path[j - 1]], P[path[j]], P[path[j + 1]])
-    if not held:
+    if split:
+        # While the hook carries the loop the blade point parts the eye's leg from the rest;
+        # elsewhere the blade holds nothing and the two stretches are one thread split at its
+        # middle (the stitch being set on the far side), sliding freely between them. At the
+        # pick-up's first step the caught thread shares out at one tension; from the next the
+        # blade holds it by the capstan bound.
+        past = head.balance.past[::every] * MM
+        carried = np.isfinite(past)
+        lengths[-1] = np.where(carried, past, 0.5 * (stitching + np.where(setting, formula, 0.0)))
+        lengths[-2] = stitching - lengths[-1]
+        if not (lengths[-2:] > TINY_M).all():
+            k = int(np.argmin(lengths[-2:].min(axis=0)))
+            raise TensionError(
+                f"{mech.name}: the hook's blade point meets the needle's eye at {theta[k]:.2f} deg: "
+                "no thread between them for the loop's turn over the blade (hook_wrap = 0 lets it slide freely)"
+            )
+        wraps[-2] = cfg.eye_wrap
+        wraps[-1] = np.where(carried & np.roll(carried, 1), cfg.hook_wrap, 0.0)
+    elif not held:
         lengths[-1] = stitching if below is None else np.asarray(below)[::every]
         wraps[-1] = cfg.eye_wrap
 
@@ -593,6 +616,8 @@ def prepare(
     zones = (*(f"{a}-{b}" for a, b in itertools.pairwise(path)), f"below {path[-1]}")
     if held:
         zones = zones[:-1]
+    elif split:
+        zones = (*zones, BLADE_ZONE)
     return Problem(
         theta=theta,
         zones=zones,

@@ -347,14 +347,21 @@ def step_many(problems: list[Problem], *, most_cycles: int = 80, cycles: int | N
       cycles: run exactly this many stitches (the twin's ``cycles``).
     Returns:
       V :class:`NeedleTension`, each what :func:`.tension.step` gives its problem.
-    Raises:
-      ValueError: problems of different shapes.
     """
     if len(problems) < TOGETHER:
         return [step(p, most_cycles=most_cycles, cycles=cycles) for p in problems]
-    shapes = {(p.lengths.shape, p.spring_at, p.anchored, math.isfinite(p.arm)) for p in problems}
-    if len(shapes) > 1:
-        raise ValueError(f"step_many: problems of different shapes {sorted(shapes)}")
+    shapes = [(p.lengths.shape, p.spring_at, p.anchored, math.isfinite(p.arm)) for p in problems]
+    if len(set(shapes)) > 1:
+        # Problems of other shapes (a study varying the hook's wrap from nought: one stretch
+        # fewer below the eye) are stepped each with their own kind.
+        out: list[NeedleTension | None] = [None] * len(problems)
+        for shape in dict.fromkeys(shapes):
+            idx = [i for i, sh in enumerate(shapes) if sh == shape]
+            for i, t in zip(
+                idx, step_many([problems[i] for i in idx], most_cycles=most_cycles, cycles=cycles), strict=True
+            ):
+                out[i] = t
+        return cast(list[NeedleTension], out)
     V = len(problems)
     n, Z = problems[0].lengths.shape
     cs = problems[0].spring_at

@@ -512,7 +512,9 @@ class ThreadBalance:
     stitch holds, mm; ``rows`` the checks; ``hole`` and ``end`` (N,) mm, the needle's hole and
     the last stitch's end behind the needle's line (:class:`StitchEnd`); ``under`` (N,) mm the
     needle thread below the material while the hook carries a lockstitch's loop (NaN
-    elsewhere), ``most_under`` its largest and ``most_under_at`` where the blade point then is,
+    elsewhere), ``past`` (N,) mm the part of the thread below the eye past the hook's blade
+    point then (the loop's leg from the blade to the needle's hole, up through it and along the
+    top to the last stitch's end; NaN elsewhere), ``most_under`` its largest and ``most_under_at`` where the blade point then is,
     deg of the hook's turn past its lowest point (six o'clock), NaN for a chain stitch;
     ``below`` (N,) mm the needle thread's taut length below the eye."""
 
@@ -527,6 +529,7 @@ class ThreadBalance:
     hole: np.ndarray
     end: np.ndarray
     under: np.ndarray
+    past: np.ndarray
     most_under: float
     most_under_at: float
     below: np.ndarray
@@ -565,13 +568,13 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     # the held loop's cast-off) and the needle's entry into the fabric: the take-up has drawn
     # the most thread.
     window = _between(th, release, enters)
-    under = np.full(len(th), np.nan)
+    under = past = np.full(len(th), np.nan)
     if tm.stitch is StitchType.CHAIN:
         below = _chain_below(mech, head, hook, at)
         end = pick
         per_stitch = 3.0 * bal.stitch_length + 2.0 * tm.fabric
     else:
-        below, under = _lock_below(mech, head, hook, at)
+        below, under, past = _lock_below(mech, head, hook, at)
         end = release
         per_stitch = bal.stitch_length + tm.fabric
     drawn, path_at, below_at, start = _set_point(th, path, below, window, enters)
@@ -668,6 +671,7 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         hole=at.hole / MM,
         end=at.end / MM,
         under=under / MM,
+        past=past / MM,
         most_under=most_under / MM,
         most_under_at=most_under_at,
         below=below / MM,
@@ -689,10 +693,14 @@ def _geometry(
     return tm, bal, sense, nt, eye, hp, P[hook.pivot][0, :2]
 
 
-def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> tuple[np.ndarray, np.ndarray]:
+def _lock_below(
+    mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A lockstitch's needle thread below the eye (:func:`thread_balance`), the last stitch's
     end and the needle's hole where ``at`` puts them: ``(below the eye (N,) m, below the throat
-    plate (N,) m)``, the second the loop's two legs while the hook carries it, NaN elsewhere.
+    plate (N,) m, past the blade point (N,) m)``, the second the loop's two legs while the hook
+    carries it, the third the part of the first from the blade point on (the fabric's leg, up
+    through the hole and along the top to the last stitch's end), both NaN elsewhere.
 
     Each leg runs to the hook's blade point outside the bobbin case on its own side
     (:func:`mjlink.analysis.loop.case_leg`): the fabric's from the underside of the needle's
@@ -710,6 +718,7 @@ def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -
     below = np.where(above, np.hypot(eye[:, 0] - x_n - at.end, y_eye - top_y), (top_y - y_eye) + at.end)
     loop = _between(th, pick, release)
     under = np.full(len(th), np.nan)
+    past = np.full(len(th), np.nan)
     if loop.any():
         i = np.nonzero(loop)[0]
         r, w = bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0
@@ -724,8 +733,9 @@ def _lock_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -
         )
         under[i] = leg_eye + leg_fabric
         # Up through the needle's hole and along the top to the last stitch's end.
+        past[i] = leg_fabric + tm.fabric + (at.end[i] - at.hole[i])
         below[i] = under[i] + np.where(under_plate, 0.0, to_hole) + tm.fabric + (at.end[i] - at.hole[i])
-    return below, under
+    return below, under, past
 
 
 def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> np.ndarray:

@@ -11,6 +11,7 @@ its mass and deg for the eye's wrap; here SI::
     elongation_at_break = 0.125
     friction = 0.15           # thread on polished steel, at every contact
     eye_wrap = 180.0          # deg: the turn through the needle's eye
+    hook_wrap = 180.0         # deg: the loop's turn over the hook's blade
     spring_force = 0.3        # N: the check spring's force at rest (at its start)
     spring_rate = 0.03        # N/mm
     spring_mass = 0.1         # g, at its hook
@@ -43,7 +44,8 @@ class ThreadTension:
     needle's eye with the needle bar at its top (it sets the discs' hold); ``breaking_load`` N
     and ``elongation_at_break`` (a fraction) the thread's, which give its stiffness
     ``EA = breaking_load / elongation_at_break`` (the secant modulus to break); ``friction`` the
-    coefficient of thread on steel; ``eye_wrap`` rad; the check spring's ``spring_force`` N at
+    coefficient of thread on steel; ``eye_wrap`` rad; ``hook_wrap`` rad, the loop's turn over the
+    hook's blade while the hook carries it (0: the thread slides round the blade freely); the check spring's ``spring_force`` N at
     rest, ``spring_rate`` N/m, ``spring_mass`` kg and ``spring_damping`` (of critical)."""
 
     needle_tension: float
@@ -51,6 +53,7 @@ class ThreadTension:
     elongation_at_break: float
     friction: float
     eye_wrap: float
+    hook_wrap: float
     spring_force: float
     spring_rate: float
     spring_mass: float
@@ -102,6 +105,12 @@ _TABLE: dict[str, tuple[float, float, Bound, str]] = {
         DEG,
         Bound(0.0, 360.0, "deg", "the turn through the needle's eye, up to a turn"),
         "[choice] the thread turns back through the eye, down the long groove and up the short one",
+    ),
+    "hook_wrap": (
+        180.0,
+        DEG,
+        Bound(0.0, 360.0, "deg", "the loop's turn over the hook's blade, up to a turn"),
+        "[choice] the loop hangs on the blade and turns back over it; 0 lets the thread slide round the blade freely",
     ),
     "spring_force": (
         0.3,

@@ -226,7 +226,7 @@ def tension_plot(mech: Mechanism, head: HeadTiming, t: NeedleTension, out_dir: P
     ax.set_ylabel("tension [N]")
     gf = ax.secondary_yaxis("right", functions=(lambda n: n / GF, lambda g: g * GF))
     gf.set_ylabel("[gf]")
-    ax.legend(loc="upper left", fontsize=7.5, ncols=2, framealpha=0.9, title="stretch", title_fontsize=7.5)
+    ax.legend(loc="upper left", fontsize=7.5, ncols=3, framealpha=0.9, title="stretch", title_fontsize=7.5)
     zone, at = t.peak_at
     ax.set_title(
         f"peak {t.peak:.3g} N ({t.peak / GF:.0f} gf) in {zone} at {at:.1f} deg: breaking load "

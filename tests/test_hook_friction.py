@@ -1,0 +1,141 @@
+"""The loop's turn over the hook's blade (``[tension] hook_wrap``): Euler-Eytelwein friction round
+the hook, checked in closed form.
+
+While the hook carries the loop, the thread below the eye is two stretches parted at the blade
+point: the eye's leg, and the rest (the loop's leg to the needle's hole, up through it and along
+the top to the last stitch's end). The thread slides over the blade only where the tension
+ratio across it reaches exp(mu * hook_wrap); elsewhere the blade holds nothing and the two are
+one thread. Expected values come from the capstan law and the head's geometry, not from the
+model's code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+
+import numpy as np
+import pytest
+
+from mjlink.analysis.tension import TensionError, needle_tension, prepare
+from mjlink.analysis.timing import head_timing
+from mjlink.errors import MjlinkError
+from mjlink.model import mechanism
+from mjlink.model.catalogue import shipped
+from mjlink.model.tension import DEFAULTS
+
+HEAD = shipped("mechanisms") / "lockstitch_head.toml"
+PAPER = shipped("mechanisms") / "examples" / "lockstitch_head_paper_takeup.toml"
+RATIO = 1e-6  # the contacts' states hold their bound to 1e-9 of the ratio; the tensions are rounded sums
+
+
+@pytest.fixture(scope="module")
+def head():
+    mech = mechanism.load(HEAD)
+    return mech, head_timing(mech)
+
+
+def _run(mech, timing, **change):
+    return needle_tension(mech, timing, settings=dataclasses.replace(mech.tension or DEFAULTS, **change))
+
+
+def _carried(mech, timing, t):
+    """(N,) bool on the tension's steps: the hook carries the loop (from the balance)."""
+    every = len(timing.theta) // len(t.theta)
+    return np.isfinite(timing.balance.past[::every])
+
+
+def test_the_hooks_blade_holds_the_loop_within_its_capstan_bound_and_slides_at_it(head):
+    """Over the whole stitch, the stretch past the blade pulls at most exp(mu beta) times the
+    eye's leg and at least its inverse while the hook carries the loop, and exactly as hard
+    elsewhere (one thread). Where the loop grows the blade draws its thread over: the ratio
+    sits on the bound, at the stitch's peak too."""
+    mech, timing = head
+    t = needle_tension(mech, timing)
+    assert t.zones[-2:] == ("below NE", "past the hook's blade")
+    eye, past = t.tension[-2], t.tension[-1]
+    cfg = mech.tension or DEFAULTS
+    bound = math.exp(cfg.friction * cfg.hook_wrap)
+    assert bound == pytest.approx(math.exp(0.15 * math.pi), rel=1e-12)  # the file's friction, a hairpin
+    carried = _carried(mech, timing, t)
+    taut = (eye > 1e-6) & (past > 1e-6)
+    ratio = past[carried & taut] / eye[carried & taut]
+    assert ratio.max() <= bound * (1 + RATIO) and ratio.min() >= (1 - RATIO) / bound
+    sliding = np.abs(ratio / bound - 1) <= RATIO
+    assert sliding.sum() >= 20  # steps of a quarter degree with the thread drawn over the blade
+    np.testing.assert_allclose(past[~carried], eye[~carried], rtol=1e-9, atol=1e-12)
+    k = int(np.argmax(past))
+    assert t.peak == past[k] and carried[k] and past[k] / eye[k] == pytest.approx(bound, rel=RATIO)
+
+
+def test_without_friction_the_blade_parts_nothing(head):
+    """With no friction anywhere (one tension through the path) the two stretches below the eye
+    are the one stretch of a loop free on the blade, step for step, to rounding; the thread
+    per stitch and the spring's travel are the same too."""
+    mech, timing = head
+    free = _run(mech, timing, friction=0.0, hook_wrap=0.0)
+    parted = _run(mech, timing, friction=0.0)
+    assert len(parted.zones) == len(free.zones) + 1
+    scale = free.peak
+    np.testing.assert_allclose(parted.tension[:-1], free.tension, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(parted.tension[-1], free.tension[-1], rtol=0, atol=1e-9 * scale)
+    assert parted.per_stitch == pytest.approx(free.per_stitch, abs=1e-12)  # m
+    np.testing.assert_allclose(parted.spring, free.spring, rtol=0, atol=1e-12)  # m
+    assert parted.cycles == free.cycles
+
+
+def test_the_eyes_leg_at_the_pick_up_is_the_straight_thread_from_the_eye_to_the_blade_point(head):
+    """At the first angle the hook carries the loop, the eye (under the plate) and the blade
+    point are a few millimetres apart with nothing between them: the eye's leg is their
+    distance in the head's plane, and the rest is the thread below the eye less it."""
+    mech, timing = head
+    b, tm = timing.balance, mech.timing
+    k = int(np.nonzero(np.isfinite(b.past) & ~np.isfinite(np.roll(b.past, 1)))[0][0])
+    eye = timing.positions[tm.roles["needle_eye"]][k, :2]
+    blade = timing.positions[tm.roles["hook_point"]][k, :2]
+    assert eye[1] < tm.plate
+    straight = float(np.hypot(*(blade - eye))) * 1e3  # mm
+    assert 0.5 < straight < 5.0
+    assert b.below[k] - b.past[k] == pytest.approx(straight, abs=1e-9)  # mm
+
+
+def test_the_blades_turn_raises_the_peak_where_the_loop_grows_and_leaves_the_draw_alone(head):
+    """On the shipped head the loop past the blade, drawn over it, pulls exp(mu beta) times the
+    eye's leg at the peak; the eye's leg pulls a little less than with the loop free on the
+    blade (the stretch past it, pulled harder, stretches more and takes less thread from above),
+    so the peak rises by less than the capstan factor. The thread drawn per stitch, the slack
+    below the eye and the check spring's travel are as with the loop free on the blade."""
+    mech, timing = head
+    free = _run(mech, timing, hook_wrap=0.0)
+    held = needle_tension(mech, timing)
+    cfg = mech.tension or DEFAULTS
+    bound = math.exp(cfg.friction * cfg.hook_wrap)
+    assert free.peak < held.peak < bound * free.peak
+    assert held.tension[-2].max() <= free.tension[-1].max()
+    assert held.per_stitch == pytest.approx(free.per_stitch, abs=1e-12)  # m
+    assert held.slack.mean() == free.slack.mean()
+    assert held.spring.max() == pytest.approx(free.spring.max(), abs=1e-12)  # m
+
+
+def test_the_hook_wrap_is_read_in_degrees_and_a_study_may_vary_it(head):
+    mech, _ = head
+    text = re.sub(r"(?m)^hook_wrap = 180\.0", "hook_wrap = 90.0", HEAD.read_text())
+    assert "hook_wrap = 90.0" in text
+    assert mechanism.parse(text, "head.toml").tension.hook_wrap == pytest.approx(math.pi / 2, rel=1e-12)
+    from mjlink import study
+
+    assert study.override(mech, {"tension.hook_wrap": 45.0}).tension.hook_wrap == pytest.approx(math.pi / 4)
+
+
+def test_a_blade_point_on_the_eye_is_refused_in_one_line(head):
+    """Where the hook's blade point would meet the needle's eye the loop's turn over the blade
+    has no thread between them: the tension says so, naming the angle, and how to go on."""
+    mech, timing = head
+    b = timing.balance
+    past = np.where(np.isfinite(b.past), b.below, np.nan)  # the eye's leg of no length
+    broken = dataclasses.replace(timing, balance=dataclasses.replace(b, past=past))
+    with pytest.raises(TensionError, match=r"meets the needle's eye at [0-9.]+ deg.*hook_wrap = 0") as e:
+        prepare(mech, broken)
+    assert "\n" not in str(e.value) and isinstance(e.value, MjlinkError | ValueError)
+    assert len(prepare(mech, broken, settings=dataclasses.replace(DEFAULTS, hook_wrap=0.0)).zones) == len(mech.thread)
