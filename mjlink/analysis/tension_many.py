@@ -20,7 +20,6 @@ from .tension import (
     MOST_NEWTON,
     SCALE_DONE,
     SPRING_TOL,
-    TINY,
     TINY_M,
     TOL,
     Carry,
@@ -29,6 +28,7 @@ from .tension import (
     step,
 )
 from .tension import _settle as _settle_one
+from .tension_result import TINY
 from .tension_state import at_most, hardest, in_path, periodic
 
 __all__ = ["share", "step_many"]

@@ -21,12 +21,24 @@ import numpy as np
 from .. import reference
 from ..model.blocks import Crank
 from ..model.mechanism import Mechanism
-from ..model.timing import SETTINGS, Balance, StitchType, Timing, Window, hook_crank
+from ..model.timing import SETTINGS, StitchType, Timing, Window, hook_crank
 from ..reference.batch import Batch
 from ..units import DEG, MM
-from .loop import case_leg, wrapped
 from .metric_base import Column, Curve, Loads, Metric, MetricError
-from .stitch import StitchEnd, _at, _between, _carried, _crossing, _peak, _set_point, spring_holds, stitch_end
+from .stitch import (
+    StitchEnd,
+    _at,
+    _between,
+    _carried,
+    _chain_below,
+    _crossing,
+    _geometry,
+    _lock_below,
+    _peak,
+    _set_point,
+    spring_holds,
+    stitch_end,
+)
 
 GENERAL = {
     "dog_below_while_needle_down": "feed dog's highest point above the throat plate while the needle point is below it",
@@ -678,115 +690,6 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     )
 
 
-def _geometry(
-    mech: Mechanism, head: HeadTiming, hook: Crank
-) -> tuple[Timing, Balance, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """What the thread below the eye is measured from: the head's ``[timing]`` and ``[balance]``,
-    the hook's (a looper's) sense of rotation (+1 counter-clockwise), the needle's point, the
-    top of its eye and the hook's point over the stitch ((N, 3) m each) and the hook shaft's
-    centre ((2,) m)."""
-    tm, bal = mech.timing, mech.balance
-    assert tm is not None and bal is not None
-    P = head.positions
-    sense = math.copysign(1.0, hook.ratio * (mech.speed or 1.0))
-    nt, eye, hp = P[tm.roles["needle_point"]], P[tm.roles["needle_eye"]], P[tm.roles["hook_point"]]
-    return tm, bal, sense, nt, eye, hp, P[hook.pivot][0, :2]
-
-
-def _lock_below(
-    mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A lockstitch's needle thread below the eye (:func:`thread_balance`), the last stitch's
-    end and the needle's hole where ``at`` puts them: ``(below the eye (N,) m, below the throat
-    plate (N,) m, past the blade point (N,) m)``, the second the loop's two legs while the hook
-    carries it, the third the part of the first from the blade point on (the fabric's leg, up
-    through the hole and along the top to the last stitch's end), both NaN elsewhere.
-
-    Each leg runs to the hook's blade point outside the bobbin case on its own side
-    (:func:`mjlink.analysis.loop.case_leg`): the fabric's from the underside of the needle's
-    hole, the eye's from the eye while it is under the plate, and otherwise from the eye down
-    the needle (the eye in the fabric) or straight to the hole's top, through the fabric and
-    from the hole's underside."""
-    tm, bal, _, nt, eye, hp, centre = _geometry(mech, head, hook)
-    th, ev = head.theta, head.events
-    x_n = nt[:, 0]
-    bottom = np.column_stack([x_n + at.hole, np.full(len(th), tm.plate)])  # the needle's hole's underside
-    top_y = tm.plate + tm.fabric
-    pick, release = ev["hook picks the loop"], ev["loop released"]
-    y_eye = eye[:, 1]
-    above = y_eye >= top_y
-    below = np.where(above, np.hypot(eye[:, 0] - x_n - at.end, y_eye - top_y), (top_y - y_eye) + at.end)
-    loop = _between(th, pick, release)
-    under = np.full(len(th), np.nan)
-    past = np.full(len(th), np.nan)
-    if loop.any():
-        i = np.nonzero(loop)[0]
-        r, w = bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0
-        blade = hp[i, :2]
-        leg_fabric = case_leg(bottom[i], blade, centre, r, w)
-        under_plate = y_eye[i] <= tm.plate
-        leg_eye = np.where(under_plate, case_leg(eye[i, :2], blade, centre, r, w), leg_fabric)
-        to_hole = np.where(
-            y_eye[i] <= top_y,
-            y_eye[i] - tm.plate,  # down the needle in its hole
-            np.hypot(eye[i, 0] - x_n[i] - at.hole[i], y_eye[i] - top_y) + tm.fabric,
-        )
-        under[i] = leg_eye + leg_fabric
-        # Up through the needle's hole and along the top to the last stitch's end.
-        past[i] = leg_fabric + tm.fabric + (at.end[i] - at.hole[i])
-        below[i] = under[i] + np.where(under_plate, 0.0, to_hole) + tm.fabric + (at.end[i] - at.hole[i])
-    return below, under, past
-
-
-def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> np.ndarray:
-    """(N,) m: a single-thread chain stitch's (101) needle thread below the eye, up to a
-    constant (docs/head.md, A chain-stitch head), the held loop's hole where ``at`` puts the
-    last stitch's end.
-
-    Each loop is taken by the looper's point at the pick-up and carried round the looper's body
-    (a circle of the ``looper`` diameter on the looper's shaft) for ``loop_release`` of looper
-    turn, then held there, spread, while the needle rises, the feed carries the loop's hole on
-    by the stitch length and the needle comes down through the held loop; the looper casts it
-    off as it takes the next loop, and the take-up draws it tight round that one. Both legs of
-    the loop come up through its hole: from the eye the thread runs down the needle to the
-    loop's hole (the needle in it), or straight to the hole's top (the needle out), or along the
-    fabric's top from the needle's new hole back to it (the needle down again); then through
-    the fabric, round the looper's point and back up through the fabric. The looper's twist of
-    the loop and the loop's slip around the body while held are not modelled."""
-    tm, bal, sense, nt, eye, hp, centre = _geometry(mech, head, hook)
-    th, ev = head.theta, head.events
-    x_n, y_eye = nt[:, 0], eye[:, 1]
-    top_y = tm.plate + tm.fabric
-    pick = ev["hook picks the loop"]
-    ratio = abs(hook.ratio)
-    in_own_hole = at.inside & ~at.unset  # from the pick-up until the needle leaves the loop's hole
-    off = at.end  # the held loop's hole: the needle's own from the pick-up until it leaves it
-    hole = np.column_stack([x_n + off, np.full(len(th), tm.plate)])  # the hole's underside
-    # The looper's point carries the loop for loop_release of its turn, then holds it there.
-    turn = np.minimum(np.radians((th - pick) % 360.0) * ratio, tm.loop_release)
-    spread = _carried(tm, hook, pick)
-    held = np.array([_at(th, hp[:, 0], spread), _at(th, hp[:, 1], spread)])
-    carrying = _between(th, pick, spread)
-    point = np.where(carrying[:, None], hp[:, :2], held[None, :])
-    r = bal.looper / 2.0
-    leg = wrapped(hole, point, centre, r, turn, sense)
-    # From the eye to the hole's underside.
-    to_hole = np.where(
-        in_own_hole,
-        y_eye - tm.plate,  # down the needle in the loop's own hole
-        np.where(
-            y_eye >= top_y,
-            np.hypot(eye[:, 0] - x_n - off, y_eye - top_y),  # straight to the hole's top
-            (top_y - y_eye) + off,  # the needle down again: up it and along the fabric's top
-        )
-        + tm.fabric,
-    )
-    below_plate = in_own_hole & (y_eye < tm.plate)
-    eye_leg = np.where(below_plate, wrapped(eye[:, :2], point, centre, r, turn, sense), to_hole + leg)
-    out: np.ndarray = eye_leg + leg + tm.fabric
-    return out
-
-
 def _of(x: Any, i: int, b: Batch) -> float:
     """Variant ``i``'s value of a number a study may vary: a (V*A,) row array or a scalar."""
     return float(np.asarray(x).reshape(-1)[i * b.angles]) if np.ndim(x) else float(x)
@@ -805,5 +708,4 @@ __all__ = [
     "measure",
     "stitch_end",
     "thread_balance",
-    "wrapped",
 ]
