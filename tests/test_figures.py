@@ -159,28 +159,37 @@ def _head_report_and_page(run_figures) -> None:
     assert "needle thread tension (thread_tension.png)" in printed
     assert "thread_tension.png: needle thread tension" in page
     assert (out / "tension.csv").read_text().splitlines()[0].startswith("theta_deg,")
-    # The head's summary (report and first screen) carries the peak, its margin and the thread a
-    # stitch draws through the discs: the run's own tension, named as a study's metric.
+    # The head's summary (report and first screen) carries the peak, its margin, the thread a
+    # stitch draws through the discs and the pull on the stitch against the bobbin thread: the
+    # run's own tension, named as a study's metric.
     rows = {r["metric"]: r["value"] for r in report["design"]["summary"]}
     assert rows["tension_peak"] == pytest.approx(tension["peak_N"], abs=1e-6)
     assert rows["tension_margin"] == pytest.approx(tension["breaking_load_N"] / tension["peak_N"], rel=1e-6)
     assert rows["tension_per_stitch"] == pytest.approx(tension["per_stitch_mm"], abs=1e-6)
+    assert rows["tension_drawn_up"] == pytest.approx(tension["set_pull_N"] / tension["bobbin_N"], rel=1e-5)
     assert page.index("data-metric='tension_peak'") < page.index("id='timing'")
     # A head is read as a head: its needle bar's stroke (2 x the 15.35 mm crank) and its dog's
     # feed first, its thread's tension and its timing verdict, then the rest; the dimensions
     # folded by member.
     metrics = [r["metric"] for r in report["design"]["summary"]]
-    assert metrics[:5] == ["stroke_NB_y", "stroke_F_x", "tension_peak", "tension_margin", "tension_per_stitch"]
+    assert metrics[:6] == [
+        "stroke_NB_y",
+        "stroke_F_x",
+        "tension_peak",
+        "tension_margin",
+        "tension_per_stitch",
+        "tension_drawn_up",
+    ]
     # The fabric fed under the presser foot at the run's speed: its stitch and error in the
     # summary, as report.json's feed gives them, its figure and its table.
     fed = report["feed"]
     assert fed["speed_rpm"] == pytest.approx(5000.0) and fed["stitches"] == 6
-    assert metrics[5:8] == ["feed_stitch", "feed_error", "feed_foot_off"]
+    assert metrics[6:9] == ["feed_stitch", "feed_error", "feed_foot_off"]
     assert rows["feed_stitch"] == pytest.approx(fed["stitch_mm"], abs=1e-9)
     assert rows["feed_error"] == pytest.approx(100.0 * (fed["stitch_mm"] / fed["dog_advance_mm"] - 1.0), abs=1e-9)
     assert "feed.png" in figs and (out / "feed.csv").read_text().splitlines()[0].startswith("theta_deg,dog_mm,")
     assert rows["stroke_NB_y"] == pytest.approx(2 * 15.35, abs=1e-9)
-    at = [page.index(f"data-metric='{m}'") for m in ("stroke_NB_y", "feed_foot_off", "timing_ok", metrics[8])]
+    at = [page.index(f"data-metric='{m}'") for m in ("stroke_NB_y", "feed_foot_off", "timing_ok", metrics[9])]
     assert at == sorted(at)
     assert "<details><summary>needle_bar (" in page and "<details><summary>frame (" in page
     assert all(f"data-param='{d['param']}'" in page for d in report["design"]["dimensions"])

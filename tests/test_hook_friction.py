@@ -12,6 +12,7 @@ model's code.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import re
 
@@ -139,3 +140,48 @@ def test_a_blade_point_on_the_eye_is_refused_in_one_line(head):
         prepare(mech, broken)
     assert "\n" not in str(e.value) and isinstance(e.value, MjlinkError | ValueError)
     assert len(prepare(mech, broken, settings=dataclasses.replace(DEFAULTS, hook_wrap=0.0)).zones) == len(mech.thread)
+
+
+# ------------------------------------------------------------------ the stitch drawn up
+def test_the_stitch_is_set_with_the_largest_pull_below_the_eye_from_the_release_to_the_setting(head):
+    """The take-up's pull on the stitch as it sets it is the largest tension of the stretch from
+    the eye down over the steps from the loop's release to the stitch's setting (the angles
+    taken round the stitch here, from the head's events), against the bobbin thread's tension
+    read from the file ('25 gf', Duerkopp Adler's figure): on the shipped head 0.285 N, 1.16
+    times the bobbin thread's 0.245 N (docs/head.md)."""
+    mech, timing = head
+    t = needle_tension(mech, timing)
+    release = timing.events["loop released"]
+    after = (t.theta - release) % 360.0
+    setting = (after > 0.0) & (after < (t.set_at - release) % 360.0)
+    below = t.tension[t.zones.index("below NE")]
+    assert t.set_pull == pytest.approx(below[setting].max(), rel=1e-12)
+    assert t.bobbin == pytest.approx(25.0 * 9.80665e-3, rel=1e-12)  # N: the file's '25 gf'
+    assert (round(t.set_pull, 3), round(t.drawn_up, 2)) == (0.285, 1.16)
+    d = t.as_dict()
+    assert (d["set_pull_N"], d["bobbin_N"]) == (pytest.approx(t.set_pull, abs=1e-6), pytest.approx(t.bobbin, abs=1e-6))
+
+
+def test_the_paper_take_up_does_not_draw_its_stitch_up_and_the_terminal_says_so():
+    """The head with the paper's take-up pulls its stitch with 0.170 N as it sets it, 0.69 times
+    the bobbin thread's tension (docs/head.md): the terminal's line says it is too little."""
+    from mjlink.cli.text import tension_line
+
+    mech = mechanism.load(PAPER)
+    t = needle_tension(mech, head_timing(mech))
+    assert (round(t.set_pull, 3), round(t.drawn_up, 2)) == (0.170, 0.69)
+    assert tension_line(t).splitlines()[-1].endswith("too little to draw the bobbin thread and the interlacing up")
+    looser = needle_tension(mech, head_timing(mech), settings=dataclasses.replace(mech.tension, bobbin_tension=0.1))
+    assert looser.drawn_up > 1.0 and not tension_line(looser).endswith("up")
+
+
+def test_a_held_thread_sets_no_stitch():
+    mech = mechanism.load(HEAD)
+    timing = head_timing(mech)
+    path = mech.thread
+    longest = sum(
+        np.linalg.norm(timing.positions[b] - timing.positions[a], axis=1) for a, b in itertools.pairwise(path)
+    )
+    off = dataclasses.replace(DEFAULTS, friction=0.0)
+    held = needle_tension(mech, timing, settings=off, anchored=float(longest.max()) - 5e-3, cycles=1)
+    assert held.set_pull == 0.0 and held.drawn_up == 0.0

@@ -166,12 +166,14 @@ class Summary:
 
 def tension_rows(thread: NeedleTension) -> tuple[Row, ...]:
     """A head's needle thread in the summary, as a study's ``tension`` metric names it: the peak
-    tension (N), its margin to the breaking load and the thread drawn through the discs per
-    stitch (mm), from the run's own tension (:func:`mjlink.analysis.tension.needle_tension`)."""
+    tension (N), its margin to the breaking load, the thread drawn through the discs per
+    stitch (mm) and the take-up's pull on the stitch over the bobbin thread's tension, from the
+    run's own tension (:func:`mjlink.analysis.tension.needle_tension`)."""
     values = {
         "tension_peak": thread.peak,
         "tension_margin": thread.margin,
         "tension_per_stitch": thread.per_stitch * 1e3,
+        "tension_drawn_up": thread.drawn_up,
     }
     return tuple(Row(c.name, c.label, values[c.name], c.unit) for c in TensionMetric.COLUMNS if c.name in values)
 

@@ -42,7 +42,7 @@ from ..model.tension import DEFAULTS, ThreadTension
 from ..model.timing import StitchType, spring_stroke
 from ..units import MM
 from .stitch import _between
-from .tension_result import TINY, NeedleTension
+from .tension_result import TINY, NeedleTension, _below
 from .tension_state import at_most, hardest, in_path, periodic
 from .timing import HeadTiming
 
@@ -362,7 +362,9 @@ class Problem:
     the spring's ``travel`` m, ``mass`` kg, ``rate`` N/m, ``damping`` N s/m and ``force`` N at
     rest; ``dt`` s a step; ``start`` (Z,) m the stretches at the first step; ``anchored``
     whether the thread is held at both ends (:func:`needle_tension`'s ``anchored``);
-    ``breaking_load`` N."""
+    ``breaking_load`` N; ``setting`` (N,) bool the steps from the loop's release to the
+    stitch's setting, while the take-up draws the stitch up against the bobbin thread's
+    ``bobbin`` N."""
 
     theta: np.ndarray
     zones: tuple[str, ...]
@@ -390,6 +392,8 @@ class Problem:
     start: np.ndarray
     anchored: bool
     breaking_load: float
+    setting: np.ndarray
+    bobbin: float
 
     def result(
         self, tension: np.ndarray, spring: np.ndarray, drawn: np.ndarray, cycles: int, period: int, per_stitch: float
@@ -412,6 +416,8 @@ class Problem:
             cycles=cycles,
             converged=period > 0,
             period=period,
+            set_pull=float(tension[_below(self.zones), self.setting].max(initial=0.0)),
+            bobbin=self.bobbin,
         )
 
 
@@ -537,6 +543,8 @@ def prepare(
         start=start,
         anchored=anchored is not None,
         breaking_load=cfg.breaking_load,
+        setting=setting if anchored is None else np.zeros(n, dtype=bool),
+        bobbin=cfg.bobbin_tension,
     )
 
 

@@ -54,6 +54,11 @@ class TensionMetric(TimingChecks):
         Column("tension_spring", "mm", "the check spring's largest travel"),
         Column("tension_periodic", "", "1 if the stitch reached its periodic state"),
         Column("tension_period", "", "stitches after which the thread's state repeats (2: alternating; 0: none)"),
+        Column(
+            "tension_drawn_up",
+            "",
+            "the take-up's largest pull on the stitch as it sets it over the bobbin thread's tension (at least 1)",
+        ),
     )
 
     def columns(self) -> list[Column]:
@@ -82,9 +87,10 @@ class TensionMetric(TimingChecks):
                     float(t.spring.max()) * 1e3,
                     float(t.converged),
                     float(t.period),
+                    t.drawn_up,
                 ]
             )
-        out = np.array(rows, dtype=float).reshape(b.variants, 7)
+        out = np.array(rows, dtype=float).reshape(b.variants, len(self.COLUMNS))
         return {c.name: out[:, j] for j, c in enumerate(self.columns())}
 
     def curve(self, b: Batch, loads: Loads) -> Curve | None:

@@ -30,7 +30,9 @@ class NeedleTension:
     period's stitch with the highest peak, ``per_stitch`` the period's mean), 0 where none was
     found within the stitches run; ``converged`` whether one was (each stitch drew the same
     thread through the discs as the one a period before, within
-    :data:`~.tension_state.PERIODIC`)."""
+    :data:`~.tension_state.PERIODIC`); ``set_pull`` N the largest tension below the eye from
+    the loop's release to the stitch's setting, the take-up's pull on the stitch as it draws
+    it up, against the bobbin thread's ``bobbin`` N (0 for a thread held at both ends)."""
 
     theta: np.ndarray
     zones: tuple[str, ...]
@@ -46,6 +48,8 @@ class NeedleTension:
     cycles: int
     converged: bool
     period: int = 1
+    set_pull: float = 0.0
+    bobbin: float = math.inf
 
     @property
     def peak(self) -> float:
@@ -77,9 +81,16 @@ class NeedleTension:
     def slack(self) -> np.ndarray:
         """(N,) bool: the thread below the eye is slack (a loop, no tension): the stretch from
         the eye (to the hook's blade while it carries the loop)."""
-        below = [k for k, z in enumerate(self.zones) if z.startswith("below ")]
-        out: np.ndarray = self.tension[below[0] if below else -1] <= TINY
+        out: np.ndarray = self.tension[_below(self.zones)] <= TINY
         return out
+
+    @property
+    def drawn_up(self) -> float:
+        """The take-up's largest pull on the stitch as it sets it over the bobbin thread's
+        tension: at least 1 for the needle thread to draw the bobbin thread out of its case and
+        the interlacing up into the fabric (a bound: the thread's friction through the fabric,
+        not modelled, takes some of the pull)."""
+        return self.set_pull / self.bobbin
 
     def failures(self) -> tuple[str, ...]:
         """One line if the thread breaks (its peak tension at or above its breaking load) or the
@@ -115,7 +126,16 @@ class NeedleTension:
             "disc_hold_N": round(self.hold, 6),
             "spring_travel_max_mm": round(float(self.spring.max()) * 1e3, 6),
             "slack_deg": round(float(self.slack.mean()) * 360.0, 3),
+            "set_pull_N": round(self.set_pull, 6),
+            "bobbin_N": round(self.bobbin, 6) if math.isfinite(self.bobbin) else None,
             "cycles": self.cycles,
             "converged": self.converged,
             "period": self.period,
         }
+
+
+def _below(zones: tuple[str, ...]) -> int:
+    """The stretch from the needle's eye down (to the hook's blade while it carries the loop):
+    the last of a thread held at the eye."""
+    below = [k for k, z in enumerate(zones) if z.startswith("below ")]
+    return below[0] if below else len(zones) - 1

@@ -590,13 +590,17 @@ def timing_table(head: HeadTiming) -> str:
 
 
 def tension_line(t: NeedleTension) -> str:
-    """A lockstitch head's needle thread under tension, in two lines: the peak against the
-    breaking load, the thread a stitch draws through the discs, the check spring's travel."""
+    """A lockstitch head's needle thread under tension, in three lines: the peak against the
+    breaking load, the thread a stitch draws through the discs, the check spring's travel, and
+    the take-up's pull on the stitch against the bobbin thread's tension."""
     zone, at = t.peak_at
     return (
         f"needle thread tension (thread_tension.png): peak {t.peak:.3g} N ({t.peak / GF:.0f} gf) in {zone} at "
         f"{at:.1f} deg, breaking load {t.breaking_load:.3g} N (margin {t.margin:.3g}); discs' hold {t.hold:.3g} N\n"
         f"  a stitch draws {t.per_stitch / MM:.3f} mm through the discs (stitch formula {t.formula / MM:.2f} mm); "
         f"check spring travel up to {float(t.spring.max()) / MM:.2f} mm; below the eye slack for "
-        f"{float(t.slack.mean()) * 360.0:.0f} deg of the stitch" + t.repeats
+        f"{float(t.slack.mean()) * 360.0:.0f} deg of the stitch" + t.repeats + "\n"
+        f"  the take-up sets the stitch pulling it with up to {t.set_pull:.3g} N ({t.set_pull / GF:.0f} gf), "
+        f"{t.drawn_up:.3g} times the bobbin thread's {t.bobbin:.3g} N"
+        + ("" if t.drawn_up >= 1.0 else ": too little to draw the bobbin thread and the interlacing up")
     )

@@ -16,6 +16,7 @@ its mass and deg for the eye's wrap; here SI::
     spring_rate = 0.03        # N/mm
     spring_mass = 0.1         # g, at its hook
     spring_damping = 0.1      # a fraction of critical
+    bobbin_tension = '25 gf'  # the bobbin thread drawn out of its case
 
 The check spring's point and travel are the ``[balance]`` table's (``check_spring``,
 ``check_spring_travel``).
@@ -46,7 +47,9 @@ class ThreadTension:
     ``EA = breaking_load / elongation_at_break`` (the secant modulus to break); ``friction`` the
     coefficient of thread on steel; ``eye_wrap`` rad; ``hook_wrap`` rad, the loop's turn over the
     hook's blade while the hook carries it (0: the thread slides round the blade freely); the check spring's ``spring_force`` N at
-    rest, ``spring_rate`` N/m, ``spring_mass`` kg and ``spring_damping`` (of critical)."""
+    rest, ``spring_rate`` N/m, ``spring_mass`` kg and ``spring_damping`` (of critical); the
+    bobbin thread's ``bobbin_tension`` N, drawn out of its case (the stitch is drawn up only
+    where the needle thread pulls it harder)."""
 
     needle_tension: float
     breaking_load: float
@@ -58,6 +61,7 @@ class ThreadTension:
     spring_rate: float
     spring_mass: float
     spring_damping: float
+    bobbin_tension: float
 
     @property
     def stiffness(self) -> float:
@@ -137,6 +141,12 @@ _TABLE: dict[str, tuple[float, float, Bound, str]] = {
         1.0,
         Bound(0.0, 10.0, "", "a fraction of critical damping"),
         "[choice] a lightly damped steel spring",
+    ),
+    "bobbin_tension": (
+        25.0 * GF,
+        1.0,
+        Bound(0.0, 10.0, "N", "a bobbin thread's tension, some 0.1 to 1 N", lo_open=True),
+        "Duerkopp Adler 650-10 instructions, p. 29: the bobbin thread's tension about 25 g",
     ),
 }
 
