@@ -28,12 +28,8 @@ GF = 9.80665e-3  # N per gram-force
 def _peaks(t) -> list[tuple[float, float]]:
     """(deg, gf): the stitch's local peaks of the largest tension of any stretch, above 5 gf."""
     top = t.tension.max(axis=0)
-    n = len(top)
-    return [
-        (float(t.theta[i]), float(top[i] / GF))
-        for i in range(n)
-        if top[i] > top[i - 1] and top[i] >= top[(i + 1) % n] and top[i] > 5 * GF
-    ]
+    up = (top > np.roll(top, 1)) & (top >= np.roll(top, -1)) & (top > 5 * GF)
+    return [(float(a), float(g)) for a, g in zip(t.theta[up], top[up] / GF, strict=True)]
 
 
 def _spring_moves(t) -> tuple[list[float], list[float]]:
