@@ -119,6 +119,19 @@ def test_the_blades_turn_raises_the_peak_where_the_loop_grows_and_leaves_the_dra
     assert held.spring.max() == pytest.approx(free.spring.max(), abs=1e-12)  # m
 
 
+def test_the_shipped_heads_peak_over_the_turns_docs_head_md_gives(head):
+    """The blade's turn is a choice: docs/head.md gives the shipped head's peak at 0, 90, 180
+    and 360 deg (1.62, 1.79, 2.16 and 3.06 N), the thread per stitch, the slack and the
+    spring's travel the same at each."""
+    mech, timing = head
+    runs = [_run(mech, timing, hook_wrap=math.radians(w)) for w in (0.0, 90.0, 180.0, 360.0)]
+    assert [round(t.peak, 2) for t in runs] == [1.62, 1.79, 2.16, 3.06]  # N
+    for t in runs[1:]:
+        assert t.per_stitch == pytest.approx(runs[0].per_stitch, abs=1e-12)  # m
+        assert t.slack.mean() == runs[0].slack.mean()
+        assert t.spring.max() == pytest.approx(runs[0].spring.max(), abs=1e-12)  # m
+
+
 def test_the_hook_wrap_is_read_in_degrees_and_a_study_may_vary_it(head):
     mech, _ = head
     text = re.sub(r"(?m)^hook_wrap = 180\.0", "hook_wrap = 90.0", HEAD.read_text())
