@@ -25,6 +25,7 @@ from mjlink.errors import MjlinkError
 from mjlink.model import mechanism
 from mjlink.model.catalogue import shipped
 from mjlink.model.tension import DEFAULTS
+from mjlink.model.timing import hook_crank
 
 HEAD = shipped("mechanisms") / "lockstitch_head.toml"
 PAPER = shipped("mechanisms") / "examples" / "lockstitch_head_paper_takeup.toml"
@@ -60,11 +61,13 @@ def test_the_hooks_blade_holds_the_loop_within_its_capstan_bound_and_slides_at_i
     bound = math.exp(cfg.friction * cfg.hook_wrap)
     assert bound == pytest.approx(math.exp(0.15 * math.pi), rel=1e-12)  # the file's friction, a hairpin
     carried = _carried(mech, timing, t)
-    taut = (eye > 1e-6) & (past > 1e-6)
-    ratio = past[carried & taut] / eye[carried & taut]
-    assert ratio.max() <= bound * (1 + RATIO) and ratio.min() >= (1 - RATIO) / bound
+    every = len(timing.theta) // len(t.theta)
+    turn = np.minimum(np.radians(np.nan_to_num(timing.balance.blade_turn[::every])), cfg.hook_wrap)
+    taut = carried & (eye > 1e-6) & (past > 1e-6)
+    ratio, most = past[taut] / eye[taut], np.exp(cfg.friction * turn[taut])
+    assert (ratio <= most * (1 + RATIO)).all() and (ratio >= (1 - RATIO) / most).all()
     sliding = np.abs(ratio / bound - 1) <= RATIO
-    assert sliding.sum() >= 20  # steps of a quarter degree with the thread drawn over the blade
+    assert sliding.sum() >= 20  # steps of a quarter degree with the thread drawn over the blade's hairpin
     np.testing.assert_allclose(past[~carried], eye[~carried], rtol=1e-9, atol=1e-12)
     k = int(np.argmax(past))
     assert t.peak == past[k] and carried[k] and past[k] / eye[k] == pytest.approx(bound, rel=RATIO)
@@ -84,6 +87,49 @@ def test_without_friction_the_blade_parts_nothing(head):
     assert parted.per_stitch == pytest.approx(free.per_stitch, abs=1e-12)  # m
     np.testing.assert_allclose(parted.spring, free.spring, rtol=0, atol=1e-12)  # m
     assert parted.cycles == free.cycles
+
+
+def test_the_legs_turn_at_the_blade_point_is_a_hairpin_in_the_hooks_plane_and_less_over_the_faces(head):
+    """Where the needle is out of the fabric both legs come from the needle's hole: in the hook's
+    plane they reach the blade point along one line (a hairpin, pi), and over the case's two
+    faces as mirror images, so that the thread turns by pi less twice the angle the face's
+    half-width makes with each leg's last piece, from the face's edge to the blade point. The
+    edge point is found here by minimising the thread over the face on its own (scipy), from
+    the head's positions: at six o'clock the turn is some 62 deg (docs/head.md)."""
+    from scipy.optimize import minimize
+
+    mech, timing = head
+    tm, bal, b = mech.timing, mech.balance, timing.balance
+    turn = b.blade_turn
+    between = np.isfinite(turn) & (timing.theta > 240.0) & (timing.theta < 280.0)
+    assert np.abs(turn[between] - 180.0).max() < 1e-9  # deg: the legs on one line
+    k = int(np.argmin(np.abs(timing.theta - 296.0)))
+    r, w = bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0
+    centre = timing.positions[hook_crank(mech).pivot][0, :2]
+    hole = np.array([timing.positions[tm.roles["needle_point"]][k, 0] + b.hole[k] * 1e-3, tm.plate])
+    blade = timing.positions[tm.roles["hook_point"]][k, :2]
+
+    def edge(beta):
+        return centre + r * np.array([math.cos(beta), math.sin(beta)])
+
+    def sees(p, beta):  # the point p sees the rim's point at beta past the case's side
+        v = p - centre
+        return abs(math.remainder(beta - math.atan2(v[1], v[0]), math.tau)) <= math.acos(r / math.hypot(*v))
+
+    def over(x):  # the hole to one edge point, across the face, the other to the blade point
+        if not (sees(hole, x[0]) and sees(blade, x[1])):
+            return math.inf
+        e1, e2 = edge(x[0]), edge(x[1])
+        chord = float(np.hypot(*(e2 - e1)))
+        return math.hypot(float(np.hypot(*(e1 - hole))), w) + chord + math.hypot(float(np.hypot(*(blade - e2))), w)
+
+    grid = np.linspace(-math.pi, math.pi, 361)
+    start = min(((p, q) for p in grid for q in grid), key=over)
+    best = minimize(over, start, method="Nelder-Mead", options={"xatol": 1e-12, "fatol": 1e-15, "maxiter": 20000})
+    h = float(np.hypot(*(blade - edge(best.x[1]))))
+    expected = math.degrees(math.pi - 2.0 * math.atan(w / h))
+    assert turn[k] == pytest.approx(expected, abs=1e-6)  # deg: the minimiser's tolerance
+    assert 60.0 < turn[k] < 65.0
 
 
 def test_the_eyes_leg_at_the_pick_up_is_the_straight_thread_from_the_eye_to_the_blade_point(head):
@@ -113,19 +159,19 @@ def test_the_blades_turn_raises_the_peak_where_the_loop_grows_and_leaves_the_dra
     cfg = mech.tension or DEFAULTS
     bound = math.exp(cfg.friction * cfg.hook_wrap)
     assert free.peak < held.peak < bound * free.peak
-    assert held.tension[-2].max() <= free.tension[-1].max()
+    assert held.tension[-2].max() <= free.tension[-1].max() * (1 + 1e-12)
     assert held.per_stitch == pytest.approx(free.per_stitch, abs=1e-12)  # m
     assert held.slack.mean() == free.slack.mean()
     assert held.spring.max() == pytest.approx(free.spring.max(), abs=1e-12)  # m
 
 
 def test_the_shipped_heads_peak_over_the_turns_docs_head_md_gives(head):
-    """The blade's turn is a choice: docs/head.md gives the shipped head's peak at 0, 90, 180
-    and 360 deg (1.62, 1.79, 2.16 and 3.06 N), the thread per stitch, the slack and the
-    spring's travel the same at each."""
+    """The blade's turn is capped by a choice: docs/head.md gives the shipped head's peak at 0,
+    90 and 180 deg (1.62, 1.79 and 2.16 N), the thread per stitch, the slack and the spring's
+    travel the same at each."""
     mech, timing = head
-    runs = [_run(mech, timing, hook_wrap=math.radians(w)) for w in (0.0, 90.0, 180.0, 360.0)]
-    assert [round(t.peak, 2) for t in runs] == [1.62, 1.79, 2.16, 3.06]  # N
+    runs = [_run(mech, timing, hook_wrap=math.radians(w)) for w in (0.0, 90.0, 180.0)]
+    assert [round(t.peak, 2) for t in runs] == [1.62, 1.79, 2.16]  # N
     for t in runs[1:]:
         assert t.per_stitch == pytest.approx(runs[0].per_stitch, abs=1e-12)  # m
         assert t.slack.mean() == runs[0].slack.mean()

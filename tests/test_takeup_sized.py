@@ -217,7 +217,7 @@ def test_the_sized_heads_check_spring_acts_and_the_published_directions_hold(siz
     # docs/head.md's figures (N, to the digits it prints): 1.5x the needle tension, twice the
     # elongation at break, 2, 3 and 4 mm stitches.
     got = [tighter.peak, stretchier.peak, peaks[0], base.peak, peaks[1]]
-    assert got == pytest.approx([3.32, 1.94, 1.33, 2.16, 2.92], abs=0.005)
+    assert got == pytest.approx([3.31, 1.94, 1.33, 2.16, 2.92], abs=0.005)
 
 
 def test_the_refining_study_is_the_sizing_study_started_from_the_shipped_design():

@@ -127,7 +127,7 @@ def test_where_the_hook_pulls_hardest_against_six_oclock(paper):
 def test_a_lighter_check_spring_hook_is_the_pages():
     """The Slack paragraph: with a hook of 0.01 g the loop is slack for 58 deg, the spring
     travels 6.5 mm, leaves its rest at 24.25 deg (1.8 deg before the hook's upper point at
-    26.05 deg) and comes back at 208; the peak 3.67 N past the hook's blade. At 0.05 g it is back
+    26.05 deg) and comes back at 208; the peak 3.58 N past the hook's blade. At 0.05 g it is back
     at 105 deg."""
     mech = mechanism.load(HEAD)
     timing = head_timing(mech)
@@ -139,6 +139,6 @@ def test_a_lighter_check_spring_hook_is_the_pages():
     hp = timing.positions[mech.timing.roles["hook_point"]][:, 1]
     upper = float(timing.theta[int(np.argmax(np.where(timing.theta < 180.0, hp, -np.inf)))])
     assert round(upper - leaves[0], 1) == 1.8
-    assert round(light.peak, 2) == 3.67 and light.peak_at[0] == "past the hook's blade"
+    assert round(light.peak, 2) == 3.58 and light.peak_at[0] == "past the hook's blade"
     half = needle_tension(mech, timing, settings=dataclasses.replace(cfg, spring_mass=0.05e-3))
     assert round(_spring_moves(half)[1][0]) == 105

@@ -249,6 +249,66 @@ def case_leg(
     return out
 
 
+def arrival(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float, side: float
+) -> np.ndarray:
+    """(N, 3): the unit direction in which the leg of :func:`case_leg` from ``a`` reaches the blade
+    point ``b`` (x, y in the head's plane, z normal to it towards the leg's face, ``side`` +1 or
+    -1): along the straight thread; round the rim, along its tangent from the case to ``b`` on the
+    side the thread wraps (the shorter way round); over the face, from the face's edge point
+    down to ``b``, or, where ``b`` does not see that point of the rim, along the tangent the
+    thread leaves the case's side by, falling as the helix unrolled into a plane does."""
+    n = len(a)
+    out = np.column_stack([b - a, np.zeros(n)])
+    hits, _ = crossing(a, b, centre, radius)
+    if hits.any():
+        k = np.nonzero(hits)[0]
+        ak, bk = a[k], b[k]
+        rim = around_rim(ak, bk, centre, radius)
+        straight = np.hypot(*(bk - ak).T)
+        may = rim > np.hypot(straight, 2.0 * half_width)
+        face = np.full(len(k), np.inf)
+        beta = np.zeros(len(k))
+        if may.any():
+            face[may], angles = over_face(ak[may], bk[may], centre, radius, half_width)
+            beta[may] = angles[:, 1]  # the edge point on b's side
+        toward, seen, _, tb = _end(bk, centre, radius)
+        # Round the rim: the tangent point before b in the sense the thread wraps.
+        ra = ak - centre
+        sense = np.sign(ra[:, 0] * (bk - centre)[:, 1] - ra[:, 1] * (bk - centre)[:, 0])
+        phi = toward - sense * seen
+        t = centre + radius * np.column_stack([np.cos(phi), np.sin(phi)])
+        v = np.column_stack([bk - t, np.zeros(len(k))])
+        # Over the face: from the edge point, or off the side's tangent towards it.
+        over = face < rim
+        delta = np.angle(np.exp(1j * (beta - toward)))
+        e = centre + radius * np.column_stack([np.cos(beta), np.sin(beta)])
+        direct = np.column_stack([bk - e, np.full(len(k), -side * half_width)])
+        psi = toward + np.sign(delta) * seen
+        th = centre + radius * np.column_stack([np.cos(psi), np.sin(psi)])
+        unrolled = tb + radius * (np.abs(delta) - seen)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            helix = np.column_stack([bk - th, -side * half_width * tb / unrolled])
+        on_face = np.where((np.abs(delta) <= seen)[:, None], direct, helix)
+        out[k] = np.where(over[:, None], on_face, v)
+    unit: np.ndarray = out / np.linalg.norm(out, axis=1, keepdims=True)
+    return unit
+
+
+def blade_turn(
+    a_eye: np.ndarray, a_fabric: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float
+) -> np.ndarray:
+    """(N,) rad: how far the thread turns at the blade point ``b`` between the loop's two legs of
+    :func:`case_leg`, the eye's from ``a_eye`` over the front face and the fabric's from
+    ``a_fabric`` over the back one: pi where both reach it from one direction (a hairpin), less
+    where they meet it at an angle."""
+    into = arrival(a_eye, b, centre, radius, half_width, 1.0)
+    away = -arrival(a_fabric, b, centre, radius, half_width, -1.0)
+    # atan2 of the sine and cosine: exact at a hairpin, where arccos of the cosine is not.
+    out: np.ndarray = np.arctan2(np.linalg.norm(np.cross(into, away), axis=1), np.einsum("ij,ij->i", into, away))
+    return out
+
+
 def held_loop(mech: Mechanism, positions: dict[str, np.ndarray]) -> np.ndarray:
     """(N,) m: the thread below the eye of MuJoCo's thread with its loop held
     (:func:`mjlink.sim.thread.run_thread` with ``loop=True``): straight down the needle's line
@@ -267,4 +327,14 @@ def held_loop(mech: Mechanism, positions: dict[str, np.ndarray]) -> np.ndarray:
     return out
 
 
-__all__ = ["NEWTON_STEPS", "around_rim", "case_leg", "crossing", "held_loop", "over_face", "wrapped"]
+__all__ = [
+    "NEWTON_STEPS",
+    "around_rim",
+    "arrival",
+    "blade_turn",
+    "case_leg",
+    "crossing",
+    "held_loop",
+    "over_face",
+    "wrapped",
+]

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..model.timing import Stroke, spring_pull, spring_stroke
 from ..units import MM
-from .loop import case_leg, wrapped
+from .loop import blade_turn, case_leg, wrapped
 
 if TYPE_CHECKING:
     from ..model.blocks import Crank
@@ -260,12 +260,14 @@ def _geometry(
 
 def _lock_below(
     mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A lockstitch's needle thread below the eye (:func:`.timing.thread_balance`), the last stitch's
     end and the needle's hole where ``at`` puts them: ``(below the eye (N,) m, below the throat
-    plate (N,) m, past the blade point (N,) m)``, the second the loop's two legs while the hook
-    carries it, the third the part of the first from the blade point on (the fabric's leg, up
-    through the hole and along the top to the last stitch's end), both NaN elsewhere.
+    plate (N,) m, past the blade point (N,) m, the turn at the blade point (N,) rad)``, the second
+    the loop's two legs while the hook carries it, the third the part of the first from the
+    blade point on (the fabric's leg, up through the hole and along the top to the last
+    stitch's end), the fourth the thread's turn between the legs there
+    (:func:`mjlink.analysis.loop.blade_turn`), all three NaN elsewhere.
 
     Each leg runs to the hook's blade point outside the bobbin case on its own side
     (:func:`mjlink.analysis.loop.case_leg`): the fabric's from the underside of the needle's
@@ -284,6 +286,7 @@ def _lock_below(
     loop = _between(th, pick, release)
     under = np.full(len(th), np.nan)
     past = np.full(len(th), np.nan)
+    turn = np.full(len(th), np.nan)
     if loop.any():
         i = np.nonzero(loop)[0]
         r, w = bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0
@@ -300,7 +303,8 @@ def _lock_below(
         # Up through the needle's hole and along the top to the last stitch's end.
         past[i] = leg_fabric + tm.fabric + (at.end[i] - at.hole[i])
         below[i] = under[i] + np.where(under_plate, 0.0, to_hole) + tm.fabric + (at.end[i] - at.hole[i])
-    return below, under, past
+        turn[i] = blade_turn(np.where(under_plate[:, None], eye[i, :2], bottom[i]), bottom[i], blade, centre, r, w)
+    return below, under, past, turn
 
 
 def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> np.ndarray:

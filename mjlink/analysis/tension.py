@@ -486,7 +486,9 @@ def prepare(
                 "no thread between them for the loop's turn over the blade (hook_wrap = 0 lets it slide freely)"
             )
         wraps[-2] = cfg.eye_wrap
-        wraps[-1] = np.where(carried & np.roll(carried, 1), cfg.hook_wrap, 0.0)
+        # The legs' own turn at the blade point, at most the file's.
+        turn = np.radians(np.nan_to_num(head.balance.blade_turn[::every]))
+        wraps[-1] = np.where(carried & np.roll(carried, 1), np.minimum(turn, cfg.hook_wrap), 0.0)
     elif not held:
         lengths[-1] = stitching if below is None else np.asarray(below)[::every]
         wraps[-1] = cfg.eye_wrap

@@ -57,7 +57,7 @@ class TensionMetric(TimingChecks):
         Column(
             "tension_drawn_up",
             "",
-            "the take-up's largest pull on the stitch as it sets it over the bobbin thread's tension (at least 1)",
+            "pull on the stitch as set, over the bobbin tension",
         ),
     )
 

@@ -11,7 +11,7 @@ its mass and deg for the eye's wrap; here SI::
     elongation_at_break = 0.125
     friction = 0.15           # thread on polished steel, at every contact
     eye_wrap = 180.0          # deg: the turn through the needle's eye
-    hook_wrap = 180.0         # deg: the loop's turn over the hook's blade
+    hook_wrap = 180.0         # deg: the loop's turn over the hook's blade, at most
     spring_force = 0.3        # N: the check spring's force at rest (at its start)
     spring_rate = 0.03        # N/mm
     spring_mass = 0.1         # g, at its hook
@@ -45,8 +45,9 @@ class ThreadTension:
     needle's eye with the needle bar at its top (it sets the discs' hold); ``breaking_load`` N
     and ``elongation_at_break`` (a fraction) the thread's, which give its stiffness
     ``EA = breaking_load / elongation_at_break`` (the secant modulus to break); ``friction`` the
-    coefficient of thread on steel; ``eye_wrap`` rad; ``hook_wrap`` rad, the loop's turn over the
-    hook's blade while the hook carries it (0: the thread slides round the blade freely); the check spring's ``spring_force`` N at
+    coefficient of thread on steel; ``eye_wrap`` rad; ``hook_wrap`` rad, the most the loop turns over
+    the hook's blade while the hook carries it (it turns as its legs meet there, at most this;
+    0: the thread slides round the blade freely); the check spring's ``spring_force`` N at
     rest, ``spring_rate`` N/m, ``spring_mass`` kg and ``spring_damping`` (of critical); the
     bobbin thread's ``bobbin_tension`` N, drawn out of its case (the stitch is drawn up only
     where the needle thread pulls it harder)."""
@@ -113,8 +114,9 @@ _TABLE: dict[str, tuple[float, float, Bound, str]] = {
     "hook_wrap": (
         180.0,
         DEG,
-        Bound(0.0, 360.0, "deg", "the loop's turn over the hook's blade, up to a turn"),
-        "[choice] the loop hangs on the blade and turns back over it; 0 lets the thread slide round the blade freely",
+        Bound(0.0, 180.0, "deg", "the loop's turn over the hook's blade, at most a hairpin's"),
+        "[choice] the loop turns over the blade as its two legs meet there (a hairpin where they run "
+        "in the hook's plane), at most this; 0 lets the thread slide round the blade freely",
     ),
     "spring_force": (
         0.3,
