@@ -231,81 +231,96 @@ def case_leg(
 
     ``faces=False`` is the planar loop: the thread round the rim in the hook's plane only, as a
     tendon wrapping a cylinder makes it (MuJoCo's, :func:`mjlink.sim.thread.run_loop`)."""
+    return _leg(a, b, centre, radius, half_width, faces, towards=False)[0]
+
+
+def leg_and_arrival(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`case_leg` from ``a`` to the blade point ``b`` over the case's front face, and the
+    unit direction (N, 3) it reaches ``b`` in (x, y in the head's plane, z normal to it towards
+    the front face; a leg over the back face reaches it mirrored in z): along the straight
+    thread; round the rim, along its tangent from the case to ``b`` on the side the thread wraps
+    (the shorter way round); over the face, from the face's edge point down to ``b``, or, where
+    ``b`` does not see that point of the rim, along the tangent the thread leaves the case's
+    side by, falling as the helix unrolled into a plane does."""
+    length, into = _leg(a, b, centre, radius, half_width, True, towards=True)
+    assert into is not None
+    return length, into
+
+
+def _leg(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float, faces: bool, *, towards: bool
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`case_leg`'s length, and with ``towards`` :func:`leg_and_arrival`'s direction."""
     hits, _ = crossing(a, b, centre, radius)
     out: np.ndarray = np.hypot(*(b - a).T)
+    into = np.column_stack([b - a, np.zeros(len(a))]) if towards else None
     if hits.any():
-        rim = around_rim(a[hits], b[hits], centre, radius)
+        k = np.nonzero(hits)[0]
+        rim = around_rim(a[k], b[k], centre, radius)
         if not faces:
-            out[hits] = rim
-            return out
+            out[k] = rim
+            return out, into
         # Over the face the thread climbs the half-width and comes back down: never shorter than
         # that climb unrolled beside the straight segment. Where the rim's path is no longer,
         # the face's need not be sought.
-        may = rim > np.hypot(out[hits], 2.0 * half_width)
+        may = rim > np.hypot(out[k], 2.0 * half_width)
+        face = np.full(len(k), np.inf)
+        beta = np.zeros(len(k))  # the face's edge point on b's side
         if may.any():
-            k = np.nonzero(hits)[0][may]
-            rim[may] = np.minimum(rim[may], over_face(a[k], b[k], centre, radius, half_width)[0])
-        out[hits] = rim
+            face[may], angles = over_face(a[k[may]], b[k[may]], centre, radius, half_width)
+            beta[may] = angles[:, 1]
+        out[k] = np.minimum(rim, face)
+        if into is not None:
+            into[k] = _arriving(a[k], b[k], centre, radius, half_width, face < rim, beta)
+    if into is not None:
+        into /= np.linalg.norm(into, axis=1, keepdims=True)
+    return out, into
+
+
+def _arriving(
+    a: np.ndarray,
+    b: np.ndarray,
+    centre: np.ndarray,
+    radius: float,
+    half_width: float,
+    over: np.ndarray,
+    beta: np.ndarray,
+) -> np.ndarray:
+    """(N, 3), not unit: the last piece of a leg the case is in the way of, towards ``b``, over
+    the front face where ``over`` (its edge point on b's side at ``beta``), else round the rim."""
+    toward, seen, _, tb = _end(b, centre, radius)
+    # Round the rim: the tangent point before b in the sense the thread wraps.
+    ra, rb = a - centre, b - centre
+    sense = np.sign(ra[:, 0] * rb[:, 1] - ra[:, 1] * rb[:, 0])
+    phi = toward - sense * seen
+    t = centre + radius * np.column_stack([np.cos(phi), np.sin(phi)])
+    rim = np.column_stack([b - t, np.zeros(len(b))])
+    # Over the face: from the edge point, or off the side's tangent towards it.
+    delta = np.angle(np.exp(1j * (beta - toward)))
+    e = centre + radius * np.column_stack([np.cos(beta), np.sin(beta)])
+    direct = np.column_stack([b - e, np.full(len(b), -half_width)])
+    psi = toward + np.sign(delta) * seen
+    th = centre + radius * np.column_stack([np.cos(psi), np.sin(psi)])
+    unrolled = tb + radius * (np.abs(delta) - seen)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        helix = np.column_stack([b - th, -half_width * tb / unrolled])
+    on_face = np.where((np.abs(delta) <= seen)[:, None], direct, helix)
+    out: np.ndarray = np.where(over[:, None], on_face, rim)
     return out
 
 
-def arrival(
-    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float, side: float
-) -> np.ndarray:
-    """(N, 3): the unit direction in which the leg of :func:`case_leg` from ``a`` reaches the blade
-    point ``b`` (x, y in the head's plane, z normal to it towards the leg's face, ``side`` +1 or
-    -1): along the straight thread; round the rim, along its tangent from the case to ``b`` on the
-    side the thread wraps (the shorter way round); over the face, from the face's edge point
-    down to ``b``, or, where ``b`` does not see that point of the rim, along the tangent the
-    thread leaves the case's side by, falling as the helix unrolled into a plane does."""
-    n = len(a)
-    out = np.column_stack([b - a, np.zeros(n)])
-    hits, _ = crossing(a, b, centre, radius)
-    if hits.any():
-        k = np.nonzero(hits)[0]
-        ak, bk = a[k], b[k]
-        rim = around_rim(ak, bk, centre, radius)
-        straight = np.hypot(*(bk - ak).T)
-        may = rim > np.hypot(straight, 2.0 * half_width)
-        face = np.full(len(k), np.inf)
-        beta = np.zeros(len(k))
-        if may.any():
-            face[may], angles = over_face(ak[may], bk[may], centre, radius, half_width)
-            beta[may] = angles[:, 1]  # the edge point on b's side
-        toward, seen, _, tb = _end(bk, centre, radius)
-        # Round the rim: the tangent point before b in the sense the thread wraps.
-        ra = ak - centre
-        sense = np.sign(ra[:, 0] * (bk - centre)[:, 1] - ra[:, 1] * (bk - centre)[:, 0])
-        phi = toward - sense * seen
-        t = centre + radius * np.column_stack([np.cos(phi), np.sin(phi)])
-        v = np.column_stack([bk - t, np.zeros(len(k))])
-        # Over the face: from the edge point, or off the side's tangent towards it.
-        over = face < rim
-        delta = np.angle(np.exp(1j * (beta - toward)))
-        e = centre + radius * np.column_stack([np.cos(beta), np.sin(beta)])
-        direct = np.column_stack([bk - e, np.full(len(k), -side * half_width)])
-        psi = toward + np.sign(delta) * seen
-        th = centre + radius * np.column_stack([np.cos(psi), np.sin(psi)])
-        unrolled = tb + radius * (np.abs(delta) - seen)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            helix = np.column_stack([bk - th, -side * half_width * tb / unrolled])
-        on_face = np.where((np.abs(delta) <= seen)[:, None], direct, helix)
-        out[k] = np.where(over[:, None], on_face, v)
-    unit: np.ndarray = out / np.linalg.norm(out, axis=1, keepdims=True)
-    return unit
-
-
-def blade_turn(
-    a_eye: np.ndarray, a_fabric: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float
-) -> np.ndarray:
-    """(N,) rad: how far the thread turns at the blade point ``b`` between the loop's two legs of
-    :func:`case_leg`, the eye's from ``a_eye`` over the front face and the fabric's from
-    ``a_fabric`` over the back one: pi where both reach it from one direction (a hairpin), less
-    where they meet it at an angle."""
-    into = arrival(a_eye, b, centre, radius, half_width, 1.0)
-    away = -arrival(a_fabric, b, centre, radius, half_width, -1.0)
+def blade_turn(into_eye: np.ndarray, into_fabric: np.ndarray) -> np.ndarray:
+    """(N,) rad: how far the thread turns at the blade point between the loop's two legs, given
+    the directions each reaches it in over the front face (:func:`leg_and_arrival`): the eye's
+    leg passes the front face, the fabric's the back one (its direction mirrored in z). pi
+    where both reach it from one direction (a hairpin), less where they meet it at an angle."""
+    away = -into_fabric * np.array([1.0, 1.0, -1.0])
     # atan2 of the sine and cosine: exact at a hairpin, where arccos of the cosine is not.
-    out: np.ndarray = np.arctan2(np.linalg.norm(np.cross(into, away), axis=1), np.einsum("ij,ij->i", into, away))
+    out: np.ndarray = np.arctan2(
+        np.linalg.norm(np.cross(into_eye, away), axis=1), np.einsum("ij,ij->i", into_eye, away)
+    )
     return out
 
 
@@ -330,11 +345,11 @@ def held_loop(mech: Mechanism, positions: dict[str, np.ndarray]) -> np.ndarray:
 __all__ = [
     "NEWTON_STEPS",
     "around_rim",
-    "arrival",
     "blade_turn",
     "case_leg",
     "crossing",
     "held_loop",
+    "leg_and_arrival",
     "over_face",
     "wrapped",
 ]

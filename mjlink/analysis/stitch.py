@@ -12,7 +12,7 @@ import numpy as np
 
 from ..model.timing import Stroke, spring_pull, spring_stroke
 from ..units import MM
-from .loop import blade_turn, case_leg, wrapped
+from .loop import blade_turn, leg_and_arrival, wrapped
 
 if TYPE_CHECKING:
     from ..model.blocks import Crank
@@ -291,9 +291,10 @@ def _lock_below(
         i = np.nonzero(loop)[0]
         r, w = bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0
         blade = hp[i, :2]
-        leg_fabric = case_leg(bottom[i], blade, centre, r, w)
+        leg_fabric, to_fabric = leg_and_arrival(bottom[i], blade, centre, r, w)
         under_plate = y_eye[i] <= tm.plate
-        leg_eye = np.where(under_plate, case_leg(eye[i, :2], blade, centre, r, w), leg_fabric)
+        from_eye, to_eye = leg_and_arrival(eye[i, :2], blade, centre, r, w)
+        leg_eye = np.where(under_plate, from_eye, leg_fabric)
         to_hole = np.where(
             y_eye[i] <= top_y,
             y_eye[i] - tm.plate,  # down the needle in its hole
@@ -303,7 +304,8 @@ def _lock_below(
         # Up through the needle's hole and along the top to the last stitch's end.
         past[i] = leg_fabric + tm.fabric + (at.end[i] - at.hole[i])
         below[i] = under[i] + np.where(under_plate, 0.0, to_hole) + tm.fabric + (at.end[i] - at.hole[i])
-        turn[i] = blade_turn(np.where(under_plate[:, None], eye[i, :2], bottom[i]), bottom[i], blade, centre, r, w)
+        # The eye's leg over the front face, from the hole as the fabric's where the eye is above the plate.
+        turn[i] = blade_turn(np.where(under_plate[:, None], to_eye, to_fabric), to_fabric)
     return below, under, past, turn
 
 
