@@ -6,7 +6,8 @@ docs/head.md's table of published measurements (The shipped take-up, sized for t
 loop): the peak and where it is, the local
 peaks of the stitch, the hook point's upper points and where the check spring leaves its rest, the peak and the local
 peaks without the check spring, with 1.5x the needle tension, with twice
-the thread's elongation at break, with 2, 3 and 4 mm stitches, with 3 mm more spring travel, and
+the thread's elongation at break, with the last stitch giving 0.05, 0.1 and 0.2 mm/N into the
+fabric, with 2, 3 and 4 mm stitches, with 3 mm more spring travel, and
 the peak on a step 2.5x finer; then MuJoCo's thread (a tendon that only pulls, the spring a
 sprung slide) against the reference's anchored thread with friction off, and the reference with
 friction beside it. Then the cost: the CPU of the tension of one stitch (to its
@@ -113,6 +114,9 @@ def comparisons(path: Path | None = None) -> None:
     print(_row("1.5x the needle tension", needle_tension(mech, head, settings=s)))
     s = dataclasses.replace(DEFAULTS, elongation_at_break=2 * DEFAULTS.elongation_at_break)
     print(_row("twice the elongation at break", needle_tension(mech, head, settings=s)))
+    for give in (0.05, 0.1, 0.2):
+        s = dataclasses.replace(DEFAULTS, fabric_give=give * 1e-3)
+        print(_row(f"the fabric giving {give:g} mm/N", needle_tension(mech, head, settings=s)))
     assert mech.balance is not None
     for mm in (2.0, 3.0, 4.0):
         m = dataclasses.replace(mech, balance=dataclasses.replace(mech.balance, stitch_length=mm * 1e-3))

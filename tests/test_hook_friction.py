@@ -18,6 +18,7 @@ import re
 
 import numpy as np
 import pytest
+from threadchecks import tension_with
 
 from mjlink.analysis.tension import TensionError, needle_tension, prepare
 from mjlink.analysis.timing import head_timing
@@ -36,10 +37,6 @@ RATIO = 1e-6  # the contacts' states hold their bound to 1e-9 of the ratio; the 
 def head():
     mech = mechanism.load(HEAD)
     return mech, head_timing(mech)
-
-
-def _run(mech, timing, **change):
-    return needle_tension(mech, timing, settings=dataclasses.replace(mech.tension or DEFAULTS, **change))
 
 
 def _carried(mech, timing, t):
@@ -78,8 +75,8 @@ def test_without_friction_the_blade_parts_nothing(head):
     are the one stretch of a loop free on the blade, step for step, to rounding; the thread
     per stitch and the spring's travel are the same too."""
     mech, timing = head
-    free = _run(mech, timing, friction=0.0, hook_wrap=0.0)
-    parted = _run(mech, timing, friction=0.0)
+    free = tension_with(mech, timing, friction=0.0, hook_wrap=0.0)
+    parted = tension_with(mech, timing, friction=0.0)
     assert len(parted.zones) == len(free.zones) + 1
     scale = free.peak
     np.testing.assert_allclose(parted.tension[:-1], free.tension, rtol=0, atol=1e-9 * scale)
@@ -154,7 +151,7 @@ def test_the_blades_turn_raises_the_peak_where_the_loop_grows_and_leaves_the_dra
     so the peak rises by less than the capstan factor. The thread drawn per stitch, the slack
     below the eye and the check spring's travel are as with the loop free on the blade."""
     mech, timing = head
-    free = _run(mech, timing, hook_wrap=0.0)
+    free = tension_with(mech, timing, hook_wrap=0.0)
     held = needle_tension(mech, timing)
     cfg = mech.tension or DEFAULTS
     bound = math.exp(cfg.friction * cfg.hook_wrap)
@@ -170,7 +167,7 @@ def test_the_shipped_heads_peak_over_the_turns_docs_head_md_gives(head):
     90 and 180 deg (1.62, 1.79 and 2.16 N), the thread per stitch, the slack and the spring's
     travel the same at each."""
     mech, timing = head
-    runs = [_run(mech, timing, hook_wrap=math.radians(w)) for w in (0.0, 90.0, 180.0)]
+    runs = [tension_with(mech, timing, hook_wrap=math.radians(w)) for w in (0.0, 90.0, 180.0)]
     assert [round(t.peak, 2) for t in runs] == [1.62, 1.79, 2.16]  # N
     for t in runs[1:]:
         assert t.per_stitch == pytest.approx(runs[0].per_stitch, abs=1e-12)  # m

@@ -1,6 +1,7 @@
 """Checks of the needle thread's check spring shared by its tests (a slide and an arc alike):
 the Newton steps' stiffness against the pull's central difference, and MuJoCo's thread against
-the reference's with friction off."""
+the reference's with friction off; and a head's tension with some of its ``[tension]`` numbers
+changed."""
 
 from __future__ import annotations
 
@@ -14,6 +15,11 @@ from mjlink.analysis import tension, tension_many
 from mjlink.analysis.tension import needle_tension, step
 from mjlink.analysis.timing import head_timing
 from mjlink.model.tension import DEFAULTS
+
+
+def tension_with(mech, timing, **change):
+    """The head's needle tension with these ``[tension]`` numbers changed (SI)."""
+    return needle_tension(mech, timing, settings=dataclasses.replace(mech.tension or DEFAULTS, **change))
 
 
 def hook_stiffness_checked(pb, per_state: int, states: tuple[int, ...]) -> tuple[int, int]:

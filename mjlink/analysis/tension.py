@@ -22,11 +22,16 @@ set (one stitch length along the fabric's top and the fabric's thickness, down t
 interlacing and back) lies below the eye as well, so the take-up draws the loop tight against
 it; at the setting that stitch's thread is locked in the fabric and leaves the model. The
 thread drawn through the discs per stitch, in the periodic state, is what the stitches lock:
-consumption emerges from the tensions at the setting.
+consumption emerges from the tensions at the setting. While the hook carries the loop its
+blade point parts the thread below the eye into the eye's leg and the rest, a contact like any
+guide (``[tension] hook_wrap``). The last stitch's end, where the thread below the eye is
+anchored, gives into the fabric in proportion to that thread's pull (``[tension]
+fabric_give``: a compressible fabric, a spring in series with the anchored stretch).
 
 Not modelled (docs/head.md, The thread under tension): the thread's mass and waves along it,
-viscoelasticity, friction below the eye (round the hook's blade and the bobbin case, through
-the fabric), the bobbin thread's pull at the interlacing, the loop's shape in three dimensions.
+viscoelasticity, friction below the eye but the hook's blade's (over the bobbin case's faces,
+through the fabric), the bobbin thread's pull at the interlacing (its tension is the check of
+the stitch's setting, :attr:`NeedleTension.drawn_up`), a fabric's give other than linear.
 """
 
 from __future__ import annotations
@@ -492,6 +497,11 @@ def prepare(
     elif not held:
         lengths[-1] = stitching if below is None else np.asarray(below)[::every]
         wraps[-1] = cfg.eye_wrap
+    if anchored is None:
+        # The last stitch gives into the fabric as the thread anchored at it pulls: a spring
+        # of give per newton in series with that stretch, whose law (EA times the strain on
+        # the thread it holds) then holds EA * give more thread that never flows.
+        lengths[-1] += cfg.stiffness * cfg.fabric_give
 
     cs = path.index(bal.check_spring)
     travel = bal.check_spring_travel if spring else 0.0

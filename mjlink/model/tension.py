@@ -17,6 +17,7 @@ its mass and deg for the eye's wrap; here SI::
     spring_mass = 0.1         # g, at its hook
     spring_damping = 0.1      # a fraction of critical
     bobbin_tension = '25 gf'  # the bobbin thread drawn out of its case
+    fabric_give = 0.0         # mm/N: the last stitch's give into the fabric under the pull
 
 The check spring's point and travel are the ``[balance]`` table's (``check_spring``,
 ``check_spring_travel``).
@@ -50,7 +51,9 @@ class ThreadTension:
     0: the thread slides round the blade freely); the check spring's ``spring_force`` N at
     rest, ``spring_rate`` N/m, ``spring_mass`` kg and ``spring_damping`` (of critical); the
     bobbin thread's ``bobbin_tension`` N, drawn out of its case (the stitch is drawn up only
-    where the needle thread pulls it harder)."""
+    where the needle thread pulls it harder); ``fabric_give`` m/N, how far the last stitch's
+    end gives into the fabric per newton of the thread below the eye (a compressible fabric:
+    a spring in series with the thread anchored there; 0, a fabric that does not give)."""
 
     needle_tension: float
     breaking_load: float
@@ -63,6 +66,7 @@ class ThreadTension:
     spring_mass: float
     spring_damping: float
     bobbin_tension: float
+    fabric_give: float
 
     @property
     def stiffness(self) -> float:
@@ -149,6 +153,19 @@ _TABLE: dict[str, tuple[float, float, Bound, str]] = {
         1.0,
         Bound(0.0, 10.0, "N", "a bobbin thread's tension, some 0.1 to 1 N", lo_open=True),
         "Duerkopp Adler 650-10 instructions, p. 29: the bobbin thread's tension about 25 g",
+    ),
+    "fabric_give": (
+        0.0,
+        MM,
+        Bound(
+            0.0,
+            10.0,
+            "mm/N",
+            "how far the last stitch gives into the fabric per newton of pull: nothing in a hard "
+            "fabric, tenths of a millimetre in a soft one, millimetres in wadding",
+        ),
+        "[choice] a fabric that does not give under the stitch; no published figure for a "
+        "fabric's give under a stitch's pull was found",
     ),
 }
 
