@@ -102,7 +102,7 @@ def test_the_paper_take_ups_head_lowers_its_peak_less():
     mech = mechanism.load(PAPER)
     timing = head_timing(mech)
     peaks = [round(tension_with(mech, timing, fabric_give=g * MM).peak, 2) for g in (0.0, 0.05, 0.1, 0.2)]
-    assert peaks == [3.83, 3.82, 3.81, 3.80]
+    assert peaks == [3.83, 3.82, 3.81, 3.81]
 
 
 def test_no_give_is_the_rigid_fabric_bit_for_bit_and_the_anchored_thread_ignores_it(head):

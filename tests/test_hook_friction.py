@@ -47,9 +47,11 @@ def _carried(mech, timing, t):
 
 def test_the_hooks_blade_holds_the_loop_within_its_capstan_bound_and_slides_at_it(head):
     """Over the whole stitch, the stretch past the blade pulls at most exp(mu beta) times the
-    eye's leg and at least its inverse while the hook carries the loop, and exactly as hard
-    elsewhere (one thread). Where the loop grows the blade draws its thread over: the ratio
-    sits on the bound, at the stitch's peak too."""
+    eye's leg and at least its inverse while the hook carries the loop, beta the blade's turn
+    and the eye's leg's on the bobbin case, and exactly as hard elsewhere (one thread). Where
+    the loop grows the blade draws its thread over: the ratio sits on the bound, at the
+    stitch's peak too (a hairpin, the eye's leg clear of the case); and where the eye's leg
+    wraps the case the ratio goes beyond the hairpin's bound, up to the two together."""
     mech, timing = head
     t = needle_tension(mech, timing)
     assert t.zones[-2:] == ("below NE", "past the hook's blade")
@@ -60,11 +62,14 @@ def test_the_hooks_blade_holds_the_loop_within_its_capstan_bound_and_slides_at_i
     carried = _carried(mech, timing, t)
     every = len(timing.theta) // len(t.theta)
     turn = np.minimum(np.radians(np.nan_to_num(timing.balance.blade_turn[::every])), cfg.hook_wrap)
+    turn = turn + np.radians(np.nan_to_num(timing.balance.case_turn[::every]))
     taut = carried & (eye > 1e-6) & (past > 1e-6)
     ratio, most = past[taut] / eye[taut], np.exp(cfg.friction * turn[taut])
     assert (ratio <= most * (1 + RATIO)).all() and (ratio >= (1 - RATIO) / most).all()
     sliding = np.abs(ratio / bound - 1) <= RATIO
     assert sliding.sum() >= 20  # steps of a quarter degree with the thread drawn over the blade's hairpin
+    on_case = (ratio > bound * 1.01) & (np.abs(ratio / most - 1) <= RATIO)
+    assert on_case.sum() >= 20  # steps with the thread drawn over the blade and the case beside it
     np.testing.assert_allclose(past[~carried], eye[~carried], rtol=1e-9, atol=1e-12)
     k = int(np.argmax(past))
     assert t.peak == past[k] and carried[k] and past[k] / eye[k] == pytest.approx(bound, rel=RATIO)
@@ -241,3 +246,107 @@ def test_a_held_thread_sets_no_stitch():
     off = dataclasses.replace(DEFAULTS, friction=0.0)
     held = needle_tension(mech, timing, settings=off, anchored=float(longest.max()) - 5e-3, cycles=1)
     assert held.set_pull == 0.0 and held.drawn_up == 0.0
+
+
+def _polyline_turn(a, b, centre, r, w, edges, m=4000):
+    """rad: the turning of a leg's thread from ``a`` to ``b`` (2,) drawn as a polyline of its
+    path (the straight thread, round the rim, or up to the face's edge points ``edges``, across
+    and down, up a helix on the case's side where an end does not see its edge point), summed
+    as the angles between its pieces, the last piece's turn at ``b`` left out; and its length."""
+
+    def end(p, beta):
+        """The points from p (z = 0) up to the edge point at beta (z = w)."""
+        v = p - centre
+        d, to = math.hypot(*v), math.atan2(v[1], v[0])
+        seen = math.acos(r / d)
+        delta = math.remainder(beta - to, math.tau)
+        e = [*(centre + r * np.array([math.cos(beta), math.sin(beta)])), w]
+        if abs(delta) <= seen:
+            return [[*p, 0.0], e]
+        tang, phi = math.sqrt(d * d - r * r), abs(delta) - seen
+        u = tang + r * phi
+        s = np.linspace(0.0, phi, m)
+        ang = to + math.copysign(1.0, delta) * (seen + s)
+        z = w * (tang + r * s) / u
+        return [[*p, 0.0], *np.column_stack([centre[0] + r * np.cos(ang), centre[1] + r * np.sin(ang), z])]
+
+    if edges is None:  # round the rim in the middle plane
+        va, vb = a - centre, b - centre
+        sense = math.copysign(1.0, va[0] * vb[1] - va[1] * vb[0])
+        ta = math.atan2(va[1], va[0]) + sense * math.acos(r / math.hypot(*va))
+        tb = math.atan2(vb[1], vb[0]) - sense * math.acos(r / math.hypot(*vb))
+        arc = math.remainder(sense * (tb - ta), math.tau) % math.tau
+        ang = ta + sense * np.linspace(0.0, arc, m)
+        pts = [
+            [*a, 0.0],
+            *np.column_stack([centre[0] + r * np.cos(ang), centre[1] + r * np.sin(ang), 0 * ang]),
+            [*b, 0.0],
+        ]
+    else:
+        pts = end(a, edges[0]) + end(b, edges[1])[::-1]
+    pts = np.array(pts, dtype=float)
+    seg = np.diff(pts, axis=0)
+    seg = seg[np.linalg.norm(seg, axis=1) > 1e-15]
+    u = seg / np.linalg.norm(seg, axis=1, keepdims=True)
+    cos = np.clip(np.einsum("ij,ij->i", u[:-1], u[1:]), -1.0, 1.0)
+    sin = np.linalg.norm(np.cross(u[:-1], u[1:]), axis=1)
+    return float(np.arctan2(sin, cos).sum()), float(np.linalg.norm(seg, axis=1).sum())
+
+
+def _turns_checked(a, z, centre, r, w) -> dict[str, int]:
+    """Each leg from ``a`` to ``z`` (N, 2): its turn on the case against its polyline's; how
+    many of each kind of path were checked."""
+    from mjlink.analysis.loop import _end, case_turn, leg_and_arrival, over_face
+
+    length, _, turn = leg_and_arrival(a, z, centre, r, w)
+    face, edges = over_face(a, z, centre, r, w)
+    kinds = {"straight": 0, "rim": 0, "face": 0, "helix": 0}
+    for i in range(len(a)):
+        straight = abs(length[i] - math.hypot(*(z[i] - a[i]))) <= 1e-12
+        on_face = not straight and abs(length[i] - face[i]) <= 1e-12 * face[i]
+        kinds["straight" if straight else ("face" if on_face else "rim")] += 1
+        if straight:
+            assert turn[i] == 0.0
+            continue
+        if on_face:
+            for p, beta in ((a[i], edges[i, 0]), (z[i], edges[i, 1])):
+                to, seen, _, _ = (float(x[0]) for x in _end(p[None], centre, r))
+                kinds["helix"] += abs(math.remainder(beta - to, math.tau)) > seen
+        want, long = _polyline_turn(a[i], z[i], centre, r, w, edges[i] if on_face else None)
+        assert long == pytest.approx(length[i], rel=1e-6)  # the polyline's chords cut its arcs short
+        assert turn[i] == pytest.approx(want, abs=1e-5)  # rad: a 4,000-piece polyline of the helices
+        alone = case_turn(
+            a[i : i + 1], z[i : i + 1], centre, r, w, edges[i : i + 1] if on_face else np.full((1, 2), np.nan)
+        )
+        assert turn[i] == pytest.approx(float(alone[0]), abs=1e-12)
+    return kinds
+
+
+def test_the_eye_legs_turn_on_the_case_is_its_threads_turning_round_the_rim_and_over_the_face(head):
+    """The capstan angle the thread slides over the bobbin case by is how far its path turns on
+    the way, summed here over a fine polyline of the path itself: round the rim, the arc it
+    wraps; over the face, the turns at the face's edges, and up the case's side where an end
+    does not see its edge point and climbs a helix. On the shipped head's eye legs over the
+    carry, on points about its case, and about a thin case (where the helices are); the
+    polyline's length is the leg's, so it is the leg's own path."""
+    mech, timing = head
+    tm, bal, b = mech.timing, mech.balance, timing.balance
+    r, w = bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0
+    centre = timing.positions[hook_crank(mech).pivot][0, :2]
+    carried = np.isfinite(b.past)
+    hole = np.column_stack(
+        [timing.positions[tm.roles["needle_point"]][:, 0] + b.hole * 1e-3, np.full(len(b.past), tm.plate)]
+    )[carried][::20]
+    blade = timing.positions[tm.roles["hook_point"]][carried, :2][::20]
+    rng = np.random.default_rng(7)
+
+    def about(n, lo, hi):
+        ang, far = rng.uniform(0.0, math.tau, n), rng.uniform(lo, hi, n) * r
+        return centre + far[:, None] * np.column_stack([np.cos(ang), np.sin(ang)])
+
+    kinds = _turns_checked(
+        np.vstack([hole, about(60, 1.05, 2.5)]), np.vstack([blade, about(60, 1.05, 2.5)]), centre, r, w
+    )
+    assert min(kinds[k] for k in ("straight", "rim", "face")) >= 5, kinds
+    thin = _turns_checked(about(1500, 1.005, 1.3), about(1500, 1.005, 1.3), centre, r, r / 10.0)
+    assert thin["helix"] >= 3, thin

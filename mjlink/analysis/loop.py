@@ -236,47 +236,113 @@ def case_leg(
 
 def leg_and_arrival(
     a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`case_leg` from ``a`` to the blade point ``b`` over the case's front face, and the
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`case_leg` from ``a`` to the blade point ``b`` over the case's front face, the
     unit direction (N, 3) it reaches ``b`` in (x, y in the head's plane, z normal to it towards
-    the front face; a leg over the back face reaches it mirrored in z): along the straight
+    the front face; a leg over the back face reaches it mirrored in z), and (N,) rad how far it
+    turns on the case on its way (:func:`case_turn`). The direction: along the straight
     thread; round the rim, along its tangent from the case to ``b`` on the side the thread wraps
     (the shorter way round); over the face, from the face's edge point down to ``b``, or, where
     ``b`` does not see that point of the rim, along the tangent the thread leaves the case's
     side by, falling as the helix unrolled into a plane does."""
-    length, into = _leg(a, b, centre, radius, half_width, True, towards=True)
-    assert into is not None
-    return length, into
+    length, into, turn = _leg(a, b, centre, radius, half_width, True, towards=True)
+    assert into is not None and turn is not None
+    return length, into, turn
 
 
 def _leg(
     a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float, faces: bool, *, towards: bool
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """:func:`case_leg`'s length, and with ``towards`` :func:`leg_and_arrival`'s direction."""
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """:func:`case_leg`'s length, and with ``towards`` :func:`leg_and_arrival`'s direction and
+    turn on the case."""
     hits, _ = crossing(a, b, centre, radius)
     out: np.ndarray = np.hypot(*(b - a).T)
     into = np.column_stack([b - a, np.zeros(len(a))]) if towards else None
+    turn = np.zeros(len(a)) if towards else None
     if hits.any():
         k = np.nonzero(hits)[0]
         rim = around_rim(a[k], b[k], centre, radius)
         if not faces:
             out[k] = rim
-            return out, into
+            return out, into, turn
         # Over the face the thread climbs the half-width and comes back down: never shorter than
         # that climb unrolled beside the straight segment. Where the rim's path is no longer,
         # the face's need not be sought.
         may = rim > np.hypot(out[k], 2.0 * half_width)
         face = np.full(len(k), np.inf)
-        beta = np.zeros(len(k))  # the face's edge point on b's side
+        angles = np.zeros((len(k), 2))  # the face's edge points on a's and on b's side
         if may.any():
-            face[may], angles = over_face(a[k[may]], b[k[may]], centre, radius, half_width)
-            beta[may] = angles[:, 1]
+            face[may], angles[may] = over_face(a[k[may]], b[k[may]], centre, radius, half_width)
         out[k] = np.minimum(rim, face)
-        if into is not None:
-            into[k] = _arriving(a[k], b[k], centre, radius, half_width, face < rim, beta)
+        if into is not None and turn is not None:
+            over = face < rim
+            into[k] = _arriving(a[k], b[k], centre, radius, half_width, over, angles[:, 1])
+            turn[k] = case_turn(a[k], b[k], centre, radius, half_width, np.where(over[:, None], angles, np.nan))
     if into is not None:
         into /= np.linalg.norm(into, axis=1, keepdims=True)
-    return out, into
+    return out, into, turn
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(N,) rad between the directions ``u`` and ``v`` (N, 3), exact near 0 and pi."""
+    out: np.ndarray = np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), np.einsum("ij,ij->i", u, v))
+    return out
+
+
+def _at_edge(
+    a: np.ndarray, beta: np.ndarray, centre: np.ndarray, radius: float, half_width: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A free end ``a`` (N, 2) and its thread up to the front face's edge at ``beta`` (N,) rad
+    (:func:`_to_edge`'s path): the edge point (N, 3), the thread's direction arriving there
+    (N, 3, not unit) and how far it turned on the case's side first (N,) rad: nothing where it
+    runs straight to the edge, ``cos(gamma) * phi`` up a helix that winds ``phi`` round the side
+    at ``gamma`` to the face (a helix on a cylinder turns its tangent by ``cos(gamma)^2 /
+    radius`` per length, over ``radius * phi / cos(gamma)``)."""
+    toward, seen, _, ta = _end(a, centre, radius)
+    delta = np.angle(np.exp(1j * (beta - toward)))
+    edge = np.column_stack(
+        [centre[0] + radius * np.cos(beta), centre[1] + radius * np.sin(beta), np.full(len(a), half_width)]
+    )
+    direct = np.abs(delta) <= seen
+    straight = edge - np.column_stack([a, np.zeros(len(a))])
+    phi = np.abs(delta) - seen
+    u = ta + radius * phi  # the helix and its tangent unrolled, beside the climb
+    lean = np.hypot(u, half_width)
+    round_ = np.sign(delta)[:, None] * np.column_stack([-np.sin(beta), np.cos(beta), np.zeros(len(a))])
+    helix = (u / lean)[:, None] * round_ + np.column_stack([np.zeros((len(a), 2)), half_width / lean])
+    wound = np.where(direct, 0.0, phi * u / lean)
+    return edge, np.where(direct[:, None], straight, helix), wound
+
+
+def case_turn(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float, half_width: float, edges: np.ndarray
+) -> np.ndarray:
+    """(N,) rad: how far a leg of the loop from ``a`` to the blade point ``b`` ((N, 2) each,
+    in the case's middle plane) turns on the bobbin case, the capstan angle its thread slides
+    over the case by: the arc it wraps round the rim in the middle plane where ``edges`` is
+    NaN; over the front face where ``edges`` (N, 2) rad gives the face's edge points on a's and
+    on b's side (:func:`over_face`), its turns over the edge there (between its way up to the
+    edge and across the face, and across the face and down from it) and up and down the
+    case's side where it winds round it on a helix (:func:`_at_edge`); nothing where the case
+    is not in its way. The turn at ``b`` itself is the blade's (:func:`blade_turn`)."""
+    ra, rb = a - centre, b - centre
+    da, db = np.hypot(*ra.T), np.hypot(*rb.T)
+    between = np.arccos(np.clip(np.einsum("ij,ij->i", ra, rb) / (da * db), -1.0, 1.0))
+    arc = between - np.arccos(np.clip(radius / da, -1.0, 1.0)) - np.arccos(np.clip(radius / db, -1.0, 1.0))
+    hits, _ = crossing(a, b, centre, radius)
+    rim = np.where(hits, np.maximum(arc, 0.0), 0.0)
+    over = np.isfinite(edges).all(axis=1)
+    if not over.any():
+        return rim
+    e = np.where(over[:, None], edges, 0.0)
+    up_at, up, wound_a = _at_edge(a, e[:, 0], centre, radius, half_width)
+    down_at, down, wound_b = _at_edge(b, e[:, 1], centre, radius, half_width)
+    across = down_at - up_at
+    # Where both edge points are one the thread climbs to the edge and back without crossing.
+    one = np.linalg.norm(across, axis=1) <= 1e-12 * radius
+    at_edges = np.where(one, _angle(up, -down), _angle(up, across) + _angle(across, -down))
+    out: np.ndarray = np.where(over, at_edges + wound_a + wound_b, rim)
+    return out
 
 
 def _arriving(
@@ -347,6 +413,7 @@ __all__ = [
     "around_rim",
     "blade_turn",
     "case_leg",
+    "case_turn",
     "crossing",
     "held_loop",
     "leg_and_arrival",

@@ -260,14 +260,17 @@ def _geometry(
 
 def _lock_below(
     mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A lockstitch's needle thread below the eye (:func:`.timing.thread_balance`), the last stitch's
     end and the needle's hole where ``at`` puts them: ``(below the eye (N,) m, below the throat
-    plate (N,) m, past the blade point (N,) m, the turn at the blade point (N,) rad)``, the second
-    the loop's two legs while the hook carries it, the third the part of the first from the
-    blade point on (the fabric's leg, up through the hole and along the top to the last
-    stitch's end), the fourth the thread's turn between the legs there
-    (:func:`mjlink.analysis.loop.blade_turn`), all three NaN elsewhere.
+    plate (N,) m, past the blade point (N,) m, the turn at the blade point (N,) rad, the eye's
+    leg's turn on the case (N,) rad)``, the second the loop's two legs while the hook carries
+    it, the third the part of the first from the blade point on (the fabric's leg, up through
+    the hole and along the top to the last stitch's end), the fourth the thread's turn between
+    the legs there (:func:`mjlink.analysis.loop.blade_turn`), the fifth how far the eye's leg
+    turns on the bobbin case (:func:`mjlink.analysis.loop.case_turn`): the thread crossing the
+    blade slides over the case along that leg, while the fabric's leg, held at the last
+    stitch, is only laid on it; all four NaN elsewhere.
 
     Each leg runs to the hook's blade point outside the bobbin case on its own side
     (:func:`mjlink.analysis.loop.case_leg`): the fabric's from the underside of the needle's
@@ -287,13 +290,14 @@ def _lock_below(
     under = np.full(len(th), np.nan)
     past = np.full(len(th), np.nan)
     turn = np.full(len(th), np.nan)
+    slid = np.full(len(th), np.nan)
     if loop.any():
         i = np.nonzero(loop)[0]
         r, w = bal.bobbin_case / 2.0, bal.bobbin_case_width / 2.0
         blade = hp[i, :2]
-        leg_fabric, to_fabric = leg_and_arrival(bottom[i], blade, centre, r, w)
+        leg_fabric, to_fabric, on_fabric = leg_and_arrival(bottom[i], blade, centre, r, w)
         under_plate = y_eye[i] <= tm.plate
-        from_eye, to_eye = leg_and_arrival(eye[i, :2], blade, centre, r, w)
+        from_eye, to_eye, on_eye = leg_and_arrival(eye[i, :2], blade, centre, r, w)
         leg_eye = np.where(under_plate, from_eye, leg_fabric)
         to_hole = np.where(
             y_eye[i] <= top_y,
@@ -306,7 +310,8 @@ def _lock_below(
         below[i] = under[i] + np.where(under_plate, 0.0, to_hole) + tm.fabric + (at.end[i] - at.hole[i])
         # The eye's leg over the front face, from the hole as the fabric's where the eye is above the plate.
         turn[i] = blade_turn(np.where(under_plate[:, None], to_eye, to_fabric), to_fabric)
-    return below, under, past, turn
+        slid[i] = np.where(under_plate, on_eye, on_fabric)
+    return below, under, past, turn, slid
 
 
 def _chain_below(mech: Mechanism, head: HeadTiming, hook: Crank, at: StitchEnd) -> np.ndarray:

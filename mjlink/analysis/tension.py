@@ -24,13 +24,14 @@ it; at the setting that stitch's thread is locked in the fabric and leaves the m
 thread drawn through the discs per stitch, in the periodic state, is what the stitches lock:
 consumption emerges from the tensions at the setting. While the hook carries the loop its
 blade point parts the thread below the eye into the eye's leg and the rest, a contact like any
-guide (``[tension] hook_wrap``). The last stitch's end, where the thread below the eye is
+guide (``[tension] hook_wrap``) whose turn includes the eye's leg's on the bobbin case, which
+the thread crossing the blade slides over. The last stitch's end, where the thread below the eye is
 anchored, gives into the fabric in proportion to that thread's pull (``[tension]
 fabric_give``: a compressible fabric, a spring in series with the anchored stretch).
 
 Not modelled (docs/head.md, The thread under tension): the thread's mass and waves along it,
-viscoelasticity, friction below the eye but the hook's blade's (over the bobbin case's faces,
-through the fabric), the bobbin thread's pull at the interlacing (its tension is the check of
+viscoelasticity, friction below the eye but the hook's blade's and the bobbin case's (through
+the fabric), the bobbin thread's pull at the interlacing (its tension is the check of
 the stitch's setting, :attr:`NeedleTension.drawn_up`), a fabric's give other than linear.
 """
 
@@ -491,9 +492,12 @@ def prepare(
                 "no thread between them for the loop's turn over the blade (hook_wrap = 0 lets it slide freely)"
             )
         wraps[-2] = cfg.eye_wrap
-        # The legs' own turn at the blade point, at most the file's.
+        # The legs' own turn at the blade point, at most the file's; and the eye's leg's turn on
+        # the bobbin case, which the thread crossing the blade slides over on its way (the
+        # fabric's leg, held at the last stitch, is only laid on the case): one capstan.
         turn = np.radians(np.nan_to_num(head.balance.blade_turn[::every]))
-        wraps[-1] = np.where(carried & np.roll(carried, 1), np.minimum(turn, cfg.hook_wrap), 0.0)
+        on_case = np.radians(np.nan_to_num(head.balance.case_turn[::every]))
+        wraps[-1] = np.where(carried & np.roll(carried, 1), np.minimum(turn, cfg.hook_wrap) + on_case, 0.0)
     elif not held:
         lengths[-1] = stitching if below is None else np.asarray(below)[::every]
         wraps[-1] = cfg.eye_wrap

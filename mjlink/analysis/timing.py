@@ -527,7 +527,9 @@ class ThreadBalance:
     elsewhere), ``past`` (N,) mm the part of the thread below the eye past the hook's blade
     point then (the loop's leg from the blade to the needle's hole, up through it and along the
     top to the last stitch's end; NaN elsewhere), ``blade_turn`` (N,) deg the thread's turn at the
-    blade point between the loop's two legs then (NaN elsewhere), ``most_under`` its largest and ``most_under_at`` where the blade point then is,
+    blade point between the loop's two legs then (NaN elsewhere), ``case_turn`` (N,) deg how far
+    the eye's leg turns on the bobbin case then, where the thread slides over the case as it
+    crosses the blade (NaN elsewhere), ``most_under`` its largest and ``most_under_at`` where the blade point then is,
     deg of the hook's turn past its lowest point (six o'clock), NaN for a chain stitch;
     ``below`` (N,) mm the needle thread's taut length below the eye."""
 
@@ -544,6 +546,7 @@ class ThreadBalance:
     under: np.ndarray
     past: np.ndarray
     blade_turn: np.ndarray
+    case_turn: np.ndarray
     most_under: float
     most_under_at: float
     below: np.ndarray
@@ -582,13 +585,13 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     # the held loop's cast-off) and the needle's entry into the fabric: the take-up has drawn
     # the most thread.
     window = _between(th, release, enters)
-    under = past = turn = np.full(len(th), np.nan)
+    under = past = turn = slid = np.full(len(th), np.nan)
     if tm.stitch is StitchType.CHAIN:
         below = _chain_below(mech, head, hook, at)
         end = pick
         per_stitch = 3.0 * bal.stitch_length + 2.0 * tm.fabric
     else:
-        below, under, past, turn = _lock_below(mech, head, hook, at)
+        below, under, past, turn, slid = _lock_below(mech, head, hook, at)
         end = release
         per_stitch = bal.stitch_length + tm.fabric
     drawn, path_at, below_at, start = _set_point(th, path, below, window, enters)
@@ -687,6 +690,7 @@ def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
         under=under / MM,
         past=past / MM,
         blade_turn=np.degrees(turn),
+        case_turn=np.degrees(slid),
         most_under=most_under / MM,
         most_under_at=most_under_at,
         below=below / MM,

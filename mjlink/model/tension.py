@@ -48,7 +48,7 @@ class ThreadTension:
     ``EA = breaking_load / elongation_at_break`` (the secant modulus to break); ``friction`` the
     coefficient of thread on steel; ``eye_wrap`` rad; ``hook_wrap`` rad, the most the loop turns over
     the hook's blade while the hook carries it (it turns as its legs meet there, at most this;
-    0: the thread slides round the blade freely); the check spring's ``spring_force`` N at
+    0: the thread slides round the hook freely, over the blade and the bobbin case); the check spring's ``spring_force`` N at
     rest, ``spring_rate`` N/m, ``spring_mass`` kg and ``spring_damping`` (of critical); the
     bobbin thread's ``bobbin_tension`` N, drawn out of its case (the stitch is drawn up only
     where the needle thread pulls it harder); ``fabric_give`` m/N, how far the last stitch's
@@ -120,7 +120,7 @@ _TABLE: dict[str, tuple[float, float, Bound, str]] = {
         DEG,
         Bound(0.0, 180.0, "deg", "the loop's turn over the hook's blade, at most a hairpin's"),
         "[choice] the loop turns over the blade as its two legs meet there (a hairpin where they run "
-        "in the hook's plane), at most this; 0 lets the thread slide round the blade freely",
+        "in the hook's plane), at most this; 0 lets the thread slide round the hook freely (blade and bobbin case)",
     ),
     "spring_force": (
         0.3,
