@@ -1,6 +1,7 @@
 """docs/head.md's figures for the needle thread under tension that no other test holds: the head
 with the paper's take-up against the published measurements, where the hook pulls hardest
-against six o'clock, and the check spring's hook made lighter. Each figure is held to the
+against six o'clock, the check spring's hook made lighter, and the slack the spring should
+take up until the needle's eye reaches the fabric. Each figure is held to the
 digits the page prints it with (within half its last digit), so a change of the model that
 moves one fails here until the page says so too.
 """
@@ -144,3 +145,35 @@ def test_a_lighter_check_spring_hook_is_the_pages():
     assert round(light.peak, 2) == 3.58 and light.peak_at[0] == "past the hook's blade"
     half = needle_tension(mech, timing, settings=dataclasses.replace(cfg, spring_mass=0.05e-3))
     assert round(_spring_moves(half)[1][0]) == 105
+
+
+def _spans(t) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """deg: the stitch's spans with the thread below the eye slack, and taut: (from, to) each,
+    round the stitch's end where one runs over it."""
+    s = t.slack.astype(bool)
+    # The steps are quarter degrees: to the page's two decimals.
+    goes = [round(float(t.theta[i]), 2) for i in range(len(s)) if s[i] and not s[i - 1]]
+    back = [round(float(t.theta[i]), 2) for i in range(len(s)) if not s[i] and s[i - 1]]
+    if back[0] < goes[0]:
+        back = back[1:] + back[:1]
+    return list(zip(goes, back, strict=True)), list(zip(back, goes[1:] + goes[:1], strict=True))
+
+
+def test_the_check_spring_takes_up_the_slack_until_the_eye_reaches_the_fabric_as_the_pages_row(paper):
+    """The US Navy manual's row: the spring should take up the slack until the needle's eye
+    reaches the material (at 117 deg). The shipped head's thread below the eye is slack from 71
+    to 144.25 deg, across it, its spring off its rest from 35.5 deg; with a 0.01 g hook taut
+    from 23.5 to 290.75 deg; the head with the paper's take-up taut from 66.25 to 191.25."""
+    mech = mechanism.load(HEAD)
+    timing = head_timing(mech)
+    y = timing.positions[mech.timing.roles["needle_eye"]][:, 1]
+    top = mech.timing.plate + mech.timing.fabric
+    into = [float(timing.theta[i]) for i in range(1, len(y)) if y[i - 1] > top >= y[i]]
+    assert [round(a) for a in into] == [117]
+    t = needle_tension(mech, timing)
+    assert (71.0, 144.25) in _spans(t)[0] and 71.0 < into[0] < 144.25
+    assert _spring_moves(t)[0][0] == pytest.approx(35.5, abs=0.125)  # deg: half a step
+    light = needle_tension(mech, timing, settings=dataclasses.replace(mech.tension or DEFAULTS, spring_mass=0.01e-3))
+    assert (23.5, 290.75) in _spans(light)[1]
+    _, _, pt = paper
+    assert _spans(pt)[1] == [(227.75, 288.5), (66.25, 191.25)]
