@@ -177,3 +177,21 @@ def test_the_check_spring_takes_up_the_slack_until_the_eye_reaches_the_fabric_as
     assert (23.5, 290.75) in _spans(light)[1]
     _, _, pt = paper
     assert _spans(pt)[1] == [(227.75, 288.5), (66.25, 191.25)]
+
+
+def test_the_check_spring_set_to_jukis_forces_is_the_pages_row():
+    """Juki's row: the file's spring at rest (0.3 N) against Juki's 0.1 to 0.3 N (LK-1900B) and
+    7 to 20 g for synthetic thread (DDL-555-4); at 0.2, 0.15 and 0.1 N the peaks 2.32, 1.78 and
+    1.69 N, the loop slack for 242.25, 254.75 and 267 deg, the spring's travel 3.5, 4.0 and 4.9
+    mm; the thread per stitch and the pull on the stitch as set the same."""
+    mech = mechanism.load(HEAD)
+    timing = head_timing(mech)
+    cfg = mech.tension or DEFAULTS
+    assert round(cfg.spring_force / GF, 1) == 30.6 and mech.balance.check_spring_travel == pytest.approx(7e-3)
+    runs = [needle_tension(mech, timing, settings=dataclasses.replace(cfg, spring_force=f)) for f in (0.2, 0.15, 0.1)]
+    assert [round(r.peak, 2) for r in runs] == [2.32, 1.78, 1.69]
+    # deg: the slack's span counts the tension's quarter-degree steps
+    assert [float(r.slack.mean()) * 360.0 for r in runs] == pytest.approx([242.25, 254.75, 267.0], abs=1e-9)
+    assert [round(float(r.spring.max()) * 1e3, 1) for r in runs] == [3.5, 4.0, 4.9]
+    assert [round(r.per_stitch * 1e3, 4) for r in runs] == [4.5] * 3
+    assert [round(r.set_pull, 2) for r in runs] == [0.28] * 3
