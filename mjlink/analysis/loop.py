@@ -65,15 +65,26 @@ def crossing(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float) ->
     return hits, np.where(hits[:, None], s, np.nan)
 
 
-def around_rim(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
-    """(N,) m: the shortest thread from ``a`` to ``b`` in the plane round a circle (the case's
-    rim) the shorter way: tangent, arc, tangent; the straight segment where the circle is not
-    in the way. A point inside the circle has no such path: +inf."""
+def _rim_arc(
+    a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(N,) rad: the arc a thread from ``a`` to ``b`` wraps round a circle the shorter way,
+    between its tangent points (not positive where the circle is not in its way); with the
+    ends' distances from the centre."""
     ra, rb = a - centre, b - centre
     da, db = np.hypot(*ra.T), np.hypot(*rb.T)
     with np.errstate(invalid="ignore"):
         between = np.arccos(np.clip(np.einsum("ij,ij->i", ra, rb) / (da * db), -1.0, 1.0))
         arc = between - np.arccos(np.clip(radius / da, -1.0, 1.0)) - np.arccos(np.clip(radius / db, -1.0, 1.0))
+    return arc, da, db
+
+
+def around_rim(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
+    """(N,) m: the shortest thread from ``a`` to ``b`` in the plane round a circle (the case's
+    rim) the shorter way: tangent, arc, tangent; the straight segment where the circle is not
+    in the way. A point inside the circle has no such path: +inf."""
+    arc, da, db = _rim_arc(a, b, centre, radius)
+    with np.errstate(invalid="ignore"):
         wrap = np.sqrt(np.maximum(da**2 - radius**2, 0.0)) + np.sqrt(np.maximum(db**2 - radius**2, 0.0)) + radius * arc
     straight = np.hypot(*(b - a).T)
     out: np.ndarray = np.where((da < radius) | (db < radius), np.inf, np.where(arc > 0.0, wrap, straight))
@@ -325,10 +336,7 @@ def case_turn(
     edge and across the face, and across the face and down from it) and up and down the
     case's side where it winds round it on a helix (:func:`_at_edge`); nothing where the case
     is not in its way. The turn at ``b`` itself is the blade's (:func:`blade_turn`)."""
-    ra, rb = a - centre, b - centre
-    da, db = np.hypot(*ra.T), np.hypot(*rb.T)
-    between = np.arccos(np.clip(np.einsum("ij,ij->i", ra, rb) / (da * db), -1.0, 1.0))
-    arc = between - np.arccos(np.clip(radius / da, -1.0, 1.0)) - np.arccos(np.clip(radius / db, -1.0, 1.0))
+    arc = _rim_arc(a, b, centre, radius)[0]
     hits, _ = crossing(a, b, centre, radius)
     rim = np.where(hits, np.maximum(arc, 0.0), 0.0)
     over = np.isfinite(edges).all(axis=1)
@@ -382,12 +390,8 @@ def blade_turn(into_eye: np.ndarray, into_fabric: np.ndarray) -> np.ndarray:
     the directions each reaches it in over the front face (:func:`leg_and_arrival`): the eye's
     leg passes the front face, the fabric's the back one (its direction mirrored in z). pi
     where both reach it from one direction (a hairpin), less where they meet it at an angle."""
-    away = -into_fabric * np.array([1.0, 1.0, -1.0])
-    # atan2 of the sine and cosine: exact at a hairpin, where arccos of the cosine is not.
-    out: np.ndarray = np.arctan2(
-        np.linalg.norm(np.cross(into_eye, away), axis=1), np.einsum("ij,ij->i", into_eye, away)
-    )
-    return out
+    # Exact at a hairpin (:func:`_angle`), where arccos of the cosine is not.
+    return _angle(into_eye, -into_fabric * np.array([1.0, 1.0, -1.0]))
 
 
 def held_loop(mech: Mechanism, positions: dict[str, np.ndarray]) -> np.ndarray:
