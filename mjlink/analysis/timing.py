@@ -72,6 +72,9 @@ UNION_SPECIAL_LOOP = 89.0 * MM
 """Needle thread carried below the material and round the bobbin per stitch, m: "approximately
 3-1/2 inches or 8.9 cm" (Union Special, *301 Stitch* technical manual, Introduction)."""
 
+EYE_STITCHES = "thread through the eye before the seam"
+"""The measured value (``HeadTiming.values``, in stitches) of :attr:`ThreadBalance.eye_stitches`."""
+
 LABELS = {
     "thread_shortfall": "thread short of what needle and loop take",
     "thread_slack": "slack the check spring must hold",
@@ -229,7 +232,8 @@ def head_timing(mech: Mechanism, samples: int = 7200) -> HeadTiming:
     if mech.balance is None or not mech.thread:
         return head
     bal = thread_balance(mech, head)
-    return dataclasses.replace(head, rows=head.rows + bal.rows, balance=bal)
+    values = {**head.values, EYE_STITCHES: (bal.eye_stitches, "stitches")}
+    return dataclasses.replace(head, rows=head.rows + bal.rows, balance=bal, values=values)
 
 
 def measure(tm: Timing, hook: Crank | None, u: np.ndarray, pos: dict[str, np.ndarray]) -> HeadTiming:
@@ -551,6 +555,19 @@ class ThreadBalance:
     most_under_at: float
     below: np.ndarray
 
+    @property
+    def eye_stitches(self) -> float:
+        """Stitches a piece of needle thread goes up and down through the needle's eye before it
+        lies in the seam: the longest thread below the eye over the thread a stitch holds.
+
+        The thread at the eye is the thread the stitches have taken plus what lies below the eye,
+        so a piece first reaches the eye when the thread below it is longest (``below``'s
+        largest), that much thread from the last stitch's end; each stitch set then takes
+        ``per_stitch`` of it, and the piece lies in the seam once they have taken all that
+        (the whole stitches from its first pass to the seam are this, rounded up or down)."""
+        taut = self.below[np.isfinite(self.below)]
+        return float(taut.max()) / self.per_stitch if taut.size else math.nan
+
 
 def thread_balance(mech: Mechanism, head: HeadTiming) -> ThreadBalance:
     """The needle thread's balance over the stitch ``head`` measured.
@@ -704,6 +721,7 @@ def _of(x: Any, i: int, b: Batch) -> float:
 
 __all__ = [
     "BALANCE",
+    "EYE_STITCHES",
     "GENERAL",
     "LABELS",
     "HeadTiming",
