@@ -90,3 +90,37 @@ def test_the_shipped_head_sewn_as_published_passes_the_eye_fewer_times_its_loop_
     assert _sewn(PUBLISHED_STITCH_MM, 1e-4).eye_stitches == pytest.approx(41.49, abs=0.005)
     # A shorter stitch on the thinner scrap: more passes (s + t a stitch).
     assert _sewn(1.0, 0.3).eye_stitches == pytest.approx(69.53, abs=0.005)
+
+
+def test_the_tension_models_thread_below_the_eye_counts_alike():
+    """The balance's thread below the eye is taut and unstretched; the tension model's, at the
+    file's speed, holds less where it is stretched and more where it is slack. Its longest (the
+    thread each stretch from the eye down holds, in the periodic stitch) gives 20.92 stitches on
+    the shipped head, within 1 % of the balance's 20.80 (docs/head.md)."""
+    from mjlink.analysis import tension
+    from mjlink.analysis.tension_result import _below
+
+    mech = mechanism.load(HEAD)
+    head = head_timing(mech)
+    held: dict[int, float] = {}
+    real = tension._Thread.settle
+    first = []
+
+    def settle(self, k, xh, s, prev, state):
+        now = real(self, k, xh, s, prev, state)
+        # The last settling of a step is the one kept: the last stitch's overwrites the rest.
+        held[k] = sum(L - x for L, x in zip(now.L[first[0] :], now.s[first[0] :], strict=True))
+        return now
+
+    pb = tension.prepare(mech, head)
+    first.append(_below(pb.zones))
+    tension._Thread.settle = settle
+    try:
+        t = tension.step(pb)
+    finally:
+        tension._Thread.settle = real
+    assert t.converged and len(held) == len(t.theta)
+    count = max(held.values()) / t.formula
+    assert count == pytest.approx(20.92, abs=0.005)  # docs/head.md's figure, to its last digit
+    assert head.balance is not None
+    assert count == pytest.approx(head.balance.eye_stitches, rel=0.01)
