@@ -123,4 +123,5 @@ def test_the_tension_models_thread_below_the_eye_counts_alike():
     count = max(held.values()) / t.formula
     assert count == pytest.approx(20.92, abs=0.005)  # docs/head.md's figure, to its last digit
     assert head.balance is not None
+    # The two differ by the thread's stretch and slack below the eye: docs/head.md's 1 %.
     assert count == pytest.approx(head.balance.eye_stitches, rel=0.01)
