@@ -120,6 +120,9 @@ def test_the_tension_models_thread_below_the_eye_counts_alike():
     finally:
         tension._Thread.settle = real
     assert t.converged and len(held) == len(t.theta)
+    longest = max(held, key=held.__getitem__)
+    assert round(held[longest] * 1e3, 2) == 94.13 and float(pb.theta[longest]) == 306.25
+    assert t.slack[longest]  # the loop slack there
     count = max(held.values()) / t.formula
     assert count == pytest.approx(20.92, abs=0.005)  # docs/head.md's figure, to its last digit
     assert head.balance is not None
