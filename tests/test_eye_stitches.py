@@ -102,18 +102,17 @@ def test_the_tension_models_thread_below_the_eye_counts_alike():
 
     mech = mechanism.load(HEAD)
     head = head_timing(mech)
+    pb = tension.prepare(mech, head)
+    eye = _below(pb.zones)
     held: dict[int, float] = {}
     real = tension._Thread.settle
-    first = []
 
     def settle(self, k, xh, s, prev, state):
         now = real(self, k, xh, s, prev, state)
         # The last settling of a step is the one kept: the last stitch's overwrites the rest.
-        held[k] = sum(L - x for L, x in zip(now.L[first[0] :], now.s[first[0] :], strict=True))
+        held[k] = sum(L - x for L, x in zip(now.L[eye:], now.s[eye:], strict=True))
         return now
 
-    pb = tension.prepare(mech, head)
-    first.append(_below(pb.zones))
     tension._Thread.settle = settle
     try:
         t = tension.step(pb)
