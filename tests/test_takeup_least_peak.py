@@ -196,3 +196,105 @@ def test_the_example_holds_every_bound_under_tolerances_the_study_did_not_draw()
     own = study.evaluate(m, {"construct.P5.angle": [WINNER["construct.P5.angle"]]}, STUDY["metric"], per_turn=720)
     assert round(float(own.columns["eyelet_travel"][0]), 1) == 45.6
     assert round(float(own.columns["eyelet_acceleration"][0]), -1) == 11180.0
+
+
+SLACK = tomllib.loads((shipped("studies") / "lockstitch_head_takeup_peak_slack.toml").read_text())
+# docs/head.md: the slack-bounded study's winner, as the page lists it (mm, deg).
+BOUNDED = {
+    "construct.P2.angle": -15.23,
+    "construct.P2.length": 25.82,
+    "construct.P3.length_a": 62.40,
+    "construct.P3.length_b": 78.16,
+    "ground.P4.x": -52.90,
+    "ground.P4.y": 68.77,
+    "construct.P5.length": 69.37,
+    "construct.P5.angle": 32.62,
+}
+
+
+def test_the_slack_bounded_study_is_the_least_peak_study_with_the_loops_bound():
+    """Its file says: everything is the least-peak study's but one bound more, the loop slack for
+    at most the shipped head's 230.5 deg at the study's 720 steps."""
+    extra = [b for b in SLACK["bound"] if b not in STUDY["bound"]]
+    assert extra == [{"metric": "tension_slack", "max": 230.5}]
+    assert [b for b in SLACK["bound"] if b in STUDY["bound"]] == STUDY["bound"]
+    for key in ("parameter", "metric", "optimize", "robust"):
+        assert SLACK[key] == STUDY[key], key
+    assert {k: v for k, v in SLACK["study"].items() if k != "title"} == {
+        k: v for k, v in STUDY["study"].items() if k != "title"
+    }
+    head = mechanism.load(HEAD)
+    e = study.evaluate(head, {"construct.P5.angle": [32.62]}, STUDY["metric"], per_turn=720)
+    assert round(float(e.columns["tension_slack"][0]), 2) == 230.5  # deg: the shipped head's, the bound
+
+
+@pytest.fixture(scope="module")
+def bounded():
+    head = mechanism.load(HEAD)
+    m = paths.apply(head, {paths.resolve(head, k): v for k, v in BOUNDED.items()})
+    h = head_timing(m)
+    return m, h, needle_tension(m, h)
+
+
+def test_the_slack_bounded_winner_is_the_pages_last_column(bounded, both):
+    m, h, t = bounded
+    blade = "past the hook's blade"
+    assert (round(t.peak, 2), t.peak_at[0]) == (1.75, blade) and t.peak_at[1] == pytest.approx(254.25, abs=1e-9)
+    assert round(t.peak / 9.80665e-3) == 178
+    top = t.tension.max(axis=0)
+    up = (top > np.roll(top, 1)) & (top >= np.roll(top, -1)) & (top > 5 * 9.80665e-3)
+    assert [
+        (round(float(a), 2), round(float(g) / 9.80665e-3, 1)) for a, g in zip(t.theta[up], top[up], strict=True)
+    ] == [
+        (57.75, 71.8),
+        (165.0, 158.5),
+        (254.25, 178.5),
+    ]
+    alone = needle_tension(m, h, spring=False).tension.max(axis=0)
+    up = (alone > np.roll(alone, 1)) & (alone >= np.roll(alone, -1)) & (alone > 5 * 9.80665e-3)
+    assert [round(float(g) / 9.80665e-3) for g in alone[up]] == [66, 62, 38]
+    assert t.converged and all(r.ok for r in h.rows if r.counts)
+    got = _column(m, h, t)
+    assert (got["held"], got["slack"], got["spare"], got["loose"]) == (1.86, 10.05, 2.58, 230.5)
+    assert got["tighter"] == (3.09, blade) and got["stretchier"] == (1.73, blade)
+    assert (round(got["stitches"][0], 2), got["stitches"][1]) == (1.03, 2.54)
+    assert round(got["give"], 2) == 1.59 and got["travel"] == 2.27
+    # Every published direction the shipped head follows: more pre-tension, feed and spring
+    # travel raise the peak; a stretchier thread and a fabric that gives lower it. And lower
+    # than the shipped head's in every row, the loop slack 1.5 deg less.
+    assert got["tighter"][0] > t.peak and got["travel"] > t.peak
+    assert got["stitches"][0] < t.peak < got["stitches"][1]
+    assert got["stretchier"][0] < t.peak and got["give"] < t.peak
+    ms, hs, ts = both["shipped"]
+    ship = _column(ms, hs, ts)
+    for key in ("tighter", "stretchier"):
+        assert got[key][0] < ship[key][0], key
+    assert got["stitches"][0] < ship["stitches"][0] and got["stitches"][1] < ship["stitches"][1]
+    assert got["give"] < ship["give"] and got["travel"] < ship["travel"] and t.peak < ts.peak
+    assert ship["loose"] - got["loose"] == 1.5
+
+
+def test_the_slack_bounded_winner_under_the_same_tolerances_as_the_least_peak():
+    """The 16 sets of the least peak's test, about this design: every bound holds but the
+    loop's, which it misses in one set by one of the study's half-degree steps; its peak, the
+    shortfall, and the eyelet's travel and acceleration the page gives."""
+    head = mechanism.load(HEAD)
+    rng = np.random.default_rng(20261201)
+    values = {
+        p["path"]: BOUNDED[p["path"]] + rng.uniform(-p["tolerance"], p["tolerance"], 16) for p in SLACK["parameter"]
+    }
+    e = study.evaluate(head, values, SLACK["metric"], per_turn=720)
+    assert e.feasible.all()
+    for b in SLACK["bound"]:
+        col = e.columns[b["metric"]]
+        ok = (col >= b.get("min", -np.inf)) & (col <= b.get("max", np.inf))
+        if b["metric"] == "tension_slack":
+            assert np.round(col[~ok], 2).tolist() == [231.0]
+        else:
+            assert ok.all(), b
+    peak = e.columns["tension_peak"]
+    assert round(float(peak.min()), 2) == 1.73 and round(float(peak.max()), 2) == 1.88
+    assert round(float(e.columns["timing_thread_shortfall"].max()), 2) == 1.96
+    own = study.evaluate(head, {k: [v] for k, v in BOUNDED.items()}, SLACK["metric"], per_turn=720)
+    assert round(float(own.columns["eyelet_travel"][0]), 1) == 43.2
+    assert round(float(own.columns["eyelet_acceleration"][0]), -1) == 10590.0
