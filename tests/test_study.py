@@ -550,3 +550,21 @@ def test_a_speed_in_a_column_name_reads_in_rpm_and_the_old_name_still_works(capl
         len(notes) == 1
         and "'shaking_force_peak_at_523p6rad_s' is now named 'shaking_force_peak_at_5000rpm'" in notes[0]
     )
+
+
+def test_every_shipped_study_file_reads_with_its_own_name(tmp_path):
+    """A shipped study is run by its file's name: each reads, and a name one letter too long
+    for the mechanism names (32) is refused in one line that says where the name came from."""
+    from mjlink.model.catalogue import shipped
+    from mjlink.study import spec
+
+    files = sorted(shipped("studies").glob("*.toml"))
+    assert files
+    for path in files:
+        assert spec.load(path).name == path.stem
+    long = tmp_path / ("s" * 33 + ".toml")
+    long.write_text(files[0].read_text())
+    with pytest.raises(MjlinkError) as e:
+        spec.load(long)
+    msg = str(e.value)
+    assert "\n" not in msg and "at most 31 letters" in msg and "the file's name" in msg

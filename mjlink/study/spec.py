@@ -322,7 +322,10 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
     default = Path(path).stem if path != "<string>" else "study"
     name = st.get("name", default)
     if not isinstance(name, str) or not _names.is_valid(name):
-        raise _fail(src, "[study] name", f"must be a name of letters, digits and _ (got {shown(name)})")
+        whence = "" if "name" in st else ", the file's name: set [study] name or rename the file"
+        raise _fail(
+            src, "[study] name", f"must be a letter, then at most 31 letters, digits or _ (got {shown(name)}{whence})"
+        )
     title = st.get("title", "")
     if not isinstance(title, str) or len(title) > MAX_TITLE_CHARS or not title.isprintable():
         raise _fail(src, "[study] title", f"must be one line of printable text of at most {MAX_TITLE_CHARS} characters")
