@@ -88,12 +88,12 @@ def test_a_fabric_that_gives_lowers_the_peak_as_published(head):
     mech, timing = head
     runs = [tension_with(mech, timing, fabric_give=g * MM) for g in (0.0, 0.05, 0.1, 0.2)]
     peaks = [round(r.peak, 2) for r in runs]
-    assert peaks == [2.16, 2.10, 2.05, 1.95]
+    assert peaks == [1.75, 1.71, 1.66, 1.59]
     assert all(r.peak_at[0] == "past the hook's blade" for r in runs)
     assert [round(r.per_stitch / MM, 4) for r in runs] == [4.5] * 4
-    assert [round(r.set_pull, 3) for r in runs] == [0.285] * 4
+    assert [round(r.set_pull, 3) for r in runs] == [0.287] * 4
     # The slack's span counts the tension's quarter-degree steps.
-    assert [float(r.slack.mean()) * 360.0 for r in runs] == pytest.approx([232.0, 231.25, 230.5, 229.75], abs=1e-9)
+    assert [float(r.slack.mean()) * 360.0 for r in runs] == pytest.approx([230.5, 230.25, 230.0, 228.5], abs=1e-9)
 
 
 def test_the_paper_take_ups_head_lowers_its_peak_less():

@@ -535,7 +535,7 @@ def _loop_phase(t):
 def test_a_take_up_with_its_stroke_cut_by_30_percent_cannot_supply_the_loop(tmp_path):
     """The take-up lever's arm to the eyelet 30 % shorter: the eyelet's stroke, and with it the
     thread the take-up gives out, fall short of what the loop takes: the supply row fails."""
-    t = head_timing(_edited(tmp_path, r'(point = "P5".*\n(?:.*\n){4}length = )69\.81', r"\g<1>48.87", "short.toml"))
+    t = head_timing(_edited(tmp_path, r'(point = "P5".*\n(?:.*\n){4}length = )69\.37', r"\g<1>48.56", "short.toml"))
     row = _row(t, "thread_shortfall")
     assert not row.ok and row.counts and row.value > 1.5 * row.window.hi
     (line,) = [f for f in t.failures() if "shortfall" in f]

@@ -50,7 +50,7 @@ def test_the_hooks_blade_holds_the_loop_within_its_capstan_bound_and_slides_at_i
     eye's leg and at least its inverse while the hook carries the loop, beta the blade's turn
     and the eye's leg's on the bobbin case, and exactly as hard elsewhere (one thread). Where
     the loop grows the blade draws its thread over: the ratio sits on the bound, at the
-    stitch's peak too (a hairpin, the eye's leg clear of the case); and where the eye's leg
+    stitch's peak too (the eye's leg just on the case there); and where the eye's leg
     wraps the case the ratio goes beyond the hairpin's bound, up to the two together."""
     mech, timing = head
     t = needle_tension(mech, timing)
@@ -72,7 +72,14 @@ def test_the_hooks_blade_holds_the_loop_within_its_capstan_bound_and_slides_at_i
     assert on_case.sum() >= 20  # steps with the thread drawn over the blade and the case beside it
     np.testing.assert_allclose(past[~carried], eye[~carried], rtol=1e-9, atol=1e-12)
     k = int(np.argmax(past))
-    assert t.peak == past[k] and carried[k] and past[k] / eye[k] == pytest.approx(bound, rel=RATIO)
+    # The peak, 254.25 deg, is half a degree after the eye's leg first touches the case (253.75 deg):
+    # its ratio is the blade's and the case's bound together, just above the hairpin's.
+    assert (
+        t.peak == past[k]
+        and carried[k]
+        and past[k] / eye[k] == pytest.approx(math.exp(cfg.friction * turn[k]), rel=RATIO)
+    )
+    assert 1.0 < past[k] / eye[k] / bound < 1.01
 
 
 def test_without_friction_the_blade_parts_nothing(head):
@@ -169,11 +176,11 @@ def test_the_blades_turn_raises_the_peak_where_the_loop_grows_and_leaves_the_dra
 
 def test_the_shipped_heads_peak_over_the_turns_docs_head_md_gives(head):
     """The blade's turn is capped by a choice: docs/head.md gives the shipped head's peak at 0,
-    90 and 180 deg (1.62, 1.79 and 2.16 N), the thread per stitch, the slack and the spring's
+    90 and 180 deg (1.55, 1.55 and 1.75 N), the thread per stitch, the slack and the spring's
     travel the same at each."""
     mech, timing = head
     runs = [tension_with(mech, timing, hook_wrap=math.radians(w)) for w in (0.0, 90.0, 180.0)]
-    assert [round(t.peak, 2) for t in runs] == [1.62, 1.79, 2.16]  # N
+    assert [round(t.peak, 2) for t in runs] == [1.55, 1.55, 1.75]  # N
     for t in runs[1:]:
         assert t.per_stitch == pytest.approx(runs[0].per_stitch, abs=1e-12)  # m
         assert t.slack.mean() == runs[0].slack.mean()
@@ -208,7 +215,7 @@ def test_the_stitch_is_set_with_the_largest_pull_below_the_eye_from_the_release_
     """The take-up's pull on the stitch as it sets it is the largest tension of the stretch from
     the eye down over the steps from the loop's release to the stitch's setting (the angles
     taken round the stitch here, from the head's events), against the bobbin thread's tension
-    read from the file ('25 gf', Duerkopp Adler's figure): on the shipped head 0.285 N, 1.16
+    read from the file ('25 gf', Duerkopp Adler's figure): on the shipped head 0.287 N, 1.17
     times the bobbin thread's 0.245 N (docs/head.md)."""
     mech, timing = head
     t = needle_tension(mech, timing)
@@ -218,7 +225,7 @@ def test_the_stitch_is_set_with_the_largest_pull_below_the_eye_from_the_release_
     below = t.tension[t.zones.index("below NE")]
     assert t.set_pull == pytest.approx(below[setting].max(), rel=1e-12)
     assert t.bobbin == pytest.approx(25.0 * 9.80665e-3, rel=1e-12)  # N: the file's '25 gf'
-    assert (round(t.set_pull, 3), round(t.drawn_up, 2)) == (0.285, 1.16)
+    assert (round(t.set_pull, 3), round(t.drawn_up, 2)) == (0.287, 1.17)
     d = t.as_dict()
     assert (d["set_pull_N"], d["bobbin_N"]) == (pytest.approx(t.set_pull, abs=1e-6), pytest.approx(t.bobbin, abs=1e-6))
 

@@ -1,7 +1,7 @@
 """The take-up sized for the least peak needle-thread tension (docs/head.md, The shipped take-up,
-sized for the head's loop: the least peak, searched near the shipped design): the study that
-sized it, its winner shipped as an example, and the page's table of the example beside the
-shipped head, to the digits the page prints."""
+sized for the head's loop: the least peak, searched near the least-slack design the head
+shipped with before): the two studies, the least peak's winner shipped as an example, the
+slack-bounded one's as the head, and the page's table of the three, to the digits it prints."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from threadchecks import tension_with
+from threadchecks import LEAST_SLACK, least_slack, tension_with
 
 from mjlink import study
 from mjlink.analysis.tension import needle_tension
@@ -46,7 +46,7 @@ def test_the_study_searches_the_linkage_near_the_shipped_design_within_the_take_
     """Its file says: the linkage's eight dimensions within +-1 deg and +-0.5 mm of the shipped
     design (the rocker's pivot up to the face's top edge), from it, robust to +-0.02 over 8 samples, the take-up studies' bounds and metrics
     with the spring's spare and a periodic stitch added."""
-    nominal = paths.nominal_values(mechanism.load(HEAD))
+    nominal = LEAST_SLACK  # the design the study started from: the head as it shipped then
     opt = STUDY["optimize"]
     assert (opt["objective"], opt["start"]) == ("tension_peak", "file")
     assert STUDY["robust"] == {"samples": 8, "k": 2.0}
@@ -74,8 +74,7 @@ def test_the_example_is_the_shipped_head_with_the_winners_take_up():
 @pytest.fixture(scope="module")
 def both():
     out = {}
-    for name, path in (("shipped", HEAD), ("least", LEAST)):
-        m = mechanism.load(path)
+    for name, m in (("before", least_slack(mechanism.load(HEAD))), ("least", mechanism.load(LEAST))):
         h = head_timing(m)
         out[name] = (m, h, needle_tension(m, h))
     return out
@@ -118,7 +117,7 @@ def test_the_least_peak_example_beside_the_shipped_head_is_the_pages_table(both)
     assert got["tighter"] == (2.31, blade) and got["stretchier"] == (1.05, blade)
     assert got["stitches"] == (0.699, 1.25) and got["travel"] == 0.93
     assert abs(got["give"] - t.peak) < 4e-5  # N: "the same to 4e-5 N", the page's words
-    ms, hs, ts = both["shipped"]
+    ms, hs, ts = both["before"]
     ship = _column(ms, hs, ts)
     assert (round(ts.peak, 2), ts.peak_at[0]) == (2.16, blade)
     assert (ship["held"], ship["slack"], ship["spare"], ship["loose"]) == (1.72, 9.74, 2.89, 232.0)
@@ -223,9 +222,9 @@ def test_the_slack_bounded_study_is_the_least_peak_study_with_the_loops_bound():
     assert {k: v for k, v in SLACK["study"].items() if k != "title"} == {
         k: v for k, v in STUDY["study"].items() if k != "title"
     }
-    head = mechanism.load(HEAD)
-    e = study.evaluate(head, {"construct.P5.angle": [32.62]}, STUDY["metric"], per_turn=720)
-    assert round(float(e.columns["tension_slack"][0]), 2) == 230.5  # deg: the shipped head's, the bound
+    before = least_slack(mechanism.load(HEAD))
+    e = study.evaluate(before, {"construct.P5.angle": [32.62]}, STUDY["metric"], per_turn=720)
+    assert round(float(e.columns["tension_slack"][0]), 2) == 230.5  # deg: the head's as it shipped then
 
 
 @pytest.fixture(scope="module")
@@ -265,7 +264,7 @@ def test_the_slack_bounded_winner_is_the_pages_last_column(bounded, both):
     assert got["tighter"][0] > t.peak and got["travel"] > t.peak
     assert got["stitches"][0] < t.peak < got["stitches"][1]
     assert got["stretchier"][0] < t.peak and got["give"] < t.peak
-    ms, hs, ts = both["shipped"]
+    ms, hs, ts = both["before"]
     ship = _column(ms, hs, ts)
     for key in ("tighter", "stretchier"):
         assert got[key][0] < ship[key][0], key
@@ -298,3 +297,8 @@ def test_the_slack_bounded_winner_under_the_same_tolerances_as_the_least_peak():
     own = study.evaluate(head, {k: [v] for k, v in BOUNDED.items()}, SLACK["metric"], per_turn=720)
     assert round(float(own.columns["eyelet_travel"][0]), 1) == 43.2
     assert round(float(own.columns["eyelet_acceleration"][0]), -1) == 10590.0
+
+
+def test_the_shipped_head_carries_the_slack_bounded_winner():
+    nominal = paths.nominal_values(mechanism.load(HEAD))
+    assert {k: nominal[k] for k in BOUNDED} == BOUNDED

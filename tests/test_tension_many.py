@@ -371,10 +371,11 @@ def test_a_long_period_is_found_once_seen_twice_over():
     assert periodic([f * 1e-3 for f in run[:7]], [0.3767] * 7) == 1
 
 
-def test_a_head_whose_check_spring_repeats_every_dozen_stitches_is_periodic(monkeypatch):
+def test_a_head_whose_check_spring_repeats_every_sixteen_stitches_is_periodic(monkeypatch):
     """The shipped head at 3,500 stitches/min with 2.8 N at the discs and a spring of 0.01
     N/mm, 360 steps a stitch: its check spring strikes its stop and the stitches repeat every
-    12 (before, only periods up to 8 were looked for, and it ran 80 stitches to no state).
+    16 (before, only periods up to 8 were looked for, and a head like it ran 80 stitches to no
+    state).
     Checked by stepping a fixed number of stitches from the start, outside the detection: the
     stitch a period on is the reported one again, one half a period before is not; the draw
     reported is the mean of the period's draws, which differ. A state found on the last stitch
@@ -387,16 +388,17 @@ def test_a_head_whose_check_spring_repeats_every_dozen_stitches_is_periodic(monk
     seen: list[tuple[list[float], int]] = []  # each stitch's draws as the stepping hands them over, the period found
     monkeypatch.setattr(tension, "periodic", lambda f, h: seen.append((list(f), periodic(f, h))) or seen[-1][1])
     t = step(pb)
-    assert t.converged and t.period == 12 and t.cycles < 80
-    again = step(pb, cycles=t.cycles + 12)
+    n = 16
+    assert t.converged and t.period == n and t.cycles < 80
+    again = step(pb, cycles=t.cycles + n)
     np.testing.assert_allclose(again.tension, t.tension, rtol=0, atol=1e-6 * t.peak)
     assert again.drawn[pb.order[-1]] == pytest.approx(t.drawn[pb.order[-1]], abs=1e-8)  # m: the periodic test's
-    half = step(pb, cycles=t.cycles - 6)
+    half = step(pb, cycles=t.cycles - n // 2)
     # Another stitch of the period: a hundred times further from it than the one a period on.
     assert np.abs(half.tension - t.tension).max() > 1e-4 * t.peak and t.peak >= half.peak  # the hardest pulled
-    draws, found = next((f[-12:], len(f)) for f, p in seen if p)
+    draws, found = next((f[-n:], len(f)) for f, p in seen if p)
     assert max(draws) - min(draws) > 1e-6  # m: the stitches of the period differ
-    assert t.per_stitch == pytest.approx(sum(draws) / 12, abs=1e-8)  # m: the periodic test's
+    assert t.per_stitch == pytest.approx(sum(draws) / n, abs=1e-8)  # m: the periodic test's
     assert found < t.cycles  # it ran on to the period's hardest pulled stitch
     monkeypatch.setattr(tension_many, "TOGETHER", 1)  # the arrays step it, and one more
     monkeypatch.setattr(tension_many, "ALONE", 0)

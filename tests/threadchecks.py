@@ -121,3 +121,25 @@ def mujoco_against_reference(mech, samples: int = 14400):
     T = np.interp(mj.theta, ref.theta, ref.tension[0])
     x = np.interp(mj.theta, ref.theta, ref.spring)
     return mj, T, x, ref
+
+
+# The lockstitch head's take-up linkage as it shipped before it was refined for the least peak
+# tension (the winner of studies/lockstitch_head_takeup_sized.toml: docs/head.md's least-slack
+# design), mm and deg.
+LEAST_SLACK = {
+    "construct.P2.angle": -14.63,
+    "construct.P2.length": 26.32,
+    "construct.P3.length_a": 62.48,
+    "construct.P3.length_b": 77.76,
+    "ground.P4.x": -52.7,
+    "ground.P4.y": 69.1,
+    "construct.P5.length": 69.81,
+    "construct.P5.angle": 32.62,
+}
+
+
+def least_slack(mech):
+    """The shipped lockstitch head with its take-up linkage as :data:`LEAST_SLACK`."""
+    from mjlink.model import paths
+
+    return paths.apply(mech, {paths.resolve(mech, k): v for k, v in LEAST_SLACK.items()})
