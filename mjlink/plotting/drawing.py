@@ -53,6 +53,9 @@ def _angle_ticks(ax, mech: Mechanism, phi: np.ndarray, xy: np.ndarray, size: flo
     return out
 
 
+LABEL_MARGIN = 3.0  # px between two tick names where they are placed
+
+
 def _label_ticks(ax, ticks: list) -> None:
     """Name the ticks of :func:`_angle_ticks` beside the path, on either side of it; a name
     that would cover one already written or a path (where the path crosses itself, or its
@@ -76,7 +79,13 @@ def _label_ticks(ax, ticks: list) -> None:
             )
             lab.set_in_layout(False)
             box = lab.get_window_extent(r)
-            if not any(box.overlaps(b) for b in taken) and not on_curves(box, curves, panel, spare=-3.0):
+            # Kept apart by a margin: the figure is laid out again when saved, and the panel's
+            # final size (which differs between matplotlib versions) moves the ticks, not the
+            # offsets of their names, so two names that only just cleared each other can meet.
+            near = box.expanded(
+                1.0 + 2 * LABEL_MARGIN / max(box.width, 1.0), 1.0 + 2 * LABEL_MARGIN / max(box.height, 1.0)
+            )
+            if not any(near.overlaps(b) for b in taken) and not on_curves(box, curves, panel, spare=-3.0):
                 taken.append(box)
                 break
             lab.remove()
