@@ -173,18 +173,24 @@ def test_the_thread_held_stretched_at_the_draw_up_is_what_the_loop_falls_short_b
     assert round(got[0][0] - 1.49, 1) == 0.7
 
 
+def _deviated(mech, centre: dict, spec: dict):
+    """The study's metrics of ``mech`` at 16 sets of deviations within each parameter's
+    tolerance about ``centre``, drawn here (seed 20261201: the same sets for both studies, not
+    the samples either study drew)."""
+    rng = np.random.default_rng(20261201)
+    values = {
+        p["path"]: centre[p["path"]] + rng.uniform(-p["tolerance"], p["tolerance"], 16) for p in spec["parameter"]
+    }
+    return study.evaluate(mech, values, spec["metric"], per_turn=720)
+
+
 def test_the_example_holds_every_bound_under_tolerances_the_study_did_not_draw():
     """16 sets of +-0.02 mm and +-0.02 deg on the eight dimensions, drawn here (not the study's
     samples): every bound of the study holds in each, the peak stays 0.6979 to 0.6981 N and the
     spring's spare 0.21 to 0.36 mm, as the page says; and the eyelet's travel and acceleration
     the page gives."""
     m = mechanism.load(LEAST)
-    nominal = paths.nominal_values(m)
-    rng = np.random.default_rng(20261201)
-    values = {
-        p["path"]: nominal[p["path"]] + rng.uniform(-p["tolerance"], p["tolerance"], 16) for p in STUDY["parameter"]
-    }
-    e = study.evaluate(m, values, STUDY["metric"], per_turn=720)
+    e = _deviated(m, paths.nominal_values(m), STUDY)
     assert e.feasible.all()
     for b in STUDY["bound"]:
         col = e.columns[b["metric"]]
@@ -278,11 +284,7 @@ def test_the_slack_bounded_winner_under_the_same_tolerances_as_the_least_peak():
     loop's, which it misses in one set by one of the study's half-degree steps; its peak, the
     shortfall, and the eyelet's travel and acceleration the page gives."""
     head = mechanism.load(HEAD)
-    rng = np.random.default_rng(20261201)
-    values = {
-        p["path"]: BOUNDED[p["path"]] + rng.uniform(-p["tolerance"], p["tolerance"], 16) for p in SLACK["parameter"]
-    }
-    e = study.evaluate(head, values, SLACK["metric"], per_turn=720)
+    e = _deviated(head, BOUNDED, SLACK)
     assert e.feasible.all()
     for b in SLACK["bound"]:
         col = e.columns[b["metric"]]
