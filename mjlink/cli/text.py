@@ -17,7 +17,7 @@ from ..analysis.timing import HeadTiming
 from ..model import names
 from ..model.limits import MAX_PRESSURE_DEG, MIN_TRANSMISSION_DEG
 from ..model.tension import GF
-from ..pipeline.optimize import speed_option
+from ..pipeline.optimize import conditions_text, speed_option
 from ..units import MM, G, PairKind, PairRole, shown, to_mm, to_rpm
 
 if TYPE_CHECKING:
@@ -456,6 +456,9 @@ def optimization(res: OptimizeResult) -> str:
         f"differential evolution: {s['evaluations']} evaluations in {len(s['runs'])} run(s) of "
         f"{o['population']} per generation, random seed {o['seed']}; {s['engine']}",
     ]
+    if s.get("conditions"):
+        held = conditions_text(s["conditions"])
+        lines.append(f"operating conditions, held at the file's values and deviated over the samples: {held}")
     conv = s["convergence"]
     if conv["converged"]:
         o = s["optimizer"]

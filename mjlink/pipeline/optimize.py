@@ -213,6 +213,29 @@ def _as_result(res: _opt.Result, won: _winner.Written, front: list[_winner.Writt
     )
 
 
+def conditions(st: Study) -> list[dict[str, Any]]:
+    """The study's operating conditions as ``summary.json`` records them."""
+    return [
+        {
+            "path": v.param.path,
+            "unit": v.param.unit,
+            "nominal": v.param.nominal,
+            "tolerance": v.tolerance,
+            "distribution": v.distribution,
+        }
+        for v in st.conditions
+    ]
+
+
+def conditions_text(rows: list[dict[str, Any]]) -> str:
+    """Operating conditions (:func:`conditions`) as a sentence's list: 'path = nominal +- tolerance unit'."""
+    return ", ".join(
+        f"{c['path']} = {c['nominal']:g} +- {c['tolerance']:g} {c['unit']}".rstrip()
+        + {"normal": " (normal, 3 sigma)", "even": " (evenly spaced, ends included)"}.get(c["distribution"], "")
+        for c in rows
+    )
+
+
 def _robust_columns(res: _opt.Result, won: _winner.Written) -> dict[str, float]:
     """The written winner's columns as the optimizer scores them (robust: over the samples)."""
     with _opt.Evaluator(res.study) as here:
@@ -301,6 +324,8 @@ def _header(
     ]
     if st.fixed:
         lines.append("Set by the study: " + ", ".join(f"{p} = {v:g}" for p, v in st.fixed) + ".")
+    if st.conditions:
+        lines.append("Operating conditions over the samples: " + conditions_text(conditions(st)) + ".")
     res_text = ", ".join(f"{u} {s:g}" for u, s in opt.resolution)
     lines.append(
         "Optimized (rounded to "
@@ -472,6 +497,7 @@ def summary(
             "resolution": dict(opt.resolution),
         },
         "robust": {"samples": st.robust.samples, "k": st.robust.k, "seed": st.robust.seed} if st.robust else None,
+        "conditions": conditions(st),
         "set": dict(st.fixed),
         "bounds": [b.text() for b in st.bounds],
         "parameters": [
@@ -582,6 +608,9 @@ def page(summ: dict[str, Any], files: list[str]) -> str:
     figs = "".join(f"<figure><img src='{e(f)}' alt='{e(f)}'></figure>" for f in files if f.endswith(".png"))
     links = " ".join(f"<a href='{e(f)}'>{e(f)}</a>" for f in files if not f.endswith(".png") and f != "index.html")
     objective = "" if w["objective"] is None else f"<p>Objective as written: <b>{w['objective']:.8g}</b></p>"
+    held = conditions_text(summ.get("conditions") or [])
+    if held:
+        objective += f"<p>Operating conditions, held at the file's values and deviated over the samples: {e(held)}</p>"
     rpm = summ.get("objective_speed_rpm")
     if rpm is not None:
         objective += (

@@ -205,7 +205,7 @@ def _active(study: Study, ev: Any, x: np.ndarray) -> list[str]:
     """The [[bound]]s within NEAR_LIMIT of their limit at ``x`` (robust: its worst sample)."""
     if not study.bounds:
         return []
-    rows = ev.rows(x[None] + ev.dev)  # the robust mode's deviations (one row of zeros without)
+    rows = ev.rows(ev.samples(x[None]))  # the robust mode's deviations (one row of zeros without)
     out = []
     for b in study.bounds:
         a = rows.columns[b.column]

@@ -36,7 +36,10 @@ on the ends alone, not on how many other front points were computed.
 Robust mode (``[robust]``): a candidate is evaluated on ``samples`` tolerance deviations of
 its parameters (each [[parameter]]'s ``tolerance``: uniform over +-tolerance, or normal with
 sigma = tolerance / 3), the same deviations for every candidate (common random numbers: the
-objective is a deterministic, comparable function of the candidate). Each objective column
+objective is a deterministic, comparable function of the candidate). A [[parameter]] with a
+tolerance and no range is an operating condition (a needle tension the head is set to, a
+thread): never searched, held at the file's value, deviated over the same samples, so the
+design is judged over the conditions it will meet (Taguchi's noise factors). Each objective column
 becomes its mean plus ``k`` standard deviations over the samples; the candidate is feasible
 only if every sample is, and a bound must hold for every sample.
 
@@ -140,13 +143,14 @@ class Result:
 
 
 def deviations(study: Study) -> np.ndarray:
-    """(R, P) the robust mode's tolerance deviations (file units; one row of zeros without
-    ``[robust]``), drawn once from the robust seed (:func:`.sampling.deviations`): the same for
-    every candidate."""
+    """(R, P + C) the robust mode's tolerance deviations of the P searched parameters and the
+    C operating conditions (file units; one row of zeros without ``[robust]``), drawn once
+    from the robust seed (:func:`.sampling.robust_deviations`): the same for every candidate."""
     rb = study.robust
+    every = study.varied + study.conditions
     if rb is None:
-        return np.zeros((1, len(study.varied)))
-    return sampling.deviations(study.varied, rb.samples, rb.seed)
+        return np.zeros((1, len(every)))
+    return sampling.robust_deviations(every, rb.samples, rb.seed)
 
 
 def needed(study: Study) -> tuple[Any, ...]:
@@ -180,7 +184,10 @@ class Evaluator:
         if study.optimize is None:
             raise OptimizeError(f"{study.name}: not an optimization (no [optimize] table)")
         self.study = study
-        self.search = dataclasses.replace(study, metrics=needed(study))
+        # What the reference evaluates: the searched parameters, then the conditions.
+        self.every = dataclasses.replace(study, varied=study.varied + study.conditions, conditions=())
+        self.search = dataclasses.replace(self.every, metrics=needed(study))
+        self.held = np.array([v.param.nominal for v in study.conditions])
         self.client = client
         self.workers = max(1, workers)
         self.dev = deviations(study)
@@ -200,10 +207,20 @@ class Evaluator:
             self._pool.close()
             self._pool = None
 
+    def samples(self, X: np.ndarray, robust: bool = True) -> np.ndarray:
+        """(S * R, P + C) the rows that judge candidates X (S, P): each with the conditions at
+        the file's values, plus each of the R deviations (``robust=False``: none)."""
+        S = len(X)
+        rows = np.concatenate([X, np.broadcast_to(self.held, (S, len(self.held)))], axis=1)
+        dev = self.dev if robust else np.zeros((1, rows.shape[1]))
+        out: np.ndarray = (rows[:, None, :] + dev[None]).reshape(S * len(dev), rows.shape[1])
+        return out
+
     def rows(self, X: np.ndarray, full: bool = False) -> Evaluated:
-        """The reference's metrics of arbitrary rows (n, P), file units, on the engine (those
-        the search needs; ``full``: every metric, in this process)."""
-        study = self.study if full else self.search
+        """The reference's metrics of arbitrary rows (n, P + C) (the searched parameters, then
+        the conditions; file units), on the engine (those the search needs; ``full``: every
+        metric, in this process)."""
+        study = self.every if full else self.search
         n = len(X)
         # Equal chunks, a multiple of the workers in number, none above CHUNK_ROWS rows of
         # variants x angles (the reference's memory per task).
@@ -240,10 +257,9 @@ class Evaluator:
         st = self.study
         opt = st.optimize
         assert opt is not None
-        S, P = X.shape
-        dev = self.dev if robust else np.zeros((1, P))
-        R = len(dev)
-        ev = self.rows((X[:, None, :] + dev[None]).reshape(S * R, P), full)
+        S = len(X)
+        R = len(self.dev) if robust else 1
+        ev = self.rows(self.samples(X, robust), full)
         feasible = ev.feasible.reshape(S, R).all(axis=1)
         k = st.robust.k if (st.robust is not None and robust) else 0.0
 

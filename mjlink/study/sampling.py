@@ -14,6 +14,7 @@ Values are in the file's units; the same study file gives the same variants on a
 from __future__ import annotations
 
 import itertools
+import math
 import warnings
 from collections.abc import Sequence
 
@@ -47,17 +48,39 @@ def quasi_random(varied: Sequence[Varied], samples: int, seed: int, sequence: st
     return np.asarray(qmc.scale(u, lo, hi), dtype=float)
 
 
-def deviations(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:
+def deviations(varied: Sequence[Varied], samples: int, seed: int, stream: int = 0) -> np.ndarray:
     """(samples, P) deviations of the parameters from their values, file units: uniform over
-    +-tolerance, or normal with sigma = tolerance / 3, drawn independently per parameter with
-    numpy's PCG64 from ``seed`` (all the uniform draws first, then the normal ones)."""
+    +-tolerance, normal with sigma = tolerance / 3, or even (``samples`` values evenly spaced
+    over +-tolerance, both ends included, in a random order: a band every part of which must
+    be met, such as the needle tensions a head is set to), drawn independently per parameter
+    with numpy's PCG64 from ``seed`` (all the uniform draws first, then the normal ones, then
+    each even parameter's order); a ``stream`` other than 0 draws from a stream of its own,
+    independent of stream 0's."""
     P = len(varied)
-    rng = np.random.Generator(np.random.PCG64(seed))
+    rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([seed, stream]) if stream else seed))
     tol = np.array([v.tolerance for v in varied])
     uniform = np.array([v.distribution == "uniform" for v in varied])
     u = rng.uniform(-1.0, 1.0, size=(samples, P))
     z = rng.standard_normal(size=(samples, P))
-    return np.asarray(np.where(uniform, u * tol, z * tol / 3.0))
+    out = np.where(uniform, u * tol, z * tol / 3.0)
+    spaced = np.linspace(-1.0, 1.0, samples) if samples > 1 else np.zeros(1)
+    for j, v in enumerate(varied):
+        if v.distribution == "even":
+            out[:, j] = rng.permutation(spaced) * tol[j]
+    return np.asarray(out)
+
+
+def robust_deviations(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:
+    """(samples, P) a robust optimization's deviations, the parameters in ``varied``'s order:
+    those searched (with a range) drawn by :func:`deviations` from ``seed``, the operating
+    conditions (no range: held at the file's value) from a stream of their own, so that adding
+    a condition leaves the searched parameters' samples as they were."""
+    cond = np.array([math.isnan(v.low) for v in varied], dtype=bool)
+    out = np.zeros((samples, len(varied)))
+    out[:, ~cond] = deviations([v for v, c in zip(varied, cond, strict=True) if not c], samples, seed)
+    if cond.any():
+        out[:, cond] = deviations([v for v, c in zip(varied, cond, strict=True) if c], samples, seed, stream=1)
+    return out
 
 
 def tolerance(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:

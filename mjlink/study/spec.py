@@ -41,7 +41,7 @@ from .varied import Varied
 
 METHODS = ("grid", "random", "tolerance")  # sampling; an [optimize] table makes the method "optimize"
 SEQUENCES = ("sobol", "lhs")
-DISTRIBUTIONS = ("uniform", "normal")
+DISTRIBUTIONS = ("uniform", "normal", "even")
 VERIFY = ("all", "none", "best", "worst")
 SENSES = ("min", "max")
 INITS = ("sobol", "lhs")
@@ -168,6 +168,9 @@ class Study:
     digest: str  # of the study's and the mechanism's text: what a resumed run must match
     optimize: Optimize | None = None
     robust: Robust | None = None
+    # A robust optimization's operating conditions: [[parameter]]s with a tolerance and no
+    # range, held at the file's value and deviated over the robust samples, never searched.
+    conditions: tuple[Varied, ...] = ()
     fixed: tuple[tuple[str, float], ...] = ()  # [set]: path -> value (file units), applied first
     # The mechanism as its file was read, before [set]: what a winner file is written from.
     file_mechanism: Mechanism | None = field(default=None, repr=False, compare=False)
@@ -426,7 +429,12 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
     if optimizing:
         if "verify" in data:
             raise _fail(src, "[verify]", "an optimization verifies its winner (and Pareto set) in MuJoCo: no [verify]")
-        optimize = _optimize(src, data["optimize"], names, len(varied))
+        conditions = [v for v in varied if math.isnan(v.low)]
+        if len(conditions) == len(varied):
+            raise _fail(
+                src, "[[parameter]]", "an optimization needs at least one [[parameter]] with a 'range' to search"
+            )
+        optimize = _optimize(src, data["optimize"], names, len(varied) - len(conditions))
         if "robust" in data:
             robust = _robust(src, data["robust"], optimize.seed)
             if not any(v.tolerance > 0 for v in varied):
@@ -458,6 +466,8 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
         )
     if optimize is not None and optimize.start == "file":
         for v in varied:
+            if math.isnan(v.low):
+                continue  # an operating condition: always the file's value
             x = v.param.nominal
             if not (math.isfinite(x) and v.low <= x <= v.high):
                 there = (
@@ -481,7 +491,8 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
         path=Path(path) if path != "<string>" else None,
         mechanism=mech,
         method=method,
-        varied=tuple(varied),
+        varied=tuple(v for v in varied if not (optimize is not None and math.isnan(v.low))),
+        conditions=tuple(v for v in varied if optimize is not None and math.isnan(v.low)),
         samples=samples,
         seed=seed,
         sequence=sequence,
@@ -519,6 +530,8 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
         "tolerance": ["tolerance", "distribution"],
         "optimize": ["range", "tolerance", "distribution"] if robust else ["range"],
     }[method]
+    if method == "optimize" and not robust and "tolerance" in rp:
+        raise _fail(src, f"{where} tolerance", "applies to a robust optimization: add a [robust] table")
     _keys(src, rp, where, ["path"], opts)
     path = rp["path"]
     if not isinstance(path, str):
@@ -556,10 +569,21 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
                 hi = lo + (n - 1) * step
             out = tuple(np.linspace(lo, hi, n).tolist()) if n > 1 else (lo,)
         return Varied(p, values=out)
+    if method == "optimize" and robust and "range" not in rp and "tolerance" in rp:
+        tol, dist = _tolerance(src, rp, where, p.unit)
+        if not math.isfinite(p.nominal):
+            raise _fail(src, where, "has no value in the mechanism file to hold as an operating condition (give one)")
+        return Varied(p, tolerance=tol, distribution=dist)  # an operating condition: low and high NaN
     if method in ("random", "optimize"):
         if "range" not in rp:
-            what = "the bounds the samples fill" if method == "random" else "the bounds of the search"
-            raise _fail(src, where, f"needs 'range' = [low, high] ({what})")
+            if method == "optimize":
+                raise _fail(
+                    src,
+                    where,
+                    "needs 'range' = [low, high] (the bounds of the search), or, in a robust optimization, "
+                    "only a 'tolerance' (an operating condition held at the file's value)",
+                )
+            raise _fail(src, where, "needs 'range' = [low, high] (the bounds the samples fill)")
         lo, hi = _range(src, rp, where, p.unit)
         if method == "random" or "tolerance" not in rp:
             return Varied(p, low=lo, high=hi, tolerance=0.0 if method == "optimize" else math.nan)

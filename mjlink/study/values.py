@@ -9,6 +9,7 @@ mechanism's file as a user would and read by the mechanism reader
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -114,7 +115,7 @@ def _extremes(varied: list[Varied], method: str, samples: int, seed: int, robust
     """Per parameter: what its values are called in a message, and the values to check."""
     dev_lo = dev_hi = np.zeros(len(varied))
     if method == "optimize" and robust is not None:
-        d = sampling.deviations(varied, robust.samples, robust.seed)
+        d = sampling.robust_deviations(varied, robust.samples, robust.seed)
         dev_lo, dev_hi = d.min(axis=0), d.max(axis=0)
     sampled = None
     if method == "tolerance" and samples * len(varied) <= MAX_CHECKED_SAMPLES:
@@ -123,6 +124,9 @@ def _extremes(varied: list[Varied], method: str, samples: int, seed: int, robust
     for j, v in enumerate(varied):
         if method == "grid":
             xs, what = list(v.values), "values"
+        elif method == "optimize" and math.isnan(v.low):  # an operating condition: the file's value deviated
+            lo, hi = v.param.nominal + float(dev_lo[j]), v.param.nominal + float(dev_hi[j])
+            xs, what = [lo, hi] + ([0.0] if lo < 0 < hi else []), "value with its tolerance"
         elif method in ("random", "optimize"):
             lo, hi = v.low + float(dev_lo[j]), v.high + float(dev_hi[j])
             xs = [lo, hi] + ([0.0] if lo < 0 < hi else [])
@@ -132,7 +136,7 @@ def _extremes(varied: list[Varied], method: str, samples: int, seed: int, robust
             xs, what = list(col) if len(col) <= 3 else [float(col.min()), float(col.max())], "tolerance samples"
             xs.append(float(col[np.argmin(np.abs(col))]))
         else:
-            band = v.tolerance * (1.0 if v.distribution == "uniform" else 2.0)
+            band = v.tolerance * (2.0 if v.distribution == "normal" else 1.0)
             lo, hi = v.param.nominal - band, v.param.nominal + band
             xs, what = [lo, hi] + ([0.0] if lo < 0 < hi else []), "tolerance band"
         if xs:
