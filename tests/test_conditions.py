@@ -163,3 +163,11 @@ def test_the_shipped_tension_study_takes_the_needle_tensions_the_head_is_set_to(
     assert c.param.nominal == pytest.approx(float(np.median(band)), abs=1e-12)
     loop = api.spec.load(shipped("studies") / "lockstitch_head_takeup_peak_loop.toml")
     assert [v.param.path for v in st.varied] == [v.param.path for v in loop.varied]
+
+
+def test_a_condition_set_by_the_study_is_held_at_the_set_value():
+    st = _study('[set]\n"ground.A.x" = 0.3\n' + BODY)
+    assert st.conditions[0].param.nominal == 0.3
+    with optimize.Evaluator(st) as ev:
+        rows = ev.samples(np.array([[12.0]]))
+    assert np.array_equal(rows[:, 1], 0.3 + optimize.deviations(st)[:, 1])
