@@ -184,3 +184,33 @@ def test_the_band_objectives_the_page_gives():
     assert round(float(1 - s.objective[1] / s.objective[0]) * 100, 1) == 2.7
     assert s.violation[0] == 0 and s.violation[1] == 0 and s.violation[2] > 0
     assert round(float(s300.objective[0]), 4) == 2.4689 and s300.violation[0] == 0
+
+
+# docs/head.md: the two heads over the thread's elongation at break, 10 and 15 % (peak N; loop deg).
+THREADS = {
+    ("shipped", 0.10): [(0.49, 293.0), (1.76, 243.0), (3.43, 228.5)],
+    ("shipped", 0.15): [(0.57, 268.25), (1.74, 221.5), (2.75, 212.25)],
+    ("example", 0.10): [(0.44, 308.0), (1.47, 271.0), (2.10, 234.75)],
+    ("example", 0.15): [(0.44, 294.75), (1.41, 239.75), (1.74, 222.25)],
+}
+
+
+@pytest.mark.parametrize(("which", "elongation"), list(THREADS))
+def test_the_pages_table_over_the_threads_elongation(runs, which, elongation):
+    m, h, _ = runs[which]
+    got = []
+    for t in (1.0, 1.6, 2.2):
+        r = tension_with(m, h, needle_tension=t, elongation_at_break=elongation)
+        got.append((round(r.peak, 2), round(float(r.slack.mean()) * 360.0, 2)))
+    assert got == THREADS[which, elongation]
+
+
+def test_over_the_threads_the_example_stays_the_lower_peak_and_the_looser_loop():
+    for e in (0.10, 0.15):
+        ship, band = THREADS["shipped", e], THREADS["example", e]
+        assert band[1][0] < ship[1][0] and band[2][0] < ship[2][0]
+        assert all(b[1] > s[1] for b, s in zip(band, ship, strict=True))
+    # A stiffer thread: both heads' peak at 2.2 N higher, both loops looser.
+    for which in ("shipped", "example"):
+        stiff, soft = THREADS[which, 0.10], THREADS[which, 0.15]
+        assert stiff[2][0] > soft[2][0] and all(a[1] > b[1] for a, b in zip(stiff, soft, strict=True))
