@@ -214,7 +214,9 @@ def _as_result(res: _opt.Result, won: _winner.Written, front: list[_winner.Writt
 
 
 def conditions(st: Study) -> list[dict[str, Any]]:
-    """The study's operating conditions as ``summary.json`` records them."""
+    """The study's operating conditions as ``summary.json`` records them, with the value each
+    robust sample holds (in the samples' order: the deviations' rows)."""
+    held = _opt.deviations(st)[:, len(st.varied) :]
     return [
         {
             "path": v.param.path,
@@ -222,8 +224,9 @@ def conditions(st: Study) -> list[dict[str, Any]]:
             "nominal": v.param.nominal,
             "tolerance": v.tolerance,
             "distribution": v.distribution,
+            "samples": (v.param.nominal + held[:, j]).tolist(),
         }
-        for v in st.conditions
+        for j, v in enumerate(st.conditions)
     ]
 
 
