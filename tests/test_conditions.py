@@ -171,3 +171,43 @@ def test_a_condition_set_by_the_study_is_held_at_the_set_value():
     with optimize.Evaluator(st) as ev:
         rows = ev.samples(np.array([[12.0]]))
     assert np.array_equal(rows[:, 1], 0.3 + optimize.deviations(st)[:, 1])
+
+
+def test_a_pareto_front_is_judged_over_the_condition():
+    """A two-objective study with a condition: each front design's columns are the mean + k std
+    of plain evaluations at its values and each sample's deviations, the condition's included."""
+    body = """
+[optimize]
+pareto = ["stroke_E", "transmission_min"]
+points = 3
+population = 8
+generations = 3
+seed = 2
+polish_evaluations = 0
+[robust]
+samples = 4
+[[parameter]]
+path = "construct.B.length"
+range = [12.0, 16.0]
+tolerance = 0.05
+[[parameter]]
+path = "ground.A.x"
+tolerance = 0.5
+distribution = "even"
+[[metric]]
+kind = "stroke"
+point = "E"
+[[metric]]
+kind = "transmission_min"
+"""
+    st = _study(body)
+    res = optimize.run(st)
+    assert res.front is not None and res.front_columns is not None
+    dev = optimize.deviations(st)
+    mets = [{"kind": "stroke", "point": "E"}, {"kind": "transmission_min"}]
+    mech = api.mechanism(CRANK_ROCKER)
+    for i, x in enumerate(res.front):
+        e = api.evaluate(mech, {"construct.B.length": x[0] + dev[:, 0], "ground.A.x": dev[:, 1]}, mets, per_turn=72)
+        for c in ("stroke_E", "transmission_min"):
+            a = e.columns[c]
+            assert res.front_columns[c][i] == pytest.approx(a.mean() + 2.0 * a.std(ddof=1), rel=1e-12)
