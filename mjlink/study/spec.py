@@ -426,10 +426,11 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
         bounds.append(Bound(col, lo, hi))
 
     optimize = robust = None
+    # A robust optimization's parameters without a range (their low NaN) are its conditions.
+    conditions = tuple(v for v in varied if optimizing and math.isnan(v.low))
     if optimizing:
         if "verify" in data:
             raise _fail(src, "[verify]", "an optimization verifies its winner (and Pareto set) in MuJoCo: no [verify]")
-        conditions = [v for v in varied if math.isnan(v.low)]
         if len(conditions) == len(varied):
             raise _fail(
                 src, "[[parameter]]", "an optimization needs at least one [[parameter]] with a 'range' to search"
@@ -465,9 +466,7 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
             "[dynamics.motor] (give one in the mechanism file, or set steady.* in [set])",
         )
     if optimize is not None and optimize.start == "file":
-        for v in varied:
-            if math.isnan(v.low):
-                continue  # an operating condition: always the file's value
+        for v in (v for v in varied if v not in conditions):  # a condition is always the file's value
             x = v.param.nominal
             if not (math.isfinite(x) and v.low <= x <= v.high):
                 there = (
@@ -491,8 +490,8 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
         path=Path(path) if path != "<string>" else None,
         mechanism=mech,
         method=method,
-        varied=tuple(v for v in varied if not (optimize is not None and math.isnan(v.low))),
-        conditions=tuple(v for v in varied if optimize is not None and math.isnan(v.low)),
+        varied=tuple(v for v in varied if v not in conditions),
+        conditions=conditions,
         samples=samples,
         seed=seed,
         sequence=sequence,
