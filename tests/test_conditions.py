@@ -103,7 +103,14 @@ def test_the_winner_keeps_the_condition_at_the_files_value_and_the_report_names_
     summary = json.loads((out.out_dir / "summary.json").read_text())
     (held,) = summary["conditions"]
     assert held.pop("samples") == (0.0 + optimize.deviations(out.result.study)[:, 1]).tolist()
-    assert held == {"path": "ground.A.x", "unit": "mm", "nominal": 0.0, "tolerance": 0.5, "distribution": "uniform"}
+    assert held == {
+        "path": "ground.A.x",
+        "unit": "mm",
+        "nominal": 0.0,
+        "tolerance": 0.5,
+        "distribution": "uniform",
+        "levels": None,
+    }
     assert [p["path"] for p in summary["parameters"]] == ["construct.B.length"]
     said = "ground.A.x = 0 +- 0.5 mm"
     assert said in (out.out_dir / "index.html").read_text()
@@ -145,6 +152,57 @@ def test_an_even_condition_takes_every_sample_evenly_over_its_band_ends_included
     rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([21, 1])))
     rng.uniform(-1.0, 1.0, size=(6, 1)), rng.standard_normal(size=(6, 1))
     assert np.array_equal(dev[:, 1], rng.permutation(np.linspace(-1.0, 1.0, 6)) * 0.5)
+
+
+CROSSED = BODY.replace(
+    'path = "ground.A.x"\ntolerance = 0.5\n',
+    'path = "ground.A.x"\ntolerance = 0.5\nlevels = 3\n[[parameter]]\npath = "ground.A.y"\ntolerance = 0.2\nlevels = 2\n',
+).replace("samples = 6", "samples = 12")
+
+
+def test_conditions_with_levels_are_crossed_every_combination_a_sample():
+    """levels: each condition's values evenly over its band, ends included, every combination
+    once (the first condition slowest), repeated whole to the samples; nothing drawn for them,
+    and the searched parameter's draws are those of the study without the conditions."""
+    st = _study(CROSSED)
+    assert [(v.param.path, v.levels, v.distribution) for v in st.conditions] == [
+        ("ground.A.x", 3, "even"),
+        ("ground.A.y", 2, "even"),
+    ]
+    dev = optimize.deviations(st)
+    once = [[x, y] for x in (-0.5, 0.0, 0.5) for y in (-0.2, 0.2)]
+    assert np.allclose(dev[:, 1:], np.array(once + once), rtol=0, atol=1e-15)
+    alone = _study(BODY.replace('[[parameter]]\npath = "ground.A.x"\ntolerance = 0.5\n', "").replace("= 6", "= 12"))
+    assert np.array_equal(dev[:, :1], optimize.deviations(alone))
+
+
+def test_crossed_conditions_are_named_with_their_levels(tmp_path):
+    from mjlink.pipeline import optimize as pipe
+
+    rows = pipe.conditions(_study(CROSSED))
+    assert [r["levels"] for r in rows] == [3, 2]
+    assert rows[1]["samples"] == [-0.2, 0.2] * 6
+    assert pipe.conditions_text(rows) == (
+        "ground.A.x = 0 +- 0.5 mm (3 levels, ends included, crossed), "
+        "ground.A.y = 0 +- 0.2 mm (2 levels, ends included, crossed)"
+    )
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        (("samples = 12", "samples = 8"), r"samples: must be a multiple of the conditions' 3 x 2 = 6 combinations"),
+        (("levels = 2\n", ""), r"\(ground.A.y\): needs 'levels' as well"),
+        (("levels = 3\n", 'levels = 3\ndistribution = "normal"\n'), "levels: spaces the values evenly"),
+        (("levels = 3\n", "levels = 1\n"), "levels: must be an integer from 2"),
+        (("tolerance = 0.05\n", "tolerance = 0.05\nlevels = 2\n"), "levels: applies to an operating condition"),
+    ],
+)
+def test_levels_misused_are_one_line_errors(change, match):
+    assert change[0] in CROSSED
+    with pytest.raises(StudyFileError, match=match) as e:
+        _study(CROSSED.replace(*change, 1))
+    assert "\n" not in str(e.value)
 
 
 def test_the_shipped_tension_study_takes_the_needle_tensions_the_head_is_set_to():

@@ -224,6 +224,7 @@ def conditions(st: Study) -> list[dict[str, Any]]:
             "nominal": v.param.nominal,
             "tolerance": v.tolerance,
             "distribution": v.distribution,
+            "levels": v.levels or None,
             "samples": (v.param.nominal + held[:, j]).tolist(),
         }
         for j, v in enumerate(st.conditions)
@@ -234,7 +235,11 @@ def conditions_text(rows: list[dict[str, Any]]) -> str:
     """Operating conditions (:func:`conditions`) as a sentence's list: 'path = nominal +- tolerance unit'."""
     return ", ".join(
         f"{c['path']} = {c['nominal']:g} +- {c['tolerance']:g} {c['unit']}".rstrip()
-        + {"normal": " (normal, 3 sigma)", "even": " (evenly spaced, ends included)"}.get(c["distribution"], "")
+        + (
+            f" ({c['levels']} levels, ends included, crossed)"
+            if c.get("levels")
+            else {"normal": " (normal, 3 sigma)", "even": " (evenly spaced, ends included)"}.get(c["distribution"], "")
+        )
         for c in rows
     )
 

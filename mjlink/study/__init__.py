@@ -97,7 +97,7 @@ def evaluate(
         path=None,
         mechanism=mech,
         method="grid",
-        varied=tuple(Varied(p) for p in params),
+        varied=tuple(Varied(param=p) for p in params),
         samples=len(table),
         seed=0,
         sequence="sobol",

@@ -39,7 +39,9 @@ sigma = tolerance / 3), the same deviations for every candidate (common random n
 objective is a deterministic, comparable function of the candidate). A [[parameter]] with a
 tolerance and no range is an operating condition (a needle tension the head is set to, a
 thread): never searched, held at the file's value, deviated over the same samples, so the
-design is judged over the conditions it will meet (Taguchi's noise factors). Each objective column
+design is judged over the conditions it will meet (Taguchi's noise factors); conditions given
+``levels`` are crossed, every combination of their levels a sample (Taguchi's outer array),
+so that the corners of their box, where bounds bind, are judged. Each objective column
 becomes its mean plus ``k`` standard deviations over the samples; the candidate is feasible
 only if every sample is, and a bound must hold for every sample.
 

@@ -70,16 +70,31 @@ def deviations(varied: Sequence[Varied], samples: int, seed: int, stream: int = 
     return np.asarray(out)
 
 
+def crossed(conditions: Sequence[Varied], samples: int) -> np.ndarray:
+    """(samples, C) the deviations of operating conditions given ``levels``: each condition's
+    levels evenly over +-tolerance, ends included, every combination of them once (the first
+    condition slowest, as :func:`grid`), repeated whole to ``samples`` rows (a multiple of the
+    combinations). Taguchi's crossed outer array: every corner of the conditions' box is a
+    sample, which random pairings of two even conditions miss."""
+    axes = [np.linspace(-v.tolerance, v.tolerance, v.levels) for v in conditions]
+    combos = np.array(list(itertools.product(*axes)), dtype=float).reshape(-1, len(conditions))
+    return np.tile(combos, (samples // len(combos), 1))
+
+
 def robust_deviations(varied: Sequence[Varied], samples: int, seed: int) -> np.ndarray:
     """(samples, P) a robust optimization's deviations, the parameters in ``varied``'s order:
     those searched (with a range) drawn by :func:`deviations` from ``seed``, the operating
     conditions (no range: held at the file's value) from a stream of their own, so that adding
-    a condition leaves the searched parameters' samples as they were."""
+    a condition leaves the searched parameters' samples as they were, or, given ``levels``,
+    crossed (:func:`crossed`, nothing drawn)."""
     cond = np.array([math.isnan(v.low) for v in varied], dtype=bool)
     out = np.zeros((samples, len(varied)))
     out[:, ~cond] = deviations([v for v, c in zip(varied, cond, strict=True) if not c], samples, seed)
-    if cond.any():
-        out[:, cond] = deviations([v for v, c in zip(varied, cond, strict=True) if c], samples, seed, stream=1)
+    held = [v for v, c in zip(varied, cond, strict=True) if c]
+    if held and all(v.levels for v in held):
+        out[:, cond] = crossed(held, samples)
+    elif held:
+        out[:, cond] = deviations(held, samples, seed, stream=1)
     return out
 
 

@@ -440,6 +440,7 @@ def parse(text: str, path: Path | str = "<string>", functions: Mapping[str, Any]
             robust = _robust(src, data["robust"], optimize.seed)
             if not any(v.tolerance > 0 for v in varied):
                 raise _fail(src, "[robust]", "needs a 'tolerance' on at least one [[parameter]]")
+            _crossed(src, conditions, robust.samples)
     ver = data.get("verify", {"mujoco": "none"})
     if not isinstance(ver, dict):
         raise _fail(src, "[verify]", "must be a table")
@@ -527,7 +528,7 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
         "grid": ["values", "range", "count", "step"],
         "random": ["range"],
         "tolerance": ["tolerance", "distribution"],
-        "optimize": ["range", "tolerance", "distribution"] if robust else ["range"],
+        "optimize": ["range", "tolerance", "distribution", "levels"] if robust else ["range"],
     }[method]
     if method == "optimize" and not robust and "tolerance" in rp:
         raise _fail(src, f"{where} tolerance", "applies to a robust optimization: add a [robust] table")
@@ -567,13 +568,23 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
                 n = math.floor(count) + 1
                 hi = lo + (n - 1) * step
             out = tuple(np.linspace(lo, hi, n).tolist()) if n > 1 else (lo,)
-        return Varied(p, values=out)
+        return Varied(param=p, values=out)
     if method == "optimize" and robust and "range" not in rp and "tolerance" in rp:
         tol, dist = _tolerance(src, rp, where, p.unit)
         if not math.isfinite(p.nominal):
             raise _fail(src, where, "has no value in the mechanism file to hold as an operating condition (give one)")
-        return Varied(p, tolerance=tol, distribution=dist)  # an operating condition: low and high NaN
+        levels = 0
+        if "levels" in rp:
+            levels = _integer(src, rp, "levels", where, 2, 1000)
+            if rp.get("distribution", "even") != "even":
+                raise _fail(src, f"{where} levels", f"spaces the values evenly: drop distribution = '{dist}'")
+            dist = "even"
+        return Varied(
+            param=p, tolerance=tol, distribution=dist, levels=levels
+        )  # an operating condition: low and high NaN
     if method in ("random", "optimize"):
+        if "levels" in rp:
+            raise _fail(src, f"{where} levels", "applies to an operating condition (a 'tolerance' and no 'range')")
         if "range" not in rp:
             if method == "optimize":
                 raise _fail(
@@ -585,15 +596,38 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
             raise _fail(src, where, "needs 'range' = [low, high] (the bounds the samples fill)")
         lo, hi = _range(src, rp, where, p.unit)
         if method == "random" or "tolerance" not in rp:
-            return Varied(p, low=lo, high=hi, tolerance=0.0 if method == "optimize" else math.nan)
+            return Varied(param=p, low=lo, high=hi, tolerance=0.0 if method == "optimize" else math.nan)
         tol, dist = _tolerance(src, rp, where, p.unit)
-        return Varied(p, low=lo, high=hi, tolerance=tol, distribution=dist)
+        return Varied(param=p, low=lo, high=hi, tolerance=tol, distribution=dist)
     if "tolerance" not in rp:
         raise _fail(src, where, "needs 'tolerance' (the +- band, in the parameter's unit)")
     tol, dist = _tolerance(src, rp, where, p.unit)
     if not math.isfinite(p.nominal):
         raise _fail(src, where, "has no nominal value in the mechanism file to put a tolerance on")
-    return Varied(p, tolerance=tol, distribution=dist)
+    return Varied(param=p, tolerance=tol, distribution=dist)
+
+
+def _crossed(src: object, conditions: tuple[Varied, ...], samples: int) -> None:
+    """Conditions given ``levels`` are crossed, every combination a robust sample: all of them
+    then need levels, and the samples must repeat the combinations whole."""
+    with_levels = [v for v in conditions if v.levels]
+    if not with_levels:
+        return
+    if len(with_levels) < len(conditions):
+        bare = next(v for v in conditions if not v.levels)
+        raise _fail(
+            src,
+            f"[[parameter]] ({bare.param.path})",
+            "needs 'levels' as well: operating conditions with levels are crossed, every combination a sample",
+        )
+    combos = math.prod(v.levels for v in conditions)
+    if samples % combos:
+        shape = " x ".join(str(v.levels) for v in conditions)
+        raise _fail(
+            src,
+            "[robust] samples",
+            f"must be a multiple of the conditions' {shape} = {combos} combinations of levels, got {samples}",
+        )
 
 
 def _tolerance(src: object, rp: dict, where: str, unit: str = "") -> tuple[float, str]:

@@ -8,12 +8,14 @@ from dataclasses import dataclass
 from ..model import paths
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Varied:
     """One varied parameter and how it varies (file units).
 
     grid: ``values``; random: ``low``/``high``; tolerance: ``tolerance`` (the +- band) and
-    ``distribution`` ('uniform' over the band, or 'normal' with sigma = tolerance / 3).
+    ``distribution`` ('uniform' over the band, 'normal' with sigma = tolerance / 3, or
+    'even'); an operating condition's ``levels`` (0: drawn) its values evenly over the band,
+    crossed with every other condition's (:func:`.sampling.crossed`).
     """
 
     param: paths.Param
@@ -22,3 +24,4 @@ class Varied:
     high: float = math.nan
     tolerance: float = math.nan
     distribution: str = "uniform"
+    levels: int = 0
