@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import math
 import re
 import sys
 import tempfile
@@ -52,7 +53,11 @@ def cut_budget(text: str, folder: Path, caps: dict[str, int] = CAPS) -> str:
     path made absolute (the copy is written elsewhere). A single-objective optimization's budget
     keys the file leaves at their defaults (3 runs, a polish of 2,000 evaluations a parameter)
     are written in at their caps."""
+    levels = [int(n) for n in re.findall(r"(?m)^levels\s*=\s*(\d+)", text)]
     for key, most in caps.items():
+        if key == "samples" and levels:
+            # Crossed conditions: the samples must stay a multiple of their combinations.
+            most = max(most - most % math.prod(levels), math.prod(levels))
         text = re.sub(
             rf"(?m)^({key}\s*=\s*)(\d+)", lambda m, most=most: m.group(1) + str(min(int(m.group(2)), most)), text
         )

@@ -124,3 +124,24 @@ def test_the_pages_table_at_the_corners(which):
     # thread at 1.0 N: the study judged that corner only with its sample's deviations.
     if which == "winner":
         assert got[0][1] > 300.0
+
+
+def test_the_winners_caveat_names_the_corner_it_misses_at_its_own_dimensions():
+    """The caveat 'at its own dimensions': of the 12 conditions the samples hold, the winner as
+    written misses the loop's bound only with the stiff thread at the lowest tension, by the
+    page's 3 deg; the shipped head misses none."""
+    from mjlink.study import caveats
+
+    st = spec.load(THREADS)
+    with optimize.Evaluator(st) as ev:
+        own = {
+            w: caveats._own(st, ev, np.array([_dims(w)[v.param.path] for v in st.varied]))
+            for w in ("winner", "shipped")
+        }
+    assert own == {
+        "winner": [
+            "with tension.needle_tension = 1 N, tension.elongation_at_break = 0.1: misses tension_slack <= 300 "
+            "(tension_slack = 303)"
+        ],
+        "shipped": [],
+    }

@@ -13,6 +13,10 @@
   and it can be dropped or fixed.
 * **Seeds**: how far the optima of the runs from different seeds differ, in the objective and in
   the parameters (a fraction of their ranges).
+* **At its own dimensions** (robust, with operating conditions): a [[bound]] the winner misses
+  at its own dimensions under one of the samples' conditions. A sample judges each condition
+  with that sample's deviations of the dimensions only, so a bound that binds at a corner of
+  the conditions' box may hold there with the deviations and not without them.
 """
 
 from __future__ import annotations
@@ -72,12 +76,14 @@ class Caveats:
     edge: tuple[str, ...] = ()
     redundant: tuple[str, ...] = ()
     seeds: SeedSpread | None = None
+    own: tuple[str, ...] = ()
 
     def lines(self) -> list[str]:
         out = [f"on a range bound: {t}" for t in self.at_bounds]
         out += [f"active constraint: {t}" for t in self.active]
         out += [f"at the edge of feasibility: {t}" for t in self.edge]
         out += [f"redundant: {t}" for t in self.redundant]
+        out += [f"at its own dimensions: {t}" for t in self.own]
         if self.seeds is not None and not self.seeds.agree:
             out.append(f"runs: {self.seeds.text()}")
         return out
@@ -93,6 +99,7 @@ class Caveats:
             "active_constraints": list(self.active),
             "edge_of_feasibility": list(self.edge),
             "redundant_parameters": list(self.redundant),
+            "at_own_dimensions": list(self.own),
             "seeds": None
             if s is None
             else {
@@ -176,7 +183,9 @@ def caveats(
                 "(drop it or fix it: its value is arbitrary)"
             )
     redundant += _non_unique(study, seeds)
-    return Caveats(tuple(at_bounds), tuple(_active(study, ev, x)), tuple(edge), tuple(redundant), seeds)
+    return Caveats(
+        tuple(at_bounds), tuple(_active(study, ev, x)), tuple(edge), tuple(redundant), seeds, tuple(_own(study, ev, x))
+    )
 
 
 def _non_unique(study: Study, seeds: SeedSpread | None) -> list[str]:
@@ -217,4 +226,28 @@ def _active(study: Study, ev: Any, x: np.ndarray) -> list[str]:
                 near.append((abs(worst - limit), f"{b.text()}: {b.column} = {worst:.6g} at the winner, on its {side}"))
         if near:  # a band narrower than NEAR_LIMIT has both ends near: the winner is on the nearer
             out.append(min(near)[1])
+    return out
+
+
+def _own(study: Study, ev: Any, x: np.ndarray) -> list[str]:
+    """The [[bound]]s ``x`` misses at its own dimensions under each distinct set of the
+    conditions' values the robust samples hold (none without conditions)."""
+    if not study.conditions or not study.bounds or study.robust is None:
+        return []
+    held = np.unique(ev.samples(x[None])[:, len(x) :], axis=0)
+    rows = np.concatenate([np.broadcast_to(x, (len(held), len(x))), held], axis=1)
+    got = ev.rows(rows)
+    out = []
+    for i, c in enumerate(held):
+        at = ", ".join(
+            f"{v.param.path} = {ci:.6g}{f' {v.param.unit}' if v.param.unit else ''}"
+            for v, ci in zip(study.conditions, c, strict=True)
+        )
+        if not got.feasible[i]:
+            out.append(f"with {at}: {got.reason[i] or 'infeasible'}")
+            continue
+        for b in study.bounds:
+            a = float(got.columns[b.column][i])
+            if (b.low is not None and a < b.low) or (b.high is not None and a > b.high):
+                out.append(f"with {at}: misses {b.text()} ({b.column} = {a:.6g})")
     return out
