@@ -214,3 +214,20 @@ def test_over_the_threads_the_example_stays_the_lower_peak_and_the_looser_loop()
     for which in ("shipped", "example"):
         stiff, soft = THREADS[which, 0.10], THREADS[which, 0.15]
         assert stiff[2][0] > soft[2][0] and all(a[1] > b[1] for a, b in zip(stiff, soft, strict=True))
+
+
+def test_both_winners_miss_their_loop_bound_at_their_own_dimensions_by_one_step():
+    """docs/head.md: each winner meets its loop's bound at every sample, but at its own
+    dimensions misses it at 1.0 N by one half-degree step: the caveat 'at its own dimensions'."""
+    from mjlink.study import caveats
+
+    nominal = paths.nominal_values(mechanism.load(HEAD))
+    got = {}
+    for name, dims in (("band", BAND_WINNER), ("band_300", EXAMPLE)):
+        st = spec.load(shipped("studies") / f"lockstitch_head_takeup_{name}.toml")
+        with optimize.Evaluator(st) as ev:
+            got[name] = caveats._own(st, ev, np.array([{**nominal, **dims}[v.param.path] for v in st.varied]))
+    assert got == {
+        "band": ["with tension.needle_tension = 1 N: misses tension_slack <= 279.5 (tension_slack = 280)"],
+        "band_300": ["with tension.needle_tension = 1 N: misses tension_slack <= 300 (tension_slack = 300.5)"],
+    }
