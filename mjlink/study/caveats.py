@@ -247,7 +247,7 @@ def _own(study: Study, ev: Any, x: np.ndarray) -> list[str]:
             out.append(f"with {at}: {got.reason[i] or 'infeasible'}")
             continue
         for b in study.bounds:
-            a = float(got.columns[b.column][i])
-            if (b.low is not None and a < b.low) or (b.high is not None and a > b.high):
-                out.append(f"with {at}: misses {b.text()} ({b.column} = {a:.6g})")
+            a = got.columns[b.column][i : i + 1]
+            if not b.holds(a)[0]:
+                out.append(f"with {at}: misses {b.text()} ({b.column} = {float(a[0]):.6g})")
     return out

@@ -579,9 +579,8 @@ def _varied(src: object, mech: Mechanism, rp: dict, where: str, method: str, rob
             if rp.get("distribution", "even") != "even":
                 raise _fail(src, f"{where} levels", f"spaces the values evenly: drop distribution = '{dist}'")
             dist = "even"
-        return Varied(
-            param=p, tolerance=tol, distribution=dist, levels=levels
-        )  # an operating condition: low and high NaN
+        # An operating condition: low and high NaN.
+        return Varied(param=p, tolerance=tol, distribution=dist, levels=levels)
     if method in ("random", "optimize"):
         if "levels" in rp:
             raise _fail(src, f"{where} levels", "applies to an operating condition (a 'tolerance' and no 'range')")
