@@ -30,6 +30,7 @@ from .analysis.timing import HeadTiming, head_timing
 from .errors import AssemblyError, MechanismFileError, MjlinkError, SimulationError, UnknownMechanismError
 from .model import catalogue
 from .model.blocks import BlockAngle
+from .model.describe import feed_lines, thread_lines
 from .model.jet import norms
 from .model.limits import (
     MAX_ANGLE_DEG,
@@ -41,7 +42,6 @@ from .model.limits import (
     above,
 )
 from .model.mechanism import Mechanism, load
-from .model.presser import FABRIC_DEFAULTS, GRAVITY, PRESSER_DEFAULTS
 from .model.topology import pairs as all_pairs
 from .model.topology import topology
 from .units import PairKind, PairRole
@@ -649,6 +649,7 @@ class CheckReport:
     period_deg: float = 360.0
     timing: HeadTiming | None = None  # a head's timing checks, when it assembles over the turn
     feed: tuple[str, ...] = ()  # a head's presser and fabric, as the feed runs them (feed_lines)
+    thread: tuple[str, ...] = ()  # a lockstitch head's thread and its tensioning (thread_lines)
 
     @property
     def ok(self) -> bool:
@@ -770,29 +771,5 @@ def check(mech: Mechanism) -> CheckReport:
         period_deg=math.degrees(mech.period),
         timing=head_timing(mech) if mech.timing is not None and full and not probs else None,
         feed=feed_lines(mech),
-    )
-
-
-def feed_lines(mech: Mechanism) -> tuple[str, ...]:
-    """A head's presser and fabric as ``feed`` runs them (the file's tables, else the defaults):
-    the spring, the foot, the plies and how far the foot presses them at rest (the plies'
-    springs in series under the spring's preload and the foot's weight); () without a feed
-    dog."""
-    tm = mech.timing
-    if tm is None or not tm.has("feed_dog"):
-        return ()
-    p, f = mech.presser or PRESSER_DEFAULTS, mech.fabric or FABRIC_DEFAULTS
-    plies = f.layers(tm.fabric)
-    k = f.stiffness_of(tm.fabric)
-    load = k * (p.preload + p.mass * GRAVITY) / (k + p.rate)
-    each = " + ".join(f"{q.thickness * 1e3:g}" for q in plies)
-    return (
-        f"presser: spring {p.preload:g} N with the foot at the fabric's top, {p.rate * 1e-3:g} N/mm; foot "
-        f"{p.mass * 1e3:g} g, lifts to {p.lift * 1e3:g} mm" + ("" if mech.presser else " (the defaults)"),
-        f"fabric: {len(plies)} {'ply' if len(plies) == 1 else 'plies'} ({each} mm), a {f.piece(tm.fabric) * 1e3:.3g} g "
-        f"piece of {f.area * 1e4:g} cm^2, {k * 1e-3:.4g} N/mm under the foot; friction on the dog {f.dog:g}, "
-        f"the foot {f.foot:g}, the plate {f.plate:g}"
-        + (f", ply on ply {f.ply:g}" if len(plies) > 1 else "")
-        + ("" if mech.fabric else " (the defaults)"),
-        f"at rest the foot presses the fabric {load * 1e3 / k:.3f} mm thinner with {load:.3g} N",
+        thread=thread_lines(mech),
     )

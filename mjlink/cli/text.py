@@ -420,6 +420,9 @@ def format_report(r: validation.CheckReport, *, speed: float | None = None) -> s
             )
     if r.timing is not None:
         out.append(timing_table(r.timing))
+    if r.thread:
+        out.append("\nThe needle thread under tension ('python -m mjlink simulate' runs it):")
+        out += [f"  {line}" for line in r.thread]
     if r.feed:
         out.append("\nThe feed under the presser foot ('python -m mjlink feed' runs it):")
         out += [f"  {line}" for line in r.feed]

@@ -52,7 +52,7 @@ import numpy as np
 from ..errors import MjlinkError
 from ..units import DEG, MM, G
 from . import synthesis as synth
-from . import tomlio
+from . import threads, tomlio
 from .mechanism import Counterweight, Force, Mechanism, parse, unfed
 from .presser import (
     FABRIC_BOUNDS,
@@ -67,6 +67,7 @@ from .presser import (
 from .tension import BOUNDS as TENSION_BOUNDS
 from .tension import DEFAULTS as TENSION_DEFAULTS
 from .tension import SCALES as TENSION_SCALES
+from .tension import THREAD_KEYS
 from .timing import StitchType
 
 _AXES = ("x", "y", "z")
@@ -552,6 +553,11 @@ def _set(raw: dict, path: str, v: float) -> None:
         plies[int(parts[1][3:]) - 1][parts[2]] = v
         if parts[2] == "thickness" and "fabric" in raw.get("timing", {}):
             raw["timing"]["fabric"] = sum(float(q["thickness"]) for q in plies)  # theirs together
+    elif sec == "tension" and parts[1] in THREAD_KEYS and "thread" in raw.get("tension", {}):
+        # A count names both numbers: the file then gives them, the changed one and the count's other.
+        row = threads.by_count(raw["tension"].pop("thread"))
+        raw["tension"].update(breaking_load=row.strength, elongation_at_break=row.elongation)
+        raw["tension"][parts[1]] = v
     elif sec in (
         "input",
         "steady",

@@ -19,8 +19,10 @@ its mass and deg for the eye's wrap; here SI::
     bobbin_tension = '25 gf'  # the bobbin thread drawn out of its case
     fabric_give = 0.0         # mm/N: the last stitch's give into the fabric under the pull
 
-The check spring's point and travel are the ``[balance]`` table's (``check_spring``,
-``check_spring_travel``).
+Instead of ``breaking_load`` and ``elongation_at_break`` the table may name its thread by its count
+in one maker's chart, ``thread = "50s/2"`` (:mod:`.threads`): the row's breaking strength and the
+middle of its elongation range. The check spring's point and travel are the ``[balance]`` table's
+(``check_spring``, ``check_spring_travel``).
 """
 
 from __future__ import annotations
@@ -31,9 +33,13 @@ from typing import Any
 
 from ..units import DEG, MM, G
 from .limits import Bound
-from .reader import Reader
+from .reader import Reader, shown
+from .threads import Thread, by_count, count_of
 
-__all__ = ["BOUNDS", "DEFAULTS", "SCALES", "SOURCES", "ThreadTension", "read_tension"]
+__all__ = ["BOUNDS", "DEFAULTS", "SCALES", "SOURCES", "THREAD_KEYS", "ThreadTension", "read_tension"]
+
+THREAD_KEYS = ("breaking_load", "elongation_at_break")
+"""The numbers a ``thread`` count names (:mod:`.threads`)."""
 
 GF = 9.80665e-3  # N per gram-force: makers quote tensions in g
 
@@ -72,6 +78,12 @@ class ThreadTension:
     def stiffness(self) -> float:
         """EA, N: the thread's tension per unit strain."""
         return self.breaking_load / self.elongation_at_break
+
+    @property
+    def thread(self) -> Thread | None:
+        """The row of the chart of :mod:`.threads` whose breaking strength and middle elongation
+        these are, whether the file named the count or gave the numbers; None for another thread."""
+        return count_of(self.breaking_load, self.elongation_at_break)
 
 
 # Key -> (default in the file's unit, the factor to SI, bound, source).
@@ -182,10 +194,28 @@ DEFAULTS = ThreadTension(**{k: v[0] * v[1] for k, v in _TABLE.items()})
 def read_tension(r: Reader, raw: Any, has_balance: bool) -> ThreadTension:
     """The ``[tension]`` table: needs a ``[balance]`` table (the thread's path to the eye, the
     check spring's point and travel)."""
-    r.table(raw, "[tension]")
+    t = r.table(raw, "[tension]")
     if not has_balance:
         raise r.fail("[tension]", "needs a [balance] table (the check spring's point and travel)")
-    values = r.defaulted(raw, "[tension]", _TABLE)
+    numbers = {k: v for k, v in t.items() if k != "thread"}
+    r.keys(t, "[tension]", [], [*_TABLE, "thread"])
+    values = r.defaulted(numbers, "[tension]", _TABLE)
+    if "thread" in t:
+        given = [k for k in THREAD_KEYS if k in t]
+        if given:
+            raise r.fail(
+                "[tension]",
+                f"'thread' names the thread's breaking load and elongation at break (its row of the chart): "
+                f"give it or {' and '.join(given)}, not both",
+            )
+        name = r.string(t, "thread", "[tension]", max_length=16)
+        try:
+            row = by_count(name)
+        except KeyError as e:
+            raise r.fail(
+                "[tension] thread", f"no spun polyester count {shown(name)} in MH Thread's chart: {e.args[0]}"
+            ) from None
+        values["breaking_load"], values["elongation_at_break"] = row.strength, row.elongation
     out = ThreadTension(**values)
     if not math.isfinite(out.stiffness):
         raise r.fail("[tension]", "the thread's stiffness breaking_load / elongation_at_break is not finite")
